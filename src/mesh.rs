@@ -1,0 +1,507 @@
+//! The in-memory mesh model that every stage between reading and writing works on.
+//!
+//! The model mirrors MSH 4.1, the richer of the two formats: entities by dimension with
+//! their physical groups and bounding entities, node blocks per entity and element blocks
+//! per (entity, element type). MSH 2.2 files are lifted into it by the reader (entities are
+//! derived from elementary tags, see `msh::v2`).
+//!
+//! **Invariant:** node and element tags are kept exactly as read (sparse and unordered tags
+//! are legal); a stage that creates nodes or elements gives them fresh tags above the current
+//! maximum ([`Mesh::max_node_tag`], [`Mesh::max_element_tag`]).
+//!
+//! **Invariant:** this module does no I/O; only `msh` and the CLI touch files.
+
+use std::collections::HashMap;
+
+/// Which MSH variant a mesh was read from, and which one to write.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct MshFormat {
+    /// Major.minor version of the file format.
+    pub version: MshVersion,
+    /// Binary (`true`) or ASCII (`false`) encoding.
+    pub binary: bool,
+}
+
+/// MSH file format versions the crate reads. Writing supports `V22` and `V41` only.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum MshVersion {
+    /// MSH 2.x (2.0, 2.1, 2.2): flat node and element lists, physical tags per element.
+    V2 {
+        /// Minor version as written (0, 1 or 2).
+        minor: u8,
+    },
+    /// MSH 4.0: entity blocks, older block header layout.
+    V40,
+    /// MSH 4.1: entity blocks (the default written by Gmsh 4).
+    V41,
+}
+
+/// A physical group name, from `$PhysicalNames`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct PhysicalName {
+    /// Dimension of the group (0..=3).
+    pub dim: i32,
+    /// Physical tag.
+    pub tag: i32,
+    /// The name, without quotes.
+    pub name: String,
+}
+
+/// A model entity (point, curve, surface or volume) from `$Entities`, or derived.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Entity {
+    /// Dimension 0..=3.
+    pub dim: i32,
+    /// Entity tag, unique within its dimension.
+    pub tag: i32,
+    /// Bounding box `[min_x, min_y, min_z, max_x, max_y, max_z]`; for points the box is
+    /// degenerate (min = max = the point's coordinates).
+    pub bbox: [f64; 6],
+    /// Physical tags of the groups this entity belongs to (may be empty).
+    pub physical_tags: Vec<i32>,
+    /// Signed tags of the bounding entities of dimension `dim - 1` (empty for points).
+    pub bounding: Vec<i32>,
+}
+
+/// Nodes classified on one entity, in file order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct NodeBlock {
+    /// Dimension of the classifying entity.
+    pub entity_dim: i32,
+    /// Tag of the classifying entity.
+    pub entity_tag: i32,
+    /// Node tags, as written.
+    pub tags: Vec<u64>,
+    /// Coordinates, one per tag.
+    pub coords: Vec<[f64; 3]>,
+    /// Parametric coordinates when the block is parametric: `entity_dim` values per node
+    /// (u for curves, u v for surfaces), flattened. `None` for non-parametric blocks.
+    pub params: Option<Vec<f64>>,
+}
+
+/// Elements of one type classified on one entity, in file order.
+#[derive(Debug, Clone, PartialEq)]
+pub struct ElementBlock {
+    /// Dimension of the classifying entity.
+    pub entity_dim: i32,
+    /// Tag of the classifying entity.
+    pub entity_tag: i32,
+    /// Gmsh element type code (1 line2, 2 tri3, 3 quad4, ...). See [`element_node_count`].
+    pub element_type: u32,
+    /// Element tags, as written.
+    pub tags: Vec<u64>,
+    /// Node tags of every element, flattened (`element_node_count(element_type)` per element).
+    pub nodes: Vec<u64>,
+    /// MSH 2.x partition tags per element (tags after the elementary tag), kept so they can be
+    /// written back. `None` when the input had none.
+    pub partitions: Option<Vec<Vec<i32>>>,
+}
+
+impl ElementBlock {
+    /// Number of nodes per element of this block.
+    pub fn nodes_per_element(&self) -> usize {
+        element_node_count(self.element_type).unwrap_or(0)
+    }
+    /// Number of elements in this block.
+    pub fn len(&self) -> usize {
+        self.tags.len()
+    }
+    /// True when the block holds no element.
+    pub fn is_empty(&self) -> bool {
+        self.tags.is_empty()
+    }
+    /// Node tags of element `i`.
+    pub fn element(&self, i: usize) -> &[u64] {
+        let k = self.nodes_per_element();
+        &self.nodes[i * k..(i + 1) * k]
+    }
+}
+
+/// One `$Periodic` link: the nodes of entity (`dim`, `tag`) are images of those of `master_tag`.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PeriodicLink {
+    /// Dimension of both entities.
+    pub dim: i32,
+    /// Slave entity tag.
+    pub tag: i32,
+    /// Master entity tag.
+    pub master_tag: i32,
+    /// The 16 affine transform values, when present.
+    pub affine: Option<Vec<f64>>,
+    /// `(node, master_node)` pairs.
+    pub node_pairs: Vec<(u64, u64)>,
+}
+
+/// A section the crate does not interpret (e.g. `$Comments`), kept byte for byte to be
+/// written back. `body` is everything between the `$Name` line and the `$EndName` line.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RawSection {
+    /// Section name without the `$` (e.g. `Comments`).
+    pub name: String,
+    /// Raw bytes between the header line and the end line.
+    pub body: Vec<u8>,
+    /// Index of the interpreted section this one followed in the input (0 = before
+    /// `$MeshFormat`), so it can be written back at the same place.
+    pub position: SectionPosition,
+}
+
+/// Where a kept raw section sits relative to the interpreted sections.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord)]
+pub enum SectionPosition {
+    /// Before `$MeshFormat`.
+    BeforeFormat,
+    /// After the mesh sections, or between them (written at the end).
+    AfterMesh,
+}
+
+/// A post-processing data section (`$NodeData`, `$ElementData`, `$ElementNodeData`): its
+/// validity depends on node and element tags, so stages that change elements must call
+/// [`Mesh::invalidate_element_data`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct DataSection {
+    /// `NodeData`, `ElementData` or `ElementNodeData`.
+    pub kind: DataKind,
+    /// The raw section body, as read (ASCII or binary).
+    pub body: Vec<u8>,
+}
+
+/// The three kinds of post-processing data sections.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum DataKind {
+    /// `$NodeData`: values per node tag.
+    Node,
+    /// `$ElementData`: values per element tag.
+    Element,
+    /// `$ElementNodeData`: values per element node.
+    ElementNode,
+}
+
+impl DataKind {
+    /// The section name without `$`.
+    pub fn section_name(self) -> &'static str {
+        match self {
+            DataKind::Node => "NodeData",
+            DataKind::Element => "ElementData",
+            DataKind::ElementNode => "ElementNodeData",
+        }
+    }
+}
+
+/// A whole mesh: what an MSH file holds.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct Mesh {
+    /// The format the mesh was read from (`None` for meshes built in memory).
+    pub format: Option<MshFormat>,
+    /// `$PhysicalNames`, in file order.
+    pub physical_names: Vec<PhysicalName>,
+    /// Entities by dimension: `entities[d]` holds the entities of dimension `d`.
+    pub entities: [Vec<Entity>; 4],
+    /// True when the input had an `$Entities` section (always true for 4.x).
+    pub has_entities_section: bool,
+    /// Node blocks in file order.
+    pub node_blocks: Vec<NodeBlock>,
+    /// Element blocks in file order.
+    pub element_blocks: Vec<ElementBlock>,
+    /// `$Periodic` links.
+    pub periodic: Vec<PeriodicLink>,
+    /// Sections kept verbatim (`$Comments`, unknown sections).
+    pub raw_sections: Vec<RawSection>,
+    /// Post-processing data sections (kept while valid).
+    pub data_sections: Vec<DataSection>,
+    /// Warnings produced while reading or transforming (printed by the CLI).
+    pub warnings: Vec<String>,
+}
+
+impl Mesh {
+    /// The entity of dimension `dim` and tag `tag`, if any.
+    pub fn entity(&self, dim: i32, tag: i32) -> Option<&Entity> {
+        usize::try_from(dim)
+            .ok()
+            .and_then(|d| self.entities.get(d))
+            .and_then(|v| v.iter().find(|e| e.tag == tag))
+    }
+
+    /// Total number of nodes.
+    pub fn node_count(&self) -> usize {
+        self.node_blocks.iter().map(|b| b.tags.len()).sum()
+    }
+
+    /// Total number of elements.
+    pub fn element_count(&self) -> usize {
+        self.element_blocks.iter().map(|b| b.tags.len()).sum()
+    }
+
+    /// Largest node tag (0 when there are no nodes).
+    pub fn max_node_tag(&self) -> u64 {
+        self.node_blocks
+            .iter()
+            .flat_map(|b| b.tags.iter().copied())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// Largest element tag (0 when there are no elements).
+    pub fn max_element_tag(&self) -> u64 {
+        self.element_blocks
+            .iter()
+            .flat_map(|b| b.tags.iter().copied())
+            .max()
+            .unwrap_or(0)
+    }
+
+    /// A map from node tag to coordinates, for stages that look nodes up by tag.
+    pub fn node_index(&self) -> NodeIndex {
+        NodeIndex::new(self)
+    }
+
+    /// Name of physical group (`dim`, `tag`), if `$PhysicalNames` gives one.
+    pub fn physical_name(&self, dim: i32, tag: i32) -> Option<&str> {
+        self.physical_names
+            .iter()
+            .find(|p| p.dim == dim && p.tag == tag)
+            .map(|p| p.name.as_str())
+    }
+
+    /// Drops `$ElementData`/`$ElementNodeData` sections (element tags changed) and records a
+    /// warning saying so. `$NodeData` stays valid while node tags are kept.
+    pub fn invalidate_element_data(&mut self) {
+        let before = self.data_sections.len();
+        self.data_sections.retain(|d| d.kind == DataKind::Node);
+        let dropped = before - self.data_sections.len();
+        if dropped > 0 {
+            self.warnings.push(format!(
+                "dropped {dropped} $ElementData/$ElementNodeData section(s): elements changed, their values no longer apply"
+            ));
+        }
+    }
+}
+
+/// Position of a node in the model: block index and index inside the block.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct NodeRef {
+    /// Index into [`Mesh::node_blocks`].
+    pub block: u32,
+    /// Index inside the block.
+    pub index: u32,
+}
+
+/// Lookup from node tag to its position, dense when tags are compact, hashed otherwise.
+#[derive(Debug, Clone)]
+pub struct NodeIndex {
+    dense: Vec<Option<NodeRef>>,
+    sparse: HashMap<u64, NodeRef>,
+}
+
+impl NodeIndex {
+    /// Builds the index for all nodes of `mesh`. Later duplicates of a tag win.
+    pub fn new(mesh: &Mesh) -> Self {
+        let n = mesh.node_count();
+        let max = mesh.max_node_tag();
+        let use_dense = max <= (4 * n as u64).max(1024);
+        let mut dense = Vec::new();
+        let mut sparse = HashMap::new();
+        if use_dense {
+            dense = vec![None; max as usize + 1];
+        }
+        for (bi, b) in mesh.node_blocks.iter().enumerate() {
+            for (i, &t) in b.tags.iter().enumerate() {
+                let r = NodeRef {
+                    block: bi as u32,
+                    index: i as u32,
+                };
+                if use_dense {
+                    dense[t as usize] = Some(r);
+                } else {
+                    sparse.insert(t, r);
+                }
+            }
+        }
+        NodeIndex { dense, sparse }
+    }
+
+    /// Where node `tag` lives, if it exists.
+    pub fn get(&self, tag: u64) -> Option<NodeRef> {
+        if self.dense.is_empty() {
+            self.sparse.get(&tag).copied()
+        } else {
+            self.dense.get(tag as usize).copied().flatten()
+        }
+    }
+}
+
+/// Number of nodes of a Gmsh element type, or `None` for an unknown type code.
+///
+/// Covers every type code Gmsh defines (`GmshDefines.h`, `MSH_*`), including high-order and
+/// incomplete elements, so that elements we never recombine are still read and kept.
+pub fn element_node_count(element_type: u32) -> Option<usize> {
+    let n = match element_type {
+        1 => 2,
+        2 => 3,
+        3 => 4,
+        4 => 4,
+        5 => 8,
+        6 => 6,
+        7 => 5,
+        8 => 3,
+        9 => 6,
+        10 => 9,
+        11 => 10,
+        12 => 27,
+        13 => 18,
+        14 => 14,
+        15 => 1,
+        16 => 8,
+        17 => 20,
+        18 => 15,
+        19 => 13,
+        20 => 9,
+        21 => 10,
+        22 => 12,
+        23 => 15,
+        24 => 15,
+        25 => 21,
+        26 => 4,
+        27 => 5,
+        28 => 6,
+        29 => 20,
+        30 => 35,
+        31 => 56,
+        32 => 22,
+        33 => 28,
+        34 => 64,
+        35 => 125,
+        36 => 16,
+        37 => 25,
+        38 => 36,
+        39 => 12,
+        40 => 16,
+        41 => 20,
+        42 => 28,
+        43 => 36,
+        44 => 45,
+        45 => 21,
+        46 => 28,
+        47 => 36,
+        48 => 45,
+        49 => 49,
+        50 => 64,
+        51 => 81,
+        52 => 100,
+        53 => 121,
+        54 => 40,
+        55 => 55,
+        56 => 66,
+        57 => 26,
+        58 => 30,
+        59 => 34,
+        60 => 30,
+        61 => 40,
+        62 => 50,
+        63 => 60,
+        64 => 70,
+        65 => 80,
+        66 => 32,
+        67 => 36,
+        68 => 40,
+        69 => 44,
+        70 => 48,
+        71 => 84,
+        72 => 120,
+        73 => 165,
+        74 => 220,
+        75 => 286,
+        76 => 56,
+        77 => 60,
+        78 => 64,
+        79 => 68,
+        80 => 72,
+        81 => 76,
+        82 => 216,
+        83 => 343,
+        84 => 512,
+        85 => 729,
+        86 => 1000,
+        87 => 56,
+        88 => 74,
+        89 => 92,
+        90 => 40,
+        91 => 75,
+        92 => 64,
+        93 => 125,
+        94 => 35,
+        95 => 56,
+        96 => 84,
+        97 => 120,
+        98 => 165,
+        99 => 44,
+        100 => 62,
+        101 => 80,
+        102 => 98,
+        103 => 116,
+        104 => 30,
+        105 => 14,
+        106 => 140,
+        107 => 196,
+        108 => 252,
+        109 => 324,
+        110 => 400,
+        111 => 486,
+        112 => 1000,
+        113 => 1331,
+        114 => 8,
+        115 => 27,
+        116 => 64,
+        117 => 125,
+        118 => 55,
+        119 => 75,
+        120 => 105,
+        121 => 144,
+        122 => 192,
+        123 => 240,
+        124 => 288,
+        125 => 336,
+        126 => 384,
+        127 => 432,
+        128 => 480,
+        129 => 528,
+        130 => 576,
+        131 => 624,
+        132 => 1,
+        133 => 2,
+        134 => 1,
+        135 => 2,
+        136 => 3,
+        137 => 4,
+        138 => 5,
+        139 => 6,
+        140 => 7,
+        _ => return None,
+    };
+    Some(n)
+}
+
+/// Dimension of a Gmsh element type (0 point, 1 line, 2 surface, 3 volume), for the types
+/// whose dimension the crate needs to know; `None` for unknown codes.
+pub fn element_dim(element_type: u32) -> Option<i32> {
+    Some(match element_type {
+        15 => 0,
+        1 | 8 | 26 | 27 | 28 | 62..=70 => 1,
+        2 | 3 | 9 | 10 | 16 | 20..=25 | 36..=52 | 54..=61 => 2,
+        4..=7 | 11..=14 | 17..=19 | 29..=35 | 53 | 71..=140 => 3,
+        _ => return None,
+    })
+}
+
+/// Gmsh element type codes the recombination stages care about.
+pub mod etype {
+    /// 2-node line.
+    pub const LINE2: u32 = 1;
+    /// 3-node triangle.
+    pub const TRI3: u32 = 2;
+    /// 4-node quadrangle.
+    pub const QUAD4: u32 = 3;
+    /// 1-node point.
+    pub const POINT: u32 = 15;
+    /// 6-node second-order triangle.
+    pub const TRI6: u32 = 9;
+}

@@ -1,0 +1,1 @@
+//! (recombine: to be written)
