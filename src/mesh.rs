@@ -329,167 +329,141 @@ impl NodeIndex {
     }
 }
 
-/// Number of nodes of a Gmsh element type, or `None` for an unknown type code.
-///
-/// Covers every type code Gmsh defines (`GmshDefines.h`, `MSH_*`), including high-order and
-/// incomplete elements, so that elements we never recombine are still read and kept.
-pub fn element_node_count(element_type: u32) -> Option<usize> {
-    let n = match element_type {
-        1 => 2,
-        2 => 3,
-        3 => 4,
-        4 => 4,
-        5 => 8,
-        6 => 6,
-        7 => 5,
-        8 => 3,
-        9 => 6,
-        10 => 9,
-        11 => 10,
-        12 => 27,
-        13 => 18,
-        14 => 14,
-        15 => 1,
-        16 => 8,
-        17 => 20,
-        18 => 15,
-        19 => 13,
-        20 => 9,
-        21 => 10,
-        22 => 12,
-        23 => 15,
-        24 => 15,
-        25 => 21,
-        26 => 4,
-        27 => 5,
-        28 => 6,
-        29 => 20,
-        30 => 35,
-        31 => 56,
-        32 => 22,
-        33 => 28,
-        34 => 64,
-        35 => 125,
-        36 => 16,
-        37 => 25,
-        38 => 36,
-        39 => 12,
-        40 => 16,
-        41 => 20,
-        42 => 28,
-        43 => 36,
-        44 => 45,
-        45 => 21,
-        46 => 28,
-        47 => 36,
-        48 => 45,
-        49 => 49,
-        50 => 64,
-        51 => 81,
-        52 => 100,
-        53 => 121,
-        54 => 40,
-        55 => 55,
-        56 => 66,
-        57 => 26,
-        58 => 30,
-        59 => 34,
-        60 => 30,
-        61 => 40,
-        62 => 50,
-        63 => 60,
-        64 => 70,
-        65 => 80,
-        66 => 32,
-        67 => 36,
-        68 => 40,
-        69 => 44,
-        70 => 48,
-        71 => 84,
-        72 => 120,
-        73 => 165,
-        74 => 220,
-        75 => 286,
-        76 => 56,
-        77 => 60,
-        78 => 64,
-        79 => 68,
-        80 => 72,
-        81 => 76,
-        82 => 216,
-        83 => 343,
-        84 => 512,
-        85 => 729,
-        86 => 1000,
-        87 => 56,
-        88 => 74,
-        89 => 92,
-        90 => 40,
-        91 => 75,
-        92 => 64,
-        93 => 125,
-        94 => 35,
-        95 => 56,
-        96 => 84,
-        97 => 120,
-        98 => 165,
-        99 => 44,
-        100 => 62,
-        101 => 80,
-        102 => 98,
-        103 => 116,
-        104 => 30,
-        105 => 14,
-        106 => 140,
-        107 => 196,
-        108 => 252,
-        109 => 324,
-        110 => 400,
-        111 => 486,
-        112 => 1000,
-        113 => 1331,
-        114 => 8,
-        115 => 27,
-        116 => 64,
-        117 => 125,
-        118 => 55,
-        119 => 75,
-        120 => 105,
-        121 => 144,
-        122 => 192,
-        123 => 240,
-        124 => 288,
-        125 => 336,
-        126 => 384,
-        127 => 432,
-        128 => 480,
-        129 => 528,
-        130 => 576,
-        131 => 624,
-        132 => 1,
-        133 => 2,
-        134 => 1,
-        135 => 2,
-        136 => 3,
-        137 => 4,
-        138 => 5,
-        139 => 6,
-        140 => 7,
-        _ => return None,
-    };
-    Some(n)
+/// Every element type code Gmsh 4.15 defines with a fixed node count:
+/// `(type code, dimension, nodes per element)`, generated from
+/// `gmsh.model.mesh.getElementProperties`. Polygons/polyhedra (variable size) are absent.
+pub const ELEMENT_TYPES: &[(u32, i32, usize)] = &[
+    (1, 1, 2), // Line 2
+    (2, 2, 3), // Triangle 3
+    (3, 2, 4), // Quadrilateral 4
+    (4, 3, 4), // Tetrahedron 4
+    (5, 3, 8), // Hexahedron 8
+    (6, 3, 6), // Prism 6
+    (7, 3, 5), // Pyramid 5
+    (8, 1, 3), // Line 3
+    (9, 2, 6), // Triangle 6
+    (10, 2, 9), // Quadrilateral 9
+    (11, 3, 10), // Tetrahedron 10
+    (12, 3, 27), // Hexahedron 27
+    (13, 3, 18), // Prism 18
+    (14, 3, 14), // Pyramid 14
+    (15, 0, 1), // Point
+    (16, 2, 8), // Quadrilateral 8
+    (17, 3, 20), // Hexahedron 20
+    (18, 3, 15), // Prism 15
+    (19, 3, 13), // Pyramid 13
+    (20, 2, 9), // Triangle 9
+    (21, 2, 10), // Triangle 10
+    (22, 2, 12), // Triangle 12
+    (23, 2, 15), // Triangle 15
+    (24, 2, 15), // Triangle 15I
+    (25, 2, 21), // Triangle 21
+    (26, 1, 4), // Line 4
+    (27, 1, 5), // Line 5
+    (28, 1, 6), // Line 6
+    (29, 3, 20), // Tetrahedron 20
+    (30, 3, 35), // Tetrahedron 35
+    (31, 3, 56), // Tetrahedron 56
+    (32, 3, 22), // Tetrahedron 22
+    (33, 3, 28), // Tetrahedron 28
+    (36, 2, 16), // Quadrilateral 16
+    (37, 2, 25), // Quadrilateral 25
+    (38, 2, 36), // Quadrilateral 36
+    (39, 2, 12), // Quadrilateral 12
+    (40, 2, 16), // Quadrilateral 16I
+    (41, 2, 20), // Quadrilateral 20
+    (42, 2, 28), // Triangle 28
+    (43, 2, 36), // Triangle 36
+    (44, 2, 45), // Triangle 45
+    (45, 2, 55), // Triangle 55
+    (46, 2, 66), // Triangle 66
+    (47, 2, 49), // Quadrilateral 49
+    (48, 2, 64), // Quadrilateral 64
+    (49, 2, 81), // Quadrilateral 81
+    (50, 2, 100), // Quadrilateral 100
+    (51, 2, 121), // Quadrilateral 121
+    (52, 2, 18), // Triangle 18
+    (53, 2, 21), // Triangle 21I
+    (54, 2, 24), // Triangle 24
+    (55, 2, 27), // Triangle 27
+    (56, 2, 30), // Triangle 30
+    (57, 2, 24), // Quadrilateral 24
+    (58, 2, 28), // Quadrilateral 28
+    (59, 2, 32), // Quadrilateral 32
+    (60, 2, 36), // Quadrilateral 36I
+    (61, 2, 40), // Quadrilateral 40
+    (62, 1, 7), // Line 7
+    (63, 1, 8), // Line 8
+    (64, 1, 9), // Line 9
+    (65, 1, 10), // Line 10
+    (66, 1, 11), // Line 11
+    (71, 3, 84), // Tetrahedron 84
+    (72, 3, 120), // Tetrahedron 120
+    (73, 3, 165), // Tetrahedron 165
+    (74, 3, 220), // Tetrahedron 220
+    (75, 3, 286), // Tetrahedron 286
+    (79, 3, 34), // Tetrahedron 34
+    (80, 3, 40), // Tetrahedron 40
+    (81, 3, 46), // Tetrahedron 46
+    (82, 3, 52), // Tetrahedron 52
+    (83, 3, 58), // Tetrahedron 58
+    (84, 1, 1), // Line 1
+    (85, 2, 1), // Triangle 1
+    (86, 2, 1), // Quadrilateral 1
+    (87, 3, 1), // Tetrahedron 1
+    (88, 3, 1), // Hexahedron 1
+    (89, 3, 1), // Prism 1
+    (92, 3, 64), // Hexahedron 64
+    (93, 3, 125), // Hexahedron 125
+    (94, 3, 216), // Hexahedron 216
+    (95, 3, 343), // Hexahedron 343
+    (96, 3, 512), // Hexahedron 512
+    (97, 3, 729), // Hexahedron 729
+    (98, 3, 1000), // Hexahedron 1000
+    (99, 3, 32), // Hexahedron 32
+    (100, 3, 44), // Hexahedron 44
+    (101, 3, 56), // Hexahedron 56
+    (102, 3, 68), // Hexahedron 68
+    (103, 3, 80), // Hexahedron 80
+    (104, 3, 92), // Hexahedron 92
+    (105, 3, 104), // Hexahedron 104
+    (118, 3, 30), // Pyramid 30
+    (119, 3, 55), // Pyramid 55
+    (120, 3, 91), // Pyramid 91
+    (121, 3, 140), // Pyramid 140
+    (122, 3, 204), // Pyramid 204
+    (123, 3, 285), // Pyramid 285
+    (124, 3, 385), // Pyramid 385
+    (125, 3, 21), // Pyramid 21
+    (126, 3, 29), // Pyramid 29
+    (127, 3, 37), // Pyramid 37
+    (128, 3, 45), // Pyramid 45
+    (129, 3, 53), // Pyramid 53
+    (130, 3, 61), // Pyramid 61
+    (131, 3, 69), // Pyramid 69
+    (132, 3, 1), // Pyramid 1
+    (137, 3, 16), // Tetrahedron 16
+];
+
+fn element_type_entry(element_type: u32) -> Option<&'static (u32, i32, usize)> {
+    ELEMENT_TYPES
+        .binary_search_by_key(&element_type, |e| e.0)
+        .ok()
+        .map(|i| &ELEMENT_TYPES[i])
 }
 
-/// Dimension of a Gmsh element type (0 point, 1 line, 2 surface, 3 volume), for the types
-/// whose dimension the crate needs to know; `None` for unknown codes.
+/// Number of nodes of a Gmsh element type, or `None` for an unknown type code.
+///
+/// Covers every fixed-size type code Gmsh defines, including high-order and incomplete
+/// elements, so that elements we never recombine are still read and kept.
+pub fn element_node_count(element_type: u32) -> Option<usize> {
+    element_type_entry(element_type).map(|e| e.2)
+}
+
+/// Dimension of a Gmsh element type (0 point, 1 line, 2 surface, 3 volume), or `None` for
+/// an unknown type code.
 pub fn element_dim(element_type: u32) -> Option<i32> {
-    Some(match element_type {
-        15 => 0,
-        1 | 8 | 26 | 27 | 28 | 62..=70 => 1,
-        2 | 3 | 9 | 10 | 16 | 20..=25 | 36..=52 | 54..=61 => 2,
-        4..=7 | 11..=14 | 17..=19 | 29..=35 | 53 | 71..=140 => 3,
-        _ => return None,
-    })
+    element_type_entry(element_type).map(|e| e.1)
 }
 
 /// Gmsh element type codes the recombination stages care about.
