@@ -9,15 +9,21 @@ use std::f64::consts::FRAC_PI_2;
 /// The angle at vertex k is the rotation about `normal` that takes the edge towards
 /// `p[k+1]` onto the edge towards `p[k-1]`, in (−π, π]. For a convex quad whose vertices turn
 /// counter-clockwise seen from `normal`, every angle lies in (0, π); a reflex corner
-/// (non-convex quad) or a folded corner gives an angle ≤ 0. Degenerate edges give 0.
+/// (non-convex quad) or a folded corner gives an angle ≤ 0. Degenerate edges give 0. Only
+/// the direction of `normal` matters; a zero normal gives all angles 0.
 pub fn signed_angles(p: &[DVec3; 4], normal: DVec3) -> [f64; 4] {
     let mut out = [0.0; 4];
+    let normal = normal.normalize_or_zero();
     for k in 0..4 {
         let a = p[(k + 1) % 4] - p[k];
         let b = p[(k + 3) % 4] - p[k];
         let s = normal.dot(a.cross(b));
         let c = a.dot(b);
-        out[k] = if s == 0.0 && c == 0.0 { 0.0 } else { s.atan2(c) };
+        out[k] = if s == 0.0 && c == 0.0 {
+            0.0
+        } else {
+            s.atan2(c)
+        };
     }
     out
 }
@@ -68,7 +74,7 @@ mod tests {
         let h = 3f64.sqrt() / 2.0;
         let r = q([[0., 0.], [1., 0.], [1.5, h], [0.5, h]]);
         // angles 60/120: worst deviation 30 degrees -> 1 - 1/3.
-        assert!((eta(&r) - 2.0 / 3.0).abs() < 1e-12);
+        assert!((eta(&r) - 2.0 / 3.0).abs() < 1e-12, "{}", eta(&r));
     }
 
     #[test]
