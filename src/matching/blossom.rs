@@ -614,7 +614,7 @@ impl Solver {
         // Path from ch[j] to ch[0] of even length; its nodes go to the tree.
         let mut path: Vec<(u32, u8, u32, u32)> = Vec::new(); // node, label, tself, tpar
         path.push((ch[j], MINUS, ts, tp));
-        if j % 2 == 0 {
+        if j.is_multiple_of(2) {
             let mut i = j;
             while i > 0 {
                 // ch[i-1] is `+` (matched to ch[i]), ch[i-2] is `−` with tree edge cyc[i-2].
@@ -633,7 +633,7 @@ impl Solver {
             }
         }
         let mut on_path = vec![false; k];
-        if j % 2 == 0 {
+        if j.is_multiple_of(2) {
             for flag in on_path.iter_mut().take(j + 1) {
                 *flag = true;
             }
@@ -705,7 +705,7 @@ impl Solver {
             let cj = self.children[bi][j];
             work.push((cj, x));
             let k = self.children[bi].len();
-            if j % 2 == 0 {
+            if j.is_multiple_of(2) {
                 // Pairs (ch[i-1], ch[i-2]) via cyc[i-2] for i = j, j-2, ..., 2.
                 let mut i = j;
                 while i > 0 {
@@ -782,6 +782,7 @@ impl Solver {
     }
 
     /// Builds the public result: mates, cost, duals in the laminar-forest form.
+    #[allow(clippy::needless_range_loop)]
     fn result(&self) -> Matching {
         let n = self.n;
         // Cost: cheapest input edge for each matched pair.

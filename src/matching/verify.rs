@@ -65,6 +65,7 @@ pub enum CertificateError {
 /// `(|B| − 1) / 2` matched pairs; (e) `scale · cost(M) = Σ y_v + Σ y_B`, and `m.cost` is the
 /// cost of `mate`. Loops and edges with an endpoint `>= n` are ignored, as in
 /// [`super::solve`]. Exact (`i128`) arithmetic; `O(m · depth)` time.
+#[allow(clippy::needless_range_loop)]
 pub fn verify(n: usize, edges: &[(u32, u32, i64)], m: &Matching) -> Result<(), CertificateError> {
     let d = &m.duals;
     let malformed = |s: &str| Err(CertificateError::Malformed(s.to_string()));
@@ -215,7 +216,7 @@ pub fn verify(n: usize, edges: &[(u32, u32, i64)], m: &Matching) -> Result<(), C
         }
     }
     for b in 0..nb {
-        if d.blossoms[b].dual > 0 && (size[b] % 2 == 0 || inside[b] * 2 + 1 != size[b]) {
+        if d.blossoms[b].dual > 0 && (size[b].is_multiple_of(2) || inside[b] * 2 + 1 != size[b]) {
             return Err(CertificateError::BlossomNotFull(b as u32));
         }
     }
