@@ -2,9 +2,10 @@
 """Prints what Gmsh reads from an MSH file as canonical text lines, so that two
 files can be compared line by line (tests/common/mod.rs, `gmsh_summary`).
 
-Usage: gmsh_summary.py FILE [--no-element-tags] [--no-classification]
+Usage: gmsh_summary.py FILE [--no-element-tags] [--no-classification] [--round]
 
-  nodes N SHA             node tags with exact coordinates
+  nodes N SHA             node tags with exact coordinates (12 significant
+                          digits with --round: Gmsh's ASCII writer keeps 16)
   node-entity D T N       nodes classified on entity (D, T)   [not with --no-classification]
   entity D T              every entity                         [with --no-classification:
                                                                 only entities with elements]
@@ -31,6 +32,7 @@ def main(argv):
     path = argv[1]
     element_tags = "--no-element-tags" not in argv
     classification = "--no-classification" not in argv
+    rounded = "--round" in argv
     gmsh.initialize(["gmsh_summary"], readConfigFiles=False)
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.logger.start()
@@ -49,7 +51,10 @@ def main(argv):
     for dim, tag in gmsh.model.getEntities():
         ntags, coords, _ = gmsh.model.mesh.getNodes(dim, tag, False, False)
         for i, t in enumerate(ntags):
-            nodes.append((int(t), coords[3 * i], coords[3 * i + 1], coords[3 * i + 2]))
+            xyz = coords[3 * i:3 * i + 3]
+            if rounded:
+                xyz = ["%.12g" % c for c in xyz]
+            nodes.append((int(t), *xyz))
         if classification:
             lines.append(f"node-entity {dim} {tag} {len(ntags)}")
         types, etags, enodes = gmsh.model.mesh.getElements(dim, tag)
