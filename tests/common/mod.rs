@@ -324,3 +324,20 @@ pub fn json_number(json: &str, key: &str) -> Option<f64> {
         .unwrap_or(rest.len());
     rest[..end].parse().ok()
 }
+
+/// Asserts that `path` starts with the `$MeshFormat` header of `variant`.
+pub fn assert_variant(path: &Path, variant: Variant) {
+    let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    let version = if variant.is_msh22() { "2.2" } else { "4.1" };
+    let header = format!(
+        "$MeshFormat\n{version} {} 8",
+        if variant.binary() { 1 } else { 0 }
+    );
+    assert!(
+        bytes.starts_with(header.as_bytes()),
+        "{}: expected {} header, file starts with {:?}",
+        path.display(),
+        variant.name(),
+        String::from_utf8_lossy(&bytes[..bytes.len().min(40)])
+    );
+}
