@@ -5,7 +5,7 @@
 
 mod common;
 
-use common::{blossomquad_run, check_mesh, corpus_dir, gmsh_summary, msh_files};
+use common::{blossomquad_run, check_mesh, corpus_dir, gmsh_loads, gmsh_summary, msh_files};
 use std::path::Path;
 
 fn has_volume_elements(path: &Path) -> bool {
@@ -122,4 +122,39 @@ fn broken_corpus_file_is_refused_with_one_clear_line() {
             "error does not name the file: {stderr}"
         );
     }
+}
+
+#[test]
+fn every_core_corpus_file_converts_unchanged() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut failures = Vec::new();
+    for input in msh_files(&corpus_dir()) {
+        let name = input
+            .file_name()
+            .unwrap_or_default()
+            .to_string_lossy()
+            .into_owned();
+        let output = dir.path().join(&name);
+        let (code, _, stderr) = blossomquad_run([
+            "convert".as_ref(),
+            input.as_os_str(),
+            "-o".as_ref(),
+            output.as_os_str(),
+        ]);
+        if code != Some(0) {
+            failures.push(format!("{name}: convert exit {code:?}: {stderr}"));
+            continue;
+        }
+        if let Err(e) = gmsh_loads(&output) {
+            failures.push(e);
+            continue;
+        }
+        // Same nodes, faces, boundaries, curves, groups: the checker with
+        // triangles allowed is an identity check.
+        let report = check_mesh(&input, &output, &["--allow-triangles"]);
+        if !report.ok {
+            failures.push(format!("{name}: {}", report.report));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
