@@ -333,6 +333,7 @@ def check(inp, out, allow_dropped_volumes, allow_triangles):
                   f"curve {curve}: {len(missing)} segments missing (e.g. {missing[:3]}), "
                   f"{len(extra)} unexpected (e.g. {extra[:3]})")
 
+    line_segments = {key(a, b) for segs in inp.lines.values() for a, b in segs}
     quads = 0
     tris_left = 0
     for surface, in_faces in sorted(inp.faces.items()):
@@ -356,10 +357,12 @@ def check(inp, out, allow_dropped_volumes, allow_triangles):
         rep.check("boundary", not missing and not extra,
                   f"surface {surface}: {len(missing)} input boundary edges lost (e.g. {missing[:3]}), "
                   f"{len(extra)} new boundary edges (e.g. {extra[:3]})")
-        for e, m in splits.items():
-            if e in all_splits and all_splits[e] != m:
+        # A split must be the same in the surface and in its curve's line elements.
+        for e in bnd_in & line_segments:
+            if splits.get(e) != all_splits.get(e):
                 rep.check("boundary", False,
-                          f"surface {surface}: edge {e} split by node {m}, its line element by {all_splits[e]}")
+                          f"surface {surface}: edge {e} split by node {splits.get(e)}, "
+                          f"its line element by {all_splits.get(e)}")
         # Embedded segments stay edges used twice.
         for segs in inp.lines.values():
             for a, b in segs:

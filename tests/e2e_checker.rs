@@ -138,3 +138,65 @@ fn checker_reports_an_unreadable_input_as_usage_error() {
     let report = check_mesh(&missing, &missing, &[]);
     assert_eq!(report.code, Some(2), "{}", report.report);
 }
+
+/// A triangle ABC with centre node p (three triangles: an odd surface) and
+/// its three curves carrying line elements, in MSH 4.1 ASCII.
+const ODD_TRIANGLE: &str = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n\
+$PhysicalNames\n1\n2 1 \"tri\"\n$EndPhysicalNames\n\
+$Entities\n3 3 1 0\n1 0 0 0 0\n2 1 0 0 0\n3 0.5 0.866 0 0\n\
+1 0 0 0 1 0 0 0 2 1 -2\n2 0.5 0 0 1 0.866 0 0 2 2 -3\n3 0 0 0 0.5 0.866 0 0 2 3 -1\n\
+1 0 0 0 1 0.866 0 1 1 3 1 2 3\n$EndEntities\n\
+$Nodes\n4 4 1 4\n0 1 0 1\n1\n0 0 0\n0 2 0 1\n2\n1 0 0\n0 3 0 1\n3\n0.5 0.866 0\n\
+2 1 0 1\n4\n0.45 0.3 0\n$EndNodes\n\
+$Elements\n4 6 1 6\n1 1 1 1\n1 1 2\n1 2 1 1\n2 2 3\n1 3 1 1\n3 3 1\n\
+2 1 2 3\n4 1 2 4\n5 2 3 4\n6 3 1 4\n$EndElements\n";
+
+/// ODD_TRIANGLE after a parity repair that put node 5 at `m` on curve 1 (the
+/// segment AB) and recombined the four triangles into two quads; with
+/// `split_line` false the curve's line element is (wrongly) left whole.
+fn repaired_triangle(m: &str, split_line: bool) -> String {
+    let lines = if split_line {
+        "1 1 1 2\n1 1 5\n7 5 2\n"
+    } else {
+        "1 1 1 1\n1 1 2\n"
+    };
+    let count = if split_line { 6 } else { 5 };
+    format!(
+        "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n\
+$PhysicalNames\n1\n2 1 \"tri\"\n$EndPhysicalNames\n\
+$Entities\n3 3 1 0\n1 0 0 0 0\n2 1 0 0 0\n3 0.5 0.866 0 0\n\
+1 0 0 0 1 0 0 0 2 1 -2\n2 0.5 0 0 1 0.866 0 0 2 2 -3\n3 0 0 0 0.5 0.866 0 0 2 3 -1\n\
+1 0 0 0 1 0.866 0 1 1 3 1 2 3\n$EndEntities\n\
+$Nodes\n5 5 1 5\n0 1 0 1\n1\n0 0 0\n0 2 0 1\n2\n1 0 0\n0 3 0 1\n3\n0.5 0.866 0\n\
+1 1 0 1\n5\n{m}\n2 1 0 1\n4\n0.45 0.3 0\n$EndNodes\n\
+$Elements\n4 {count} 1 11\n{lines}1 2 1 1\n2 2 3\n1 3 1 1\n3 3 1\n\
+2 1 3 2\n10 1 5 4 3\n11 5 2 3 4\n$EndElements\n"
+    )
+}
+
+fn check_texts(input: &str, output: &str) -> common::CheckReport {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (a, b) = (dir.path().join("in.msh"), dir.path().join("out.msh"));
+    std::fs::write(&a, input).expect("write input");
+    std::fs::write(&b, output).expect("write output");
+    check_mesh(&a, &b, &[])
+}
+
+#[test]
+fn checker_accepts_a_parity_split_on_the_segment() {
+    let report = check_texts(ODD_TRIANGLE, &repaired_triangle("0.5 0 0", true));
+    assert!(report.ok, "{}", report.report);
+}
+
+#[test]
+fn checker_rejects_a_split_node_off_the_segment() {
+    let report = check_texts(ODD_TRIANGLE, &repaired_triangle("0.5 0.05 0", true));
+    assert_violation(&report, "boundary");
+    assert_violation(&report, "curve_edges");
+}
+
+#[test]
+fn checker_rejects_a_split_missing_from_the_line_elements() {
+    let report = check_texts(ODD_TRIANGLE, &repaired_triangle("0.5 0 0", false));
+    assert_violation(&report, "boundary");
+}
