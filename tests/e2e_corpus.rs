@@ -5,7 +5,9 @@
 
 mod common;
 
-use common::{blossomquad_run, check_mesh, corpus_dir, gmsh_loads, gmsh_summary, msh_files};
+use common::{
+    blossomquad_run, check_mesh, corpus_dir, gmsh_loads, gmsh_summary, msh_files, recombine,
+};
 use std::path::Path;
 
 fn has_volume_elements(path: &Path) -> bool {
@@ -23,21 +25,6 @@ fn is_msh40(path: &Path) -> bool {
         .is_some_and(|l| l.starts_with("4 ") || l.starts_with("4.0 "))
 }
 
-fn run_main(input: &Path, output: &Path, extra: &[&str]) -> (Option<i32>, String) {
-    let (code, _, stderr) = blossomquad_run(
-        [
-            input.as_os_str(),
-            "-o".as_ref(),
-            output.as_os_str(),
-            "--verify".as_ref(),
-            "--quiet".as_ref(),
-        ]
-        .into_iter()
-        .chain(extra.iter().map(|s| s.as_ref())),
-    );
-    (code, stderr)
-}
-
 #[test]
 fn every_core_corpus_file_recombines() {
     let corpus = corpus_dir();
@@ -51,13 +38,9 @@ fn every_core_corpus_file_recombines() {
     let dir = tempfile::tempdir().expect("temp dir");
     let mut failures = Vec::new();
     for input in &files {
-        let name = input
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned();
+        let name = file_name(input);
         let output = dir.path().join(&name);
-        let (code, stderr) = run_main(input, &output, &[]);
+        let (code, stderr) = recombine(input, &output, &[]);
         if has_volume_elements(input) {
             // Refused with a reason, no output; accepted with --drop-volumes.
             if code != Some(1) || stderr.trim().is_empty() || output.exists() {
@@ -66,7 +49,7 @@ fn every_core_corpus_file_recombines() {
                 ));
                 continue;
             }
-            let (code, stderr) = run_main(input, &output, &["--drop-volumes"]);
+            let (code, stderr) = recombine(input, &output, &["--drop-volumes"]);
             if code != Some(0) {
                 failures.push(format!(
                     "{name}: --drop-volumes failed ({code:?}): {stderr}"
@@ -107,16 +90,12 @@ fn broken_corpus_file_is_refused_with_one_clear_line() {
     let dir = tempfile::tempdir().expect("temp dir");
     for input in broken {
         let output = dir.path().join("out.msh");
-        let (code, stderr) = run_main(&input, &output, &[]);
+        let (code, stderr) = recombine(&input, &output, &[]);
         assert_eq!(code, Some(1), "{}: {stderr}", input.display());
         assert!(!output.exists(), "partial output written");
         let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
         assert_eq!(lines.len(), 1, "one error line expected: {stderr}");
-        let name = input
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned();
+        let name = file_name(input);
         assert!(
             lines[0].contains(&name),
             "error does not name the file: {stderr}"
@@ -129,11 +108,7 @@ fn every_core_corpus_file_converts_unchanged() {
     let dir = tempfile::tempdir().expect("temp dir");
     let mut failures = Vec::new();
     for input in msh_files(&corpus_dir()) {
-        let name = input
-            .file_name()
-            .unwrap_or_default()
-            .to_string_lossy()
-            .into_owned();
+        let name = file_name(&input);
         let output = dir.path().join(&name);
         let (code, _, stderr) = blossomquad_run([
             "convert".as_ref(),

@@ -8,23 +8,13 @@ mod common;
 
 use common::{
     assert_variant, blossomquad, blossomquad_run, check_mesh, generate, geo_dir, gmsh_loads,
-    test_size, Variant,
+    recombine, test_size, Variant,
 };
 use std::path::Path;
 
 /// Recombines `input` into `output` with `--verify` and checks it independently.
 fn recombine_and_check(input: &Path, output: &Path, variant: Variant, extra: &[&str]) {
-    let (code, _, stderr) = blossomquad_run(
-        [
-            input.as_os_str(),
-            "-o".as_ref(),
-            output.as_os_str(),
-            "--verify".as_ref(),
-            "--quiet".as_ref(),
-        ]
-        .into_iter()
-        .chain(extra.iter().map(|s| s.as_ref())),
-    );
+    let (code, stderr) = recombine(input, output, extra);
     assert_eq!(
         code,
         Some(0),

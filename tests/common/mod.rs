@@ -341,3 +341,28 @@ pub fn assert_variant(path: &Path, variant: Variant) {
         String::from_utf8_lossy(&bytes[..bytes.len().min(40)])
     );
 }
+
+/// The main job as the tests run it: `blossomquad INPUT -o OUTPUT --verify
+/// --quiet EXTRA...`; returns (exit code, stderr).
+pub fn recombine(input: &Path, output: &Path, extra: &[&str]) -> (Option<i32>, String) {
+    let (code, _, stderr) = blossomquad_run(
+        [
+            input.as_os_str(),
+            "-o".as_ref(),
+            output.as_os_str(),
+            "--verify".as_ref(),
+            "--quiet".as_ref(),
+        ]
+        .into_iter()
+        .chain(extra.iter().map(|s| s.as_ref())),
+    );
+    (code, stderr)
+}
+
+/// The last component of `path`, as text.
+pub fn file_name(path: &Path) -> String {
+    path.file_name()
+        .unwrap_or_default()
+        .to_string_lossy()
+        .into_owned()
+}
