@@ -6,7 +6,8 @@
 mod common;
 
 use common::{
-    blossomquad_run, check_mesh, corpus_dir, gmsh_loads, gmsh_summary, msh_files, recombine,
+    blossomquad_run, check_mesh, corpus_dir, file_name, gmsh_loads, gmsh_summary, msh_files,
+    recombine,
 };
 use std::path::Path;
 
@@ -95,7 +96,7 @@ fn broken_corpus_file_is_refused_with_one_clear_line() {
         assert!(!output.exists(), "partial output written");
         let lines: Vec<&str> = stderr.lines().filter(|l| !l.trim().is_empty()).collect();
         assert_eq!(lines.len(), 1, "one error line expected: {stderr}");
-        let name = file_name(input);
+        let name = file_name(&input);
         assert!(
             lines[0].contains(&name),
             "error does not name the file: {stderr}"
