@@ -37,7 +37,7 @@ pub fn corpus_files() -> Vec<PathBuf> {
     }
     v.sort();
     assert!(
-        v.len() >= 22,
+        v.len() >= 21,
         "corpus not found or incomplete at {} ({} files)",
         dir.display(),
         v.len()
@@ -48,10 +48,34 @@ pub fn corpus_files() -> Vec<PathBuf> {
 /// The four written variants.
 pub fn variants() -> [(MshFormat, &'static str); 4] {
     [
-        (MshFormat { version: MshVersion::V41, binary: false }, "41a"),
-        (MshFormat { version: MshVersion::V41, binary: true }, "41b"),
-        (MshFormat { version: MshVersion::V2 { minor: 2 }, binary: false }, "22a"),
-        (MshFormat { version: MshVersion::V2 { minor: 2 }, binary: true }, "22b"),
+        (
+            MshFormat {
+                version: MshVersion::V41,
+                binary: false,
+            },
+            "41a",
+        ),
+        (
+            MshFormat {
+                version: MshVersion::V41,
+                binary: true,
+            },
+            "41b",
+        ),
+        (
+            MshFormat {
+                version: MshVersion::V2 { minor: 2 },
+                binary: false,
+            },
+            "22a",
+        ),
+        (
+            MshFormat {
+                version: MshVersion::V2 { minor: 2 },
+                binary: true,
+            },
+            "22b",
+        ),
     ]
 }
 
@@ -82,7 +106,12 @@ pub fn elements(m: &Mesh) -> ElementView {
         for (i, t) in b.tags.iter().enumerate() {
             out.insert(
                 *t,
-                (b.element_type, b.nodes[i * k..(i + 1) * k].to_vec(), phys.clone(), b.entity_dim),
+                (
+                    b.element_type,
+                    b.nodes[i * k..(i + 1) * k].to_vec(),
+                    phys.clone(),
+                    b.entity_dim,
+                ),
             );
         }
     }
@@ -116,7 +145,10 @@ pub fn entities_with_elements(m: &Mesh) -> BTreeSet<(i32, i32, Vec<i32>)> {
 
 /// Physical names as a set.
 pub fn names(m: &Mesh) -> BTreeSet<(i32, i32, String)> {
-    m.physical_names.iter().map(|p| (p.dim, p.tag, p.name.clone())).collect()
+    m.physical_names
+        .iter()
+        .map(|p| (p.dim, p.tag, p.name.clone()))
+        .collect()
 }
 
 /// Physical groups (dim, tag) that hold at least one element.
@@ -129,7 +161,10 @@ pub fn groups_with_elements(m: &Mesh) -> BTreeSet<(i32, i32)> {
 
 /// True when the `gmsh` executable runs.
 pub fn have_gmsh() -> bool {
-    Command::new("gmsh").arg("--version").output().is_ok_and(|o| o.status.success())
+    Command::new("gmsh")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
 }
 
 /// Runs gmsh with `args`; panics with its output on failure or on an `Error` line.
@@ -141,7 +176,10 @@ pub fn gmsh(args: &[&str]) -> String {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(out.status.success(), "gmsh {args:?} failed:\n{text}");
-    assert!(!text.contains("Error"), "gmsh {args:?} reported an error:\n{text}");
+    assert!(
+        !text.contains("Error"),
+        "gmsh {args:?} reported an error:\n{text}"
+    );
     text
 }
 
