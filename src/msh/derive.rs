@@ -127,6 +127,9 @@ pub(crate) fn bounding_boxes(mesh: &mut Mesh) {
 /// Derives `Entity::bounding` for curves, surfaces and volumes (see the module doc).
 pub(crate) fn bounding_entities(mesh: &mut Mesh) {
     for dim in 1..=3i32 {
+        if !mesh.element_blocks.iter().any(|b| b.entity_dim == dim) {
+            continue;
+        }
         // Facets of the lower-dimension entities' elements → those entities.
         let mut low: HashMap<Key, Vec<i32>> = HashMap::new();
         for eb in mesh

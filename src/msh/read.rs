@@ -14,8 +14,11 @@ use crate::mesh::{
     SectionPosition,
 };
 
+/// Three byte-slice fields of one line.
+type Fields3<'a> = (&'a [u8], &'a [u8], &'a [u8]);
+
 /// `version file-type data-size`, e.g. `4.1 0 8`.
-fn format_line(i: &[u8]) -> IResult<&[u8], (&[u8], &[u8], &[u8])> {
+fn format_line(i: &[u8]) -> IResult<&[u8], Fields3<'_>> {
     (
         preceded(space0, take_while1(|c: u8| !c.is_ascii_whitespace())),
         preceded(space1, digit1),
@@ -25,7 +28,7 @@ fn format_line(i: &[u8]) -> IResult<&[u8], (&[u8], &[u8], &[u8])> {
 }
 
 /// `dim tag "name"` of `$PhysicalNames`.
-fn physical_name_line(i: &[u8]) -> IResult<&[u8], (&[u8], &[u8], &[u8])> {
+fn physical_name_line(i: &[u8]) -> IResult<&[u8], Fields3<'_>> {
     (
         preceded(space0, take_while1(|c: u8| c == b'-' || c.is_ascii_digit())),
         preceded(space1, take_while1(|c: u8| c == b'-' || c.is_ascii_digit())),

@@ -20,7 +20,7 @@ pub struct SurfaceSummary {
 impl SurfaceSummary {
     /// True when the triangle count is even (a perfect matching of the triangles can exist).
     pub fn triangles_even(&self) -> bool {
-        self.triangles % 2 == 0
+        self.triangles.is_multiple_of(2)
     }
 }
 

@@ -336,6 +336,10 @@ impl TagMap {
     }
 }
 
+/// Identity of an element for merging per-group copies: entity dim, elementary tag, type,
+/// nodes, partition tags.
+type CopyKey<'a> = (i32, i32, u32, &'a [u64], &'a [i32]);
+
 /// Builds the entity-based model from the flat 2.x data (see the module documentation).
 pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     let nodes_of = |e: &RawElem| {
@@ -390,7 +394,7 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     // Merge per-group copies. `kept` lists raw indices; `extra` the merged physical tags.
     let mut kept: Vec<usize> = Vec::with_capacity(raw.elems.len());
     let mut extra: HashMap<usize, Vec<i32>> = HashMap::new();
-    let mut seen: HashMap<(i32, i32, u32, &[u64], &[i32]), Vec<usize>> = HashMap::new();
+    let mut seen: HashMap<CopyKey, Vec<usize>> = HashMap::new();
     let mut merged = 0usize;
     for (i, e) in raw.elems.iter().enumerate() {
         let dim = element_dim(e.etype).unwrap_or(0);
