@@ -234,6 +234,14 @@ fn gmsh_written_meshes_read_in_all_four_variants() {
             }
         }
     }
+    // Entities derived from the 2.2 files: each surface is bounded by the curve of the
+    // "bottom" group that carries line elements along its edge.
+    for (label, m) in &meshes[2..] {
+        for (s, c) in [(1, 1), (2, 5)] {
+            let e = m.entity(2, s).unwrap();
+            assert!(e.bounding.iter().any(|b| b.abs() == c), "{label}: {e:?}");
+        }
+    }
     // The 2.2 binary file holds surface 1's triangles three times (groups left, all, 7).
     let m22b = &meshes[3].1;
     assert!(m22b.warnings.iter().any(|w| w.contains("merged")));
@@ -247,4 +255,60 @@ fn gmsh_written_meshes_read_in_all_four_variants() {
     let orig = gmsh_python_counts(&[dir.path().join("two_22b.msh"), back.clone()]);
     assert_eq!(orig[0].types, orig[1].types);
     assert_eq!(orig[0].groups, orig[1].groups);
+}
+
+const PERIODIC_GEO: &str =
+    "Point(1) = {0, 0, 0}; Point(2) = {1, 0, 0}; Point(3) = {1, 1, 0}; Point(4) = {0, 1, 0};
+Line(1) = {1, 2}; Line(2) = {2, 3}; Line(3) = {4, 3}; Line(4) = {1, 4};
+Curve Loop(1) = {1, 2, -3, -4}; Plane Surface(1) = {1};
+Periodic Curve{3} = {1} Translate{0, 1, 0};
+Mesh.MeshSizeMax = 0.25;
+";
+
+#[test]
+fn periodic_links_survive_every_variant() {
+    if !have_gmsh() {
+        eprintln!("gmsh not installed: skipped");
+        return;
+    }
+    let dir = tempdir();
+    let geo = dir.path().join("per.geo");
+    std::fs::write(&geo, PERIODIC_GEO).unwrap();
+    let mut ours = Vec::new();
+    for (f, label) in variants() {
+        let src = dir.path().join(format!("per_{label}.msh"));
+        let fmt = if f.version == MshVersion::V41 {
+            "msh41"
+        } else {
+            "msh22"
+        };
+        let mut args = vec![
+            geo.to_str().unwrap(),
+            "-2",
+            "-format",
+            fmt,
+            "-o",
+            src.to_str().unwrap(),
+        ];
+        if f.binary {
+            args.push("-bin");
+        }
+        gmsh(&args);
+        let m = msh::read_file(&src).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(m.periodic.len(), 3, "{label}");
+        let curve = m.periodic.iter().find(|l| l.dim == 1).unwrap();
+        assert_eq!((curve.tag, curve.master_tag), (3, 1));
+        assert!(curve.node_pairs.len() >= 3);
+        assert_eq!(curve.affine.as_ref().map(Vec::len), Some(16), "{label}");
+        for (g, l2) in variants() {
+            let out = dir.path().join(format!("per_{label}_to_{l2}.msh"));
+            msh::write_file(&m, &out, g).unwrap();
+            let back = msh::read_file(&out).unwrap();
+            assert_eq!(back.periodic, m.periodic, "{label} -> {l2}");
+            ours.push(out);
+        }
+    }
+    // Gmsh loads every one of them.
+    let seen = gmsh_python_counts(&ours);
+    assert_eq!(seen.len(), 16);
 }
