@@ -284,3 +284,32 @@ fn default_formats_and_version_mapping() {
         MshVersion::V41
     );
 }
+
+#[test]
+fn v41_without_entities_section_gets_entities() {
+    let text = V41.replace(
+        "$Entities\n0 0 1 0\n1 0 0 0 1 1 0 1 5 0\n$EndEntities\n",
+        "",
+    );
+    let m = read(&text);
+    assert!(!m.has_entities_section);
+    let e = m.entity(2, 1).expect("entity derived from the blocks");
+    assert_eq!(e.bbox, [0.0, 0.0, 0.0, 1.0, 1.0, 0.0]);
+    assert!(m.warnings.is_empty());
+    // A mesh built in memory with a block on an unknown entity is written with that entity.
+    let mut mem = read(V41);
+    mem.entities = Default::default();
+    mem.format = None;
+    let back = msh::read_bytes(&write_as(&mem, variants()[1].0), "x").unwrap();
+    assert!(back.has_entities_section);
+    assert_eq!(
+        back.entity(2, 1).unwrap().bbox,
+        [0.0, 0.0, 0.0, 1.0, 1.0, 0.0]
+    );
+    // $Entities present but incomplete: completed, with a warning.
+    let partial = V41.replace("0 0 1 0\n1 0 0 0 1 1 0 1 5 0\n", "0 0 0 0\n");
+    assert!(read(&partial)
+        .warnings
+        .iter()
+        .any(|w| w.contains("missing from $Entities")));
+}

@@ -7,9 +7,9 @@
 //! surface) do not make a bounding entity. Signs are positive except for a curve's end
 //! point, which is negative as Gmsh writes it.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
-use crate::mesh::{element_dim, Mesh};
+use crate::mesh::{element_dim, Entity, Mesh};
 
 /// Corner count of an element type's family (first nodes are the corners in Gmsh's
 /// ordering), `None` for families whose facets we do not derive.
@@ -75,11 +75,64 @@ fn facets(ty: u32, nodes: &[u64], mut f: impl FnMut(&[u64])) {
     }
 }
 
+/// Adds a bare entity (no physical group, box from its nodes) for every node or element block
+/// whose entity `$Entities` does not define (legal: Gmsh reads 4.1 files without
+/// `$Entities`). Returns how many were added.
+pub(crate) fn missing_entities(mesh: &mut Mesh) -> usize {
+    let missing = find_missing_entities(mesh);
+    for &(d, t) in &missing {
+        mesh.entities[d as usize].push(Entity {
+            dim: d,
+            tag: t,
+            bbox: [0.0; 6],
+            physical_tags: Vec::new(),
+            bounding: Vec::new(),
+        });
+    }
+    let added: HashSet<(i32, i32)> = missing.iter().copied().collect();
+    if !added.is_empty() {
+        boxes(mesh, Some(&added));
+    }
+    added.len()
+}
+
+/// The (dim, tag) of entities that blocks use but `mesh.entities` lacks, in first-use order.
+pub(crate) fn find_missing_entities(mesh: &Mesh) -> Vec<(i32, i32)> {
+    let mut have: HashSet<(i32, i32)> = mesh
+        .entities
+        .iter()
+        .flatten()
+        .map(|e| (e.dim, e.tag))
+        .collect();
+    let pairs: Vec<(i32, i32)> = mesh
+        .node_blocks
+        .iter()
+        .map(|b| (b.entity_dim, b.entity_tag))
+        .chain(
+            mesh.element_blocks
+                .iter()
+                .map(|b| (b.entity_dim, b.entity_tag)),
+        )
+        .collect();
+    let mut missing = Vec::new();
+    for (d, t) in pairs {
+        if (0..4).contains(&d) && have.insert((d, t)) {
+            missing.push((d, t));
+        }
+    }
+    missing
+}
+
 /// Sets every entity's bounding box from the nodes classified on it and the nodes of its
 /// elements.
 pub(crate) fn bounding_boxes(mesh: &mut Mesh) {
+    boxes(mesh, None)
+}
+
+fn boxes(mesh: &mut Mesh, only: Option<&HashSet<(i32, i32)>>) {
+    let wanted = |d: i32, t: i32| only.is_none_or(|s| s.contains(&(d, t)));
     let index = mesh.node_index();
-    let mut boxes: HashMap<(i32, i32), [f64; 6]> = HashMap::new();
+    let mut acc: HashMap<(i32, i32), [f64; 6]> = HashMap::new();
     let empty = [
         f64::INFINITY,
         f64::INFINITY,
@@ -94,14 +147,22 @@ pub(crate) fn bounding_boxes(mesh: &mut Mesh) {
             b[k + 3] = b[k + 3].max(c[k]);
         }
     };
-    for nb in &mesh.node_blocks {
-        let b = boxes.entry((nb.entity_dim, nb.entity_tag)).or_insert(empty);
+    for nb in mesh
+        .node_blocks
+        .iter()
+        .filter(|b| wanted(b.entity_dim, b.entity_tag))
+    {
+        let b = acc.entry((nb.entity_dim, nb.entity_tag)).or_insert(empty);
         for c in &nb.coords {
             grow(b, c);
         }
     }
-    for eb in &mesh.element_blocks {
-        let b = boxes.entry((eb.entity_dim, eb.entity_tag)).or_insert(empty);
+    for eb in mesh
+        .element_blocks
+        .iter()
+        .filter(|b| wanted(b.entity_dim, b.entity_tag))
+    {
+        let b = acc.entry((eb.entity_dim, eb.entity_tag)).or_insert(empty);
         for &v in &eb.nodes {
             if let Some(r) = index.get(v) {
                 if let Some(c) = mesh
@@ -115,8 +176,8 @@ pub(crate) fn bounding_boxes(mesh: &mut Mesh) {
         }
     }
     for ents in mesh.entities.iter_mut() {
-        for e in ents.iter_mut() {
-            match boxes.get(&(e.dim, e.tag)) {
+        for e in ents.iter_mut().filter(|e| wanted(e.dim, e.tag)) {
+            match acc.get(&(e.dim, e.tag)) {
                 Some(b) if b[0] <= b[3] => e.bbox = *b,
                 _ => e.bbox = [0.0; 6],
             }

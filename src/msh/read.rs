@@ -8,7 +8,7 @@ use nom::{IResult, Parser};
 
 use super::error::{show, ErrorKind, Fail, MshError, PResult};
 use super::scan::{parse_i64, Bin, Text};
-use super::{v2, v4};
+use super::{derive, v2, v4};
 use crate::mesh::{
     DataKind, DataSection, Mesh, MshFormat, MshVersion, NodeIndex, PhysicalName, RawSection,
     SectionPosition,
@@ -143,6 +143,14 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
                 e.section = Some("$Elements".into());
                 return Err(e);
             }
+        }
+    }
+    if !matches!(format.version, MshVersion::V2 { .. }) {
+        let added = derive::missing_entities(&mut r.mesh);
+        if added > 0 && r.mesh.has_entities_section {
+            r.mesh.warnings.push(format!(
+                "{added} entit(y/ies) used by node or element blocks are missing from $Entities: added without physical groups"
+            ));
         }
     }
     r.mesh.format = Some(format);

@@ -6,6 +6,7 @@
 use std::collections::HashMap;
 use std::io::{self, Write};
 
+use super::derive;
 use super::error::{ErrorKind, MshError};
 use crate::mesh::{Entity, Mesh, MshFormat, MshVersion, SectionPosition};
 
@@ -150,58 +151,6 @@ pub fn write_warnings(mesh: &Mesh, format: MshFormat) -> Vec<String> {
     w
 }
 
-/// Entities to write: the mesh's, plus a bare entity for every block that names one that is
-/// missing (Gmsh refuses element blocks on unknown entities).
-fn entities_for_output(mesh: &Mesh) -> [Vec<Entity>; 4] {
-    let mut ents = mesh.entities.clone();
-    let mut have: std::collections::HashSet<(i32, i32)> =
-        ents.iter().flatten().map(|e| (e.dim, e.tag)).collect();
-    let pairs = mesh
-        .node_blocks
-        .iter()
-        .map(|b| (b.entity_dim, b.entity_tag))
-        .chain(
-            mesh.element_blocks
-                .iter()
-                .map(|b| (b.entity_dim, b.entity_tag)),
-        );
-    for (d, t) in pairs {
-        if (0..4).contains(&d) && have.insert((d, t)) {
-            let mut bbox = [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ];
-            for b in mesh
-                .node_blocks
-                .iter()
-                .filter(|b| b.entity_dim == d && b.entity_tag == t)
-            {
-                for c in &b.coords {
-                    for k in 0..3 {
-                        bbox[k] = bbox[k].min(c[k]);
-                        bbox[k + 3] = bbox[k + 3].max(c[k]);
-                    }
-                }
-            }
-            if bbox[0] > bbox[3] {
-                bbox = [0.0; 6];
-            }
-            ents[d as usize].push(Entity {
-                dim: d,
-                tag: t,
-                bbox,
-                physical_tags: Vec::new(),
-                bounding: Vec::new(),
-            });
-        }
-    }
-    ents
-}
-
 /// Writes `mesh` to `w` in `format` (MSH 4.0 is written as 4.1). `name` is used in errors.
 pub(crate) fn write_to(
     mesh: &Mesh,
@@ -302,7 +251,16 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
     head(out, mesh, "4.1")?;
 
     // $Entities
-    let ents = entities_for_output(mesh);
+    // Gmsh refuses blocks on entities it does not know: complete the list when needed.
+    let completed;
+    let ents = if derive::find_missing_entities(mesh).is_empty() {
+        &mesh.entities
+    } else {
+        let mut m = mesh.clone();
+        derive::missing_entities(&mut m);
+        completed = m.entities;
+        &completed
+    };
     out.section("Entities");
     for (d, v) in ents.iter().enumerate() {
         out.count_u64(v.len() as u64);
