@@ -9,7 +9,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
-use blossomquad::mesh::{Mesh, MshVersion};
+use blossomquad::mesh::{Mesh, MshFormat, MshVersion};
 use blossomquad::msh;
 use msh_common::*;
 
@@ -155,6 +155,31 @@ fn corpus_outputs_load_in_gmsh_with_same_counts() {
     }
 }
 
+/// Meshes `geo_text` with `gmsh -2` in variant `f`; returns the file path.
+fn gmsh_mesh(dir: &Path, stem: &str, geo_text: &str, f: MshFormat, label: &str) -> PathBuf {
+    let geo = dir.join(format!("{stem}.geo"));
+    std::fs::write(&geo, geo_text).unwrap();
+    let out = dir.join(format!("{stem}_{label}.msh"));
+    let fmt = if f.version == MshVersion::V41 {
+        "msh41"
+    } else {
+        "msh22"
+    };
+    let mut args = vec![
+        geo.to_str().unwrap(),
+        "-2",
+        "-format",
+        fmt,
+        "-o",
+        out.to_str().unwrap(),
+    ];
+    if f.binary {
+        args.push("-bin");
+    }
+    gmsh(&args);
+    out
+}
+
 const GEO: &str = r#"SetFactory("OpenCASCADE");
 Rectangle(1) = {0, 0, 0, 1, 1};
 Rectangle(2) = {1, 0, 0, 1, 1};
@@ -173,30 +198,11 @@ fn gmsh_written_meshes_read_in_all_four_variants() {
         return;
     }
     let dir = tempdir();
-    let geo = dir.path().join("two.geo");
-    std::fs::write(&geo, GEO).unwrap();
     let mut meshes = Vec::new();
-    for (fmt, bin, label) in [
-        ("msh41", false, "41a"),
-        ("msh41", true, "41b"),
-        ("msh22", false, "22a"),
-        ("msh22", true, "22b"),
-    ] {
-        let out = dir.path().join(format!("two_{label}.msh"));
-        let mut args = vec![
-            geo.to_str().unwrap(),
-            "-2",
-            "-format",
-            fmt,
-            "-o",
-            out.to_str().unwrap(),
-        ];
-        if bin {
-            args.push("-bin");
-        }
-        gmsh(&args);
+    for (f, label) in variants() {
+        let out = gmsh_mesh(dir.path(), "two", GEO, f, label);
         let m = msh::read_file(&out).unwrap_or_else(|e| panic!("{e}"));
-        assert_eq!(m.format.unwrap().binary, bin, "{label}");
+        assert_eq!(m.format.unwrap().binary, f.binary, "{label}");
         meshes.push((label, m));
     }
     let (_, base) = &meshes[0];
@@ -272,28 +278,9 @@ fn periodic_links_survive_every_variant() {
         return;
     }
     let dir = tempdir();
-    let geo = dir.path().join("per.geo");
-    std::fs::write(&geo, PERIODIC_GEO).unwrap();
     let mut ours = Vec::new();
     for (f, label) in variants() {
-        let src = dir.path().join(format!("per_{label}.msh"));
-        let fmt = if f.version == MshVersion::V41 {
-            "msh41"
-        } else {
-            "msh22"
-        };
-        let mut args = vec![
-            geo.to_str().unwrap(),
-            "-2",
-            "-format",
-            fmt,
-            "-o",
-            src.to_str().unwrap(),
-        ];
-        if f.binary {
-            args.push("-bin");
-        }
-        gmsh(&args);
+        let src = gmsh_mesh(dir.path(), "per", PERIODIC_GEO, f, label);
         let m = msh::read_file(&src).unwrap_or_else(|e| panic!("{e}"));
         assert_eq!(m.periodic.len(), 3, "{label}");
         let curve = m.periodic.iter().find(|l| l.dim == 1).unwrap();

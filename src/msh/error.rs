@@ -221,6 +221,10 @@ impl Fail {
             kind,
         }
     }
+    /// A failure in binary data (`binary`) or ASCII text.
+    pub fn new(pos: usize, binary: bool, kind: ErrorKind) -> Self {
+        Fail { pos, binary, kind }
+    }
     /// A binary-position failure.
     pub fn bin(pos: usize, kind: ErrorKind) -> Self {
         Fail {

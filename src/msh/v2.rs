@@ -146,14 +146,7 @@ fn elem_type(pos: usize, binary: bool, ty: i32) -> PResult<(u32, usize)> {
     u32::try_from(ty)
         .ok()
         .and_then(|t| element_node_count(t).map(|k| (t, k)))
-        .ok_or_else(|| {
-            let kind = ErrorKind::UnknownElementType(ty as i64);
-            if binary {
-                Fail::bin(pos, kind)
-            } else {
-                Fail::at(pos, kind)
-            }
-        })
+        .ok_or_else(|| Fail::new(pos, binary, ErrorKind::UnknownElementType(ty as i64)))
 }
 
 impl Raw2 {

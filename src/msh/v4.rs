@@ -19,12 +19,27 @@ fn param_count(parametric: bool, dim: i32) -> usize {
 }
 
 fn bad_dim(pos: usize, binary: bool, dim: i32) -> Fail {
-    let kind = ErrorKind::Invalid(format!("entity dimension {dim} is not in 0..=3"));
-    if binary {
-        Fail::bin(pos, kind)
-    } else {
-        Fail::at(pos, kind)
+    Fail::new(
+        pos,
+        binary,
+        ErrorKind::Invalid(format!("entity dimension {dim} is not in 0..=3")),
+    )
+}
+
+/// Compares the records read with the count a section header announced.
+fn check_count(found: u64, declared: u64, pos: usize, binary: bool, what: &str) -> PResult<()> {
+    if found == declared {
+        return Ok(());
     }
+    Err(Fail::new(
+        pos,
+        binary,
+        ErrorKind::CountMismatch {
+            what: what.to_string(),
+            declared,
+            found,
+        },
+    ))
 }
 
 /// `$Entities` (ASCII). 4.1: `numPoints numCurves numSurfaces numVolumes`, a point is
@@ -122,31 +137,44 @@ pub(crate) fn entities_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<()> {
     Ok(())
 }
 
+/// Section header `numBlocks numItems [minTag maxTag]` (no min/max in 4.0); returns the block
+/// count, the item count and the item count's offset.
+fn header_ascii(t: &mut Text, v40: bool, item: &str) -> PResult<(usize, u64, usize)> {
+    let nblocks = t.count(&format!("number of {item} blocks"))?;
+    t.skip_ws();
+    let pos = t.at();
+    let total = t.u64(&format!("number of {item}s"))?;
+    if !v40 {
+        t.u64(&format!("minimum {item} tag"))?;
+        t.u64(&format!("maximum {item} tag"))?;
+    }
+    Ok((nblocks, total, pos))
+}
+
+/// Entity of a block header: `entityDim entityTag` (4.1) or `entityTag entityDim` (4.0).
+fn block_entity_ascii(t: &mut Text, v40: bool) -> PResult<(i32, i32)> {
+    t.skip_ws();
+    let pos = t.at();
+    let (dim, tag) = if v40 {
+        let tag = t.i32("entity tag")?;
+        (t.i32("entity dimension")?, tag)
+    } else {
+        (t.i32("entity dimension")?, t.i32("entity tag")?)
+    };
+    if !(0..=3).contains(&dim) {
+        return Err(bad_dim(pos, false, dim));
+    }
+    Ok((dim, tag))
+}
+
 /// `$Nodes` (ASCII). 4.1: `numBlocks numNodes minTag maxTag`, per block `entityDim entityTag
 /// parametric numNodes`, then all node tags, then one coordinate row per node. 4.0: header
 /// without min/max, block header `entityTag entityDim ...`, each row `tag x y z [u v]`.
 pub(crate) fn nodes_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<()> {
-    let nblocks = t.count("number of node blocks")?;
-    t.skip_ws();
-    let header_pos = t.at();
-    let total = t.u64("number of nodes")?;
-    if !v40 {
-        t.u64("minimum node tag")?;
-        t.u64("maximum node tag")?;
-    }
+    let (nblocks, total, header_pos) = header_ascii(t, v40, "node")?;
     let mut found = 0u64;
     for _ in 0..nblocks {
-        t.skip_ws();
-        let bpos = t.at();
-        let (entity_dim, entity_tag) = if v40 {
-            let tag = t.i32("entity tag")?;
-            (t.i32("entity dimension")?, tag)
-        } else {
-            (t.i32("entity dimension")?, t.i32("entity tag")?)
-        };
-        if !(0..=3).contains(&entity_dim) {
-            return Err(bad_dim(bpos, false, entity_dim));
-        }
+        let (entity_dim, entity_tag) = block_entity_ascii(t, v40)?;
         let parametric = t.i32("parametric flag")? != 0;
         let n = t.count("number of nodes in block")?;
         let np = param_count(parametric, entity_dim);
@@ -190,35 +218,37 @@ pub(crate) fn nodes_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<(
             params: parametric.then_some(params),
         });
     }
-    if found != total {
-        return Err(Fail::at(
-            header_pos,
-            ErrorKind::CountMismatch {
-                what: "number of nodes".into(),
-                declared: total,
-                found,
-            },
-        ));
+    check_count(found, total, header_pos, false, "number of nodes")
+}
+
+/// Binary section header: four `size_t` (blocks, items, min tag, max tag).
+fn header_binary(b: &mut Bin, item: &str) -> PResult<(usize, u64, usize)> {
+    let nblocks = b.count(&format!("number of {item} blocks"), 20)?;
+    let pos = b.p;
+    let total = b.u64(&format!("number of {item}s"))?;
+    b.u64(&format!("minimum {item} tag"))?;
+    b.u64(&format!("maximum {item} tag"))?;
+    Ok((nblocks, total, pos))
+}
+
+/// Binary block header entity: `int entityDim, int entityTag`.
+fn block_entity_binary(b: &mut Bin) -> PResult<(i32, i32)> {
+    let pos = b.p;
+    let dim = b.i32("entity dimension")?;
+    let tag = b.i32("entity tag")?;
+    if !(0..=3).contains(&dim) {
+        return Err(bad_dim(pos, true, dim));
     }
-    Ok(())
+    Ok((dim, tag))
 }
 
 /// `$Nodes` (binary 4.1): header of four `size_t`, block headers `int int int size_t`, node
 /// tags as `size_t`, coordinates as `double`.
 pub(crate) fn nodes_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<()> {
-    let nblocks = b.count("number of node blocks", 20)?;
-    let header_pos = b.p;
-    let total = b.u64("number of nodes")?;
-    b.u64("minimum node tag")?;
-    b.u64("maximum node tag")?;
+    let (nblocks, total, header_pos) = header_binary(b, "node")?;
     let mut found = 0u64;
     for _ in 0..nblocks {
-        let bpos = b.p;
-        let entity_dim = b.i32("entity dimension")?;
-        let entity_tag = b.i32("entity tag")?;
-        if !(0..=3).contains(&entity_dim) {
-            return Err(bad_dim(bpos, true, entity_dim));
-        }
+        let (entity_dim, entity_tag) = block_entity_binary(b)?;
         let parametric = b.i32("parametric flag")? != 0;
         let np = param_count(parametric, entity_dim);
         let n = b.count("number of nodes in block", 8 * (4 + np as u64))?;
@@ -255,26 +285,11 @@ pub(crate) fn nodes_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<()> {
             },
         });
     }
-    if found != total {
-        return Err(Fail::bin(
-            header_pos,
-            ErrorKind::CountMismatch {
-                what: "number of nodes".into(),
-                declared: total,
-                found,
-            },
-        ));
-    }
-    Ok(())
+    check_count(found, total, header_pos, true, "number of nodes")
 }
 
 fn unknown_type(pos: usize, binary: bool, ty: i64) -> Fail {
-    let kind = ErrorKind::UnknownElementType(ty);
-    if binary {
-        Fail::bin(pos, kind)
-    } else {
-        Fail::at(pos, kind)
-    }
+    Fail::new(pos, binary, ErrorKind::UnknownElementType(ty))
 }
 
 /// `$Elements` (ASCII). 4.1: `numBlocks numElements minTag maxTag`, per block `entityDim
@@ -286,27 +301,10 @@ pub(crate) fn elements_ascii(
     mesh: &mut Mesh,
     index: Option<&NodeIndex>,
 ) -> PResult<()> {
-    let nblocks = t.count("number of element blocks")?;
-    t.skip_ws();
-    let header_pos = t.at();
-    let total = t.u64("number of elements")?;
-    if !v40 {
-        t.u64("minimum element tag")?;
-        t.u64("maximum element tag")?;
-    }
+    let (nblocks, total, header_pos) = header_ascii(t, v40, "element")?;
     let mut found = 0u64;
     for _ in 0..nblocks {
-        t.skip_ws();
-        let bpos = t.at();
-        let (entity_dim, entity_tag) = if v40 {
-            let tag = t.i32("entity tag")?;
-            (t.i32("entity dimension")?, tag)
-        } else {
-            (t.i32("entity dimension")?, t.i32("entity tag")?)
-        };
-        if !(0..=3).contains(&entity_dim) {
-            return Err(bad_dim(bpos, false, entity_dim));
-        }
+        let (entity_dim, entity_tag) = block_entity_ascii(t, v40)?;
         t.skip_ws();
         let tpos = t.at();
         let ty = t.i32("element type")?;
@@ -349,17 +347,7 @@ pub(crate) fn elements_ascii(
             partitions: None,
         });
     }
-    if found != total {
-        return Err(Fail::at(
-            header_pos,
-            ErrorKind::CountMismatch {
-                what: "number of elements".into(),
-                declared: total,
-                found,
-            },
-        ));
-    }
-    Ok(())
+    check_count(found, total, header_pos, false, "number of elements")
 }
 
 /// `$Elements` (binary 4.1): header of four `size_t`, block headers `int int int size_t`,
@@ -369,19 +357,10 @@ pub(crate) fn elements_binary(
     mesh: &mut Mesh,
     index: Option<&NodeIndex>,
 ) -> PResult<()> {
-    let nblocks = b.count("number of element blocks", 20)?;
-    let header_pos = b.p;
-    let total = b.u64("number of elements")?;
-    b.u64("minimum element tag")?;
-    b.u64("maximum element tag")?;
+    let (nblocks, total, header_pos) = header_binary(b, "element")?;
     let mut found = 0u64;
     for _ in 0..nblocks {
-        let bpos = b.p;
-        let entity_dim = b.i32("entity dimension")?;
-        let entity_tag = b.i32("entity tag")?;
-        if !(0..=3).contains(&entity_dim) {
-            return Err(bad_dim(bpos, true, entity_dim));
-        }
+        let (entity_dim, entity_tag) = block_entity_binary(b)?;
         let tpos = b.p;
         let ty = b.i32("element type")?;
         let k = u32::try_from(ty)
@@ -421,17 +400,7 @@ pub(crate) fn elements_binary(
             partitions: None,
         });
     }
-    if found != total {
-        return Err(Fail::bin(
-            header_pos,
-            ErrorKind::CountMismatch {
-                what: "number of elements".into(),
-                declared: total,
-                found,
-            },
-        ));
-    }
-    Ok(())
+    check_count(found, total, header_pos, true, "number of elements")
 }
 
 /// `$Periodic` (ASCII 4.1): `n`, per link `dim tag masterTag`, `numAffine value…`,

@@ -315,16 +315,7 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
     // $Nodes
     out.section("Nodes");
     let nn: usize = mesh.node_count();
-    let (mut lo, mut hi) = (u64::MAX, 0u64);
-    for b in &mesh.node_blocks {
-        for &t in &b.tags {
-            lo = lo.min(t);
-            hi = hi.max(t);
-        }
-    }
-    if nn == 0 {
-        lo = 0;
-    }
+    let (lo, hi) = tag_range(mesh.node_blocks.iter().flat_map(|b| &b.tags));
     header4(out, mesh.node_blocks.len() as u64, nn as u64, lo, hi);
     for b in &mesh.node_blocks {
         let n = b.tags.len().min(b.coords.len());
@@ -391,16 +382,7 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
         .filter(|b| b.nodes_per_element() > 0)
         .collect();
     let ne: usize = blocks.iter().map(|b| b.len()).sum();
-    let (mut lo, mut hi) = (u64::MAX, 0u64);
-    for b in &blocks {
-        for &t in &b.tags {
-            lo = lo.min(t);
-            hi = hi.max(t);
-        }
-    }
-    if ne == 0 {
-        lo = 0;
-    }
+    let (lo, hi) = tag_range(blocks.iter().flat_map(|b| &b.tags));
     header4(out, blocks.len() as u64, ne as u64, lo, hi);
     for b in &blocks {
         let k = b.nodes_per_element();
@@ -462,23 +444,7 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
                     out.le_u64(m);
                 }
             } else {
-                out.int_sp(l.dim);
-                out.int_sp(l.tag);
-                out.int(l.master_tag);
-                out.nl();
-                out.int(aff.len());
-                for &x in aff {
-                    out.sp();
-                    out.f(x);
-                }
-                out.nl();
-                out.int(l.node_pairs.len());
-                out.nl();
-                for &(a, m) in &l.node_pairs {
-                    out.int_sp(a);
-                    out.int(m);
-                    out.nl();
-                }
+                periodic_link_ascii(out, l, false);
             }
             out.maybe_flush()?;
         }
@@ -488,6 +454,48 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
         out.end("Periodic");
     }
     tail(out, mesh, format)
+}
+
+/// One ASCII `$Periodic` link: `dim tag masterTag`, the affine transform (4.1: `16 v…` or
+/// `0`; 2.2: an `Affine v…` line when present), the node count and the node pairs.
+fn periodic_link_ascii(out: &mut Out, l: &crate::mesh::PeriodicLink, v22: bool) {
+    out.int_sp(l.dim);
+    out.int_sp(l.tag);
+    out.int(l.master_tag);
+    out.nl();
+    let aff: &[f64] = l.affine.as_deref().unwrap_or(&[]);
+    if v22 {
+        if aff.len() == 16 {
+            out.s("Affine");
+            for &x in aff {
+                out.sp();
+                out.f(x);
+            }
+            out.nl();
+        }
+    } else {
+        out.int(aff.len());
+        for &x in aff {
+            out.sp();
+            out.f(x);
+        }
+        out.nl();
+    }
+    out.int(l.node_pairs.len());
+    out.nl();
+    for &(a, m) in &l.node_pairs {
+        out.int_sp(a);
+        out.int(m);
+        out.nl();
+    }
+}
+
+/// Smallest and largest tag (`(0, 0)` when there is none).
+fn tag_range<'a>(tags: impl Iterator<Item = &'a u64>) -> (u64, u64) {
+    tags.fold(None, |acc: Option<(u64, u64)>, &t| {
+        Some(acc.map_or((t, t), |(lo, hi)| (lo.min(t), hi.max(t))))
+    })
+    .unwrap_or((0, 0))
 }
 
 /// `numBlocks numItems minTag maxTag`.
@@ -670,25 +678,7 @@ fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
         out.int(mesh.periodic.len());
         out.nl();
         for l in &mesh.periodic {
-            out.int_sp(l.dim);
-            out.int_sp(l.tag);
-            out.int(l.master_tag);
-            out.nl();
-            if let Some(a) = l.affine.as_ref().filter(|a| a.len() == 16) {
-                out.s("Affine");
-                for &x in a {
-                    out.sp();
-                    out.f(x);
-                }
-                out.nl();
-            }
-            out.int(l.node_pairs.len());
-            out.nl();
-            for &(a, m) in &l.node_pairs {
-                out.int_sp(a);
-                out.int(m);
-                out.nl();
-            }
+            periodic_link_ascii(out, l, true);
             out.maybe_flush()?;
         }
         out.end("Periodic");

@@ -90,6 +90,16 @@ pub fn nodes(m: &Mesh) -> BTreeMap<u64, [u64; 3]> {
     out
 }
 
+/// Physical tags of entity (`dim`, `tag`), sorted (empty when the entity is unknown).
+pub fn sorted_phys(m: &Mesh, dim: i32, tag: i32) -> Vec<i32> {
+    let mut phys = m
+        .entity(dim, tag)
+        .map(|e| e.physical_tags.clone())
+        .unwrap_or_default();
+    phys.sort_unstable();
+    phys
+}
+
 /// Element tag → (type, nodes, physical tags of its entity (sorted), entity dim).
 pub type ElementView = BTreeMap<u64, (u32, Vec<u64>, Vec<i32>, i32)>;
 
@@ -97,11 +107,7 @@ pub type ElementView = BTreeMap<u64, (u32, Vec<u64>, Vec<i32>, i32)>;
 pub fn elements(m: &Mesh) -> ElementView {
     let mut out = BTreeMap::new();
     for b in &m.element_blocks {
-        let mut phys = m
-            .entity(b.entity_dim, b.entity_tag)
-            .map(|e| e.physical_tags.clone())
-            .unwrap_or_default();
-        phys.sort_unstable();
+        let phys = sorted_phys(m, b.entity_dim, b.entity_tag);
         let k = b.nodes_per_element();
         for (i, t) in b.tags.iter().enumerate() {
             out.insert(
@@ -133,11 +139,7 @@ pub fn element_entities(m: &Mesh) -> BTreeMap<u64, (i32, i32)> {
 pub fn entities_with_elements(m: &Mesh) -> BTreeSet<(i32, i32, Vec<i32>)> {
     let mut out = BTreeSet::new();
     for b in &m.element_blocks {
-        let mut phys = m
-            .entity(b.entity_dim, b.entity_tag)
-            .map(|e| e.physical_tags.clone())
-            .unwrap_or_default();
-        phys.sort_unstable();
+        let phys = sorted_phys(m, b.entity_dim, b.entity_tag);
         out.insert((b.entity_dim, b.entity_tag, phys));
     }
     out
