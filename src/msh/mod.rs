@@ -20,6 +20,7 @@ mod error;
 mod read;
 mod scan;
 mod summary;
+mod tags;
 mod v2;
 mod v4;
 mod write;

@@ -8,10 +8,10 @@ use nom::{IResult, Parser};
 
 use super::error::{show, ErrorKind, Fail, MshError, PResult};
 use super::scan::{parse_i64, Bin, Text};
+use super::tags::NodeSet;
 use super::{derive, v2, v4};
 use crate::mesh::{
-    DataKind, DataSection, Mesh, MshFormat, MshVersion, NodeIndex, PhysicalName, RawSection,
-    SectionPosition,
+    DataKind, DataSection, Mesh, MshFormat, MshVersion, PhysicalName, RawSection, SectionPosition,
 };
 
 /// Three byte-slice fields of one line.
@@ -210,7 +210,7 @@ struct Reader<'a> {
     format: Option<MshFormat>,
     swap: bool,
     raw2: Option<v2::Raw2>,
-    index: Option<NodeIndex>,
+    index: Option<NodeSet>,
 }
 
 impl<'a> Reader<'a> {
@@ -256,7 +256,9 @@ impl<'a> Reader<'a> {
                 } else {
                     v4::nodes_ascii(t, v40, &mut self.mesh)?;
                 }
-                self.index = Some(self.mesh.node_index());
+                self.index = Some(NodeSet::new(
+                    self.mesh.node_blocks.iter().map(|b| b.tags.as_slice()),
+                ));
             }
             "Elements" if !v2 => {
                 if bin {

@@ -23,6 +23,7 @@ use std::collections::HashMap;
 use super::derive;
 use super::error::{ErrorKind, Fail, PResult};
 use super::scan::{i32_at, u64_at, Bin, Text};
+use super::tags::TagMap;
 use crate::mesh::{element_dim, element_node_count, ElementBlock, Entity, Mesh, NodeBlock};
 
 /// One element as read, before the lift.
@@ -286,47 +287,6 @@ pub(crate) fn elements_binary(t: &mut Text, swap: bool, raw: &mut Raw2) -> PResu
     }
     t.p = b.p;
     Ok(())
-}
-
-/// Tag → index lookup, dense when tags are compact.
-pub(crate) struct TagMap {
-    dense: Vec<u32>,
-    sparse: HashMap<u64, u32>,
-}
-
-impl TagMap {
-    /// Maps every tag of `tags` to its position (later duplicates win).
-    pub fn new(tags: &[u64]) -> Self {
-        let max = tags.iter().copied().max().unwrap_or(0);
-        let mut m = TagMap {
-            dense: Vec::new(),
-            sparse: HashMap::new(),
-        };
-        if max <= (4 * tags.len() as u64).max(1024) {
-            m.dense = vec![u32::MAX; max as usize + 1];
-            for (i, &t) in tags.iter().enumerate() {
-                m.dense[t as usize] = i as u32;
-            }
-        } else {
-            m.sparse.reserve(tags.len());
-            for (i, &t) in tags.iter().enumerate() {
-                m.sparse.insert(t, i as u32);
-            }
-        }
-        m
-    }
-    /// Position of `tag`.
-    #[inline]
-    pub fn get(&self, tag: u64) -> Option<usize> {
-        if self.dense.is_empty() {
-            self.sparse.get(&tag).map(|&i| i as usize)
-        } else {
-            match self.dense.get(tag as usize) {
-                Some(&i) if i != u32::MAX => Some(i as usize),
-                _ => None,
-            }
-        }
-    }
 }
 
 /// Identity of an element for merging per-group copies: entity dim, elementary tag, type,

@@ -5,9 +5,8 @@
 
 use super::error::{ErrorKind, Fail, PResult};
 use super::scan::{f64s_into, u64_at, Bin, Text};
-use crate::mesh::{
-    element_node_count, ElementBlock, Entity, Mesh, NodeBlock, NodeIndex, PeriodicLink,
-};
+use super::tags::NodeSet;
+use crate::mesh::{element_node_count, ElementBlock, Entity, Mesh, NodeBlock, PeriodicLink};
 
 /// Number of parametric values per node for a block on an entity of dimension `dim`.
 fn param_count(parametric: bool, dim: i32) -> usize {
@@ -299,7 +298,7 @@ pub(crate) fn elements_ascii(
     t: &mut Text,
     v40: bool,
     mesh: &mut Mesh,
-    index: Option<&NodeIndex>,
+    index: Option<&NodeSet>,
 ) -> PResult<()> {
     let (nblocks, total, header_pos) = header_ascii(t, v40, "element")?;
     let mut found = 0u64;
@@ -323,7 +322,7 @@ pub(crate) fn elements_ascii(
                 let npos = t.at();
                 let node = t.u64_inline("node tags", j, k)?;
                 if let Some(ix) = index {
-                    if ix.get(node).is_none() {
+                    if !ix.contains(node) {
                         return Err(Fail::at(
                             npos,
                             ErrorKind::MissingNode {
@@ -355,7 +354,7 @@ pub(crate) fn elements_ascii(
 pub(crate) fn elements_binary(
     b: &mut Bin,
     mesh: &mut Mesh,
-    index: Option<&NodeIndex>,
+    index: Option<&NodeSet>,
 ) -> PResult<()> {
     let (nblocks, total, header_pos) = header_binary(b, "element")?;
     let mut found = 0u64;
@@ -379,7 +378,7 @@ pub(crate) fn elements_binary(
             nodes.extend(rec[8..].chunks_exact(8).map(|c| u64_at(c, swap)));
         }
         if let Some(ix) = index {
-            if let Some(i) = nodes.iter().position(|&v| ix.get(v).is_none()) {
+            if let Some(i) = nodes.iter().position(|&v| !ix.contains(v)) {
                 let e = i / k.max(1);
                 return Err(Fail::bin(
                     base + e * w as usize + 8 * (1 + i % k.max(1)),
