@@ -445,11 +445,24 @@ pub const ELEMENT_TYPES: &[(u32, i32, usize)] = &[
     (137, 3, 16),  // Tetrahedron 16
 ];
 
+/// Largest type code in [`ELEMENT_TYPES`] plus one.
+const TYPE_SLOTS: usize = 138;
+
+/// `TYPE_INDEX[code]` = index of `code` in [`ELEMENT_TYPES`] + 1 (0 = unknown): a direct
+/// lookup, since element types are queried for every element read.
+const TYPE_INDEX: [u8; TYPE_SLOTS] = {
+    let mut t = [0u8; TYPE_SLOTS];
+    let mut i = 0;
+    while i < ELEMENT_TYPES.len() {
+        t[ELEMENT_TYPES[i].0 as usize] = (i + 1) as u8;
+        i += 1;
+    }
+    t
+};
+
 fn element_type_entry(element_type: u32) -> Option<&'static (u32, i32, usize)> {
-    ELEMENT_TYPES
-        .binary_search_by_key(&element_type, |e| e.0)
-        .ok()
-        .map(|i| &ELEMENT_TYPES[i])
+    let slot = *TYPE_INDEX.get(element_type as usize)?;
+    ELEMENT_TYPES.get((slot as usize).checked_sub(1)?)
 }
 
 /// Number of nodes of a Gmsh element type, or `None` for an unknown type code.
@@ -478,4 +491,21 @@ pub mod etype {
     pub const POINT: u32 = 15;
     /// 6-node second-order triangle.
     pub const TRI6: u32 = 9;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn type_lookup_matches_the_table_and_rejects_unknown_codes() {
+        for &(code, dim, n) in ELEMENT_TYPES {
+            assert_eq!(element_node_count(code), Some(n), "type {code}");
+            assert_eq!(element_dim(code), Some(dim), "type {code}");
+        }
+        for code in [0, 34, 90, 91, 136, 138, 1000, u32::MAX] {
+            assert_eq!(element_node_count(code), None, "type {code}");
+        }
+        assert!(ELEMENT_TYPES.windows(2).all(|w| w[0].0 < w[1].0));
+    }
 }
