@@ -73,7 +73,13 @@ fn missing_coordinate_names_file_section_and_line() {
 fn truncated_file() {
     let cut = &GOOD[..GOOD.rfind("0 1 0").unwrap()];
     let e = err(cut);
-    assert!(matches!(e.kind, ErrorKind::Truncated { .. }), "{e}");
+    assert!(
+        matches!(
+            e.kind,
+            ErrorKind::Truncated { .. } | ErrorKind::CountTooLarge { .. }
+        ),
+        "{e}"
+    );
     assert_eq!(e.section.as_deref(), Some("$Nodes"));
     assert!(e.to_string().contains("truncated"), "{e}");
     // Cut inside the section end marker.
@@ -90,6 +96,11 @@ fn wrong_counts() {
     // Block announces more elements than present: runs into $EndElements.
     let e = err(&replace_line(20, "2 1 2 2"));
     assert!(matches!(e.kind, ErrorKind::EarlyEnd { .. }), "{e}");
+    // Absurd counts are refused before any memory is reserved for them.
+    let e = err(&replace_line(20, "2 1 98 4000000000"));
+    assert!(e.to_string().contains("cannot fit"), "{e}");
+    let e = err(&replace_line(5, "0 0 99999999999 0"));
+    assert!(e.to_string().contains("cannot fit"), "{e}");
     // Block announces fewer nodes than present: the section does not end where it should.
     let e = err(&replace_line(10, "2 1 0 2"));
     assert_eq!(e.section.as_deref(), Some("$Nodes"), "{e}");

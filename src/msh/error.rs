@@ -53,6 +53,17 @@ pub enum ErrorKind {
         /// The section end marker that was found instead.
         found: String,
     },
+    /// A count announces more records than the rest of the file can hold: the file is
+    /// truncated or the count is wrong.
+    #[error("{what} {count} cannot fit in the {left} bytes left (file truncated, or count wrong)")]
+    CountTooLarge {
+        /// What is counted.
+        what: String,
+        /// The announced count.
+        count: u64,
+        /// Bytes left in the file.
+        left: u64,
+    },
     /// A token is not what the grammar requires at this point.
     #[error("expected {expected}, found '{found}'")]
     Unexpected {

@@ -442,7 +442,7 @@ impl<'a> Reader<'a> {
 
     /// `$PhysicalNames` (ASCII in every variant): `n`, then `dim tag "name"` per line.
     fn physical_names(&mut self, t: &mut Text<'a>) -> PResult<()> {
-        let n = t.count("number of physical names")?;
+        let n = t.count("number of physical names", 6)?;
         for _ in 0..n {
             t.skip_ws();
             let pos = t.p;

@@ -185,20 +185,22 @@ impl<'a> Text<'a> {
             .ok_or_else(|| not_int(start, t, what))
     }
 
-    /// Next token as a count (`usize`), refusing counts larger than the input could hold.
-    pub fn count(&mut self, what: &str) -> PResult<usize> {
+    /// Next token as a count (`usize`) of records that each take at least `min_bytes` bytes
+    /// of text, refusing counts the rest of the input cannot hold (they are certainly wrong
+    /// and would make us reserve absurd amounts of memory).
+    pub fn count(&mut self, what: &str, min_bytes: u64) -> PResult<usize> {
         self.skip_ws();
         let start = self.p;
         let v = self.u64(what)?;
-        // Every record takes at least two bytes; a larger count is certainly wrong and
-        // would make us reserve absurd amounts of memory.
-        if v > self.d.len() as u64 {
+        let left = self.d.len().saturating_sub(self.p) as u64;
+        if v.saturating_mul(min_bytes) > left {
             return Err(Fail::at(
                 start,
-                ErrorKind::Invalid(format!(
-                    "{what} {v} is larger than the file could hold ({} bytes)",
-                    self.d.len()
-                )),
+                ErrorKind::CountTooLarge {
+                    what: what.to_string(),
+                    count: v,
+                    left,
+                },
             ));
         }
         Ok(v as usize)

@@ -56,7 +56,7 @@ pub(crate) struct Raw2 {
 
 /// `$Nodes` (ASCII): `n`, then `id x y z` per line.
 pub(crate) fn nodes_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
-    let n = t.count("number of nodes")?;
+    let n = t.count("number of nodes", 8)?;
     raw.node_tags.reserve(n);
     raw.coords.reserve(n);
     for _ in 0..n {
@@ -72,7 +72,7 @@ pub(crate) fn nodes_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
 
 /// `$Nodes` (binary): ASCII count line, then per node `int id` and three doubles.
 pub(crate) fn nodes_binary(t: &mut Text, swap: bool, raw: &mut Raw2) -> PResult<()> {
-    let n = t.count("number of nodes")?;
+    let n = t.count("number of nodes", 8)?;
     // The count line ends with a newline; binary data starts right after it.
     t.next_line();
     let mut b = Bin::new(t.d, t.p, swap);
@@ -110,7 +110,7 @@ pub(crate) fn nodes_binary(t: &mut Text, swap: bool, raw: &mut Raw2) -> PResult<
 
 /// `$ParametricNodes` (ASCII): `n`, then `id x y z dim tag [u [v]]` per line.
 pub(crate) fn parametric_nodes_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
-    let n = t.count("number of nodes")?;
+    let n = t.count("number of nodes", 8)?;
     for _ in 0..n {
         raw.node_tags.push(t.u64("node tag")?);
         let x = t.f64_inline("fields", 0, 5)?;
@@ -179,7 +179,7 @@ const MAX_TAGS: usize = 1024;
 /// `$Elements` (ASCII): `n`, then one line per element `id type ntags tag… node…`. A line
 /// with more fields than `ntags` + the type's node count is refused.
 pub(crate) fn elements_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
-    let n = t.count("number of elements")?;
+    let n = t.count("number of elements", 8)?;
     raw.elems.reserve(n);
     let mut tags = Vec::new();
     let mut nodes = Vec::new();
@@ -223,7 +223,7 @@ pub(crate) fn elements_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
 /// `$Elements` (binary): ASCII count line, then blocks: header `int type, int count, int
 /// ntags`, and per element `int id`, `ntags` ints, the node ints.
 pub(crate) fn elements_binary(t: &mut Text, swap: bool, raw: &mut Raw2) -> PResult<()> {
-    let n = t.count("number of elements")?;
+    let n = t.count("number of elements", 8)?;
     t.next_line();
     let mut b = Bin::new(t.d, t.p, swap);
     raw.elem_binary = true;
@@ -304,23 +304,15 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     // Every referenced node must exist.
     let node_map = TagMap::new(&raw.node_tags);
     for (i, e) in raw.elems.iter().enumerate() {
-        for (j, &v) in nodes_of(e).iter().enumerate() {
+        for &v in nodes_of(e) {
             if node_map.get(v).is_none() {
                 let pos = raw.elem_pos[i];
                 let kind = ErrorKind::MissingNode {
                     element: e.id,
                     node: v,
                 };
-                return Err(if raw.elem_binary {
-                    let ntags = if e.nparts > 0 {
-                        2 + e.nparts as usize
-                    } else {
-                        2
-                    };
-                    Fail::bin(pos + 4 * (1 + ntags + j), kind)
-                } else {
-                    Fail::at(pos, kind)
-                });
+                // Position: the element's line (ASCII) or record start (binary).
+                return Err(Fail::new(pos, raw.elem_binary, kind));
             }
         }
     }

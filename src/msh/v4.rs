@@ -47,7 +47,7 @@ fn check_count(found: u64, declared: u64, pos: usize, binary: bool, what: &str) 
 pub(crate) fn entities_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<()> {
     let mut counts = [0usize; 4];
     for c in counts.iter_mut() {
-        *c = t.count("entity count")?;
+        *c = t.count("entity count", 8)?;
     }
     for (dim, &n) in counts.iter().enumerate() {
         let mut v = Vec::with_capacity(n);
@@ -64,14 +64,14 @@ pub(crate) fn entities_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResul
                     *b = t.f64("bounding box value")?;
                 }
             }
-            let np = t.count("number of physical tags")?;
+            let np = t.count("number of physical tags", 2)?;
             let mut physical_tags = Vec::with_capacity(np);
             for _ in 0..np {
                 physical_tags.push(t.i32("physical tag")?);
             }
             let mut bounding = Vec::new();
             if dim > 0 {
-                let nb = t.count("number of bounding entities")?;
+                let nb = t.count("number of bounding entities", 2)?;
                 bounding.reserve(nb);
                 for _ in 0..nb {
                     bounding.push(t.i32("bounding entity tag")?);
@@ -139,7 +139,7 @@ pub(crate) fn entities_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<()> {
 /// Section header `numBlocks numItems [minTag maxTag]` (no min/max in 4.0); returns the block
 /// count, the item count and the item count's offset.
 fn header_ascii(t: &mut Text, v40: bool, item: &str) -> PResult<(usize, u64, usize)> {
-    let nblocks = t.count(&format!("number of {item} blocks"))?;
+    let nblocks = t.count(&format!("number of {item} blocks"), 8)?;
     t.skip_ws();
     let pos = t.at();
     let total = t.u64(&format!("number of {item}s"))?;
@@ -175,7 +175,7 @@ pub(crate) fn nodes_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<(
     for _ in 0..nblocks {
         let (entity_dim, entity_tag) = block_entity_ascii(t, v40)?;
         let parametric = t.i32("parametric flag")? != 0;
-        let n = t.count("number of nodes in block")?;
+        let n = t.count("number of nodes in block", 8)?;
         let np = param_count(parametric, entity_dim);
         let mut tags = Vec::with_capacity(n);
         let mut coords = Vec::with_capacity(n);
@@ -311,7 +311,7 @@ pub(crate) fn elements_ascii(
             .ok()
             .and_then(element_node_count)
             .ok_or_else(|| unknown_type(tpos, false, ty as i64))?;
-        let n = t.count("number of elements in block")?;
+        let n = t.count("number of elements in block", 2 * (k as u64 + 1))?;
         let mut tags = Vec::with_capacity(n);
         let mut nodes = Vec::with_capacity(n * k);
         for _ in 0..n {
@@ -406,7 +406,7 @@ pub(crate) fn elements_binary(
 /// `numNodes`, then `node masterNode` pairs. The 4.0 / 2.2 form (`Affine v…` line, optional)
 /// is accepted too.
 pub(crate) fn periodic_ascii(t: &mut Text, mesh: &mut Mesh) -> PResult<()> {
-    let n = t.count("number of periodic links")?;
+    let n = t.count("number of periodic links", 8)?;
     for _ in 0..n {
         let dim = t.i32("entity dimension")?;
         let tag = t.i32("entity tag")?;
@@ -423,7 +423,7 @@ pub(crate) fn periodic_ascii(t: &mut Text, mesh: &mut Mesh) -> PResult<()> {
             affine = Some(v);
             t.skip_ws();
         }
-        let mut count = t.count("number of values or nodes")?;
+        let mut count = t.count("number of values or nodes", 2)?;
         if affine.is_none() && looks_like_affine_count(t, count) {
             let mut v = Vec::with_capacity(count);
             for _ in 0..count {
@@ -432,7 +432,7 @@ pub(crate) fn periodic_ascii(t: &mut Text, mesh: &mut Mesh) -> PResult<()> {
             if count > 0 {
                 affine = Some(v);
             }
-            count = t.count("number of periodic nodes")?;
+            count = t.count("number of periodic nodes", 4)?;
         }
         let mut node_pairs = Vec::with_capacity(count);
         for _ in 0..count {
