@@ -1,8 +1,8 @@
 //! Reading and writing Gmsh MSH files (2.0/2.1/2.2 and 4.1, ASCII and binary; 4.0 ASCII
 //! read only) into and from the [`Mesh`] model.
 //!
-//! Entry points: [`read_file`], [`read_bytes`], [`write`], [`write_file`],
-//! [`default_output_format`], [`summary`].
+//! Entry points: [`read_file`], [`read_bytes`], [`write()`], [`write_file`],
+//! [`default_output_format`], [`summary()`].
 //!
 //! Layout: `read` runs the section loop and dispatches to `v4` (4.1/4.0 sections) or `v2`
 //! (2.x sections and the lift of flat 2.x lists into entities, see that module for the
