@@ -36,6 +36,36 @@ pub enum MshVersion {
     V41,
 }
 
+impl MshVersion {
+    /// The version for one of Gmsh's `-format` names (`msh41`, `msh4`, `msh22`, `msh2`).
+    /// Writing supports 4.1 and 2.2 only, so `msh40` is refused (`None`).
+    pub fn from_gmsh_name(name: &str) -> Option<MshVersion> {
+        match name.to_ascii_lowercase().as_str() {
+            "msh41" | "msh4" | "msh" => Some(MshVersion::V41),
+            "msh22" | "msh2" => Some(MshVersion::V2 { minor: 2 }),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for MshVersion {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MshVersion::V2 { minor } => write!(f, "2.{minor}"),
+            MshVersion::V40 => f.write_str("4.0"),
+            MshVersion::V41 => f.write_str("4.1"),
+        }
+    }
+}
+
+impl std::fmt::Display for MshFormat {
+    /// `MSH 4.1 binary`, `MSH 2.2 ASCII`, ...
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let enc = if self.binary { "binary" } else { "ASCII" };
+        write!(f, "MSH {} {enc}", self.version)
+    }
+}
+
 /// A physical group name, from `$PhysicalNames`.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct PhysicalName {
@@ -496,6 +526,21 @@ pub mod etype {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn format_names_and_display() {
+        assert_eq!(MshVersion::from_gmsh_name("msh41"), Some(MshVersion::V41));
+        assert_eq!(
+            MshVersion::from_gmsh_name("MSH22"),
+            Some(MshVersion::V2 { minor: 2 })
+        );
+        assert_eq!(MshVersion::from_gmsh_name("msh40"), None);
+        let f = MshFormat {
+            version: MshVersion::V2 { minor: 0 },
+            binary: true,
+        };
+        assert_eq!(f.to_string(), "MSH 2.0 binary");
+    }
 
     #[test]
     fn type_lookup_matches_the_table_and_rejects_unknown_codes() {
