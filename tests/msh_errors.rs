@@ -144,6 +144,29 @@ fn node_referenced_but_missing() {
 }
 
 #[test]
+fn duplicate_node_tags_refused_duplicate_element_tags_warned() {
+    let e = err(&replace_line(13, "2"));
+    assert!(
+        e.to_string()
+            .contains("node tag 2 is defined more than once"),
+        "{e}"
+    );
+    assert_eq!(e.section.as_deref(), Some("$Nodes"));
+    let v2 = "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n2\n1 0 0 0\n1 1 0 0\n$EndNodes\n";
+    assert!(err(v2)
+        .to_string()
+        .contains("node tag 1 is defined more than once"));
+    let twice = GOOD
+        .replace("2 1 2 1\n1 1 2 3\n", "2 1 2 2\n1 1 2 3\n1 3 2 1\n")
+        .replace("1 1 1 1\n2 1", "1 2 1 1\n2 1");
+    let m = msh::read_bytes(twice.as_bytes(), "m.msh").unwrap();
+    assert!(m
+        .warnings
+        .iter()
+        .any(|w| w.contains("element tag 1 is used by more than one")));
+}
+
+#[test]
 fn unknown_element_type_code() {
     let e = err(&replace_line(20, "2 1 77 1"));
     assert!(matches!(e.kind, ErrorKind::UnknownElementType(77)), "{e}");

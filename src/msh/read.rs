@@ -8,7 +8,7 @@ use nom::{IResult, Parser};
 
 use super::error::{show, ErrorKind, Fail, MshError, PResult};
 use super::scan::{parse_i64, Bin, Text};
-use super::tags::NodeSet;
+use super::tags::TagSet;
 use super::{derive, v2, v4};
 use crate::mesh::{
     DataKind, DataSection, Mesh, MshFormat, MshVersion, PhysicalName, RawSection, SectionPosition,
@@ -153,6 +153,12 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
             ));
         }
     }
+    let (_, dup) = TagSet::new(r.mesh.element_blocks.iter().map(|b| b.tags.as_slice()));
+    if let Some(t) = dup {
+        r.mesh.warnings.push(format!(
+            "element tag {t} is used by more than one element (kept as written)"
+        ));
+    }
     r.mesh.format = Some(format);
     Ok(r.mesh)
 }
@@ -204,13 +210,24 @@ fn header<'a>(t: &mut Text<'a>) -> PResult<(&'a str, usize)> {
     Ok((name, t.p))
 }
 
+/// Two nodes with one tag make every reference to it ambiguous: refused.
+fn duplicate_node(dup: Option<u64>, section_pos: usize) -> PResult<()> {
+    match dup {
+        None => Ok(()),
+        Some(t) => Err(Fail::at(
+            section_pos,
+            ErrorKind::Invalid(format!("node tag {t} is defined more than once")),
+        )),
+    }
+}
+
 struct Reader<'a> {
     d: &'a [u8],
     mesh: Mesh,
     format: Option<MshFormat>,
     swap: bool,
     raw2: Option<v2::Raw2>,
-    index: Option<NodeSet>,
+    index: Option<TagSet>,
 }
 
 impl<'a> Reader<'a> {
@@ -256,9 +273,10 @@ impl<'a> Reader<'a> {
                 } else {
                     v4::nodes_ascii(t, v40, &mut self.mesh)?;
                 }
-                self.index = Some(NodeSet::new(
-                    self.mesh.node_blocks.iter().map(|b| b.tags.as_slice()),
-                ));
+                let (set, dup) =
+                    TagSet::new(self.mesh.node_blocks.iter().map(|b| b.tags.as_slice()));
+                duplicate_node(dup, hpos)?;
+                self.index = Some(set);
             }
             "Elements" if !v2 => {
                 if bin {
@@ -275,17 +293,16 @@ impl<'a> Reader<'a> {
                 t.p = b.p;
             }
             "Periodic" => v4::periodic_ascii(t, &mut self.mesh)?,
-            "Nodes" => {
+            "Nodes" | "ParametricNodes" if v2 => {
                 let raw = self.raw2.get_or_insert_with(Default::default);
-                if bin {
+                if name == "ParametricNodes" {
+                    v2::parametric_nodes_ascii(t, raw)?;
+                } else if bin {
                     v2::nodes_binary(t, self.swap, raw)?;
                 } else {
                     v2::nodes_ascii(t, raw)?;
                 }
-            }
-            "ParametricNodes" if v2 => {
-                let raw = self.raw2.get_or_insert_with(Default::default);
-                v2::parametric_nodes_ascii(t, raw)?;
+                duplicate_node(TagSet::new(std::iter::once(raw.node_tags())).1, hpos)?;
             }
             "Elements" => {
                 let raw = self.raw2.get_or_insert_with(Default::default);

@@ -1,4 +1,4 @@
-//! Compact lookups by node tag: [`TagMap`] (tag → position) and [`NodeSet`] (tag exists?).
+//! Compact lookups by tag: [`TagMap`] (tag → position) and [`TagSet`] (tag exists?).
 //! Both are dense arrays when tags are compact (the usual case) and hash-based otherwise.
 
 use std::collections::{HashMap, HashSet};
@@ -49,43 +49,56 @@ impl TagMap {
     }
 }
 
-/// Set of node tags, as a bitset when tags are compact: checking that every element node
+/// Set of tags, as a bitset when tags are compact: checking that every element node
 /// exists touches 1 bit per tag instead of a full index entry (it stays in cache).
-pub(crate) enum NodeSet {
+pub(crate) enum TagSet {
     /// Bit `t` set when tag `t` exists.
     Dense(Vec<u64>),
     /// Sparse tags.
     Sparse(HashSet<u64>),
 }
 
-impl NodeSet {
-    /// The set of all node tags of `blocks`' tag lists.
-    pub fn new<'a>(tag_lists: impl Iterator<Item = &'a [u64]> + Clone) -> Self {
+impl TagSet {
+    /// The set of all node tags of the given tag lists, and the first tag that appears more
+    /// than once (if any).
+    pub fn new<'a>(tag_lists: impl Iterator<Item = &'a [u64]> + Clone) -> (Self, Option<u64>) {
         let n: usize = tag_lists.clone().map(|t| t.len()).sum();
         let max = tag_lists
             .clone()
             .flat_map(|t| t.iter().copied())
             .max()
             .unwrap_or(0);
-        if dense_ok(max, n) {
+        let mut dup = None;
+        let set = if dense_ok(max, n) {
             let mut bits = vec![0u64; (max / 64 + 1) as usize];
             for t in tag_lists.flat_map(|t| t.iter().copied()) {
-                bits[(t / 64) as usize] |= 1 << (t % 64);
+                let (w, b) = ((t / 64) as usize, 1u64 << (t % 64));
+                if bits[w] & b != 0 && dup.is_none() {
+                    dup = Some(t);
+                }
+                bits[w] |= b;
             }
-            NodeSet::Dense(bits)
+            TagSet::Dense(bits)
         } else {
-            NodeSet::Sparse(tag_lists.flat_map(|t| t.iter().copied()).collect())
-        }
+            let mut s = HashSet::with_capacity(n);
+            for t in tag_lists.flat_map(|t| t.iter().copied()) {
+                if !s.insert(t) && dup.is_none() {
+                    dup = Some(t);
+                }
+            }
+            TagSet::Sparse(s)
+        };
+        (set, dup)
     }
 
     /// True when node `tag` exists.
     #[inline]
     pub fn contains(&self, tag: u64) -> bool {
         match self {
-            NodeSet::Dense(bits) => bits
+            TagSet::Dense(bits) => bits
                 .get((tag / 64) as usize)
                 .is_some_and(|w| w & (1 << (tag % 64)) != 0),
-            NodeSet::Sparse(s) => s.contains(&tag),
+            TagSet::Sparse(s) => s.contains(&tag),
         }
     }
 }

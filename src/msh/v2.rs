@@ -54,6 +54,13 @@ pub(crate) struct Raw2 {
     negative_phys: usize,
 }
 
+impl Raw2 {
+    /// Node tags read so far, in file order.
+    pub fn node_tags(&self) -> &[u64] {
+        &self.node_tags
+    }
+}
+
 /// `$Nodes` (ASCII): `n`, then `id x y z` per line.
 pub(crate) fn nodes_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
     let n = t.count("number of nodes", 8)?;

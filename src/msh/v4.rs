@@ -5,7 +5,7 @@
 
 use super::error::{ErrorKind, Fail, PResult};
 use super::scan::{f64s_into, u64_at, Bin, Text};
-use super::tags::NodeSet;
+use super::tags::TagSet;
 use crate::mesh::{element_node_count, ElementBlock, Entity, Mesh, NodeBlock, PeriodicLink};
 
 /// Number of parametric values per node for a block on an entity of dimension `dim`.
@@ -298,7 +298,7 @@ pub(crate) fn elements_ascii(
     t: &mut Text,
     v40: bool,
     mesh: &mut Mesh,
-    index: Option<&NodeSet>,
+    index: Option<&TagSet>,
 ) -> PResult<()> {
     let (nblocks, total, header_pos) = header_ascii(t, v40, "element")?;
     let mut found = 0u64;
@@ -351,11 +351,7 @@ pub(crate) fn elements_ascii(
 
 /// `$Elements` (binary 4.1): header of four `size_t`, block headers `int int int size_t`,
 /// then per element `size_t` tag and node tags.
-pub(crate) fn elements_binary(
-    b: &mut Bin,
-    mesh: &mut Mesh,
-    index: Option<&NodeSet>,
-) -> PResult<()> {
+pub(crate) fn elements_binary(b: &mut Bin, mesh: &mut Mesh, index: Option<&TagSet>) -> PResult<()> {
     let (nblocks, total, header_pos) = header_binary(b, "element")?;
     let mut found = 0u64;
     for _ in 0..nblocks {
