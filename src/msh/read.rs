@@ -108,11 +108,10 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
             break;
         }
         let hpos = t.p;
-        let (name, body) = match header(&mut t) {
+        let name = match header(&mut t) {
             Ok(x) => x,
             Err(f) => return Err(f.into_error(d, file, None)),
         };
-        let _ = body;
         if let Err(f) = r.section(&mut t, name, hpos) {
             return Err(f.into_error(d, file, Some(name)));
         }
@@ -163,25 +162,19 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
     Ok(r.mesh)
 }
 
-/// Reads a `$Name` header line; returns the name and the body start.
-fn header<'a>(t: &mut Text<'a>) -> PResult<(&'a str, usize)> {
+/// Reads a `$Name` header line; returns the name (the cursor is left at the body start).
+fn header<'a>(t: &mut Text<'a>) -> PResult<&'a str> {
+    t.skip_ws();
     let start = t.p;
-    let tok = t
-        .token("a section header ($Name)")
-        .or_else(|f| match f.kind {
-            // `token` refuses `$` tokens inside data; here they are what we want.
-            ErrorKind::EarlyEnd { .. } => {
-                let mut u = Text::new(t.d, start);
-                u.skip_ws();
-                let s = u.p;
-                while u.p < u.d.len() && !u.d[u.p].is_ascii_whitespace() {
-                    u.p += 1;
-                }
-                t.p = u.p;
-                Ok(&t.d[s..u.p])
-            }
-            _ => Err(f),
-        })?;
+    let tok = t.word();
+    if tok.is_empty() {
+        return Err(Fail::at(
+            start,
+            ErrorKind::Truncated {
+                expected: "a section header ($Name)".into(),
+            },
+        ));
+    }
     if tok.len() < 2 || tok[0] != b'$' {
         return Err(Fail::at(
             start,
@@ -207,7 +200,7 @@ fn header<'a>(t: &mut Text<'a>) -> PResult<(&'a str, usize)> {
         ));
     }
     t.end_line("section header line")?;
-    Ok((name, t.p))
+    Ok(name)
 }
 
 /// Two nodes with one tag make every reference to it ambiguous: refused.

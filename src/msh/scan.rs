@@ -64,6 +64,12 @@ impl<'a> Text<'a> {
         &self.d[start..self.p]
     }
 
+    /// The next whitespace-delimited word, crossing newlines (empty at end of input).
+    pub fn word(&mut self) -> &'a [u8] {
+        self.skip_ws();
+        self.take_run()
+    }
+
     /// The next token, crossing newlines. Fails at end of input, or on a `$` section
     /// marker (the section ended before the records its header announced).
     #[inline]
@@ -160,7 +166,7 @@ impl<'a> Text<'a> {
         }
     }
 
-    /// Offset where the previous token started (for error positions).
+    /// Current offset (callers skip whitespace first to point at the next token).
     pub fn at(&self) -> usize {
         self.p
     }
