@@ -9,6 +9,7 @@
 
 use std::collections::{HashMap, HashSet};
 
+use super::tags::TagSet;
 use crate::mesh::{element_dim, Entity, Mesh};
 
 /// Corner count of an element type's family (first nodes are the corners in Gmsh's
@@ -91,7 +92,7 @@ pub(crate) fn missing_entities(mesh: &mut Mesh) -> usize {
     }
     let added: HashSet<(i32, i32)> = missing.iter().copied().collect();
     if !added.is_empty() {
-        boxes(mesh, Some(&added));
+        boxes(mesh, &added);
     }
     added.len()
 }
@@ -123,30 +124,41 @@ pub(crate) fn find_missing_entities(mesh: &Mesh) -> Vec<(i32, i32)> {
     missing
 }
 
-/// Sets every entity's bounding box from the nodes classified on it and the nodes of its
-/// elements.
-pub(crate) fn bounding_boxes(mesh: &mut Mesh) {
-    boxes(mesh, None)
+/// An empty bounding box (`[min xyz, max xyz]`), neutral for [`grow_box`].
+pub(crate) const EMPTY_BOX: [f64; 6] = [
+    f64::INFINITY,
+    f64::INFINITY,
+    f64::INFINITY,
+    f64::NEG_INFINITY,
+    f64::NEG_INFINITY,
+    f64::NEG_INFINITY,
+];
+
+/// Extends box `b` to contain point `c`.
+#[inline]
+pub(crate) fn grow_box(b: &mut [f64; 6], c: &[f64; 3]) {
+    for k in 0..3 {
+        b[k] = b[k].min(c[k]);
+        b[k + 3] = b[k + 3].max(c[k]);
+    }
 }
 
-fn boxes(mesh: &mut Mesh, only: Option<&HashSet<(i32, i32)>>) {
-    let wanted = |d: i32, t: i32| only.is_none_or(|s| s.contains(&(d, t)));
+/// The box to store: all zeros when nothing was added.
+pub(crate) fn finish_box(b: [f64; 6]) -> [f64; 6] {
+    if b[0] <= b[3] {
+        b
+    } else {
+        [0.0; 6]
+    }
+}
+
+/// Sets the bounding box of the entities in `only` from the nodes classified on them and
+/// the nodes of their elements.
+fn boxes(mesh: &mut Mesh, only: &HashSet<(i32, i32)>) {
+    let wanted = |d: i32, t: i32| only.contains(&(d, t));
     let index = mesh.node_index();
     let mut acc: HashMap<(i32, i32), [f64; 6]> = HashMap::new();
-    let empty = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
-    let grow = |b: &mut [f64; 6], c: &[f64; 3]| {
-        for k in 0..3 {
-            b[k] = b[k].min(c[k]);
-            b[k + 3] = b[k + 3].max(c[k]);
-        }
-    };
+    let empty = EMPTY_BOX;
     for nb in mesh
         .node_blocks
         .iter()
@@ -154,7 +166,7 @@ fn boxes(mesh: &mut Mesh, only: Option<&HashSet<(i32, i32)>>) {
     {
         let b = acc.entry((nb.entity_dim, nb.entity_tag)).or_insert(empty);
         for c in &nb.coords {
-            grow(b, c);
+            grow_box(b, c);
         }
     }
     for eb in mesh
@@ -170,17 +182,14 @@ fn boxes(mesh: &mut Mesh, only: Option<&HashSet<(i32, i32)>>) {
                     .get(r.block as usize)
                     .and_then(|nb| nb.coords.get(r.index as usize))
                 {
-                    grow(b, c);
+                    grow_box(b, c);
                 }
             }
         }
     }
     for ents in mesh.entities.iter_mut() {
         for e in ents.iter_mut().filter(|e| wanted(e.dim, e.tag)) {
-            match acc.get(&(e.dim, e.tag)) {
-                Some(b) if b[0] <= b[3] => e.bbox = *b,
-                _ => e.bbox = [0.0; 6],
-            }
+            e.bbox = finish_box(acc.get(&(e.dim, e.tag)).copied().unwrap_or(EMPTY_BOX));
         }
     }
 }
@@ -215,6 +224,14 @@ pub(crate) fn bounding_entities(mesh: &mut Mesh) {
         if low.is_empty() {
             continue;
         }
+        // Nodes of those facets: most facets of the higher-dimension elements touch none of
+        // them and are rejected by one bit test instead of a hash lookup.
+        let (low_nodes, _) = TagSet::new(
+            mesh.element_blocks
+                .iter()
+                .filter(|b| b.entity_dim == dim - 1)
+                .map(|b| b.nodes.as_slice()),
+        );
         // For each entity of `dim`, count uses of those facets, and remember start corners
         // (for curves: the first node of an element is a start).
         let mut uses: HashMap<(i32, Key), (u32, bool)> = HashMap::new();
@@ -227,6 +244,9 @@ pub(crate) fn bounding_entities(mesh: &mut Mesh) {
             for el in eb.nodes.chunks_exact(k) {
                 let first = el[0];
                 facets(ty, el, |f| {
+                    if !f.iter().all(|&v| low_nodes.contains(v)) {
+                        return;
+                    }
                     let kk = key(f);
                     if low.contains_key(&kk) {
                         let u = uses.entry((eb.entity_tag, kk)).or_insert((0, false));

@@ -333,8 +333,14 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     // Which elementary entities carry more than one physical tag (only those can hold
     // per-group copies).
     let mut ent_phys: HashMap<(i32, i32), (i32, bool)> = HashMap::new();
+    let mut last = None;
     for e in &raw.elems {
         let dim = element_dim(e.etype).unwrap_or(0);
+        // Consecutive elements mostly share entity and group: skip the hash then.
+        if last == Some((dim, e.elementary, e.phys)) {
+            continue;
+        }
+        last = Some((dim, e.elementary, e.phys));
         let s = ent_phys
             .entry((dim, e.elementary))
             .or_insert((e.phys, false));
@@ -400,6 +406,7 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     let mut elem_ent: Vec<u32> = Vec::with_capacity(kept.len());
     let mut set = Vec::new();
     let mut splits = 0usize;
+    let mut last_ent: Option<(i32, i32, u32)> = None;
     for (k, &i) in kept.iter().enumerate() {
         let e = &raw.elems[i];
         let dim = element_dim(e.etype).unwrap_or(0);
@@ -412,6 +419,12 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
                 if p != 0 && !set.contains(&p) {
                     set.push(p);
                 }
+            }
+        }
+        if let Some((d, el, idx)) = last_ent {
+            if d == dim && el == e.elementary && ents[idx as usize].2 == set {
+                elem_ent.push(idx);
+                continue;
             }
         }
         let cands = ent_of.entry((dim, e.elementary)).or_default();
@@ -432,6 +445,7 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
             }
         };
         elem_ent.push(idx as u32);
+        last_ent = Some((dim, e.elementary, idx as u32));
     }
     if splits > 0 {
         mesh.warnings.push(format!(
@@ -450,21 +464,26 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     let with_parts = raw.elems.iter().any(|e| e.nparts > 0);
     let mut block_of: HashMap<(u32, u32), usize> = HashMap::new();
     let mut blocks: Vec<ElementBlock> = Vec::new();
+    let mut last_block: Option<(u32, u32, usize)> = None;
     for (k, &i) in kept.iter().enumerate() {
         let e = &raw.elems[i];
         let ei = elem_ent[k];
-        let b = *block_of.entry((ei, e.etype)).or_insert_with(|| {
-            let (d, t, _) = &ents[ei as usize];
-            blocks.push(ElementBlock {
-                entity_dim: *d,
-                entity_tag: *t,
-                element_type: e.etype,
-                tags: Vec::new(),
-                nodes: Vec::new(),
-                partitions: with_parts.then(Vec::new),
-            });
-            blocks.len() - 1
-        });
+        let b = match last_block {
+            Some((lei, lty, lb)) if lei == ei && lty == e.etype => lb,
+            _ => *block_of.entry((ei, e.etype)).or_insert_with(|| {
+                let (d, t, _) = &ents[ei as usize];
+                blocks.push(ElementBlock {
+                    entity_dim: *d,
+                    entity_tag: *t,
+                    element_type: e.etype,
+                    tags: Vec::new(),
+                    nodes: Vec::new(),
+                    partitions: with_parts.then(Vec::new),
+                });
+                blocks.len() - 1
+            }),
+        };
+        last_block = Some((ei, e.etype, b));
         let blk = &mut blocks[b];
         blk.tags.push(e.id);
         blk.nodes.extend_from_slice(nodes_of(e));
@@ -491,15 +510,18 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
             }
         }
     }
+    // Bounding boxes are grown here, where the node positions are at hand.
+    let mut ebox = vec![derive::EMPTY_BOX; ents.len()];
     for b in &blocks {
         let e = ent_index
             .get(&(b.entity_dim, b.entity_tag))
             .copied()
-            .unwrap_or(0) as u32;
+            .unwrap_or(0);
         for &v in &b.nodes {
             if let Some(i) = node_map.get(v) {
+                derive::grow_box(&mut ebox[e], &raw.coords[i]);
                 if class[i] == u32::MAX {
-                    class[i] = e;
+                    class[i] = e as u32;
                 }
             }
         }
@@ -517,6 +539,10 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
         mesh.warnings.push(format!(
             "{unused} node(s) used by no element: each put on a new point entity"
         ));
+    }
+    ebox.resize(ents.len(), derive::EMPTY_BOX);
+    for (c, x) in class.iter().zip(&raw.coords) {
+        derive::grow_box(&mut ebox[*c as usize], x);
     }
     // Node blocks in entity order (dim, tag), nodes in file order.
     let mut order: Vec<usize> = (0..ents.len()).collect();
@@ -567,7 +593,7 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
         mesh.entities[d as usize].push(Entity {
             dim: d,
             tag: t,
-            bbox: [0.0; 6],
+            bbox: derive::finish_box(ebox[i]),
             physical_tags: phys.clone(),
             bounding: Vec::new(),
         });
@@ -579,7 +605,6 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     mesh.node_blocks = nblocks;
     mesh.element_blocks = blocks;
     mesh.has_entities_section = false;
-    derive::bounding_boxes(mesh);
     derive::bounding_entities(mesh);
     Ok(())
 }
