@@ -519,9 +519,12 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
             .unwrap_or(0);
         for &v in &b.nodes {
             if let Some(i) = node_map.get(v) {
-                derive::grow_box(&mut ebox[e], &raw.coords[i]);
                 if class[i] == u32::MAX {
                     class[i] = e as u32;
+                } else if class[i] != e as u32 {
+                    // Nodes classified on this entity are added to its box below, in one
+                    // sequential pass; only the others need the (cache-missing) lookup.
+                    derive::grow_box(&mut ebox[e], &raw.coords[i]);
                 }
             }
         }
