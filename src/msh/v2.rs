@@ -354,9 +354,18 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     let mut extra: HashMap<usize, Vec<i32>> = HashMap::new();
     let mut seen: HashMap<CopyKey, Vec<usize>> = HashMap::new();
     let mut merged = 0usize;
+    let mut last_multi: Option<((i32, i32), bool)> = None;
     for (i, e) in raw.elems.iter().enumerate() {
         let dim = element_dim(e.etype).unwrap_or(0);
-        if !ent_phys.get(&(dim, e.elementary)).is_some_and(|s| s.1) {
+        let multi = match last_multi {
+            Some((key, m)) if key == (dim, e.elementary) => m,
+            _ => {
+                let m = ent_phys.get(&(dim, e.elementary)).is_some_and(|s| s.1);
+                last_multi = Some(((dim, e.elementary), m));
+                m
+            }
+        };
+        if !multi {
             kept.push(i);
             continue;
         }
@@ -414,7 +423,7 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
         if e.phys != 0 {
             set.push(e.phys);
         }
-        if let Some(x) = extra.get(&k) {
+        if let Some(x) = (!extra.is_empty()).then(|| extra.get(&k)).flatten() {
             for &p in x {
                 if p != 0 && !set.contains(&p) {
                     set.push(p);
