@@ -1,22 +1,7 @@
 //! MSH 2.x (2.0, 2.1, 2.2): section readers and the lift of the flat node and element lists
 //! into the entity-based [`Mesh`] model.
 //!
-//! What the lift does (MSH 2.x has no `$Entities`):
-//! - Entities are derived from elementary tags; an element's entity dimension is its type's
-//!   dimension. An element with fewer than two tags has elementary tag 0.
-//! - Gmsh writes an element once per physical group of its entity. Copies (same entity,
-//!   same type, same nodes, same partition tags, a physical tag not yet seen for that
-//!   element) are merged into one element that keeps the first id; writing 2.2 writes it
-//!   back once per physical group.
-//! - Physical tags of an entity = the tags its elements carry (0 = no group). If elements of
-//!   one elementary entity carry different physical sets (hand-written files), the entity is
-//!   split: the first set keeps the tag, each other set gets a new entity (tag above the
-//!   largest of that dimension) and a warning says so, so no element changes groups.
-//! - A negative physical tag `-t` (reversed element in old Gmsh files) is read as group `t`,
-//!   nodes kept as written, with a warning.
-//! - Each node is classified on the lowest-dimension entity whose elements use it (ties: the
-//!   smallest entity tag). A node no element uses gets its own new point entity. When
-//!   `$ParametricNodes` is present, its classification and parametric values are used.
+//! The conventions of the lift are documented on the `msh` module ("Reading MSH 2.x").
 
 use std::collections::HashMap;
 
