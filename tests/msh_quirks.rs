@@ -313,3 +313,29 @@ fn v41_without_entities_section_gets_entities() {
         .iter()
         .any(|w| w.contains("missing from $Entities")));
 }
+
+#[test]
+fn periodic_forms_without_affine_transform() {
+    // 4.1 form with numAffine = 0, then the old form (no affine line) of 2.2.
+    let v41 =
+        format!("{V41}$Periodic\n2\n1 5 6\n0\n2\n10 20\n30 40\n0 1 2\n0\n1\n40 10\n$EndPeriodic\n");
+    let m = read(&v41);
+    assert_eq!(m.periodic.len(), 2);
+    assert_eq!(m.periodic[0].affine, None);
+    assert_eq!(m.periodic[0].node_pairs, vec![(10, 20), (30, 40)]);
+    assert_eq!(m.periodic[1].node_pairs, vec![(40, 10)]);
+    let v22 = V2_TAGS.to_string() + "$Periodic\n2\n1 2 4\n2\n1 2\n3 4\n0 3 4\n0\n$EndPeriodic\n";
+    let m2 = read(&v22);
+    assert_eq!(m2.periodic[0].node_pairs, vec![(1, 2), (3, 4)]);
+    assert_eq!(m2.periodic[0].affine, None);
+    assert!(
+        m2.periodic[1].node_pairs.is_empty(),
+        "a last link without nodes"
+    );
+    for (f, label) in variants() {
+        for m in [&m, &m2] {
+            let back = msh::read_bytes(&write_as(m, f), label).unwrap();
+            assert_eq!(back.periodic, m.periodic, "{label}");
+        }
+    }
+}

@@ -463,11 +463,12 @@ fn looks_like_affine_count(t: &Text, count: usize) -> bool {
         p.skip_ws();
         let start = p.p;
         let line_end2 = memchr::memchr(b'\n', &t.d[start..]).map_or(t.d.len(), |i| start + i);
-        let toks = t.d[start..line_end2]
+        let line = &t.d[start..line_end2];
+        let toks = line
             .split(|b| b.is_ascii_whitespace())
             .filter(|s| !s.is_empty())
             .count();
-        return toks == 1;
+        return toks == 1 && line.first() != Some(&b'$');
     }
     false
 }
