@@ -122,7 +122,7 @@ fn expected(m: &Mesh, v41: bool) -> Seen {
                 .iter()
                 .map(|b| (b.entity_dim, b.entity_tag))
                 .collect();
-            [0, 1, 2, 3].map(|d| with.iter().filter(|e| e.0 == d as i32).count())
+            [0, 1, 2, 3].map(|d| with.iter().filter(|e| e.0 == d).count())
         },
         groups,
     }
