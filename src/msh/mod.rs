@@ -4,6 +4,17 @@
 //! Entry points: [`read_file`], [`read_bytes`], [`write()`], [`write_file`],
 //! [`default_output_format`], [`summary()`].
 //!
+//! ```
+//! use blossomquad::msh;
+//! let text = b"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0 1 0\n$EndNodes\n$Elements\n1\n1 2 2 7 1 1 2 3\n$EndElements\n";
+//! let mesh = msh::read_bytes(text, "tri.msh")?;
+//! assert_eq!(mesh.entities[2][0].physical_tags, vec![7]);
+//! let mut out = Vec::new();
+//! msh::write(&mesh, &mut out, msh::default_output_format(&mesh))?; // MSH 2.2 ASCII
+//! println!("{}", msh::summary(&mesh)); // format, entities, counts, parity, groups
+//! # Ok::<(), msh::MshError>(())
+//! ```
+//!
 //! Layout: `read` runs the section loop and dispatches to `v4` (4.1/4.0 sections) or `v2`
 //! (2.x sections and the lift of flat 2.x lists into entities, rules below); `derive` computes bounding boxes and bounding entities that 2.x does not store;
 //! `write` holds both writers; `scan` the allocation-free ASCII and binary cursors.
