@@ -3,7 +3,7 @@
 //! The model mirrors MSH 4.1, the richer of the two formats: entities by dimension with
 //! their physical groups and bounding entities, node blocks per entity and element blocks
 //! per (entity, element type). MSH 2.2 files are lifted into it by the reader (entities are
-//! derived from elementary tags, see `msh::v2`).
+//! derived from elementary tags, see "Reading MSH 2.x" in [`crate::msh`]).
 //!
 //! **Invariant:** node and element tags are kept exactly as read (sparse and unordered tags
 //! are legal); a stage that creates nodes or elements gives them fresh tags above the current
