@@ -204,6 +204,19 @@ fn v2_parametric_nodes_read_and_written() {
     assert!(out.contains("\n2 1 0 0 1 4 0.5\n"), "{out}");
     let back = read(&out);
     assert_eq!(back.node_blocks, m.node_blocks);
+    assert!(msh::write_warnings(&m, variants()[2].0).is_empty());
+    assert!(
+        !msh::write_warnings(&m, variants()[3].0).is_empty(),
+        "binary 2.2 drops them"
+    );
+    // Without values for every curve and surface node, 2.2 writes plain $Nodes and says so.
+    let mut partial = m.clone();
+    for b in partial.node_blocks.iter_mut().filter(|b| b.entity_dim == 2) {
+        b.params = None;
+    }
+    let out = String::from_utf8(write_as(&partial, variants()[2].0)).unwrap();
+    assert!(out.contains("$Nodes\n3\n") && !out.contains("$ParametricNodes"));
+    assert!(msh::write_warnings(&partial, variants()[2].0)[0].contains("parametric"));
     // 4.1 keeps them as parametric node blocks.
     let m41 = msh::read_bytes(&write_as(&m, variants()[1].0), "x").unwrap();
     assert_eq!(m41.node_blocks, m.node_blocks);
@@ -337,5 +350,19 @@ fn periodic_forms_without_affine_transform() {
             let back = msh::read_bytes(&write_as(m, f), label).unwrap();
             assert_eq!(back.periodic, m.periodic, "{label}");
         }
+    }
+}
+
+#[test]
+fn inconsistent_in_memory_blocks_are_written_consistently() {
+    // A stage that left a block with a tag but no node list (or a node list shorter than its
+    // tags) must not make the writers announce more records than they write.
+    let mut m = read(V41);
+    m.element_blocks[0].tags.push(99);
+    m.node_blocks[0].tags.push(77);
+    for (f, label) in variants() {
+        let back = msh::read_bytes(&write_as(&m, f), label).unwrap_or_else(|e| panic!("{e}"));
+        assert_eq!(back.element_count(), 2, "{label}");
+        assert_eq!(back.node_count(), 4, "{label}");
     }
 }

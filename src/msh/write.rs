@@ -124,6 +124,38 @@ fn data_sections_fit(mesh: &Mesh, format: MshFormat) -> bool {
             == matches!(format.version, MshVersion::V2 { .. })
 }
 
+/// Number of nodes the writers emit (a block's tags without coordinates are skipped).
+fn written_nodes(mesh: &Mesh) -> usize {
+    mesh.node_blocks
+        .iter()
+        .map(|b| b.tags.len().min(b.coords.len()))
+        .sum()
+}
+
+/// Number of elements the writers emit from block `b` (complete node lists only).
+fn written_elements(b: &crate::mesh::ElementBlock) -> usize {
+    b.tags
+        .len()
+        .min(b.nodes.len() / b.nodes_per_element().max(1))
+}
+
+/// True when MSH 2.2 output carries `$ParametricNodes`: ASCII, some parametric block, and
+/// parametric values for every node on a curve or surface (the section has no way to say
+/// "none" for a node, and zeros would be wrong data).
+fn v22_parametric(mesh: &Mesh, format: MshFormat) -> bool {
+    !format.binary
+        && mesh.node_blocks.iter().any(|b| b.params.is_some())
+        && mesh
+            .node_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 1 || b.entity_dim == 2)
+            .all(|b| {
+                b.params
+                    .as_ref()
+                    .is_some_and(|p| p.len() == b.tags.len() * b.entity_dim as usize)
+            })
+}
+
 /// Warnings about what writing `mesh` as `format` will drop (data sections in another
 /// encoding, parametric coordinates in binary MSH 2.2). Empty when nothing is lost.
 pub fn write_warnings(mesh: &Mesh, format: MshFormat) -> Vec<String> {
@@ -135,16 +167,15 @@ pub fn write_warnings(mesh: &Mesh, format: MshFormat) -> Vec<String> {
         ));
     }
     let v2 = matches!(format.version, MshVersion::V2 { .. });
-    if v2 && format.binary && mesh.node_blocks.iter().any(|b| b.params.is_some()) {
+    if v2 && mesh.node_blocks.iter().any(|b| b.params.is_some()) && !v22_parametric(mesh, format) {
         w.push(
-            "parametric node coordinates dropped: binary MSH 2.2 has no $ParametricNodes".into(),
+            "parametric node coordinates dropped: MSH 2.2 keeps them only in ASCII $ParametricNodes, with values for every curve and surface node".into(),
         );
     }
-    if v2
-        && mesh
-            .element_blocks
-            .iter()
-            .any(|b| crate::mesh::element_node_count(b.element_type).is_none())
+    if mesh
+        .element_blocks
+        .iter()
+        .any(|b| crate::mesh::element_node_count(b.element_type).is_none())
     {
         w.push("element blocks of unknown type skipped".into());
     }
@@ -314,7 +345,7 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
 
     // $Nodes
     out.section("Nodes");
-    let nn: usize = mesh.node_count();
+    let nn = written_nodes(mesh);
     let (lo, hi) = tag_range(mesh.node_blocks.iter().flat_map(|b| &b.tags));
     header4(out, mesh.node_blocks.len() as u64, nn as u64, lo, hi);
     for b in &mesh.node_blocks {
@@ -381,12 +412,12 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
         .iter()
         .filter(|b| b.nodes_per_element() > 0)
         .collect();
-    let ne: usize = blocks.iter().map(|b| b.len()).sum();
+    let ne: usize = blocks.iter().map(|b| written_elements(b)).sum();
     let (lo, hi) = tag_range(blocks.iter().flat_map(|b| &b.tags));
     header4(out, blocks.len() as u64, ne as u64, lo, hi);
     for b in &blocks {
         let k = b.nodes_per_element();
-        let n = b.tags.len().min(b.nodes.len() / k);
+        let n = written_elements(b);
         if bin {
             out.le_i32(b.entity_dim);
             out.le_i32(b.entity_tag);
@@ -526,8 +557,8 @@ fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
     head(out, mesh, "2.2")?;
 
     // $Nodes / $ParametricNodes
-    let parametric = !bin && mesh.node_blocks.iter().any(|b| b.params.is_some());
-    let nn = mesh.node_count();
+    let parametric = v22_parametric(mesh, format);
+    let nn = written_nodes(mesh);
     let name = if parametric {
         "ParametricNodes"
     } else {
@@ -597,7 +628,7 @@ fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
         .collect();
     let total: usize = blocks
         .iter()
-        .map(|b| b.len() * phys_of(b.entity_dim, b.entity_tag).len())
+        .map(|b| written_elements(b) * phys_of(b.entity_dim, b.entity_tag).len())
         .sum();
     out.section("Elements");
     out.int(total);
@@ -606,7 +637,7 @@ fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
     for b in &blocks {
         let k = b.nodes_per_element();
         let phys = phys_of(b.entity_dim, b.entity_tag);
-        let n = b.tags.len().min(b.nodes.len() / k);
+        let n = written_elements(b);
         let parts = |i: usize| -> &[i32] {
             b.partitions
                 .as_ref()
