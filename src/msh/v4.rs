@@ -41,86 +41,73 @@ fn check_count(found: u64, declared: u64, pos: usize, binary: bool, what: &str) 
     ))
 }
 
-/// `$Entities` (ASCII). 4.1: `numPoints numCurves numSurfaces numVolumes`, a point is
-/// `tag x y z numPhys phys…`, other entities `tag minX minY minZ maxX maxY maxZ numPhys
-/// phys… numBound bound…`. 4.0 gives points a bounding box too.
-pub(crate) fn entities_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<()> {
-    let mut counts = [0usize; 4];
-    for c in counts.iter_mut() {
-        *c = t.count("entity count", 8)?;
+/// Field access shared by the ASCII and binary `$Entities` readers (the layouts only differ
+/// in encoding: counts are `size_t` and tags `int` in binary).
+trait Fields {
+    fn int(&mut self, what: &str) -> PResult<i32>;
+    fn real(&mut self, what: &str) -> PResult<f64>;
+    /// A count of `int` records.
+    fn ints(&mut self, what: &str) -> PResult<usize>;
+}
+
+impl Fields for Text<'_> {
+    fn int(&mut self, what: &str) -> PResult<i32> {
+        self.i32(what)
     }
+    fn real(&mut self, what: &str) -> PResult<f64> {
+        self.f64(what)
+    }
+    fn ints(&mut self, what: &str) -> PResult<usize> {
+        self.count(what, 2)
+    }
+}
+
+impl Fields for Bin<'_> {
+    fn int(&mut self, what: &str) -> PResult<i32> {
+        self.i32(what)
+    }
+    fn real(&mut self, what: &str) -> PResult<f64> {
+        self.f64(what)
+    }
+    fn ints(&mut self, what: &str) -> PResult<usize> {
+        self.count(what, 4)
+    }
+}
+
+/// `$Entities` body after the four counts. 4.1: a point is `tag x y z numPhys phys…`, other
+/// entities `tag minX minY minZ maxX maxY maxZ numPhys phys… numBound bound…`. 4.0 gives
+/// points a bounding box too (`point_box`).
+fn entities<F: Fields>(
+    f: &mut F,
+    counts: [usize; 4],
+    point_box: bool,
+    mesh: &mut Mesh,
+) -> PResult<()> {
     for (dim, &n) in counts.iter().enumerate() {
-        let mut v = Vec::with_capacity(n);
         for _ in 0..n {
-            let tag = t.i32("entity tag")?;
+            let tag = f.int("entity tag")?;
             let mut bbox = [0.0; 6];
-            if dim == 0 && !v40 {
+            if dim == 0 && !point_box {
                 for k in 0..3 {
-                    bbox[k] = t.f64("point coordinate")?;
+                    bbox[k] = f.real("point coordinate")?;
                     bbox[k + 3] = bbox[k];
                 }
             } else {
                 for b in bbox.iter_mut() {
-                    *b = t.f64("bounding box value")?;
+                    *b = f.real("bounding box value")?;
                 }
             }
-            let np = t.count("number of physical tags", 2)?;
+            let np = f.ints("number of physical tags")?;
             let mut physical_tags = Vec::with_capacity(np);
             for _ in 0..np {
-                physical_tags.push(t.i32("physical tag")?);
+                physical_tags.push(f.int("physical tag")?);
             }
             let mut bounding = Vec::new();
             if dim > 0 {
-                let nb = t.count("number of bounding entities", 2)?;
+                let nb = f.ints("number of bounding entities")?;
                 bounding.reserve(nb);
                 for _ in 0..nb {
-                    bounding.push(t.i32("bounding entity tag")?);
-                }
-            }
-            v.push(Entity {
-                dim: dim as i32,
-                tag,
-                bbox,
-                physical_tags,
-                bounding,
-            });
-        }
-        mesh.entities[dim].extend(v);
-    }
-    mesh.has_entities_section = true;
-    Ok(())
-}
-
-/// `$Entities` (binary 4.1): the same fields, counts as `size_t`, tags as `int`.
-pub(crate) fn entities_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<()> {
-    let mut counts = [0usize; 4];
-    for c in counts.iter_mut() {
-        *c = b.count("entity count", 4)?;
-    }
-    for (dim, &n) in counts.iter().enumerate() {
-        for _ in 0..n {
-            let tag = b.i32("entity tag")?;
-            let mut bbox = [0.0; 6];
-            if dim == 0 {
-                for k in 0..3 {
-                    bbox[k] = b.f64("point coordinate")?;
-                    bbox[k + 3] = bbox[k];
-                }
-            } else {
-                for v in bbox.iter_mut() {
-                    *v = b.f64("bounding box value")?;
-                }
-            }
-            let np = b.count("number of physical tags", 4)?;
-            let mut physical_tags = Vec::with_capacity(np);
-            for _ in 0..np {
-                physical_tags.push(b.i32("physical tag")?);
-            }
-            let mut bounding = Vec::new();
-            if dim > 0 {
-                let nb = b.count("number of bounding entities", 4)?;
-                for _ in 0..nb {
-                    bounding.push(b.i32("bounding entity tag")?);
+                    bounding.push(f.int("bounding entity tag")?);
                 }
             }
             mesh.entities[dim].push(Entity {
@@ -134,6 +121,24 @@ pub(crate) fn entities_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<()> {
     }
     mesh.has_entities_section = true;
     Ok(())
+}
+
+/// `$Entities` (ASCII): `numPoints numCurves numSurfaces numVolumes`, then the entities.
+pub(crate) fn entities_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<()> {
+    let mut counts = [0usize; 4];
+    for c in counts.iter_mut() {
+        *c = t.count("entity count", 8)?;
+    }
+    entities(t, counts, v40, mesh)
+}
+
+/// `$Entities` (binary 4.1): counts as `size_t`, then the entities.
+pub(crate) fn entities_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<()> {
+    let mut counts = [0usize; 4];
+    for c in counts.iter_mut() {
+        *c = b.count("entity count", 4)?;
+    }
+    entities(b, counts, false, mesh)
 }
 
 /// Section header `numBlocks numItems [minTag maxTag]` (no min/max in 4.0); returns the block
