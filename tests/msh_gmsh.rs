@@ -305,3 +305,79 @@ fn periodic_links_survive_every_variant() {
     let seen = gmsh_python_counts(&ours);
     assert_eq!(seen.len(), 16);
 }
+
+#[test]
+fn partitioned_meshes_are_read_and_written_unpartitioned() {
+    if !have_gmsh() {
+        eprintln!("gmsh not installed: skipped");
+        return;
+    }
+    let dir = tempdir();
+    let geo = dir.path().join("two.geo");
+    std::fs::write(&geo, GEO).unwrap();
+    let g = geo.to_str().unwrap();
+    let mut sources = Vec::new();
+    for (label, extra) in [
+        ("p41a", vec!["-format", "msh41"]),
+        (
+            "p41b",
+            vec![
+                "-format",
+                "msh41",
+                "-bin",
+                "-setnumber",
+                "Mesh.PartitionCreateGhostCells",
+                "1",
+            ],
+        ),
+        ("p22a", vec!["-format", "msh22"]),
+    ] {
+        let out = dir.path().join(format!("{label}.msh"));
+        let mut args = vec![g, "-2", "-part", "2", "-o", out.to_str().unwrap()];
+        args.extend(extra);
+        gmsh(&args);
+        sources.push(out);
+    }
+    let mut outs = Vec::new();
+    let mut exp = Vec::new();
+    for src in &sources {
+        let m = msh::read_file(src).unwrap_or_else(|e| panic!("{e}"));
+        if m.format.unwrap().version == MshVersion::V41 {
+            assert!(
+                m.warnings.iter().any(|w| w.contains("partitioned mesh")),
+                "{:?}",
+                m.warnings
+            );
+        } else {
+            assert!(
+                m.element_blocks.iter().all(|b| b.partitions.is_some()),
+                "2.2 partition tags kept"
+            );
+        }
+        for (f, label) in variants() {
+            let out = dir.path().join(format!(
+                "{}_{label}.msh",
+                src.file_stem().unwrap().to_string_lossy()
+            ));
+            msh::write_file(&m, &out, f).unwrap();
+            let check = dir.path().join("check.msh");
+            gmsh(&[out.to_str().unwrap(), "-0", "-o", check.to_str().unwrap()]);
+            outs.push(out);
+            exp.push(expected(&m, f.version == MshVersion::V41));
+        }
+    }
+    let seen = gmsh_python_counts(&outs);
+    let orig = gmsh_python_counts(&sources);
+    for ((s, e), o) in seen.iter().zip(&exp).zip(&outs) {
+        assert_eq!(s.nodes, e.nodes, "{}", o.display());
+        assert_eq!(
+            s.groups,
+            orig[0].groups,
+            "{}: physical groups survive",
+            o.display()
+        );
+        if o.to_string_lossy().contains("_41") {
+            assert_eq!(s.types, e.types, "{}", o.display());
+        }
+    }
+}

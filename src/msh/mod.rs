@@ -30,6 +30,13 @@
 //! `$MeshFormat` first, the others after the mesh); data sections only when the target has
 //! the same encoding ([`write_warnings`] says what a format drops).
 //!
+//! # Partitioned meshes
+//!
+//! `$PartitionedEntities` (4.1) is read into plain entities: every partition entity keeps
+//! its physical groups and bounding entities, so the mesh is written back unpartitioned
+//! (with a warning; `$GhostElements` are dropped). MSH 2.x partition tags are kept per
+//! element ([`crate::mesh::ElementBlock::partitions`]) and written back in 2.2.
+//!
 //! # Reading MSH 2.x
 //!
 //! MSH 2.x has no `$Entities`; the reader lifts its flat lists into the model:

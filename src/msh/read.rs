@@ -280,6 +280,26 @@ impl<'a> Reader<'a> {
                     v4::elements_ascii(t, v40, &mut self.mesh, self.index.as_ref())?;
                 }
             }
+            "PartitionedEntities" if !v2 && !v40 => {
+                let nparts = if bin {
+                    let mut b = Bin::new(self.d, t.p, self.swap);
+                    let n = v4::partitioned_entities_binary(&mut b, &mut self.mesh)?;
+                    t.p = b.p;
+                    n
+                } else {
+                    v4::partitioned_entities_ascii(t, &mut self.mesh)?
+                };
+                self.mesh.warnings.push(format!(
+                    "partitioned mesh ({nparts} partitions): partition entities are read as plain entities with their physical groups; the output is not partitioned"
+                ));
+            }
+            "GhostElements" => {
+                self.raw_body(t, name)?;
+                self.mesh
+                    .warnings
+                    .push("$GhostElements dropped (the output is not partitioned)".into());
+                return Ok(());
+            }
             "Periodic" if !v2 && bin => {
                 let mut b = Bin::new(self.d, t.p, self.swap);
                 v4::periodic_binary(&mut b, &mut self.mesh)?;

@@ -74,6 +74,42 @@ impl Fields for Bin<'_> {
     }
 }
 
+/// The fields of one entity after its tag: box (or point coordinates), physical tags,
+/// bounding entities.
+fn entity_fields<F: Fields>(f: &mut F, dim: usize, tag: i32, point_box: bool) -> PResult<Entity> {
+    let mut bbox = [0.0; 6];
+    if dim == 0 && !point_box {
+        for k in 0..3 {
+            bbox[k] = f.real("point coordinate")?;
+            bbox[k + 3] = bbox[k];
+        }
+    } else {
+        for b in bbox.iter_mut() {
+            *b = f.real("bounding box value")?;
+        }
+    }
+    let np = f.ints("number of physical tags")?;
+    let mut physical_tags = Vec::with_capacity(np);
+    for _ in 0..np {
+        physical_tags.push(f.int("physical tag")?);
+    }
+    let mut bounding = Vec::new();
+    if dim > 0 {
+        let nb = f.ints("number of bounding entities")?;
+        bounding.reserve(nb);
+        for _ in 0..nb {
+            bounding.push(f.int("bounding entity tag")?);
+        }
+    }
+    Ok(Entity {
+        dim: dim as i32,
+        tag,
+        bbox,
+        physical_tags,
+        bounding,
+    })
+}
+
 /// `$Entities` body after the four counts. 4.1: a point is `tag x y z numPhys phys…`, other
 /// entities `tag minX minY minZ maxX maxY maxZ numPhys phys… numBound bound…`. 4.0 gives
 /// points a bounding box too (`point_box`).
@@ -86,41 +122,57 @@ fn entities<F: Fields>(
     for (dim, &n) in counts.iter().enumerate() {
         for _ in 0..n {
             let tag = f.int("entity tag")?;
-            let mut bbox = [0.0; 6];
-            if dim == 0 && !point_box {
-                for k in 0..3 {
-                    bbox[k] = f.real("point coordinate")?;
-                    bbox[k + 3] = bbox[k];
-                }
-            } else {
-                for b in bbox.iter_mut() {
-                    *b = f.real("bounding box value")?;
-                }
-            }
-            let np = f.ints("number of physical tags")?;
-            let mut physical_tags = Vec::with_capacity(np);
-            for _ in 0..np {
-                physical_tags.push(f.int("physical tag")?);
-            }
-            let mut bounding = Vec::new();
-            if dim > 0 {
-                let nb = f.ints("number of bounding entities")?;
-                bounding.reserve(nb);
-                for _ in 0..nb {
-                    bounding.push(f.int("bounding entity tag")?);
-                }
-            }
-            mesh.entities[dim].push(Entity {
-                dim: dim as i32,
-                tag,
-                bbox,
-                physical_tags,
-                bounding,
-            });
+            let e = entity_fields(f, dim, tag, point_box)?;
+            mesh.entities[dim].push(e);
         }
     }
     mesh.has_entities_section = true;
     Ok(())
+}
+
+/// `$PartitionedEntities` (4.1, ASCII or binary): `numPartitions`, `numGhostEntities` and
+/// `(tag, partition)` pairs, the four counts, then per entity `tag parentDim parentTag
+/// numPartitions partition…` followed by the fields of a plain entity. The partition
+/// entities are added to the model as plain entities (they keep their physical groups and
+/// bounding entities); the partition structure itself is not kept. Returns the number of
+/// partitions.
+fn partitioned_entities<F: Fields>(f: &mut F, mesh: &mut Mesh) -> PResult<usize> {
+    let nparts = f.ints("number of partitions")?;
+    let nghost = f.ints("number of ghost entities")?;
+    for _ in 0..nghost {
+        f.int("ghost entity tag")?;
+        f.int("ghost entity partition")?;
+    }
+    let mut counts = [0usize; 4];
+    for c in counts.iter_mut() {
+        *c = f.ints("partitioned entity count")?;
+    }
+    for (dim, &n) in counts.iter().enumerate() {
+        for _ in 0..n {
+            let tag = f.int("entity tag")?;
+            f.int("parent dimension")?;
+            f.int("parent tag")?;
+            let np = f.ints("number of partitions of the entity")?;
+            for _ in 0..np {
+                f.int("partition tag")?;
+            }
+            let e = entity_fields(f, dim, tag, false)?;
+            if mesh.entity(e.dim, e.tag).is_none() {
+                mesh.entities[dim].push(e);
+            }
+        }
+    }
+    Ok(nparts)
+}
+
+/// `$PartitionedEntities` in ASCII.
+pub(crate) fn partitioned_entities_ascii(t: &mut Text, mesh: &mut Mesh) -> PResult<usize> {
+    partitioned_entities(t, mesh)
+}
+
+/// `$PartitionedEntities` in binary.
+pub(crate) fn partitioned_entities_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<usize> {
+    partitioned_entities(b, mesh)
 }
 
 /// `$Entities` (ASCII): `numPoints numCurves numSurfaces numVolumes`, then the entities.
