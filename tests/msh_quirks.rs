@@ -97,6 +97,16 @@ fn unknown_and_data_sections_kept_and_written_back() {
     let out = write_as(&m, bin);
     assert!(!out.windows(9).any(|w| w == b"$NodeData"));
     assert!(msh::write_warnings(&m, bin)[0].contains("dropped 1"));
+    // A section Gmsh decodes in the file's encoding ($Parametrizations) follows the data
+    // sections' rule.
+    let para = read(&format!(
+        "{V41}$Parametrizations\n0 0\n$EndParametrizations\n"
+    ));
+    let out = String::from_utf8_lossy(&write_as(&para, bin)).into_owned();
+    assert!(!out.contains("$Parametrizations"));
+    assert!(msh::write_warnings(&para, bin)[0].contains("$Parametrizations dropped"));
+    let out = String::from_utf8(write_as(&para, ascii)).unwrap();
+    assert!(out.contains("$Parametrizations\n0 0\n$EndParametrizations\n"));
     // An unclosed unknown section is an error, not a silent skip.
     let e = msh::read_bytes(format!("{V41}$Fancy\n1 2 3\n").as_bytes(), "q.msh").unwrap_err();
     assert!(e.to_string().contains("$EndFancy"), "{e}");

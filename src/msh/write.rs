@@ -172,6 +172,14 @@ pub fn write_warnings(mesh: &Mesh, format: MshFormat) -> Vec<String> {
             "parametric node coordinates dropped: MSH 2.2 keeps them only in ASCII $ParametricNodes, with values for every curve and surface node".into(),
         );
     }
+    for r in &mesh.raw_sections {
+        if !raw_section_fits(mesh, &r.name, format) {
+            w.push(format!(
+                "${} dropped: its data is encoded for another MSH variant",
+                r.name
+            ));
+        }
+    }
     if mesh
         .element_blocks
         .iter()
@@ -264,17 +272,29 @@ fn tail(out: &mut Out, mesh: &Mesh, format: MshFormat) -> io::Result<()> {
             out.maybe_flush()?;
         }
     }
-    for r in mesh
-        .raw_sections
-        .iter()
-        .filter(|r| r.position == SectionPosition::AfterMesh)
-    {
+    for r in mesh.raw_sections.iter().filter(|r| {
+        r.position == SectionPosition::AfterMesh && raw_section_fits(mesh, &r.name, format)
+    }) {
         out.section(&r.name);
         out.b(&r.body);
         out.end(&r.name);
         out.maybe_flush()?;
     }
     Ok(())
+}
+
+/// Sections Gmsh itself interprets, whose encoding follows the file's (binary data in
+/// binary files), and that exist in MSH 4 only.
+const ENCODED_V4_SECTIONS: &[&str] = &["Parametrizations", "Edges", "Faces"];
+
+/// True when kept section `name` can be written into `format`: unknown sections always
+/// (Gmsh skips them), encoded 4.x sections only into 4.1 with the input's encoding.
+fn raw_section_fits(mesh: &Mesh, name: &str, format: MshFormat) -> bool {
+    if !ENCODED_V4_SECTIONS.contains(&name) {
+        return true;
+    }
+    let src_binary = mesh.format.is_some_and(|f| f.binary);
+    format.version == MshVersion::V41 && format.binary == src_binary
 }
 
 fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
