@@ -171,7 +171,7 @@ fn run(cli: Cli) -> Result<(), String> {
             let mesh = read(&input)?;
             let log = Log { quiet: false };
             print_warnings(&mesh, &log);
-            write(&mesh, &output, &format)
+            write(&mesh, &output, &format, &log)
         }
         Some(Command::Info { input }) => {
             let mesh = read(&input)?;
@@ -197,7 +197,7 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
 
     let (t_recombine, t_opt) = (0.0, 0.0);
     let t3 = Instant::now();
-    write(&mesh, &output, &args.format)?;
+    write(&mesh, &output, &args.format, &log)?;
     let t_write = t3.elapsed().as_secs_f64();
     log.say(format!(
         "time: read {t_read:.3} s, recombine {t_recombine:.3} s, optimize {t_opt:.3} s, write {t_write:.3} s"
@@ -233,8 +233,12 @@ fn output_format(mesh: &Mesh, args: &FormatArgs) -> MshFormat {
     }
 }
 
-fn write(mesh: &Mesh, path: &Path, args: &FormatArgs) -> Result<(), String> {
-    msh::write_file(mesh, path, output_format(mesh, args)).map_err(|e| e.to_string())
+fn write(mesh: &Mesh, path: &Path, args: &FormatArgs, log: &Log) -> Result<(), String> {
+    let format = output_format(mesh, args);
+    for w in msh::write_warnings(mesh, format) {
+        log.say(format!("warning: {w}"));
+    }
+    msh::write_file(mesh, path, format).map_err(|e| e.to_string())
 }
 
 /// Refuses an output path that is the input file itself, unless `force`.
