@@ -2,7 +2,7 @@
 //!
 //! Edmonds' algorithm (1965) in the form of Kolmogorov's Blossom V (2009), one alternating tree
 //! at a time:
-//! 1. **Jump start** ([`Solver::greedy_init`]): `y_v = min cost at v` (costs are doubled, so
+//! 1. **Jump start** ([`Solver::init_greedy`]): `y_v = min cost at v` (costs are doubled, so
 //!    this is half of the cheapest doubled cost), then each vertex in turn raises its dual to
 //!    its smallest slack and takes the tight edge if both ends are still exposed.
 //! 2. For each exposed vertex `r`, grow an alternating tree `T` rooted at `r` with a lazy dual
@@ -68,9 +68,12 @@ pub struct Solver {
     top: Vec<u32>,
     inner: Vec<i64>,
     heap: BinaryHeap<Reverse<(i64, u32)>>,
+    /// Global dual change `ε` (all trees move together).
     eps: i64,
-    cur: u32,
-    tree_nodes: Vec<u32>,
+    /// Nodes that joined each tree (stale entries are filtered by `tree[node]`).
+    tree_lists: Vec<Vec<u32>>,
+    /// Nodes freed by a dissolve, waiting for their edges to be pushed.
+    freed: Vec<u32>,
     mark: Vec<u32>,
     mark_stamp: u32,
     /// Costs and duals are in units of `1/scale`.
@@ -93,6 +96,8 @@ pub struct Stats {
     pub expands: usize,
     /// Grow steps.
     pub grows: usize,
+    /// Augmentations.
+    pub augments: usize,
 }
 
 impl Solver {
@@ -149,8 +154,8 @@ impl Solver {
             inner: vec![0; n],
             heap: BinaryHeap::new(),
             eps: 0,
-            cur: 0,
-            tree_nodes: Vec::new(),
+            tree_lists: Vec::new(),
+            freed: Vec::new(),
             mark: vec![0; n],
             mark_stamp: 0,
             scale: 2,
@@ -161,7 +166,7 @@ impl Solver {
 
     /// Runs the jump start and then the tree growth from every exposed vertex.
     pub fn run(mut self) -> Result<Matching, NoPerfectMatching> {
-        self.greedy_init();
+        self.init_greedy();
         self.solve_rest()
     }
 
@@ -183,11 +188,7 @@ impl Solver {
     /// Grows a tree from every exposed vertex (after an init) and returns the result.
     pub fn solve_rest(&mut self) -> Result<Matching, NoPerfectMatching> {
         self.stats.exposed_after_init = self.mate.iter().filter(|&&m| m == NONE).count();
-        for r in 0..self.n as u32 {
-            if self.mate[r as usize] == NONE {
-                self.grow_tree(r)?;
-            }
-        }
+        self.run_forest()?;
         Ok(self.result())
     }
 
@@ -201,7 +202,7 @@ impl Solver {
     }
 
     /// Greedy dual jump start (see module docs, step 1).
-    fn greedy_init(&mut self) {
+    pub fn init_greedy(&mut self) {
         let n = self.n;
         for v in 0..n {
             self.y[v] = self.min_incident_half(v);
@@ -242,7 +243,7 @@ impl Solver {
     #[inline]
     fn ycur(&self, node: u32) -> i64 {
         let i = node as usize;
-        if self.tree[i] == self.cur {
+        if self.tree[i] != NONE {
             match self.label[i] {
                 PLUS => return self.y[i] + (self.eps - self.join[i]),
                 MINUS => return self.y[i] - (self.eps - self.join[i]),
@@ -254,7 +255,7 @@ impl Solver {
 
     #[inline]
     fn in_tree(&self, node: u32, lab: u8) -> bool {
-        self.tree[node as usize] == self.cur && self.label[node as usize] == lab
+        self.tree[node as usize] != NONE && self.label[node as usize] == lab
     }
 
     /// Slack of edge `e` whose endpoints are in different top-level nodes.
@@ -281,8 +282,8 @@ impl Solver {
             Some(self.eps + s / 2)
         } else if pu || pv {
             let other = if pu { tv } else { tu };
-            if self.tree[other as usize] == self.cur {
-                return None; // `+`–`−` edge: slack does not change
+            if self.tree[other as usize] != NONE {
+                return None; // `+`–`−` edge (any trees): slack does not change
             }
             Some(self.eps + self.slack(e))
         } else {
@@ -357,12 +358,12 @@ impl Solver {
             .collect();
     }
 
-    fn add_to_tree(&mut self, node: u32, lab: u8) {
+    fn add_to_tree(&mut self, node: u32, lab: u8, t: u32) {
         let i = node as usize;
-        self.tree[i] = self.cur;
+        self.tree[i] = t;
         self.label[i] = lab;
         self.join[i] = self.eps;
-        self.tree_nodes.push(node);
+        self.tree_lists[t as usize].push(node);
         if lab == PLUS {
             self.push_edges_of(node);
         } else if i >= self.n {
@@ -371,15 +372,27 @@ impl Solver {
         }
     }
 
-    /// Grows the tree rooted at exposed vertex `r` until an augmentation.
-    fn grow_tree(&mut self, r: u32) -> Result<(), NoPerfectMatching> {
-        self.cur += 1;
+    /// Grows one alternating tree per exposed vertex, all with the global `ε`, until every
+    /// tree has been consumed by an augmentation.
+    fn run_forest(&mut self) -> Result<(), NoPerfectMatching> {
         self.eps = 0;
         self.heap.clear();
-        self.tree_nodes.clear();
-        let root = self.top[r as usize];
-        self.add_to_tree(root, PLUS);
-        loop {
+        let roots: Vec<u32> = (0..self.n as u32)
+            .filter(|&v| self.mate[v as usize] == NONE)
+            .collect();
+        let mut alive = roots.len();
+        self.tree_lists = vec![Vec::new(); roots.len()];
+        for (t, &r) in roots.iter().enumerate() {
+            let root = self.top[r as usize];
+            self.tree[root as usize] = t as u32;
+            self.label[root as usize] = PLUS;
+            self.join[root as usize] = 0;
+            self.tree_lists[t].push(root);
+        }
+        for &r in &roots {
+            self.push_edges_of(self.top[r as usize]);
+        }
+        while alive > 0 {
             let Some(Reverse((key, id))) = self.heap.pop() else {
                 return Err(self.stuck_witness());
             };
@@ -410,18 +423,24 @@ impl Solver {
             let (tu, tv) = (self.top[u as usize], self.top[v as usize]);
             let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
             if pu && pv {
-                self.shrink(u, v);
+                let (ta, tb) = (self.tree[tu as usize], self.tree[tv as usize]);
+                if ta == tb {
+                    self.shrink(u, v);
+                } else {
+                    self.stats.augments += 1;
+                    self.augment_path(u, v);
+                    self.augment_path(v, u);
+                    self.dissolve(ta);
+                    self.dissolve(tb);
+                    self.push_freed();
+                    alive -= 2;
+                }
             } else {
                 let (x, w) = if pu { (u, v) } else { (v, u) };
-                let tw = self.top[w as usize];
-                if self.mate[self.base[tw as usize] as usize] == NONE {
-                    self.augment(x, w);
-                    self.finish_tree();
-                    return Ok(());
-                }
                 self.grow(x, w);
             }
         }
+        Ok(())
     }
 
     /// `x` in a `+` node, `w` in a matched node outside the tree.
@@ -432,8 +451,9 @@ impl Solver {
         self.tpar[tw as usize] = x;
         let mb = self.mate[self.base[tw as usize] as usize];
         let tm = self.top[mb as usize];
-        self.add_to_tree(tw, MINUS);
-        self.add_to_tree(tm, PLUS);
+        let t = self.tree[self.top[x as usize] as usize];
+        self.add_to_tree(tw, MINUS, t);
+        self.add_to_tree(tm, PLUS, t);
     }
 
     /// The `+` node above `+` node `p` (grandparent in the tree), or NONE for the root.
@@ -469,6 +489,7 @@ impl Solver {
     fn shrink(&mut self, u: u32, v: u32) {
         self.stats.shrinks += 1;
         let (tu, tv) = (self.top[u as usize], self.top[v as usize]);
+        let t = self.tree[tu as usize];
         // Find the lowest common `+` ancestor by walking up alternately.
         self.mark_stamp = self.mark_stamp.wrapping_add(1);
         if self.mark_stamp == 0 {
@@ -564,9 +585,9 @@ impl Solver {
         self.parent[bn] = NONE;
         self.base[bn] = self.base[lca as usize];
         self.label[bn] = PLUS;
-        self.tree[bn] = self.cur;
+        self.tree[bn] = t;
         self.join[bn] = self.eps;
-        self.tree_nodes.push(b);
+        self.tree_lists[t as usize].push(b);
         self.children[bi] = ch;
         self.cyc[bi] = cy;
         for c in was_minus {
@@ -590,6 +611,7 @@ impl Solver {
         let bi = b as usize - self.n;
         let bn = b as usize;
         let (ts, tp) = (self.tself[bn], self.tpar[bn]);
+        let t = self.tree[bn];
         let j = self.child_index(b, ts);
         let ch = std::mem::take(&mut self.children[bi]);
         let cy = std::mem::take(&mut self.cyc[bi]);
@@ -649,7 +671,7 @@ impl Solver {
             }
         }
         for &(node, lab, _, _) in &path {
-            self.add_to_tree(node, lab);
+            self.add_to_tree(node, lab, t);
         }
         // Off-path children become free: edges from tree `+` nodes into them are events now.
         for (i, &c) in ch.iter().enumerate() {
@@ -666,13 +688,10 @@ impl Solver {
         self.cyc[bi] = cy;
     }
 
-    /// Augments along the tree path from `+` vertex `x` to the root and the edge `x`–`w`,
-    /// `w` in an exposed node outside the tree.
-    fn augment(&mut self, x: u32, w: u32) {
-        let tw = self.top[w as usize];
-        self.rebase(tw, w);
-        self.mate[w as usize] = x;
-        let (mut node, mut xv, mut partner) = (self.top[x as usize], x, w);
+    /// Flips the tree path from `+` vertex `x` to its root and matches `x` to `partner`
+    /// (a vertex of another tree; the caller flips that side too).
+    fn augment_path(&mut self, x: u32, partner: u32) {
+        let (mut node, mut xv, mut partner) = (self.top[x as usize], x, partner);
         loop {
             let ext = self.mate[self.base[node as usize] as usize];
             self.rebase(node, xv);
@@ -740,39 +759,53 @@ impl Solver {
         self.stack = work;
     }
 
-    /// Commits the lazy duals of the finished tree.
-    fn finish_tree(&mut self) {
-        let nodes = std::mem::take(&mut self.tree_nodes);
+    /// Commits the lazy duals of tree `t` and frees its nodes (they are queued in `freed`).
+    fn dissolve(&mut self, t: u32) {
+        let nodes = std::mem::take(&mut self.tree_lists[t as usize]);
         for &p in &nodes {
             let i = p as usize;
-            if self.parent[i] == NONE && self.label[i] != DEAD && self.tree[i] == self.cur {
+            if self.parent[i] == NONE && self.label[i] != DEAD && self.tree[i] == t {
                 self.y[i] = self.ycur(p);
                 self.label[i] = FREE;
+                self.tree[i] = NONE;
+                self.freed.push(p);
             }
         }
-        self.tree_nodes = nodes;
-        self.tree_nodes.clear();
     }
 
-    /// Tutte witness of a stuck tree: `U` = vertices of the `−` nodes (all single vertices:
-    /// a `−` blossom always has a pending expand event), odd components = the `+` nodes.
+    /// Pushes the edges of freed nodes: edges from `+` nodes of other trees into them are
+    /// grow events now.
+    fn push_freed(&mut self) {
+        let freed = std::mem::take(&mut self.freed);
+        for &p in &freed {
+            self.push_edges_of(p);
+        }
+        self.freed = freed;
+        self.freed.clear();
+    }
+
+    /// Tutte witness when no event is left: `U` = vertices of the `−` nodes of all trees
+    /// (all single vertices: a `−` blossom always has a pending expand event); every `+` node
+    /// has edges only to `U` and is an odd set, and there are more `+` nodes than `−` nodes.
     fn stuck_witness(&mut self) -> NoPerfectMatching {
         let mut witness = Vec::new();
-        let mut odd = Vec::new();
-        let nodes = std::mem::take(&mut self.tree_nodes);
-        let mut verts = Vec::new();
-        for &p in &nodes {
-            let i = p as usize;
-            if self.parent[i] != NONE || self.label[i] == DEAD || self.tree[i] != self.cur {
+        let mut slot = vec![NONE; self.y.len()];
+        let mut odd: Vec<Vec<u32>> = Vec::new();
+        for v in 0..self.n as u32 {
+            let p = self.top[v as usize];
+            if self.tree[p as usize] == NONE {
                 continue;
             }
-            verts.clear();
-            self.collect_vertices(p, &mut verts);
-            let vs: Vec<u32> = verts.iter().map(|&(x, _)| x).collect();
-            if self.label[i] == MINUS {
-                witness.extend(vs);
-            } else if self.label[i] == PLUS {
-                odd.push(vs);
+            match self.label[p as usize] {
+                MINUS => witness.push(v),
+                PLUS => {
+                    if slot[p as usize] == NONE {
+                        slot[p as usize] = odd.len() as u32;
+                        odd.push(Vec::new());
+                    }
+                    odd[slot[p as usize] as usize].push(v);
+                }
+                _ => {}
             }
         }
         NoPerfectMatching {

@@ -27,6 +27,7 @@
 
 pub mod blossom;
 pub mod oracle;
+pub mod reference;
 mod verify;
 
 pub use verify::{verify, verify_witness, CertificateError};
