@@ -8,7 +8,10 @@
 use blossomquad::matching;
 use std::time::Instant;
 
-fn parse(text: &str) -> Result<(usize, Vec<(u32, u32, i64)>), String> {
+/// A graph: vertex count and edges `(u, v, cost)`.
+type Graph = (usize, Vec<(u32, u32, i64)>);
+
+fn parse(text: &str) -> Result<Graph, String> {
     let mut it = text.split_ascii_whitespace();
     let mut next = |what: &str| -> Result<i64, String> {
         it.next()
