@@ -26,8 +26,7 @@
 //! and key is doubled again (`scale` records the factor), so all arithmetic stays in `i64`.
 
 use super::{BlossomDual, Duals, Matching, NoPerfectMatching, MAX_ABS_COST, NONE};
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
+use super::radix::RadixHeap;
 
 const FREE: u8 = 0;
 const PLUS: u8 = 1;
@@ -67,7 +66,7 @@ pub struct Solver {
     /// containing it strictly below the top level (its own dual included when not top-level).
     top: Vec<u32>,
     inner: Vec<i64>,
-    heap: BinaryHeap<Reverse<(i64, u32)>>,
+    heap: RadixHeap,
     /// Global dual change `ε` (all trees move together).
     eps: i64,
     /// Nodes that joined each tree (stale entries are filtered by `tree[node]`).
@@ -98,6 +97,12 @@ pub struct Stats {
     pub grows: usize,
     /// Augmentations.
     pub augments: usize,
+    /// Heap pushes and pops.
+    pub pushes: usize,
+    /// Heap pops.
+    pub pops: usize,
+    /// Nodes freed by dissolves.
+    pub freed: usize,
 }
 
 impl Solver {
@@ -152,7 +157,7 @@ impl Solver {
             free_blossoms: Vec::new(),
             top: (0..n as u32).collect(),
             inner: vec![0; n],
-            heap: BinaryHeap::new(),
+            heap: RadixHeap::new(),
             eps: 0,
             tree_lists: Vec::new(),
             freed: Vec::new(),
@@ -294,7 +299,8 @@ impl Solver {
     fn push_edge(&mut self, e: usize) {
         if let Some(k) = self.edge_key(e) {
             debug_assert!(k >= self.eps, "negative slack on edge {e}");
-            self.heap.push(Reverse((k, e as u32)));
+            self.stats.pushes += 1;
+            self.heap.push(k as u64, e as u32);
         }
     }
 
@@ -351,11 +357,7 @@ impl Solver {
             *y *= 2;
         }
         self.eps *= 2;
-        let old = std::mem::take(&mut self.heap).into_vec();
-        self.heap = old
-            .into_iter()
-            .map(|Reverse((k, id))| Reverse((k * 2, id)))
-            .collect();
+        self.heap.double_keys();
     }
 
     fn add_to_tree(&mut self, node: u32, lab: u8, t: u32) {
@@ -368,7 +370,7 @@ impl Solver {
             self.push_edges_of(node);
         } else if i >= self.n {
             let k = self.eps + self.y[i];
-            self.heap.push(Reverse((k, node | EXPAND)));
+            self.heap.push(k as u64, node | EXPAND);
         }
     }
 
@@ -393,28 +395,30 @@ impl Solver {
             self.push_edges_of(self.top[r as usize]);
         }
         while alive > 0 {
-            let Some(Reverse((key, id))) = self.heap.pop() else {
+            let Some((key, id)) = self.heap.pop() else {
                 return Err(self.stuck_witness());
             };
+            self.stats.pops += 1;
             if id & EXPAND != 0 {
                 let b = id & !EXPAND;
                 let bi = b as usize;
                 if self.label[bi] == DEAD
                     || self.parent[bi] != NONE
                     || !self.in_tree(b, MINUS)
-                    || self.join[bi] + self.y[bi] != key
+                    || (self.join[bi] + self.y[bi]) as u64 != key
                 {
                     continue;
                 }
-                self.eps = key;
+                self.eps = key as i64;
                 self.expand(b);
                 continue;
             }
             let e = id as usize;
+            let key = key as i64;
             let Some(k2) = self.edge_key(e) else { continue };
             if k2 != key {
                 // Keys were rescaled or the situation changed since the push.
-                self.heap.push(Reverse((k2, id)));
+                self.heap.push(k2 as u64, id);
                 continue;
             }
             debug_assert!(key >= self.eps);
@@ -769,6 +773,7 @@ impl Solver {
                 self.label[i] = FREE;
                 self.tree[i] = NONE;
                 self.freed.push(p);
+                self.stats.freed += 1;
             }
         }
     }

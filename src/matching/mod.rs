@@ -27,6 +27,7 @@
 
 pub mod blossom;
 pub mod oracle;
+pub mod radix;
 pub mod reference;
 mod verify;
 
