@@ -25,8 +25,9 @@
 //! Half-integral steps: costs are doubled, and when a `+`↔`+` slack is odd every cost, dual
 //! and key is doubled again (`scale` records the factor), so all arithmetic stays in `i64`.
 
-use super::{BlossomDual, Duals, Matching, NoPerfectMatching, MAX_ABS_COST, NONE};
 use super::radix::RadixHeap;
+use super::{BlossomDual, Duals, Matching, NoPerfectMatching, MAX_ABS_COST, NONE};
+use std::cell::Cell;
 
 const FREE: u8 = 0;
 const PLUS: u8 = 1;
@@ -64,8 +65,15 @@ pub struct Solver {
     free_blossoms: Vec<u32>,
     /// Per vertex: top-level node containing it, and the sum of the duals of the nodes
     /// containing it strictly below the top level (its own dual included when not top-level).
-    top: Vec<u32>,
-    inner: Vec<i64>,
+    /// Per node: a shortcut to an ancestor (`sc`), the sum of the duals from the node up to
+    /// that ancestor, excluded (`scsum`), and the ancestor's generation when the shortcut was
+    /// set (`scgen`). Duals of non-top nodes are fixed, so a shortcut stays exact until its
+    /// target is expanded, which bumps `gen[target]`. Path compression with `Cell`s keeps
+    /// lookups from `&self`.
+    sc: Vec<Cell<u32>>,
+    scsum: Vec<Cell<i64>>,
+    scgen: Vec<Cell<u32>>,
+    gen: Vec<u32>,
     heap: RadixHeap,
     /// Global dual change `ε` (all trees move together).
     eps: i64,
@@ -103,6 +111,8 @@ pub struct Stats {
     pub pops: usize,
     /// Nodes freed by dissolves.
     pub freed: usize,
+    /// Vertices relabelled by shrinks and expands.
+    pub relabel: usize,
 }
 
 impl Solver {
@@ -155,8 +165,10 @@ impl Solver {
             children: Vec::new(),
             cyc: Vec::new(),
             free_blossoms: Vec::new(),
-            top: (0..n as u32).collect(),
-            inner: vec![0; n],
+            sc: vec![Cell::new(NONE); n],
+            scsum: vec![Cell::new(0); n],
+            scgen: vec![Cell::new(0); n],
+            gen: vec![0; n],
             heap: RadixHeap::new(),
             eps: 0,
             tree_lists: Vec::new(),
@@ -263,26 +275,64 @@ impl Solver {
         self.tree[node as usize] != NONE && self.label[node as usize] == lab
     }
 
+    /// Top-level node containing vertex `x`, and the sum of the duals of the nodes
+    /// containing `x` below it (its own dual included when it is not top-level).
+    #[inline]
+    fn find(&self, x: u32) -> (u32, i64) {
+        let mut node = x;
+        let mut s = 0i64;
+        loop {
+            let ni = node as usize;
+            let p = self.parent[ni];
+            if p == NONE {
+                break;
+            }
+            let a = self.sc[ni].get();
+            if a != NONE && self.scgen[ni].get() == self.gen[a as usize] {
+                s += self.scsum[ni].get();
+                node = a;
+            } else {
+                s += self.y[ni];
+                node = p;
+            }
+        }
+        if node != x {
+            let xi = x as usize;
+            self.sc[xi].set(node);
+            self.scsum[xi].set(s);
+            self.scgen[xi].set(self.gen[node as usize]);
+        }
+        (node, s)
+    }
+
+    /// Top-level node containing vertex `x`.
+    #[inline]
+    fn top_of(&self, x: u32) -> u32 {
+        self.find(x).0
+    }
+
     /// Slack of edge `e` whose endpoints are in different top-level nodes.
     #[inline]
     fn slack(&self, e: usize) -> i64 {
-        let (u, v) = (self.eu[e] as usize, self.ev[e] as usize);
-        self.ec[e] - self.inner[u] - self.inner[v] - self.ycur(self.top[u]) - self.ycur(self.top[v])
+        let (tu, iu) = self.find(self.eu[e]);
+        let (tv, iv) = self.find(self.ev[e]);
+        self.ec[e] - iu - iv - self.ycur(tu) - self.ycur(tv)
     }
 
     /// Event time of edge `e` for the current tree, or None if it is not an event edge.
     /// May rescale (which invalidates previously computed values).
     fn edge_key(&mut self, e: usize) -> Option<i64> {
-        let (tu, tv) = (self.top[self.eu[e] as usize], self.top[self.ev[e] as usize]);
+        let (tu, iu) = self.find(self.eu[e]);
+        let (tv, iv) = self.find(self.ev[e]);
         if tu == tv {
             return None;
         }
         let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
         if pu && pv {
-            let mut s = self.slack(e);
+            let s = self.ec[e] - iu - iv - self.ycur(tu) - self.ycur(tv);
             if s % 2 != 0 {
                 self.rescale();
-                s = self.slack(e);
+                return Some(self.eps + self.slack(e) / 2);
             }
             Some(self.eps + s / 2)
         } else if pu || pv {
@@ -290,7 +340,7 @@ impl Solver {
             if self.tree[other as usize] != NONE {
                 return None; // `+`–`−` edge (any trees): slack does not change
             }
-            Some(self.eps + self.slack(e))
+            Some(self.eps + self.ec[e] - iu - iv - self.ycur(tu) - self.ycur(tv))
         } else {
             None
         }
@@ -353,8 +403,8 @@ impl Solver {
         for j in &mut self.join {
             *j *= 2;
         }
-        for y in &mut self.inner {
-            *y *= 2;
+        for y in &mut self.scsum {
+            y.set(y.get() * 2);
         }
         self.eps *= 2;
         self.heap.double_keys();
@@ -385,14 +435,14 @@ impl Solver {
         let mut alive = roots.len();
         self.tree_lists = vec![Vec::new(); roots.len()];
         for (t, &r) in roots.iter().enumerate() {
-            let root = self.top[r as usize];
+            let root = self.top_of(r);
             self.tree[root as usize] = t as u32;
             self.label[root as usize] = PLUS;
             self.join[root as usize] = 0;
             self.tree_lists[t].push(root);
         }
         for &r in &roots {
-            self.push_edges_of(self.top[r as usize]);
+            self.push_edges_of(self.top_of(r));
         }
         while alive > 0 {
             let Some((key, id)) = self.heap.pop() else {
@@ -424,7 +474,7 @@ impl Solver {
             debug_assert!(key >= self.eps);
             self.eps = key;
             let (u, v) = (self.eu[e], self.ev[e]);
-            let (tu, tv) = (self.top[u as usize], self.top[v as usize]);
+            let (tu, tv) = (self.top_of(u), self.top_of(v));
             let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
             if pu && pv {
                 let (ta, tb) = (self.tree[tu as usize], self.tree[tv as usize]);
@@ -450,12 +500,12 @@ impl Solver {
     /// `x` in a `+` node, `w` in a matched node outside the tree.
     fn grow(&mut self, x: u32, w: u32) {
         self.stats.grows += 1;
-        let tw = self.top[w as usize];
+        let tw = self.top_of(w);
         self.tself[tw as usize] = w;
         self.tpar[tw as usize] = x;
         let mb = self.mate[self.base[tw as usize] as usize];
-        let tm = self.top[mb as usize];
-        let t = self.tree[self.top[x as usize] as usize];
+        let tm = self.top_of(mb);
+        let t = self.tree[self.top_of(x) as usize];
         self.add_to_tree(tw, MINUS, t);
         self.add_to_tree(tm, PLUS, t);
     }
@@ -466,8 +516,8 @@ impl Solver {
         if m == NONE {
             return NONE;
         }
-        let tm = self.top[m as usize];
-        self.top[self.tpar[tm as usize] as usize]
+        let tm = self.top_of(m);
+        self.top_of(self.tpar[tm as usize])
     }
 
     fn new_blossom_id(&mut self) -> u32 {
@@ -484,6 +534,10 @@ impl Solver {
         self.tself.push(NONE);
         self.tpar.push(NONE);
         self.mark.push(0);
+        self.sc.push(Cell::new(NONE));
+        self.scsum.push(Cell::new(0));
+        self.scgen.push(Cell::new(0));
+        self.gen.push(0);
         self.children.push(Vec::new());
         self.cyc.push(Vec::new());
         b
@@ -492,7 +546,7 @@ impl Solver {
     /// Forms a blossom from tight `+`–`+` edge `(u, v)`.
     fn shrink(&mut self, u: u32, v: u32) {
         self.stats.shrinks += 1;
-        let (tu, tv) = (self.top[u as usize], self.top[v as usize]);
+        let (tu, tv) = (self.top_of(u), self.top_of(v));
         let t = self.tree[tu as usize];
         // Find the lowest common `+` ancestor by walking up alternately.
         self.mark_stamp = self.mark_stamp.wrapping_add(1);
@@ -529,21 +583,21 @@ impl Solver {
         let mut p = tu;
         while p != lca {
             let m = self.mate[self.base[p as usize] as usize];
-            let tm = self.top[m as usize];
+            let tm = self.top_of(m);
             path_u.push((p, (self.base[p as usize], m)));
             let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
             path_u.push((tm, (ms, mp)));
-            p = self.top[mp as usize];
+            p = self.top_of(mp);
         }
         let mut path_v: Vec<(u32, (u32, u32))> = Vec::new();
         let mut p = tv;
         while p != lca {
             let m = self.mate[self.base[p as usize] as usize];
-            let tm = self.top[m as usize];
+            let tm = self.top_of(m);
             path_v.push((p, (self.base[p as usize], m)));
             let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
             path_v.push((tm, (ms, mp)));
-            p = self.top[mp as usize];
+            p = self.top_of(mp);
         }
         let b = self.new_blossom_id();
         let bi = b as usize - self.n;
@@ -567,7 +621,6 @@ impl Solver {
         debug_assert_eq!(ch.len(), cy.len());
         debug_assert!(ch.len() % 2 == 1);
         // Commit children duals, update top/inner.
-        let mut verts = std::mem::take(&mut self.stack);
         let mut was_minus: Vec<u32> = Vec::new();
         for &c in &ch {
             let yc = self.ycur(c);
@@ -576,14 +629,7 @@ impl Solver {
             }
             self.y[c as usize] = yc;
             self.parent[c as usize] = b;
-            verts.clear();
-            self.collect_vertices(c, &mut verts);
-            for &(x, _) in &verts {
-                self.inner[x as usize] += yc;
-                self.top[x as usize] = b;
-            }
         }
-        self.stack = verts;
         let bn = b as usize;
         self.y[bn] = 0;
         self.parent[bn] = NONE;
@@ -620,20 +666,13 @@ impl Solver {
         let ch = std::mem::take(&mut self.children[bi]);
         let cy = std::mem::take(&mut self.cyc[bi]);
         let k = ch.len();
-        let mut verts = std::mem::take(&mut self.stack);
         for &c in &ch {
             self.parent[c as usize] = NONE;
             self.tree[c as usize] = NONE;
             self.label[c as usize] = FREE;
-            let yc = self.y[c as usize];
-            verts.clear();
-            self.collect_vertices(c, &mut verts);
-            for &(x, _) in &verts {
-                self.inner[x as usize] -= yc;
-                self.top[x as usize] = c;
-            }
         }
-        self.stack = verts;
+        // Shortcuts through `b` are stale from now on.
+        self.gen[bn] = self.gen[bn].wrapping_add(1);
         self.label[bn] = DEAD;
         self.tree[bn] = NONE;
         self.free_blossoms.push(b);
@@ -695,7 +734,7 @@ impl Solver {
     /// Flips the tree path from `+` vertex `x` to its root and matches `x` to `partner`
     /// (a vertex of another tree; the caller flips that side too).
     fn augment_path(&mut self, x: u32, partner: u32) {
-        let (mut node, mut xv, mut partner) = (self.top[x as usize], x, partner);
+        let (mut node, mut xv, mut partner) = (self.top_of(x), x, partner);
         loop {
             let ext = self.mate[self.base[node as usize] as usize];
             self.rebase(node, xv);
@@ -703,11 +742,11 @@ impl Solver {
             if ext == NONE {
                 break;
             }
-            let m = self.top[ext as usize];
+            let m = self.top_of(ext);
             let (ms, mp) = (self.tself[m as usize], self.tpar[m as usize]);
             self.rebase(m, ms);
             self.mate[ms as usize] = mp;
-            node = self.top[mp as usize];
+            node = self.top_of(mp);
             xv = mp;
             partner = ms;
         }
@@ -797,7 +836,7 @@ impl Solver {
         let mut slot = vec![NONE; self.y.len()];
         let mut odd: Vec<Vec<u32>> = Vec::new();
         for v in 0..self.n as u32 {
-            let p = self.top[v as usize];
+            let p = self.top_of(v);
             if self.tree[p as usize] == NONE {
                 continue;
             }

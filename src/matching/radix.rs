@@ -108,7 +108,9 @@ mod tests {
         let mut popped = Vec::new();
         let mut last = 0;
         for round in 0..2000u32 {
-            x = x.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            x = x
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
             h.push(last + (x >> 50), round);
             if round % 3 == 0 {
                 if let Some((k, _)) = h.pop() {
