@@ -36,25 +36,56 @@ const DEAD: u8 = 3;
 /// Heap ids with this bit set are "expand blossom" events, the others are edge ids.
 const EXPAND: u32 = 1 << 31;
 
+/// One edge: endpoints and cost (scaled).
+#[derive(Clone, Copy, Debug)]
+struct Edge {
+    u: u32,
+    v: u32,
+    c: i64,
+}
+
+/// Hot per-node fields (32 bytes).
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    /// Stored dual (exact unless the node is in a tree: see `ycur`).
+    y: i64,
+    /// `ε` when the node joined its tree.
+    join: i64,
+    /// Enclosing blossom, or NONE for a top-level node.
+    parent: u32,
+    /// Tree id, or NONE.
+    tree: u32,
+    /// Base vertex (the vertex whose mate is outside the node).
+    base: u32,
+    /// FREE, PLUS, MINUS or DEAD.
+    label: u8,
+}
+
+impl Node {
+    fn new(base: u32) -> Node {
+        Node {
+            y: 0,
+            join: 0,
+            parent: NONE,
+            tree: NONE,
+            base,
+            label: FREE,
+        }
+    }
+}
+
 /// Solver state. Nodes `0..n` are vertices, nodes `n..` blossoms.
 pub struct Solver {
     n: usize,
-    /// Edge endpoints and (scaled) costs, loops removed.
-    eu: Vec<u32>,
-    ev: Vec<u32>,
-    ec: Vec<i64>,
+    /// Edges (endpoints, scaled cost), loops removed.
+    ed: Vec<Edge>,
     /// CSR adjacency: edge ids incident to vertex `v` are `adj[adj_start[v]..adj_start[v+1]]`.
     adj_start: Vec<u32>,
     adj: Vec<u32>,
     /// `mate[v]`: matched vertex or NONE.
     mate: Vec<u32>,
-    /// Per node: stored dual, blossom parent, base vertex, label, tree stamp, `ε` at join.
-    y: Vec<i64>,
-    parent: Vec<u32>,
-    base: Vec<u32>,
-    label: Vec<u8>,
-    tree: Vec<u32>,
-    join: Vec<i64>,
+    /// Per node: the hot fields, packed in one cache-line-friendly record.
+    nd: Vec<Node>,
     /// For `−` nodes: the tree edge as (vertex in this node, vertex in the parent `+` node).
     tself: Vec<u32>,
     tpar: Vec<u32>,
@@ -120,17 +151,17 @@ impl Solver {
     /// endpoint `>= n` are dropped.
     pub fn new(n: usize, edges: &[(u32, u32, i64)]) -> Solver {
         let m = edges.len();
-        let mut eu = Vec::with_capacity(m);
-        let mut ev = Vec::with_capacity(m);
-        let mut ec = Vec::with_capacity(m);
+        let mut ed = Vec::with_capacity(m);
         let mut deg = vec![0u32; n + 1];
         for &(u, v, c) in edges {
             if u == v || u as usize >= n || v as usize >= n {
                 continue;
             }
-            eu.push(u);
-            ev.push(v);
-            ec.push(2 * c.clamp(-MAX_ABS_COST, MAX_ABS_COST));
+            ed.push(Edge {
+                u,
+                v,
+                c: 2 * c.clamp(-MAX_ABS_COST, MAX_ABS_COST),
+            });
             deg[u as usize] += 1;
             deg[v as usize] += 1;
         }
@@ -140,26 +171,19 @@ impl Solver {
         }
         let mut fill = adj_start.clone();
         let mut adj = vec![0u32; adj_start[n] as usize];
-        for e in 0..eu.len() {
-            for x in [eu[e], ev[e]] {
+        for (e, edge) in ed.iter().enumerate() {
+            for x in [edge.u, edge.v] {
                 adj[fill[x as usize] as usize] = e as u32;
                 fill[x as usize] += 1;
             }
         }
         Solver {
             n,
-            eu,
-            ev,
-            ec,
+            ed,
             adj_start,
             adj,
             mate: vec![NONE; n],
-            y: vec![0; n],
-            parent: vec![NONE; n],
-            base: (0..n as u32).collect(),
-            label: vec![FREE; n],
-            tree: vec![NONE; n],
-            join: vec![0; n],
+            nd: (0..n as u32).map(Node::new).collect(),
             tself: vec![NONE; n],
             tpar: vec![NONE; n],
             children: Vec::new(),
@@ -198,7 +222,7 @@ impl Solver {
     /// at `v`.
     pub fn init_plain(&mut self) {
         for v in 0..self.n {
-            self.y[v] = self.min_incident_half(v);
+            self.nd[v].y = self.min_incident_half(v);
         }
     }
 
@@ -213,7 +237,7 @@ impl Solver {
         let (a, b) = (self.adj_start[v] as usize, self.adj_start[v + 1] as usize);
         self.adj[a..b]
             .iter()
-            .map(|&e| self.ec[e as usize] / 2)
+            .map(|&e| self.ed[e as usize].c / 2)
             .min()
             .unwrap_or(0)
     }
@@ -222,7 +246,7 @@ impl Solver {
     pub fn init_greedy(&mut self) {
         let n = self.n;
         for v in 0..n {
-            self.y[v] = self.min_incident_half(v);
+            self.nd[v].y = self.min_incident_half(v);
         }
         for v in 0..n {
             let (a, b) = (self.adj_start[v] as usize, self.adj_start[v + 1] as usize);
@@ -230,12 +254,12 @@ impl Solver {
             let mut best_free = NONE;
             for &e in &self.adj[a..b] {
                 let e = e as usize;
-                let w = if self.eu[e] as usize == v {
-                    self.ev[e]
+                let w = if self.ed[e].u as usize == v {
+                    self.ed[e].v
                 } else {
-                    self.eu[e]
+                    self.ed[e].u
                 };
-                let s = self.ec[e] - self.y[v] - self.y[w as usize];
+                let s = self.ed[e].c - self.nd[v].y - self.nd[w as usize].y;
                 if s < best || (s == best && best_free == NONE && self.mate[w as usize] == NONE) {
                     best = s;
                     best_free = if self.mate[w as usize] == NONE {
@@ -248,7 +272,7 @@ impl Solver {
             if best == i64::MAX {
                 continue;
             }
-            self.y[v] += best;
+            self.nd[v].y += best;
             if self.mate[v] == NONE && best_free != NONE {
                 self.mate[v] = best_free;
                 self.mate[best_free as usize] = v as u32;
@@ -260,19 +284,19 @@ impl Solver {
     #[inline]
     fn ycur(&self, node: u32) -> i64 {
         let i = node as usize;
-        if self.tree[i] != NONE {
-            match self.label[i] {
-                PLUS => return self.y[i] + (self.eps - self.join[i]),
-                MINUS => return self.y[i] - (self.eps - self.join[i]),
+        if self.nd[i].tree != NONE {
+            match self.nd[i].label {
+                PLUS => return self.nd[i].y + (self.eps - self.nd[i].join),
+                MINUS => return self.nd[i].y - (self.eps - self.nd[i].join),
                 _ => {}
             }
         }
-        self.y[i]
+        self.nd[i].y
     }
 
     #[inline]
     fn in_tree(&self, node: u32, lab: u8) -> bool {
-        self.tree[node as usize] != NONE && self.label[node as usize] == lab
+        self.nd[node as usize].tree != NONE && self.nd[node as usize].label == lab
     }
 
     /// Top-level node containing vertex `x`, and the sum of the duals of the nodes
@@ -283,7 +307,7 @@ impl Solver {
         let mut s = 0i64;
         loop {
             let ni = node as usize;
-            let p = self.parent[ni];
+            let p = self.nd[ni].parent;
             if p == NONE {
                 break;
             }
@@ -292,7 +316,7 @@ impl Solver {
                 s += self.scsum[ni].get();
                 node = a;
             } else {
-                s += self.y[ni];
+                s += self.nd[ni].y;
                 node = p;
             }
         }
@@ -314,22 +338,22 @@ impl Solver {
     /// Slack of edge `e` whose endpoints are in different top-level nodes.
     #[inline]
     fn slack(&self, e: usize) -> i64 {
-        let (tu, iu) = self.find(self.eu[e]);
-        let (tv, iv) = self.find(self.ev[e]);
-        self.ec[e] - iu - iv - self.ycur(tu) - self.ycur(tv)
+        let (tu, iu) = self.find(self.ed[e].u);
+        let (tv, iv) = self.find(self.ed[e].v);
+        self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv)
     }
 
     /// Event time of edge `e` for the current tree, or None if it is not an event edge.
     /// May rescale (which invalidates previously computed values).
     fn edge_key(&mut self, e: usize) -> Option<i64> {
-        let (tu, iu) = self.find(self.eu[e]);
-        let (tv, iv) = self.find(self.ev[e]);
+        let (tu, iu) = self.find(self.ed[e].u);
+        let (tv, iv) = self.find(self.ed[e].v);
         if tu == tv {
             return None;
         }
         let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
         if pu && pv {
-            let s = self.ec[e] - iu - iv - self.ycur(tu) - self.ycur(tv);
+            let s = self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv);
             if s % 2 != 0 {
                 self.rescale();
                 return Some(self.eps + self.slack(e) / 2);
@@ -337,10 +361,10 @@ impl Solver {
             Some(self.eps + s / 2)
         } else if pu || pv {
             let other = if pu { tv } else { tu };
-            if self.tree[other as usize] != NONE {
+            if self.nd[other as usize].tree != NONE {
                 return None; // `+`–`−` edge (any trees): slack does not change
             }
-            Some(self.eps + self.ec[e] - iu - iv - self.ycur(tu) - self.ycur(tv))
+            Some(self.eps + self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv))
         } else {
             None
         }
@@ -394,14 +418,12 @@ impl Solver {
     fn rescale(&mut self) {
         self.stats.rescales += 1;
         self.scale *= 2;
-        for c in &mut self.ec {
-            *c *= 2;
+        for e in &mut self.ed {
+            e.c *= 2;
         }
-        for y in &mut self.y {
-            *y *= 2;
-        }
-        for j in &mut self.join {
-            *j *= 2;
+        for nd in &mut self.nd {
+            nd.y *= 2;
+            nd.join *= 2;
         }
         for y in &mut self.scsum {
             y.set(y.get() * 2);
@@ -412,14 +434,14 @@ impl Solver {
 
     fn add_to_tree(&mut self, node: u32, lab: u8, t: u32) {
         let i = node as usize;
-        self.tree[i] = t;
-        self.label[i] = lab;
-        self.join[i] = self.eps;
+        self.nd[i].tree = t;
+        self.nd[i].label = lab;
+        self.nd[i].join = self.eps;
         self.tree_lists[t as usize].push(node);
         if lab == PLUS {
             self.push_edges_of(node);
         } else if i >= self.n {
-            let k = self.eps + self.y[i];
+            let k = self.eps + self.nd[i].y;
             self.heap.push(k as u64, node | EXPAND);
         }
     }
@@ -436,9 +458,9 @@ impl Solver {
         self.tree_lists = vec![Vec::new(); roots.len()];
         for (t, &r) in roots.iter().enumerate() {
             let root = self.top_of(r);
-            self.tree[root as usize] = t as u32;
-            self.label[root as usize] = PLUS;
-            self.join[root as usize] = 0;
+            self.nd[root as usize].tree = t as u32;
+            self.nd[root as usize].label = PLUS;
+            self.nd[root as usize].join = 0;
             self.tree_lists[t].push(root);
         }
         for &r in &roots {
@@ -452,10 +474,10 @@ impl Solver {
             if id & EXPAND != 0 {
                 let b = id & !EXPAND;
                 let bi = b as usize;
-                if self.label[bi] == DEAD
-                    || self.parent[bi] != NONE
+                if self.nd[bi].label == DEAD
+                    || self.nd[bi].parent != NONE
                     || !self.in_tree(b, MINUS)
-                    || (self.join[bi] + self.y[bi]) as u64 != key
+                    || (self.nd[bi].join + self.nd[bi].y) as u64 != key
                 {
                     continue;
                 }
@@ -473,11 +495,11 @@ impl Solver {
             }
             debug_assert!(key >= self.eps);
             self.eps = key;
-            let (u, v) = (self.eu[e], self.ev[e]);
+            let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (tu, tv) = (self.top_of(u), self.top_of(v));
             let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
             if pu && pv {
-                let (ta, tb) = (self.tree[tu as usize], self.tree[tv as usize]);
+                let (ta, tb) = (self.nd[tu as usize].tree, self.nd[tv as usize].tree);
                 if ta == tb {
                     self.shrink(u, v);
                 } else {
@@ -503,16 +525,16 @@ impl Solver {
         let tw = self.top_of(w);
         self.tself[tw as usize] = w;
         self.tpar[tw as usize] = x;
-        let mb = self.mate[self.base[tw as usize] as usize];
+        let mb = self.mate[self.nd[tw as usize].base as usize];
         let tm = self.top_of(mb);
-        let t = self.tree[self.top_of(x) as usize];
+        let t = self.nd[self.top_of(x) as usize].tree;
         self.add_to_tree(tw, MINUS, t);
         self.add_to_tree(tm, PLUS, t);
     }
 
     /// The `+` node above `+` node `p` (grandparent in the tree), or NONE for the root.
     fn up2(&self, p: u32) -> u32 {
-        let m = self.mate[self.base[p as usize] as usize];
+        let m = self.mate[self.nd[p as usize].base as usize];
         if m == NONE {
             return NONE;
         }
@@ -524,13 +546,8 @@ impl Solver {
         if let Some(b) = self.free_blossoms.pop() {
             return b;
         }
-        let b = self.y.len() as u32;
-        self.y.push(0);
-        self.parent.push(NONE);
-        self.base.push(NONE);
-        self.label.push(FREE);
-        self.tree.push(NONE);
-        self.join.push(0);
+        let b = self.nd.len() as u32;
+        self.nd.push(Node::new(NONE));
         self.tself.push(NONE);
         self.tpar.push(NONE);
         self.mark.push(0);
@@ -547,7 +564,7 @@ impl Solver {
     fn shrink(&mut self, u: u32, v: u32) {
         self.stats.shrinks += 1;
         let (tu, tv) = (self.top_of(u), self.top_of(v));
-        let t = self.tree[tu as usize];
+        let t = self.nd[tu as usize].tree;
         // Find the lowest common `+` ancestor by walking up alternately.
         self.mark_stamp = self.mark_stamp.wrapping_add(1);
         if self.mark_stamp == 0 {
@@ -582,9 +599,9 @@ impl Solver {
         let mut path_u: Vec<(u32, (u32, u32))> = Vec::new(); // (node, edge to next node up)
         let mut p = tu;
         while p != lca {
-            let m = self.mate[self.base[p as usize] as usize];
+            let m = self.mate[self.nd[p as usize].base as usize];
             let tm = self.top_of(m);
-            path_u.push((p, (self.base[p as usize], m)));
+            path_u.push((p, (self.nd[p as usize].base, m)));
             let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
             path_u.push((tm, (ms, mp)));
             p = self.top_of(mp);
@@ -592,9 +609,9 @@ impl Solver {
         let mut path_v: Vec<(u32, (u32, u32))> = Vec::new();
         let mut p = tv;
         while p != lca {
-            let m = self.mate[self.base[p as usize] as usize];
+            let m = self.mate[self.nd[p as usize].base as usize];
             let tm = self.top_of(m);
-            path_v.push((p, (self.base[p as usize], m)));
+            path_v.push((p, (self.nd[p as usize].base, m)));
             let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
             path_v.push((tm, (ms, mp)));
             p = self.top_of(mp);
@@ -624,19 +641,19 @@ impl Solver {
         let mut was_minus: Vec<u32> = Vec::new();
         for &c in &ch {
             let yc = self.ycur(c);
-            if self.label[c as usize] == MINUS {
+            if self.nd[c as usize].label == MINUS {
                 was_minus.push(c);
             }
-            self.y[c as usize] = yc;
-            self.parent[c as usize] = b;
+            self.nd[c as usize].y = yc;
+            self.nd[c as usize].parent = b;
         }
         let bn = b as usize;
-        self.y[bn] = 0;
-        self.parent[bn] = NONE;
-        self.base[bn] = self.base[lca as usize];
-        self.label[bn] = PLUS;
-        self.tree[bn] = t;
-        self.join[bn] = self.eps;
+        self.nd[bn].y = 0;
+        self.nd[bn].parent = NONE;
+        self.nd[bn].base = self.nd[lca as usize].base;
+        self.nd[bn].label = PLUS;
+        self.nd[bn].tree = t;
+        self.nd[bn].join = self.eps;
         self.tree_lists[t as usize].push(b);
         self.children[bi] = ch;
         self.cyc[bi] = cy;
@@ -648,8 +665,8 @@ impl Solver {
     /// Index of the child of blossom `b` that contains vertex `x`.
     fn child_index(&self, b: u32, x: u32) -> usize {
         let mut c = x;
-        while self.parent[c as usize] != b {
-            c = self.parent[c as usize];
+        while self.nd[c as usize].parent != b {
+            c = self.nd[c as usize].parent;
         }
         let bi = b as usize - self.n;
         self.children[bi].iter().position(|&k| k == c).unwrap_or(0)
@@ -661,20 +678,20 @@ impl Solver {
         let bi = b as usize - self.n;
         let bn = b as usize;
         let (ts, tp) = (self.tself[bn], self.tpar[bn]);
-        let t = self.tree[bn];
+        let t = self.nd[bn].tree;
         let j = self.child_index(b, ts);
         let ch = std::mem::take(&mut self.children[bi]);
         let cy = std::mem::take(&mut self.cyc[bi]);
         let k = ch.len();
         for &c in &ch {
-            self.parent[c as usize] = NONE;
-            self.tree[c as usize] = NONE;
-            self.label[c as usize] = FREE;
+            self.nd[c as usize].parent = NONE;
+            self.nd[c as usize].tree = NONE;
+            self.nd[c as usize].label = FREE;
         }
         // Shortcuts through `b` are stale from now on.
         self.gen[bn] = self.gen[bn].wrapping_add(1);
-        self.label[bn] = DEAD;
-        self.tree[bn] = NONE;
+        self.nd[bn].label = DEAD;
+        self.nd[bn].tree = NONE;
         self.free_blossoms.push(b);
         // Path from ch[j] to ch[0] of even length; its nodes go to the tree.
         let mut path: Vec<(u32, u8, u32, u32)> = Vec::new(); // node, label, tself, tpar
@@ -736,7 +753,7 @@ impl Solver {
     fn augment_path(&mut self, x: u32, partner: u32) {
         let (mut node, mut xv, mut partner) = (self.top_of(x), x, partner);
         loop {
-            let ext = self.mate[self.base[node as usize] as usize];
+            let ext = self.mate[self.nd[node as usize].base as usize];
             self.rebase(node, xv);
             self.mate[xv as usize] = partner;
             if ext == NONE {
@@ -797,7 +814,7 @@ impl Solver {
             }
             self.children[bi].rotate_left(j);
             self.cyc[bi].rotate_left(j);
-            self.base[b as usize] = x;
+            self.nd[b as usize].base = x;
         }
         self.stack = work;
     }
@@ -807,10 +824,10 @@ impl Solver {
         let nodes = std::mem::take(&mut self.tree_lists[t as usize]);
         for &p in &nodes {
             let i = p as usize;
-            if self.parent[i] == NONE && self.label[i] != DEAD && self.tree[i] == t {
-                self.y[i] = self.ycur(p);
-                self.label[i] = FREE;
-                self.tree[i] = NONE;
+            if self.nd[i].parent == NONE && self.nd[i].label != DEAD && self.nd[i].tree == t {
+                self.nd[i].y = self.ycur(p);
+                self.nd[i].label = FREE;
+                self.nd[i].tree = NONE;
                 self.freed.push(p);
                 self.stats.freed += 1;
             }
@@ -833,14 +850,14 @@ impl Solver {
     /// has edges only to `U` and is an odd set, and there are more `+` nodes than `−` nodes.
     fn stuck_witness(&mut self) -> NoPerfectMatching {
         let mut witness = Vec::new();
-        let mut slot = vec![NONE; self.y.len()];
+        let mut slot = vec![NONE; self.nd.len()];
         let mut odd: Vec<Vec<u32>> = Vec::new();
         for v in 0..self.n as u32 {
             let p = self.top_of(v);
-            if self.tree[p as usize] == NONE {
+            if self.nd[p as usize].tree == NONE {
                 continue;
             }
-            match self.label[p as usize] {
+            match self.nd[p as usize].label {
                 MINUS => witness.push(v),
                 PLUS => {
                     if slot[p as usize] == NONE {
@@ -864,10 +881,10 @@ impl Solver {
         let n = self.n;
         // Cost: cheapest input edge for each matched pair.
         let mut best = vec![i64::MAX; n];
-        for e in 0..self.eu.len() {
-            let (u, v) = (self.eu[e] as usize, self.ev[e] as usize);
+        for e in 0..self.ed.len() {
+            let (u, v) = (self.ed[e].u as usize, self.ed[e].v as usize);
             if self.mate[u] == v as u32 {
-                let c = self.ec[e];
+                let c = self.ed[e].c;
                 best[u] = best[u].min(c);
                 best[v] = best[v].min(c);
             }
@@ -880,26 +897,26 @@ impl Solver {
             }
         }
         // Blossoms alive: renumber.
-        let total = self.y.len();
+        let total = self.nd.len();
         let mut id = vec![NONE; total];
         let mut blossoms = Vec::new();
         for b in n..total {
-            if self.label[b] != DEAD {
+            if self.nd[b].label != DEAD {
                 id[b] = blossoms.len() as u32;
                 blossoms.push(BlossomDual {
                     parent: NONE,
-                    dual: self.y[b],
+                    dual: self.nd[b].y,
                 });
             }
         }
         for b in n..total {
-            if id[b] != NONE && self.parent[b] != NONE {
-                blossoms[id[b] as usize].parent = id[self.parent[b] as usize];
+            if id[b] != NONE && self.nd[b].parent != NONE {
+                blossoms[id[b] as usize].parent = id[self.nd[b].parent as usize];
             }
         }
         let vertex_blossom = (0..n)
             .map(|v| {
-                let p = self.parent[v];
+                let p = self.nd[v].parent;
                 if p == NONE {
                     NONE
                 } else {
@@ -912,7 +929,7 @@ impl Solver {
             cost,
             duals: Duals {
                 scale: self.scale,
-                vertex: self.y[..n].to_vec(),
+                vertex: self.nd[..n].iter().map(|x| x.y).collect(),
                 blossoms,
                 vertex_blossom,
             },
