@@ -851,9 +851,14 @@ impl Solver {
             let i = p as usize;
             if self.nd[i].parent == NONE && self.nd[i].label != DEAD && self.nd[i].tree == t {
                 self.nd[i].y = self.ycur(p);
+                // Edges from other trees' `+` nodes into a former `+` node already have a
+                // heap entry (a `+`–`+` key, earlier than the new `+`–free time, fixed when
+                // popped); into a former `−` node they have none and must be pushed.
+                if self.nd[i].label == MINUS {
+                    self.freed.push(p);
+                }
                 self.nd[i].label = FREE;
                 self.nd[i].tree = NONE;
-                self.freed.push(p);
                 self.stats.freed += 1;
             }
         }
