@@ -51,9 +51,15 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t1 = Instant::now();
     let mut solver = matching::blossom::Solver::new(n, &edges);
     let result = if stats {
-        solver.init_greedy();
+        if std::env::var("GREEDY").is_ok() {
+            solver.init_greedy();
+        } else {
+            solver.init_fractional();
+        }
+        let init_stats = solver.stats;
+        let init_s = t1.elapsed().as_secs_f64();
         let r = solver.solve_rest();
-        eprintln!("{:?}", solver.stats);
+        eprintln!("init {init_s:.3}s {init_stats:?}\ntotal {:?}", solver.stats);
         r
     } else {
         matching::solve(n, &edges)

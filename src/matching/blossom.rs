@@ -26,6 +26,8 @@
 //! and key is doubled again (`scale` records the factor), so all arithmetic stays in `i64`.
 
 use super::radix::RadixHeap;
+
+mod fractional;
 use super::{BlossomDual, Duals, Matching, NoPerfectMatching, MAX_ABS_COST, NONE};
 use std::cell::Cell;
 
@@ -140,6 +142,8 @@ pub struct Stats {
     pub grows: usize,
     /// Augmentations.
     pub augments: usize,
+    /// Odd cycles left by the fractional start (one exposed vertex each).
+    pub cycles: usize,
     /// Heap pushes and pops.
     pub pushes: usize,
     /// Heap pops.
@@ -232,7 +236,7 @@ impl Solver {
 
     /// Runs the jump start and then the tree growth from every exposed vertex.
     pub fn run(mut self) -> Result<Matching, NoPerfectMatching> {
-        self.init_greedy();
+        self.init_fractional();
         self.solve_rest()
     }
 
@@ -320,7 +324,9 @@ impl Solver {
             );
             'outer: for i in a..b {
                 let e = self.adj[i] as usize;
-                let Some(w) = self.tight_other(e, v) else { continue };
+                let Some(w) = self.tight_other(e, v) else {
+                    continue;
+                };
                 let w2 = self.mate[w as usize];
                 if w2 == NONE {
                     // Tight edge to an exposed vertex (possible after dual raises).
@@ -334,7 +340,9 @@ impl Solver {
                 );
                 for j in c..d {
                     let f = self.adj[j] as usize;
-                    let Some(x) = self.tight_other(f, w2) else { continue };
+                    let Some(x) = self.tight_other(f, w2) else {
+                        continue;
+                    };
                     if x != v && self.mate[x as usize] == NONE {
                         self.mate[v as usize] = w;
                         self.mate[w as usize] = v;
