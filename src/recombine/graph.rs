@@ -1,0 +1,149 @@
+//! The weighted graph of one surface (paper section 4.2): graph edges between adjacent
+//! triangles with cost `1 − η` (eq. 4), and the extra edges of section 5.3.
+
+use glam::DVec3;
+
+use super::topology::{SurfaceTopo, NONE};
+use crate::quality::eta_signed;
+
+/// Integer cost of one unit of `1 − η`: a graph edge costs `round(COST_SCALE · (1 − η_s))`
+/// with η_s the signed quality ([`eta_signed`]), so a perfect square costs 0, a quad with a
+/// zero angle `COST_SCALE`, and non-convex or folded quads up to `2 · COST_SCALE`: always more
+/// than any valid quad. 10⁴ resolves η to 10⁻⁴, far below any meaningful quality difference,
+/// and keeps extra-edge costs (below) within the solver's cost range for 10⁷ triangles.
+pub const COST_SCALE: i64 = 10_000;
+
+/// Largest cost of a real graph edge.
+pub const MAX_REAL_COST: i64 = 2 * COST_SCALE;
+
+/// Cost of an extra edge in a graph of `n` triangles: `MAX_REAL_COST · (n/2 + 1) + 1`, capped
+/// at 2³⁹. Any perfect matching with fewer extra edges is then cheaper than every matching
+/// with more (a perfect matching has `n/2` edges, each costing at most `MAX_REAL_COST`), so
+/// the optimum uses the fewest extra edges possible, and none when the original graph has a
+/// perfect matching (the paper's "very high value", made exact).
+pub fn extra_edge_cost(n: usize) -> i64 {
+    let c = (MAX_REAL_COST as i128) * (n as i128 / 2 + 1) + 1;
+    c.min(1i128 << 39) as i64
+}
+
+/// The quad formed by triangle `t` and its neighbour across local edge `k`, oriented like
+/// `t`: `(p[k+1], p[k+2], p[k], s)` with `s` the neighbour's vertex opposite the edge.
+pub(crate) fn merged_quad(topo: &SurfaceTopo, t: usize, k: usize) -> [u32; 4] {
+    let p = topo.tris[t];
+    let u = topo.nbr[3 * t + k] as usize;
+    let q = topo.tris[u];
+    let s = q
+        .iter()
+        .copied()
+        .find(|&x| x != p[k] && x != p[(k + 1) % 3])
+        .unwrap_or(q[0]);
+    [p[(k + 1) % 3], p[(k + 2) % 3], p[k], s]
+}
+
+/// Area-weighted normal (cross product) of a triangle.
+#[inline]
+pub(crate) fn tri_normal(c: &[DVec3], t: [u32; 3]) -> DVec3 {
+    let (a, b, d) = (c[t[0] as usize], c[t[1] as usize], c[t[2] as usize]);
+    (b - a).cross(d - a)
+}
+
+/// Cost (eq. 4) of merging `t` with its neighbour across local edge `k`: `1 − η_s` of the
+/// merged quad with angles measured in 3D about the sum of the two triangles' normals.
+pub(crate) fn edge_cost(topo: &SurfaceTopo, coords: &[DVec3], t: usize, k: usize) -> i64 {
+    let quad = merged_quad(topo, t, k);
+    let u = topo.nbr[3 * t + k] as usize;
+    let normal = tri_normal(coords, topo.tris[t]) + tri_normal(coords, topo.tris[u]);
+    let pts = quad.map(|i| coords[i as usize]);
+    let eta = eta_signed(&pts, normal);
+    let eta = if eta.is_finite() { eta } else { -1.0 };
+    (COST_SCALE as f64 * (1.0 - eta)).round() as i64
+}
+
+/// A fan: the triangles around vertex `v` between two walls, in walking order (each one
+/// shares the graph edge `{v, a_i}` with the next).
+#[derive(Debug, Clone)]
+pub(crate) struct Fan {
+    /// The vertex (global id).
+    pub v: u32,
+    /// The triangles `t1 … tk`.
+    pub tris: Vec<u32>,
+}
+
+/// Every fan with at least three triangles: starts at each corner whose incoming edge is a
+/// wall and walks across graph edges around the corner's vertex until the next wall.
+pub(crate) fn fans(topo: &SurfaceTopo) -> Vec<Fan> {
+    let mut out = Vec::new();
+    let n = topo.len();
+    for t in 0..n {
+        for c in 0..3 {
+            // incoming edge at corner c is local edge (c + 2) % 3
+            if topo.nbr[3 * t + (c + 2) % 3] != NONE {
+                continue;
+            }
+            let v = topo.tris[t][c];
+            let mut list = vec![t as u32];
+            let (mut cur, mut corner) = (t, c);
+            while topo.nbr[3 * cur + corner] != NONE && list.len() <= n {
+                let next = topo.nbr[3 * cur + corner] as usize;
+                let Some(nc) = topo.tris[next].iter().position(|&x| x == v) else {
+                    break;
+                };
+                list.push(next as u32);
+                cur = next;
+                corner = nc;
+            }
+            if list.len() >= 3 && list.len() <= n {
+                out.push(Fan { v, tris: list });
+            }
+        }
+    }
+    out
+}
+
+/// The matching graph of one surface.
+pub(crate) struct Graph {
+    /// `(t, t', cost)`: real graph edges first (`real` of them), then extra edges.
+    pub edges: Vec<(u32, u32, i64)>,
+    /// Number of real graph edges at the front of `edges`.
+    pub real: usize,
+    /// For extra edge `real + i`, the fan it joins the ends of.
+    pub extra_fans: Vec<Fan>,
+}
+
+/// Builds the graph: one edge per graph edge with its cost (eq. 4), plus one extra edge per
+/// fan of three or more triangles whose end triangles are not already adjacent (section
+/// 5.3; a fan ends at walls: the surface boundary, curves, or orientation changes).
+pub(crate) fn build(topo: &SurfaceTopo, coords: &[DVec3], with_extra: bool) -> Graph {
+    let n = topo.len();
+    let mut edges = Vec::with_capacity(3 * n / 2 + 16);
+    for t in 0..n {
+        for k in 0..3 {
+            let u = topo.nbr[3 * t + k];
+            if u != NONE && (t as u32) < u {
+                edges.push((t as u32, u, edge_cost(topo, coords, t, k)));
+            }
+        }
+    }
+    let real = edges.len();
+    let mut extra_fans = Vec::new();
+    if with_extra {
+        let cost = extra_edge_cost(n);
+        let mut seen: Vec<(u32, u32)> = Vec::new();
+        for fan in fans(topo) {
+            let (a, b) = (fan.tris[0], fan.tris[fan.tris.len() - 1]);
+            let adjacent = (0..3).any(|k| topo.nbr[3 * a as usize + k] == b);
+            let key = (a.min(b), a.max(b));
+            if a == b || adjacent || seen.contains(&key) {
+                continue;
+            }
+            seen.push(key);
+            edges.push((a, b, cost));
+            extra_fans.push(fan);
+        }
+    }
+    Graph {
+        edges,
+        real,
+        extra_fans,
+    }
+}
