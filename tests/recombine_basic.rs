@@ -66,7 +66,10 @@ fn regular_grid_matching_is_perfect_squares() {
     });
     let mut m = before.clone();
     let r = recombine(&mut m, &verify_opts()).unwrap();
-    assert_eq!(r.surfaces[0].matching_cost, 0, "every cell is a perfect square");
+    assert_eq!(
+        r.surfaces[0].matching_cost, 0,
+        "every cell is a perfect square"
+    );
     check_invariants(&before, &m).unwrap();
 }
 
@@ -203,7 +206,11 @@ fn embedded_curve_is_never_crossed() {
     check_invariants(&before, &m).unwrap();
     // every quad lies on one side of x = 0.5
     let idx = m.node_index();
-    for blk in m.element_blocks.iter().filter(|b| b.element_type == etype::QUAD4) {
+    for blk in m
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == etype::QUAD4)
+    {
         for i in 0..blk.len() {
             let xs: Vec<f64> = blk
                 .element(i)
@@ -215,7 +222,11 @@ fn embedded_curve_is_never_crossed() {
                 .collect();
             let left = xs.iter().all(|&x| x <= 0.5 + 1e-12);
             let right = xs.iter().all(|&x| x >= 0.5 - 1e-12);
-            assert!(left || right, "quad {} crosses the embedded curve: {xs:?}", blk.tags[i]);
+            assert!(
+                left || right,
+                "quad {} crosses the embedded curve: {xs:?}",
+                blk.tags[i]
+            );
         }
     }
 }
@@ -258,7 +269,11 @@ fn embedded_curve_from_node_classification_only() {
     let mut m = before.clone();
     recombine(&mut m, &verify_opts()).unwrap();
     let idx = m.node_index();
-    for blk in m.element_blocks.iter().filter(|b| b.element_type == etype::QUAD4) {
+    for blk in m
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == etype::QUAD4)
+    {
         for i in 0..blk.len() {
             let xs: Vec<f64> = blk
                 .element(i)
@@ -348,7 +363,13 @@ fn high_order_and_periodic_surfaces_are_refused() {
         node_pairs: vec![],
     });
     let e = recombine(&mut m, &RecombineOptions::default()).unwrap_err();
-    assert!(matches!(e, RecombineError::PeriodicSurface { surface: 1, master: 5 }));
+    assert!(matches!(
+        e,
+        RecombineError::PeriodicSurface {
+            surface: 1,
+            master: 5
+        }
+    ));
 }
 
 #[test]
@@ -360,7 +381,10 @@ fn unknown_node_is_an_error_not_a_panic() {
         .unwrap()
         .nodes[0] = 99999;
     let e = recombine(&mut m, &RecombineOptions::default()).unwrap_err();
-    assert!(matches!(e, RecombineError::UnknownNode { node: 99999, .. }), "{e}");
+    assert!(
+        matches!(e, RecombineError::UnknownNode { node: 99999, .. }),
+        "{e}"
+    );
 }
 
 #[test]

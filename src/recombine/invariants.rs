@@ -15,8 +15,7 @@ fn undirected(a: u64, b: u64) -> Edge {
 fn faces_of(mesh: &Mesh, surface: i32) -> Vec<Vec<u64>> {
     let mut out = Vec::new();
     for b in &mesh.element_blocks {
-        if b.entity_dim != 2 || b.entity_tag != surface || element_dim(b.element_type) != Some(2)
-        {
+        if b.entity_dim != 2 || b.entity_tag != surface || element_dim(b.element_type) != Some(2) {
             continue;
         }
         let k = match b.element_type {
@@ -91,7 +90,7 @@ fn vector_area(poly: &[[f64; 3]]) -> [f64; 3] {
 
 /// Checks what recombination promises, comparing the mesh `before` with the result `after`:
 ///
-/// - no 3-node triangle is left on any surface, and no other 2D element appeared;
+/// - no 3-node triangle is left on any surface; no face repeats a node;
 /// - every edge of a surface is shared by at most two of its faces, and each surface's
 ///   boundary edges (one face) are those of `before`, where a boundary edge of `before` may
 ///   have been split in two at a new node (parity repair); every 2-node line element of
@@ -132,8 +131,18 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
         for (t, c) in b.tags.iter().zip(&b.coords) {
             match ca.get(t) {
                 Some(x) if x == c => {}
-                Some(x) => return Err(format!("node {t} on entity ({}, {}) moved from {c:?} to {x:?}", b.entity_dim, b.entity_tag)),
-                None => return Err(format!("node {t} on entity ({}, {}) disappeared", b.entity_dim, b.entity_tag)),
+                Some(x) => {
+                    return Err(format!(
+                        "node {t} on entity ({}, {}) moved from {c:?} to {x:?}",
+                        b.entity_dim, b.entity_tag
+                    ))
+                }
+                None => {
+                    return Err(format!(
+                        "node {t} on entity ({}, {}) disappeared",
+                        b.entity_dim, b.entity_tag
+                    ))
+                }
             }
         }
     }
@@ -165,17 +174,38 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
     for s in surfaces {
         let fb = faces_of(before, s);
         let fa = faces_of(after, s);
+        for f in &fa {
+            let mut sorted = f.clone();
+            sorted.sort_unstable();
+            sorted.dedup();
+            if sorted.len() != f.len() {
+                return Err(format!("surface {s}: face {f:?} repeats a node"));
+            }
+        }
         let eb = edge_counts(&fb);
         let ea = edge_counts(&fa);
-        if let Some((e, c)) = ea.iter().find(|(e, &c)| c > 2 && eb.get(e).copied().unwrap_or(0) <= 2) {
+        if let Some((e, c)) = ea
+            .iter()
+            .find(|(e, &c)| c > 2 && eb.get(e).copied().unwrap_or(0) <= 2)
+        {
             return Err(format!("surface {s}: edge {e:?} is shared by {c} faces"));
         }
-        let bb: HashSet<Edge> = eb.iter().filter(|(_, &c)| c == 1).map(|(e, _)| *e).collect();
-        let ba: HashSet<Edge> = ea.iter().filter(|(_, &c)| c == 1).map(|(e, _)| *e).collect();
+        let bb: HashSet<Edge> = eb
+            .iter()
+            .filter(|(_, &c)| c == 1)
+            .map(|(e, _)| *e)
+            .collect();
+        let ba: HashSet<Edge> = ea
+            .iter()
+            .filter(|(_, &c)| c == 1)
+            .map(|(e, _)| *e)
+            .collect();
         check_split_sets(&bb, &ba, &new_node, &format!("surface {s} boundary edges"))?;
         for e in lb.iter().filter(|e| eb.contains_key(e)) {
             if !ea.contains_key(e) && !split_present(e, &ea, &new_node) {
-                return Err(format!("surface {s}: curve segment {e:?} is no longer an edge"));
+                return Err(format!(
+                    "surface {s}: curve segment {e:?} is no longer an edge"
+                ));
             }
         }
         // orientation
@@ -197,7 +227,8 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
         let mut total = [0.0; 3];
         let mut polys_b = Vec::new();
         for f in &fb {
-            let p = pts(f, &cb).ok_or_else(|| format!("surface {s}: input face {f:?} has an unknown node"))?;
+            let p = pts(f, &cb)
+                .ok_or_else(|| format!("surface {s}: input face {f:?} has an unknown node"))?;
             let a = vector_area(&p);
             for k in 0..3 {
                 total[k] += a[k];
@@ -209,7 +240,11 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
             continue;
         }
         let n = total.map(|x| x / norm);
-        let o = polys_b.first().and_then(|p| p.first()).copied().unwrap_or([0.0; 3]);
+        let o = polys_b
+            .first()
+            .and_then(|p| p.first())
+            .copied()
+            .unwrap_or([0.0; 3]);
         let extent = polys_b
             .iter()
             .flatten()
@@ -224,7 +259,8 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
         }
         let mut area_after = 0.0;
         for f in &fa {
-            let p = pts(f, &ca).ok_or_else(|| format!("surface {s}: output face {f:?} has an unknown node"))?;
+            let p = pts(f, &ca)
+                .ok_or_else(|| format!("surface {s}: output face {f:?} has an unknown node"))?;
             area_after += dot(vector_area(&p), n);
         }
         let area_before = dot(total, n);
@@ -275,7 +311,10 @@ fn check_split_sets(
     let mut rebuilt: HashSet<Edge> = HashSet::new();
     for (m, ends) in &halves {
         if ends.len() != 2 {
-            return Err(format!("{what}: new node {m} is on {} of them, not 2", ends.len()));
+            return Err(format!(
+                "{what}: new node {m} is on {} of them, not 2",
+                ends.len()
+            ));
         }
         rebuilt.insert(undirected(ends[0], ends[1]));
     }

@@ -227,7 +227,9 @@ pub enum RecombineError {
         master: i32,
     },
     /// An element refers to a node that does not exist.
-    #[error("element {element} on entity ({dim}, {entity}) refers to node {node}, which does not exist")]
+    #[error(
+        "element {element} on entity ({dim}, {entity}) refers to node {node}, which does not exist"
+    )]
     UnknownNode {
         /// Entity dimension.
         dim: i32,
@@ -422,9 +424,7 @@ fn check_input(
             "dropped {count} volume elements (volumes {volumes:?}); the volume entities are kept"
         ));
         report.dropped_volume_elements = count;
-        report
-            .log
-            .push(format!("dropped {count} volume elements"));
+        report.log.push(format!("dropped {count} volume elements"));
     }
     let mut has_tris: Vec<i32> = Vec::new();
     for b in &mesh.element_blocks {
@@ -458,7 +458,11 @@ fn check_input(
 fn surface_tags(mesh: &Mesh) -> Vec<i32> {
     let mut tags: Vec<i32> = Vec::new();
     for b in &mesh.element_blocks {
-        if b.element_type == etype::TRI3 && b.entity_dim == 2 && !b.is_empty() && !tags.contains(&b.entity_tag) {
+        if b.element_type == etype::TRI3
+            && b.entity_dim == 2
+            && !b.is_empty()
+            && !tags.contains(&b.entity_tag)
+        {
             tags.push(b.entity_tag);
         }
     }
@@ -506,13 +510,19 @@ fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
     let mut curves: Vec<Option<i32>> = plan.choices.iter().map(|c| c.curve).collect();
     curves.sort_unstable();
     curves.dedup();
-    let mut msg = String::from("surfaces with an odd number of triangles cannot be recombined into quads only:\n");
+    let mut msg = String::from(
+        "surfaces with an odd number of triangles cannot be recombined into quads only:\n",
+    );
     for o in &plan.odd {
         msg.push_str(&format!(
             "  surface {}{}: {} triangles\n",
             o.surface,
             if o.region.1 > 1 {
-                format!(" (region {} of {}, separated by embedded curves)", o.region.0 + 1, o.region.1)
+                format!(
+                    " (region {} of {}, separated by embedded curves)",
+                    o.region.0 + 1,
+                    o.region.1
+                )
             } else {
                 String::new()
             },
@@ -619,7 +629,12 @@ fn write_back(mesh: &mut Mesh, nodes: &NodeTable, work: &[SurfaceWork], results:
         for q in &r.faces.quads {
             quad_nodes.extend(q.iter().map(|&i| tag_of(i)));
         }
-        let quad_tags: Vec<u64> = r.faces.source.iter().map(|&t| w.elem_tags[t as usize]).collect();
+        let quad_tags: Vec<u64> = r
+            .faces
+            .source
+            .iter()
+            .map(|&t| w.elem_tags[t as usize])
+            .collect();
         let any_parts = w.partitions.iter().any(|p| p.is_some());
         let parts: Option<Vec<Vec<i32>>> = any_parts.then(|| {
             r.faces

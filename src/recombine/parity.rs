@@ -52,11 +52,7 @@ struct Group {
 
 /// Finds the odd regions and a set of segments whose splits make all of them even: a
 /// T-join on the graph whose nodes are the regions plus a "ground" node (see module doc).
-pub(crate) fn plan(
-    mesh: &Mesh,
-    nodes: &NodeTable,
-    work: &[SurfaceWork],
-) -> Plan {
+pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan {
     // regions, their sizes and owners
     let mut offset = Vec::with_capacity(work.len());
     let mut region_surface: Vec<(i32, usize, usize)> = Vec::new();
@@ -156,7 +152,7 @@ pub(crate) fn plan(
             list[id].best = (len, a, b);
         }
     }
-    // T-join over a spanning forest: region-region groups first, ground groups at roots
+    // region graph: region-region groups are edges, one-region groups join the ground node
     let ground = nr as u32;
     let mut adj: Vec<Vec<(u32, usize)>> = vec![Vec::new(); nr + 1];
     for (g, grp) in list.iter().enumerate() {
@@ -168,67 +164,16 @@ pub(crate) fn plan(
         adj[u as usize].push((v, g));
         adj[v as usize].push((u, g));
     }
-    let mut parity: Vec<bool> = size.iter().map(|s| s % 2 == 1).collect();
-    parity.push(false);
-    let mut seen = vec![false; nr + 1];
-    let mut chosen: Vec<usize> = Vec::new();
-    let mut unsolved = Vec::new();
-    for start in 0..nr {
-        if seen[start] {
-            continue;
+    let odd_ids: Vec<u32> = (0..nr as u32)
+        .filter(|&r| size[r as usize] % 2 == 1)
+        .collect();
+    let (mut chosen, unsolved) = match min_tjoin(&adj, &odd_ids, ground) {
+        Some(c) => (c, Vec::new()),
+        None => {
+            let (c, u) = tree_tjoin(&adj, &size, ground);
+            (c, u.into_iter().map(|r| odd_of(r as usize)).collect())
         }
-        // component over region-region edges
-        let mut comp = vec![start as u32];
-        seen[start] = true;
-        let mut parent: HashMap<u32, (u32, usize)> = HashMap::new();
-        let mut q = 0;
-        while q < comp.len() {
-            let u = comp[q];
-            q += 1;
-            for &(v, g) in &adj[u as usize] {
-                if v != ground && !seen[v as usize] {
-                    seen[v as usize] = true;
-                    parent.insert(v, (u, g));
-                    comp.push(v);
-                }
-            }
-        }
-        if !comp.iter().any(|&r| parity[r as usize]) {
-            continue;
-        }
-        // re-root at a region with a ground group, when there is one, by pushing the
-        // odd parity along tree paths to `start` and then from `start` to that region
-        for &u in comp.iter().skip(1).rev() {
-            if parity[u as usize] {
-                let (p, g) = parent[&u];
-                parity[u as usize] = false;
-                parity[p as usize] ^= true;
-                chosen.push(g);
-            }
-        }
-        if parity[start] {
-            let ground_at = comp.iter().find_map(|&r| {
-                adj[r as usize]
-                    .iter()
-                    .find(|&&(v, _)| v == ground)
-                    .map(|&(_, g)| (r, g))
-            });
-            match ground_at {
-                Some((r, g)) => {
-                    // path start -> r in the tree: toggle edges from r up to start
-                    let mut x = r;
-                    while x != start as u32 {
-                        let (p, pg) = parent[&x];
-                        chosen.push(pg);
-                        x = p;
-                    }
-                    chosen.push(g);
-                    parity[start] = false;
-                }
-                None => unsolved.push(odd_of(start)),
-            }
-        }
-    }
+    };
     // a group chosen twice cancels out
     chosen.sort_unstable();
     let mut keep = Vec::new();
@@ -321,19 +266,17 @@ pub(crate) fn apply(
     nodes: &NodeTable,
     choices: &[Choice],
 ) -> Result<Vec<ParitySplit>, RecombineError> {
-    let mut next_node = mesh.max_node_tag() + 1;
+    let first_node = mesh.max_node_tag() + 1;
     let mut next_elem = mesh.max_element_tag() + 1;
     let mut mids: Vec<((u64, u64), u64)> = Vec::new();
     let mut report = Vec::new();
-    for c in choices {
+    for (tag, c) in (first_node..).zip(choices) {
         let (ta, tb) = (nodes.tags[c.a as usize], nodes.tags[c.b as usize]);
         let pos = 0.5 * (nodes.coords[c.a as usize] + nodes.coords[c.b as usize]);
         let (dim, ent) = match c.curve {
             Some(t) => (1, t),
             None => (2, c.surfaces.first().copied().unwrap_or(0)),
         };
-        let tag = next_node;
-        next_node += 1;
         add_node(mesh, nodes, dim, ent, tag, pos, &[c.a, c.b]);
         mids.push(((ta.min(tb), ta.max(tb)), tag));
         report.push(ParitySplit {
@@ -464,4 +407,152 @@ pub(crate) fn add_node(
     if let Some(p) = blk.params.as_mut() {
         p.extend_from_slice(&uv);
     }
+}
+
+/// Fallback T-join over a spanning forest (used when the odd regions are too many for
+/// [`min_tjoin`] or some cannot be paired): odd parity is pushed from the leaves to the root
+/// of each tree; a root left odd is fixed through a ground group reached along the tree.
+/// Returns the chosen groups (with repeats) and the roots that stay odd.
+fn tree_tjoin(adj: &[Vec<(u32, usize)>], size: &[usize], ground: u32) -> (Vec<usize>, Vec<u32>) {
+    let nr = size.len();
+    let mut parity: Vec<bool> = size.iter().map(|s| s % 2 == 1).collect();
+    parity.push(false);
+    let mut seen = vec![false; nr + 1];
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut unsolved: Vec<u32> = Vec::new();
+    for start in 0..nr {
+        if seen[start] {
+            continue;
+        }
+        // component over region-region edges
+        let mut comp = vec![start as u32];
+        seen[start] = true;
+        let mut parent: HashMap<u32, (u32, usize)> = HashMap::new();
+        let mut q = 0;
+        while q < comp.len() {
+            let u = comp[q];
+            q += 1;
+            for &(v, g) in &adj[u as usize] {
+                if v != ground && !seen[v as usize] {
+                    seen[v as usize] = true;
+                    parent.insert(v, (u, g));
+                    comp.push(v);
+                }
+            }
+        }
+        if !comp.iter().any(|&r| parity[r as usize]) {
+            continue;
+        }
+        // re-root at a region with a ground group, when there is one, by pushing the
+        // odd parity along tree paths to `start` and then from `start` to that region
+        for &u in comp.iter().skip(1).rev() {
+            if parity[u as usize] {
+                let (p, g) = parent[&u];
+                parity[u as usize] = false;
+                parity[p as usize] ^= true;
+                chosen.push(g);
+            }
+        }
+        if parity[start] {
+            let ground_at = comp.iter().find_map(|&r| {
+                adj[r as usize]
+                    .iter()
+                    .find(|&&(v, _)| v == ground)
+                    .map(|&(_, g)| (r, g))
+            });
+            match ground_at {
+                Some((r, g)) => {
+                    // path start -> r in the tree: toggle edges from r up to start
+                    let mut x = r;
+                    while x != start as u32 {
+                        let (p, pg) = parent[&x];
+                        chosen.push(pg);
+                        x = p;
+                    }
+                    chosen.push(g);
+                    parity[start] = false;
+                }
+                None => unsolved.push(start as u32),
+            }
+        }
+    }
+    (chosen, unsolved)
+}
+
+/// Minimum T-join (fewest splits): the odd regions are paired, or paired with the ground, by
+/// a minimum-cost perfect matching on shortest-path distances in the region graph
+/// (each odd region `i` has a ground twin `K + i` joined to it at its distance to the ground;
+/// twins are joined to each other at cost 0), then the groups along each pair's shortest path
+/// are chosen. `None` when there are too many odd regions or no pairing exists.
+fn min_tjoin(adj: &[Vec<(u32, usize)>], odd: &[u32], ground: u32) -> Option<Vec<usize>> {
+    let k = odd.len();
+    let nr = adj.len();
+    if k == 0 {
+        return Some(Vec::new());
+    }
+    if k > 1500 {
+        return None;
+    }
+    // BFS from each odd region over region-region edges (not through the ground)
+    let bfs = |src: u32| -> (Vec<u32>, Vec<(u32, usize)>, Vec<u32>) {
+        let mut dist = vec![NONE; nr];
+        let mut parent = vec![(NONE, 0usize); nr];
+        let mut order = vec![src];
+        dist[src as usize] = 0;
+        let mut q = 0;
+        while q < order.len() {
+            let u = order[q];
+            q += 1;
+            for &(v, g) in &adj[u as usize] {
+                if v != ground && dist[v as usize] == NONE {
+                    dist[v as usize] = dist[u as usize] + 1;
+                    parent[v as usize] = (u, g);
+                    order.push(v);
+                }
+            }
+        }
+        (dist, parent, order)
+    };
+    let ground_group = |r: u32| adj[r as usize].iter().find(|e| e.0 == ground).map(|e| e.1);
+    let mut edges: Vec<(u32, u32, i64)> = Vec::new();
+    for (i, &src) in odd.iter().enumerate() {
+        let (dist, _, order) = bfs(src);
+        for (j, &dst) in odd.iter().enumerate().skip(i + 1) {
+            if dist[dst as usize] != NONE {
+                edges.push((i as u32, j as u32, dist[dst as usize] as i64));
+            }
+        }
+        if let Some(r) = order.iter().find(|&&r| ground_group(r).is_some()) {
+            edges.push((i as u32, (k + i) as u32, dist[*r as usize] as i64 + 1));
+        }
+        for j in i + 1..k {
+            edges.push(((k + i) as u32, (k + j) as u32, 0));
+        }
+    }
+    let m = crate::matching::solve(2 * k, &edges).ok()?;
+    let mut chosen = Vec::new();
+    for (i, &src) in odd.iter().enumerate() {
+        let mate = m.mate[i] as usize;
+        if mate < i {
+            continue;
+        }
+        let (_, parent, order) = bfs(src);
+        let end = if mate < k {
+            odd[mate]
+        } else {
+            let r = *order.iter().find(|&&r| ground_group(r).is_some())?;
+            chosen.push(ground_group(r)?);
+            r
+        };
+        let mut x = end;
+        while x != src {
+            let (p, g) = parent[x as usize];
+            if p == NONE {
+                return None;
+            }
+            chosen.push(g);
+            x = p;
+        }
+    }
+    Some(chosen)
 }

@@ -249,7 +249,9 @@ fn duplicate(
         let poly = &faces[fe];
         let m = poly.len();
         let Some(iv) = poly.iter().position(|&p| p == v) else {
-            return Err(format!("vertex duplication: node id {v} missing from its fan"));
+            return Err(format!(
+                "vertex duplication: node id {v} missing from its fan"
+            ));
         };
         let (prev, next) = (poly[(iv + m - 1) % m], poly[(iv + 1) % m]);
         // the neighbour of v shared with the inner face, where v' now sits

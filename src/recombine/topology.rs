@@ -153,27 +153,40 @@ impl CurveInfo {
         })
     }
 
-    /// True when the edge `{a, b}` lies on a model curve: it is a line element, or (rule (b),
-    /// curves without line elements) both nodes are classified on the same bare curve, or one
-    /// on a bare curve and the other on a point bounding that curve.
+    /// Whether the edge `{a, b}` lies on a model curve: [`OnCurve::Line`] when it is a line
+    /// element; for curves without line elements (rule (b)), [`OnCurve::Bare`] when both
+    /// nodes are classified on the same bare curve, or one on a bare curve and the other on a
+    /// point bounding that curve.
     #[inline]
-    pub fn on_curve(&self, nodes: &NodeTable, a: u32, b: u32) -> bool {
+    pub fn on_curve(&self, nodes: &NodeTable, a: u32, b: u32) -> OnCurve {
         if !self.line_edges.is_empty() && self.line_edges.binary_search(&edge_key(a, b)).is_ok() {
-            return true;
+            return OnCurve::Line;
         }
         let ba = nodes.block[a as usize] as usize;
         let bb = nodes.block[b as usize] as usize;
-        match (self.bare_curve_of_block[ba], self.bare_curve_of_block[bb]) {
-            (Some(c), Some(d)) => c == d,
-            (Some(c), None) => self.bounds(c, self.point_of_block[bb]),
-            (None, Some(d)) => self.bounds(d, self.point_of_block[ba]),
-            (None, None) => false,
-        }
+        let c = match (self.bare_curve_of_block[ba], self.bare_curve_of_block[bb]) {
+            (Some(c), Some(d)) => (c == d).then_some(c),
+            (Some(c), None) => self.bounds(c, self.point_of_block[bb]).then_some(c),
+            (None, Some(d)) => self.bounds(d, self.point_of_block[ba]).then_some(d),
+            (None, None) => None,
+        };
+        c.map_or(OnCurve::No, OnCurve::Bare)
     }
 
     fn bounds(&self, curve: i32, point: Option<i32>) -> bool {
         point.is_some_and(|p| self.bare_curve_points.binary_search(&(curve, p)).is_ok())
     }
+}
+
+/// Result of [`CurveInfo::on_curve`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub(crate) enum OnCurve {
+    /// Not on a curve.
+    No,
+    /// A 2-node line element.
+    Line,
+    /// Possibly a segment of this curve, which has no line elements.
+    Bare(i32),
 }
 
 /// Whether an edge shared by two triangles of a surface is a graph edge, and if not why.
@@ -210,6 +223,26 @@ impl SurfaceTopo {
             }
         }
         keys.sort_unstable();
+        // bare curves that carry a boundary edge of this surface bound it: their segments
+        // are boundary edges, so an interior edge between two of their nodes is a chord, not
+        // a segment (e.g. a triangle with three nodes on a circle)
+        let mut boundary_curves: Vec<i32> = Vec::new();
+        let mut i = 0;
+        while i < keys.len() {
+            let mut j = i + 1;
+            while j < keys.len() && keys[j].0 == keys[i].0 {
+                j += 1;
+            }
+            if j - i == 1 {
+                let (a, b) = ((keys[i].0 >> 32) as u32, keys[i].0 as u32);
+                if let OnCurve::Bare(c) = curves.on_curve(nodes, a, b) {
+                    if !boundary_curves.contains(&c) {
+                        boundary_curves.push(c);
+                    }
+                }
+            }
+            i = j;
+        }
         let mut nbr = vec![NONE; 3 * n];
         let mut i = 0;
         while i < keys.len() {
@@ -227,18 +260,19 @@ impl SurfaceTopo {
                 let consistent = tris[t1][k1] == b && tris[t1][(k1 + 1) % 3] == a;
                 let w = if !consistent {
                     Wall::Inconsistent
-                } else if curves.on_curve(nodes, a, b) {
-                    Wall::Curve
                 } else {
-                    Wall::Open
+                    match curves.on_curve(nodes, a, b) {
+                        OnCurve::Line => Wall::Curve,
+                        OnCurve::Bare(c) if !boundary_curves.contains(&c) => Wall::Curve,
+                        _ => Wall::Open,
+                    }
                 };
                 if w == Wall::Open {
                     nbr[h0] = t1 as u32;
                     nbr[h1] = t0 as u32;
                 }
-            } else if j - i > 2 {
-                // three or more triangles: non-manifold, a wall (nbr stays NONE)
             }
+            // three or more triangles: non-manifold, a wall (nbr stays NONE)
             i = j;
         }
         SurfaceTopo { tris, nbr }

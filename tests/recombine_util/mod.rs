@@ -226,7 +226,11 @@ pub fn fan(b: &mut Builder, ent: i32, centre: [f64; 2], k: usize) -> Vec<u64> {
     let ring: Vec<u64> = (0..k)
         .map(|i| {
             let a = std::f64::consts::TAU * i as f64 / k as f64;
-            b.node(1, 100 + ent, [centre[0] + a.cos(), centre[1] + a.sin(), 0.0])
+            b.node(
+                1,
+                100 + ent,
+                [centre[0] + a.cos(), centre[1] + a.sin(), 0.0],
+            )
         })
         .collect();
     for i in 0..k {
@@ -259,16 +263,20 @@ pub fn cube(n: usize) -> Mesh {
         let mut grid = vec![vec![0u64; n + 1]; n + 1];
         for (i, row) in grid.iter_mut().enumerate() {
             for (j, cell) in row.iter_mut().enumerate() {
-                let p = [0, 1, 2].map(|k| {
-                    o[k] + u[k] * i as f64 / n as f64 + v[k] * j as f64 / n as f64
-                });
+                let p = [0, 1, 2]
+                    .map(|k| o[k] + u[k] * i as f64 / n as f64 + v[k] * j as f64 / n as f64);
                 let key = p.map(|x| (x * 1e6).round() as i64);
                 *cell = *ids.entry(key).or_insert_with(|| b.node(2, s, p));
             }
         }
         for i in 0..n {
             for j in 0..n {
-                let (a, bb, c, d) = (grid[i][j], grid[i + 1][j], grid[i + 1][j + 1], grid[i][j + 1]);
+                let (a, bb, c, d) = (
+                    grid[i][j],
+                    grid[i + 1][j],
+                    grid[i + 1][j + 1],
+                    grid[i][j + 1],
+                );
                 if (i + j) % 2 == 0 {
                     b.tri(s, [a, bb, c]);
                     b.tri(s, [a, c, d]);
@@ -276,6 +284,141 @@ pub fn cube(n: usize) -> Mesh {
                     b.tri(s, [a, bb, d]);
                     b.tri(s, [bb, c, d]);
                 }
+            }
+        }
+    }
+    b.mesh
+}
+
+/// Splits every triangle and 2-node line holding the edge {a, b} at a new midpoint node
+/// classified on (dim, ent); returns the new node's tag. (Test-side construction of odd
+/// meshes, independent of the library's parity repair.)
+pub fn split_edge(m: &mut Mesh, a: u64, b: u64, dim: i32, ent: i32) -> u64 {
+    let idx = m.node_index();
+    let pos = |t: u64| {
+        let r = idx.get(t).unwrap();
+        m.node_blocks[r.block as usize].coords[r.index as usize]
+    };
+    let (pa, pb) = (pos(a), pos(b));
+    let mid = [0, 1, 2].map(|k| 0.5 * (pa[k] + pb[k]));
+    let tag = m.max_node_tag() + 1;
+    let mut next_elem = m.max_element_tag() + 1;
+    match m
+        .node_blocks
+        .iter_mut()
+        .find(|bl| bl.entity_dim == dim && bl.entity_tag == ent)
+    {
+        Some(bl) => {
+            bl.tags.push(tag);
+            bl.coords.push(mid);
+        }
+        None => m.node_blocks.push(NodeBlock {
+            entity_dim: dim,
+            entity_tag: ent,
+            tags: vec![tag],
+            coords: vec![mid],
+            params: None,
+        }),
+    }
+    for bl in m.element_blocks.iter_mut() {
+        let k = match bl.element_type {
+            etype::TRI3 => 3,
+            etype::LINE2 => 2,
+            _ => continue,
+        };
+        for i in 0..bl.len() {
+            let e = bl.element(i).to_vec();
+            let Some(j) = (0..k).find(|&j| {
+                let (x, y) = (e[j], e[(j + 1) % k]);
+                (x == a && y == b) || (x == b && y == a)
+            }) else {
+                continue;
+            };
+            let (first, second) = if k == 3 {
+                let (x, y, z) = (e[j], e[(j + 1) % 3], e[(j + 2) % 3]);
+                (vec![x, tag, z], vec![tag, y, z])
+            } else {
+                (vec![e[0], tag], vec![tag, e[1]])
+            };
+            bl.nodes[i * k..(i + 1) * k].copy_from_slice(&first);
+            bl.tags.push(next_elem);
+            next_elem += 1;
+            bl.nodes.extend_from_slice(&second);
+        }
+    }
+    tag
+}
+
+/// Two unit squares side by side, surfaces 1 (x ≤ 1) and 2 (x ≥ 1), n × n cells each,
+/// sharing curve 2 (x = 1, line elements). Outer boundary: curve 1 (around surface 1) and
+/// curve 3 (around surface 2), also with line elements. Returns the mesh and the node grid.
+pub fn two_squares(n: usize) -> (Mesh, Vec<Vec<u64>>) {
+    let mut b = Builder::new();
+    b.entity(1, 1, &[], &[]);
+    b.entity(1, 2, &[], &[5]);
+    b.entity(1, 3, &[], &[]);
+    b.entity(2, 1, &[1, 2], &[1]);
+    b.entity(2, 2, &[-2, 3], &[2]);
+    let mut id = vec![vec![0u64; n + 1]; 2 * n + 1];
+    for (i, col) in id.iter_mut().enumerate() {
+        for (j, cell) in col.iter_mut().enumerate() {
+            let (dim, ent) = if i == n {
+                (1, 2)
+            } else if i == 0 || j == 0 || j == n {
+                (1, if i < n { 1 } else { 3 })
+            } else if i == 2 * n {
+                (1, 3)
+            } else {
+                (2, if i < n { 1 } else { 2 })
+            };
+            *cell = b.node(dim, ent, [i as f64 / n as f64, j as f64 / n as f64, 0.0]);
+        }
+    }
+    for i in 0..2 * n {
+        let s = if i < n { 1 } else { 2 };
+        for j in 0..n {
+            let (a, bb, c, d) = (id[i][j], id[i + 1][j], id[i + 1][j + 1], id[i][j + 1]);
+            b.tri(s, [a, bb, c]);
+            b.tri(s, [a, c, d]);
+        }
+    }
+    for i in 0..2 * n {
+        let c = if i < n { 1 } else { 3 };
+        b.line(c, id[i][0], id[i + 1][0]);
+        b.line(c, id[i + 1][n], id[i][n]);
+    }
+    for j in 0..n {
+        b.line(1, id[0][j + 1], id[0][j]);
+        b.line(2, id[n][j], id[n][j + 1]);
+        b.line(3, id[2 * n][j], id[2 * n][j + 1]);
+    }
+    (b.mesh, id)
+}
+
+/// An equilateral triangle cut into n² triangles (Figure 6 of the paper for n = 2 and 4):
+/// n(n+1)/2 "up" and n(n−1)/2 "down" triangles; every adjacency joins an up and a down
+/// triangle, so there is no perfect matching without extra edges. Surface 1, no lines.
+pub fn subdivided_triangle(n: usize) -> Mesh {
+    let mut b = Builder::new();
+    b.entity(2, 1, &[], &[]);
+    let h = 3f64.sqrt() / 2.0;
+    // row r (0 at the bottom) has n + 1 - r nodes
+    let mut id: Vec<Vec<u64>> = Vec::new();
+    for r in 0..=n {
+        let row = (0..=n - r)
+            .map(|i| {
+                let on_boundary = r == 0 || i == 0 || i == n - r;
+                let (dim, ent) = if on_boundary { (1, 1) } else { (2, 1) };
+                b.node(dim, ent, [i as f64 + 0.5 * r as f64, r as f64 * h, 0.0])
+            })
+            .collect();
+        id.push(row);
+    }
+    for r in 0..n {
+        for i in 0..n - r {
+            b.tri(1, [id[r][i], id[r][i + 1], id[r + 1][i]]);
+            if i + 1 < n - r {
+                b.tri(1, [id[r][i + 1], id[r + 1][i + 1], id[r + 1][i]]);
             }
         }
     }
