@@ -189,6 +189,9 @@ pub struct RecombineReport {
     pub surfaces: Vec<SurfaceReport>,
     /// Parity splits done.
     pub parity_splits: Vec<ParitySplit>,
+    /// Mixed surfaces whose triangles were enclosed by quads (could not be made even or
+    /// matched): their quads were split into triangles and the whole surface recombined.
+    pub retriangulated: Vec<i32>,
     /// Volume elements dropped (with [`RecombineOptions::drop_volumes`]).
     pub dropped_volume_elements: usize,
     /// Human-readable log lines.
@@ -322,58 +325,44 @@ pub fn recombine(
     let mut report = RecombineReport::default();
     check_input(mesh, opts, &mut report)?;
 
-    // topology + parity (at most one repair round)
-    let mut nodes = NodeTable::new(mesh);
-    let mut curves = CurveInfo::new(mesh, &nodes)?;
-    let mut work = surface_work(mesh, &nodes, &curves)?;
-    let plan = parity::plan(mesh, &nodes, &work);
-    if !plan.odd.is_empty() {
-        if opts.parity == ParityMode::Error {
-            return Err(odd_parity_error(&plan));
+    // Topology, parity, matching. A surface whose triangles are enclosed by quads so that
+    // they cannot be made even or matched (isolated triangles left by a partial
+    // recombination) has its quads split into triangles and is recombined whole; this
+    // happens at most once per surface, so the loop ends.
+    let mut retriangulated: Vec<i32> = Vec::new();
+    let (nodes, work, mut results) = loop {
+        let staged = parity_stage(mesh, opts, &mut report).and_then(|(nodes, work)| {
+            let coords = &nodes.coords;
+            let n_global = coords.len() as u32;
+            let results: Result<Vec<SurfaceResult>, RecombineError> = work
+                .par_iter()
+                .map(|w| match_surface(w, coords, n_global, opts))
+                .collect();
+            results.map(|r| (nodes, work, r))
+        });
+        match staged {
+            Ok(done) => break done,
+            Err(RecombineError::NoPerfectMatching { surface, .. })
+                if has_quads(mesh, surface) && !retriangulated.contains(&surface) =>
+            {
+                retriangulate(mesh, &[surface], &mut report);
+                retriangulated.push(surface);
+            }
+            Err(RecombineError::ParityUnsolvable { regions }) => {
+                let fix: Vec<i32> = regions
+                    .iter()
+                    .map(|r| r.surface)
+                    .filter(|&s| has_quads(mesh, s) && !retriangulated.contains(&s))
+                    .collect();
+                if fix.is_empty() {
+                    return Err(RecombineError::ParityUnsolvable { regions });
+                }
+                retriangulate(mesh, &fix, &mut report);
+                retriangulated.extend(fix);
+            }
+            Err(e) => return Err(e),
         }
-        if !plan.unsolved.is_empty() {
-            return Err(RecombineError::ParityUnsolvable {
-                regions: plan.unsolved,
-            });
-        }
-        let splits = parity::apply(mesh, &nodes, &plan.choices)?;
-        for (o, _) in plan.odd.iter().zip(0..) {
-            report.log.push(format!(
-                "surface {}: region {} of {} has {} triangles (odd)",
-                o.surface, o.region.0, o.region.1, o.triangles
-            ));
-        }
-        for s in &splits {
-            report.log.push(format!(
-                "parity repair: split segment {}-{} of {} at its midpoint (new node {}), flipping surface(s) {:?}",
-                s.segment.0,
-                s.segment.1,
-                s.curve
-                    .map(|c| format!("curve {c}"))
-                    .unwrap_or_else(|| "a boundary without curve data".into()),
-                s.new_node,
-                s.surfaces
-            ));
-        }
-        report.parity_splits = splits;
-        mesh.invalidate_element_data();
-        nodes = NodeTable::new(mesh);
-        curves = CurveInfo::new(mesh, &nodes)?;
-        work = surface_work(mesh, &nodes, &curves)?;
-        let again = parity::plan(mesh, &nodes, &work);
-        if !again.odd.is_empty() {
-            return Err(RecombineError::ParityUnsolvable { regions: again.odd });
-        }
-    }
-
-    // matching per surface, in parallel
-    let coords = &nodes.coords;
-    let n_global = coords.len() as u32;
-    let results: Vec<Result<SurfaceResult, RecombineError>> = work
-        .par_iter()
-        .map(|w| match_surface(w, coords, n_global, opts))
-        .collect();
-    let mut results: Vec<SurfaceResult> = results.into_iter().collect::<Result<_, _>>()?;
+    };
     for (r, w) in results.iter_mut().zip(&work) {
         r.report.parity_splits = report
             .parity_splits
@@ -396,6 +385,128 @@ pub fn recombine(
     }
     report.time_total = start.elapsed();
     Ok(report)
+}
+
+/// Steps 2–3: topology of every surface, then parity repair (one round, checked).
+fn parity_stage(
+    mesh: &mut Mesh,
+    opts: &RecombineOptions,
+    report: &mut RecombineReport,
+) -> Result<(NodeTable, Vec<SurfaceWork>), RecombineError> {
+    let nodes = NodeTable::new(mesh);
+    let curves = CurveInfo::new(mesh, &nodes)?;
+    let work = surface_work(mesh, &nodes, &curves)?;
+    let plan = parity::plan(mesh, &nodes, &work);
+    if plan.odd.is_empty() {
+        return Ok((nodes, work));
+    }
+    if opts.parity == ParityMode::Error {
+        return Err(odd_parity_error(&plan));
+    }
+    if !plan.unsolved.is_empty() {
+        return Err(RecombineError::ParityUnsolvable {
+            regions: plan.unsolved,
+        });
+    }
+    let splits = parity::apply(mesh, &nodes, &plan.choices)?;
+    for o in &plan.odd {
+        report.log.push(format!(
+            "surface {}: region {} of {} has {} triangles (odd)",
+            o.surface,
+            o.region.0 + 1,
+            o.region.1,
+            o.triangles
+        ));
+    }
+    for s in &splits {
+        report.log.push(format!(
+            "parity repair: split segment {}-{} of {} at its midpoint (new node {}), flipping surface(s) {:?}",
+            s.segment.0,
+            s.segment.1,
+            s.curve
+                .map(|c| format!("curve {c}"))
+                .unwrap_or_else(|| "a boundary without curve data".into()),
+            s.new_node,
+            s.surfaces
+        ));
+    }
+    report.parity_splits.extend(splits);
+    mesh.invalidate_element_data();
+    let nodes = NodeTable::new(mesh);
+    let curves = CurveInfo::new(mesh, &nodes)?;
+    let work = surface_work(mesh, &nodes, &curves)?;
+    let again = parity::plan(mesh, &nodes, &work);
+    if !again.odd.is_empty() {
+        return Err(RecombineError::ParityUnsolvable { regions: again.odd });
+    }
+    Ok((nodes, work))
+}
+
+/// True when surface `s` has 4-node quads.
+fn has_quads(mesh: &Mesh, s: i32) -> bool {
+    mesh.element_blocks.iter().any(|b| {
+        b.element_type == etype::QUAD4 && b.entity_dim == 2 && b.entity_tag == s && !b.is_empty()
+    })
+}
+
+/// Splits every quad of the given surfaces into two triangles along its shorter diagonal
+/// (orientation kept; the first triangle keeps the quad's tag, the second gets a fresh tag),
+/// so that the whole surface is recombined.
+fn retriangulate(mesh: &mut Mesh, surfaces: &[i32], report: &mut RecombineReport) {
+    let idx = mesh.node_index();
+    let pos = |t: u64| -> Option<glam::DVec3> {
+        idx.get(t).map(|r| {
+            glam::DVec3::from_array(mesh.node_blocks[r.block as usize].coords[r.index as usize])
+        })
+    };
+    let mut next = mesh.max_element_tag() + 1;
+    let mut new_blocks = Vec::new();
+    for b in &mesh.element_blocks {
+        if !(b.element_type == etype::QUAD4
+            && b.entity_dim == 2
+            && surfaces.contains(&b.entity_tag))
+        {
+            continue;
+        }
+        let mut tri = ElementBlock {
+            entity_dim: 2,
+            entity_tag: b.entity_tag,
+            element_type: etype::TRI3,
+            tags: Vec::with_capacity(2 * b.len()),
+            nodes: Vec::with_capacity(6 * b.len()),
+            partitions: b.partitions.as_ref().map(|_| Vec::new()),
+        };
+        for i in 0..b.len() {
+            let q = b.element(i);
+            let d02 = pos(q[0]).zip(pos(q[2])).map(|(a, c)| a.distance(c));
+            let d13 = pos(q[1]).zip(pos(q[3])).map(|(a, c)| a.distance(c));
+            let halves = if d13 < d02 {
+                [[q[0], q[1], q[3]], [q[1], q[2], q[3]]]
+            } else {
+                [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+            };
+            for (h, t) in halves.iter().zip([b.tags[i], next]) {
+                tri.tags.push(t);
+                tri.nodes.extend_from_slice(h);
+                if let (Some(dst), Some(src)) = (tri.partitions.as_mut(), b.partitions.as_ref()) {
+                    dst.push(src.get(i).cloned().unwrap_or_default());
+                }
+            }
+            next += 1;
+        }
+        report.retriangulated.push(b.entity_tag);
+        report.log.push(format!(
+            "surface {}: its triangles are enclosed by quads and cannot be paired; its {} quads were split into triangles and the whole surface recombined",
+            b.entity_tag,
+            b.len()
+        ));
+        new_blocks.push(tri);
+    }
+    mesh.element_blocks.retain(|b| {
+        !(b.element_type == etype::QUAD4 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag))
+    });
+    mesh.element_blocks.extend(new_blocks);
+    mesh.invalidate_element_data();
 }
 
 /// Step 1 of the pipeline: refuses what cannot be recombined, drops volumes when asked.
