@@ -2,6 +2,7 @@
 //! triangles with cost `1 − η` (eq. 4), and the extra edges of section 5.3.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::topology::{SurfaceTopo, NONE};
 use crate::quality::eta_signed;
@@ -115,15 +116,16 @@ pub(crate) struct Graph {
 /// 5.3; a fan ends at walls: the surface boundary, curves, or orientation changes).
 pub(crate) fn build(topo: &SurfaceTopo, coords: &[DVec3], with_extra: bool) -> Graph {
     let n = topo.len();
-    let mut edges = Vec::with_capacity(3 * n / 2 + 16);
-    for t in 0..n {
-        for k in 0..3 {
-            let u = topo.nbr[3 * t + k];
-            if u != NONE && (t as u32) < u {
-                edges.push((t as u32, u, edge_cost(topo, coords, t, k)));
-            }
-        }
-    }
+    let mut edges: Vec<(u32, u32, i64)> = (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .flat_map_iter(|t| {
+            (0..3).filter_map(move |k| {
+                let u = topo.nbr[3 * t + k];
+                (u != NONE && (t as u32) < u).then(|| (t as u32, u, edge_cost(topo, coords, t, k)))
+            })
+        })
+        .collect();
     let real = edges.len();
     let mut extra_fans = Vec::new();
     if with_extra {

@@ -6,6 +6,7 @@
 
 use crate::mesh::{etype, Mesh};
 use glam::DVec3;
+use rayon::prelude::*;
 
 use super::RecombineError;
 
@@ -222,7 +223,7 @@ impl SurfaceTopo {
                 keys.push((edge_key(tri[k], tri[(k + 1) % 3]), (3 * t + k) as u32));
             }
         }
-        keys.sort_unstable();
+        keys.par_sort_unstable();
         // bare curves that carry a boundary edge of this surface bound it: their segments
         // are boundary edges, so an interior edge between two of their nodes is a chord, not
         // a segment (e.g. a triangle with three nodes on a circle)
