@@ -406,3 +406,99 @@ fn parity_error_mode_explains_the_fix() {
     assert!(msg.contains("Mesh.RecombineAll"), "{msg}");
     assert_eq!(m, b.mesh, "error mode changes nothing");
 }
+
+#[test]
+fn chords_of_a_bare_boundary_curve_are_graph_edges() {
+    // a hexagon triangulated from one corner (no interior node): every interior edge joins
+    // two nodes of the same curve (classified on bare curve 5, no line elements), but the
+    // curve bounds the surface, so they are chords, not curve segments
+    let mut b = Builder::new();
+    b.entity(1, 5, &[], &[]);
+    b.entity(2, 1, &[5], &[]);
+    let ring: Vec<u64> = (0..6)
+        .map(|i| {
+            let a = std::f64::consts::TAU * i as f64 / 6.0;
+            b.node(1, 5, [a.cos(), a.sin(), 0.0])
+        })
+        .collect();
+    for i in 1..5 {
+        b.tri(1, [ring[0], ring[i], ring[i + 1]]);
+    }
+    let before = b.mesh;
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.surfaces[0].graph_edges, 3);
+    assert_eq!(r.surfaces[0].extra_edges_used, 0);
+    assert_eq!(count(&m, etype::QUAD4), 2);
+    check_invariants(&before, &m).unwrap();
+}
+
+#[test]
+fn isolated_triangles_among_quads_retriangulate_the_surface() {
+    // first: a 3 x 3 quad grid whose cells (1,1) (4 triangles around a centre node) and
+    // (2,1) (2 triangles) are triangulated: 6 triangles in one region, recombined among
+    // themselves, the quads untouched
+    let mut b = Builder::new();
+    b.entity(2, 1, &[], &[]);
+    let mut id = vec![vec![0u64; 4]; 4];
+    for (i, col) in id.iter_mut().enumerate() {
+        for (j, cell) in col.iter_mut().enumerate() {
+            *cell = b.node(2, 1, [i as f64, j as f64, 0.0]);
+        }
+    }
+    let mut quads = 0;
+    for i in 0..3 {
+        for j in 0..3 {
+            let (a, bb, c, d) = (id[i][j], id[i + 1][j], id[i + 1][j + 1], id[i][j + 1]);
+            if (i, j) == (1, 1) {
+                let x = b.node(2, 1, [i as f64 + 0.5, j as f64 + 0.5, 0.0]);
+                b.tri(1, [a, bb, x]);
+                b.tri(1, [bb, c, x]);
+                b.tri(1, [c, d, x]);
+                b.tri(1, [d, a, x]);
+            } else if (i, j) == (2, 1) {
+                b.tri(1, [a, bb, c]);
+                b.tri(1, [a, c, d]);
+            } else {
+                b.elem(2, 1, etype::QUAD4, &[a, bb, c, d]);
+                quads += 1;
+            }
+        }
+    }
+    let before = b.mesh.clone();
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert!(r.retriangulated.is_empty());
+    assert_eq!(count(&m, etype::QUAD4), quads + 3);
+    check_invariants(&before, &m).unwrap();
+
+    // a triangle whose three edges all border quads: it can neither be made even (no
+    // splittable segment) nor matched; the surface is retriangulated and recombined whole
+    let mut b2 = Builder::new();
+    b2.entity(2, 1, &[], &[]);
+    let pts = [
+        [0.0, 0.0],  // 0 a
+        [2.0, 0.0],  // 1 b
+        [1.0, 1.7],  // 2 c
+        [0.0, -1.0], // 3 below a
+        [2.0, -1.0], // 4 below b
+        [3.0, 0.5],  // 5 right of b
+        [2.2, 2.2],  // 6 right of c
+        [-0.2, 2.2], // 7 left of c
+        [-1.0, 0.5], // 8 left of a
+    ];
+    let p: Vec<u64> = pts
+        .iter()
+        .map(|q| b2.node(2, 1, [q[0], q[1], 0.0]))
+        .collect();
+    b2.tri(1, [p[0], p[1], p[2]]);
+    b2.elem(2, 1, etype::QUAD4, &[p[0], p[3], p[4], p[1]]);
+    b2.elem(2, 1, etype::QUAD4, &[p[1], p[5], p[6], p[2]]);
+    b2.elem(2, 1, etype::QUAD4, &[p[2], p[7], p[8], p[0]]);
+    let before = b2.mesh;
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.retriangulated, vec![1]);
+    assert_eq!(count(&m, etype::TRI3), 0);
+    check_invariants(&before, &m).unwrap();
+}

@@ -225,3 +225,57 @@ fn parity_error_mode_names_the_curves() {
     );
     assert!(msg.contains("curve(s) 2"), "{msg}");
 }
+
+#[test]
+fn parity_split_interpolates_parametric_coordinates() {
+    let mut before = grid(&Grid {
+        nx: 5,
+        ny: 4,
+        ..Default::default()
+    });
+    let left: Vec<u64> = before
+        .element_blocks
+        .iter()
+        .find(|b| b.element_type == etype::LINE2 && b.entity_tag == 4)
+        .map(|b| b.element(1).to_vec())
+        .unwrap();
+    split_edge(&mut before, left[0], left[1], 1, 4);
+    // parametric blocks: u = x on curves 1 and 3, u = y on curves 2 and 4; (u, v) = (x, y)
+    let u_of = |curve: i32, c: &[f64; 3]| if curve % 2 == 1 { c[0] } else { c[1] };
+    for b in before.node_blocks.iter_mut() {
+        b.params = match b.entity_dim {
+            1 => Some(b.coords.iter().map(|c| u_of(b.entity_tag, c)).collect()),
+            2 => Some(b.coords.iter().flat_map(|c| [c[0], c[1]]).collect()),
+            _ => None,
+        };
+    }
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 1);
+    let s = &r.parity_splits[0];
+    let curve = s.curve.expect("split on a curve");
+    let blk = m
+        .node_blocks
+        .iter()
+        .find(|b| b.entity_dim == 1 && b.entity_tag == curve)
+        .unwrap();
+    for b in &m.node_blocks {
+        if let Some(p) = &b.params {
+            assert_eq!(p.len(), b.tags.len() * b.entity_dim as usize);
+        }
+    }
+    let i = blk.tags.iter().position(|&t| t == s.new_node).unwrap();
+    let both_inside = [s.segment.0, s.segment.1].iter().all(|t| {
+        before
+            .node_blocks
+            .iter()
+            .any(|b| b.entity_dim == 1 && b.entity_tag == curve && b.tags.contains(t))
+    });
+    let u = blk.params.as_ref().unwrap()[i];
+    if both_inside {
+        assert!((u - u_of(curve, &blk.coords[i])).abs() < 1e-12, "u = {u}");
+    } else {
+        assert!(m.warnings.iter().any(|w| w.contains("parametric")));
+    }
+    check_invariants(&before, &m).unwrap();
+}

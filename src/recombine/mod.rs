@@ -10,14 +10,18 @@
 //!    `$Periodic` link → [`RecombineError::PeriodicSurface`].
 //! 2. **Topology** (per surface, in parallel). Nodes get dense global `u32` ids; each
 //!    surface's triangle edges are sorted by `u64` key. An edge shared by two triangles of the
-//!    surface is a *graph edge* unless it is a *wall*: it lies on a model curve (a 2-node line
-//!    element, or — for curves without line elements — both nodes classified on the same
-//!    curve, or on a curve and a point bounding it), or the two triangles are oriented
-//!    inconsistently, or three or more triangles share it. An edge with one triangle of the
-//!    surface is a wall too: this is how surfaces without any line element (MSH 2.2 files,
-//!    `gmsh -2` with physical surfaces only) are bounded — where the surface's triangle set
-//!    ends or meets another surface. The connected components of the graph are the
-//!    surface's *regions*.
+//!    surface is a *graph edge* unless it is a *wall*: it lies on a model curve, or the two
+//!    triangles are oriented inconsistently, or three or more triangles share it. "On a
+//!    curve" means: a 2-node line element; or, for curves without any line element (rule
+//!    (b)), both nodes classified on the same curve, or on a curve and a point bounding it —
+//!    unless that curve also carries boundary edges of this surface, in which case its
+//!    segments are boundary edges and the interior edge is a chord (a triangle with three
+//!    nodes on a circle). An edge with one triangle of the surface is a wall too: this is how
+//!    surfaces without any line element (MSH 2.2 files, `gmsh -2` with physical surfaces only)
+//!    are bounded — where the surface's triangle set ends or meets another surface. (A seam
+//!    curve in a file with neither line elements nor curve node classification cannot be
+//!    seen; the graph then crosses it, which keeps the mesh valid.) The connected components
+//!    of the graph are the surface's *regions*.
 //! 3. **Parity** (eq. 5–6). Every region needs an even number of triangles. Splitting a wall
 //!    segment at its midpoint splits the adjacent triangle on each side, so it flips the
 //!    parity of every region that has an odd number of triangles on that segment: a segment
@@ -26,12 +30,17 @@
 //!    the same region on both sides flips nothing. Segments are grouped by (curve, flipped
 //!    regions) — the curve from the line element, or from node classification, or none for
 //!    files without curve data — and the choice of groups is a GF(2) system over the
-//!    group–region incidence. It is solved as a T-join: a spanning forest over the
-//!    region–region groups; odd parity is pushed from the leaves to the root of each tree
-//!    (one group per tree edge used); a tree left with odd parity is fixed through a group on
-//!    the outer boundary (flipping one region, the "ground"), toggling the tree path to it.
-//!    Two odd surfaces sharing a curve are thus fixed by one split of that curve; a closed
-//!    shell (no ground) always has an even number of odd regions, so it is always solvable.
+//!    group–region incidence. Seen as a graph (regions are nodes, a group flipping two
+//!    regions is an edge, a group flipping one region joins it to a "ground" node), a
+//!    solution is a T-join with T = the odd regions. The fewest splits are found exactly: a
+//!    minimum-cost perfect matching ([`crate::matching`]) pairs the odd regions with each
+//!    other (cost = shortest-path length in the region graph) or with the ground (each odd
+//!    region has a ground twin at its distance to the nearest outer-boundary group; twins pair
+//!    with each other at cost 0), and the groups along each pair's shortest path are split
+//!    (a group used twice cancels). Two odd surfaces sharing a curve are fixed by one split
+//!    of that curve; a closed shell (no ground) always has an even number of odd regions, so
+//!    it is always solvable. (Beyond 1500 odd regions, or when no pairing exists, a
+//!    spanning-forest T-join is used instead, and regions it cannot fix are reported.)
 //!    Groups flipping three or more regions (non-manifold curves) and segments of periodic
 //!    curves or next to quads are never split. In each chosen group the longest segment is
 //!    split at its chord midpoint (so planar areas are unchanged), parametric coordinates
@@ -41,17 +50,24 @@
 //!    keeps the element tag, the second gets a fresh tag above the maximum. With
 //!    [`ParityMode::Error`] nothing is changed and [`RecombineError::OddParity`] lists the odd
 //!    surfaces, the curves to fix and how to fix them in the .geo.
+//!
+//!    *Mixed surfaces.* Quads already present are kept and only the triangles recombined.
+//!    When a surface's triangles are enclosed by quads so that they cannot be made even (no
+//!    splittable segment) or have no perfect matching — typically the isolated triangles a
+//!    partial recombination leaves — that surface's quads are split into two triangles each
+//!    (shorter diagonal, orientation kept, the first half keeps the quad's tag) and the whole
+//!    surface is recombined; [`RecombineReport::retriangulated`] and the log say so.
 //! 4. **Graph** (section 4.2). Cost of a graph edge = `1 − η_s` of the quad formed by its two
 //!    triangles (eq. 4), η_s the signed quality of [`crate::quality::eta_signed`] with angles
 //!    measured in 3D about the sum of the two triangles' normals, so a non-convex or folded
 //!    quad (η_s ≤ 0) costs more than any valid one. Integer costs: `round(10⁴ · (1 − η_s))`
-//!    ∈ [0, 2·10⁴] ([`graph::COST_SCALE`]).
+//!    ∈ [0, 2·10⁴] ([`COST_SCALE`]).
 //! 5. **Extra edges** (section 5.3). Around every vertex, the triangles between two walls
 //!    form a *fan* `t1 … tk` (each sharing a graph edge `{v, a_i}` with the next). The paper
 //!    joins the triangles of two successive boundary edges; here every fan with k ≥ 3 whose
 //!    ends are not already adjacent gets an extra edge `t1–tk` (walls from curves and
 //!    orientation changes count as boundary, so post-processing never crosses a curve). Its
-//!    cost, `2·10⁴ · (n/2 + 1) + 1` ([`graph::extra_edge_cost`]), exceeds the cost of any
+//!    cost, `2·10⁴ · (n/2 + 1) + 1` ([`extra_edge_cost`]), exceeds the cost of any
 //!    perfect matching's real edges, so the optimum uses the fewest extra edges possible —
 //!    none when the original graph has a perfect matching.
 //! 6. **Matching.** [`crate::matching::solve`]; with [`RecombineOptions::verify`] its
