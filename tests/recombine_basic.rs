@@ -9,13 +9,6 @@ use blossomquad::recombine::{
 };
 use recombine_util::*;
 
-fn verify_opts() -> RecombineOptions {
-    RecombineOptions {
-        verify: true,
-        ..Default::default()
-    }
-}
-
 #[test]
 fn structured_grid_becomes_all_quads() {
     let before = grid(&Grid::default());
@@ -91,25 +84,11 @@ fn quads_reuse_triangle_tags_and_keep_orientation() {
             .collect();
         let mut m = before.clone();
         recombine(&mut m, &verify_opts()).unwrap();
-        let qb = m
-            .element_blocks
-            .iter()
-            .find(|b| b.element_type == etype::QUAD4)
-            .unwrap();
         let mut seen = std::collections::HashSet::new();
-        for (i, t) in qb.tags.iter().enumerate() {
-            assert!(tri_tags.contains(t), "quad tag {t} is not a triangle tag");
-            assert!(seen.insert(*t), "quad tag {t} used twice");
-            // signed area sign follows the triangles' orientation
-            let idx = m.node_index();
-            let p: Vec<[f64; 3]> = qb
-                .element(i)
-                .iter()
-                .map(|&n| {
-                    let r = idx.get(n).unwrap();
-                    m.node_blocks[r.block as usize].coords[r.index as usize]
-                })
-                .collect();
+        for (t, p) in quad_coords(&m) {
+            assert!(tri_tags.contains(&t), "quad tag {t} is not a triangle tag");
+            assert!(seen.insert(t), "quad tag {t} used twice");
+            // the signed area's sign follows the triangles' orientation
             let area: f64 = (0..4)
                 .map(|k| p[k][0] * p[(k + 1) % 4][1] - p[(k + 1) % 4][0] * p[k][1])
                 .sum();
@@ -138,28 +117,16 @@ fn physical_groups_and_other_elements_are_kept() {
 #[test]
 fn mixed_surface_keeps_its_quads() {
     // left half quads, right half triangles, same surface
-    let mut b = Builder::new();
-    b.entity(2, 1, &[], &[]);
-    let mut id = vec![vec![0u64; 5]; 7];
-    for (i, col) in id.iter_mut().enumerate() {
-        for (j, cell) in col.iter_mut().enumerate() {
-            *cell = b.node(2, 1, [i as f64, j as f64, 0.0]);
-        }
-    }
     let mut quads = 0;
-    for i in 0..6 {
-        for j in 0..4 {
-            let (a, bb, c, d) = (id[i][j], id[i + 1][j], id[i + 1][j + 1], id[i][j + 1]);
-            if i < 3 {
-                b.elem(2, 1, etype::QUAD4, &[a, bb, c, d]);
-                quads += 1;
-            } else {
-                b.tri(1, [a, bb, c]);
-                b.tri(1, [a, c, d]);
-            }
+    let before = cell_grid(6, 4, |b, i, _, [a, bb, c, d]| {
+        if i < 3 {
+            b.elem(2, 1, etype::QUAD4, &[a, bb, c, d]);
+            quads += 1;
+        } else {
+            b.tri(1, [a, bb, c]);
+            b.tri(1, [a, c, d]);
         }
-    }
-    let before = b.mesh;
+    });
     let mut m = before.clone();
     let r = recombine(&mut m, &verify_opts()).unwrap();
     assert_eq!(count(&m, etype::TRI3), 0);
@@ -171,13 +138,12 @@ fn mixed_surface_keeps_its_quads() {
 #[test]
 fn embedded_curve_is_never_crossed() {
     // a 4x4 grid with an embedded line element curve along x = 0.5
-    let mut before = grid(&Grid {
+    let before = grid(&Grid {
         nx: 4,
         ny: 4,
         jitter: 0.0,
         ..Default::default()
     });
-    let idx = before.node_index();
     let mut on_mid: Vec<(f64, u64)> = Vec::new();
     for b in &before.node_blocks {
         for (t, c) in b.tags.iter().zip(&b.coords) {
@@ -187,7 +153,6 @@ fn embedded_curve_is_never_crossed() {
         }
     }
     on_mid.sort_by(|a, b| a.0.partial_cmp(&b.0).unwrap());
-    let _ = idx;
     let mut b = Builder::new();
     b.mesh = before;
     b.mesh.entities[1].push(blossomquad::mesh::Entity {
@@ -205,29 +170,14 @@ fn embedded_curve_is_never_crossed() {
     recombine(&mut m, &verify_opts()).unwrap();
     check_invariants(&before, &m).unwrap();
     // every quad lies on one side of x = 0.5
-    let idx = m.node_index();
-    for blk in m
-        .element_blocks
-        .iter()
-        .filter(|b| b.element_type == etype::QUAD4)
-    {
-        for i in 0..blk.len() {
-            let xs: Vec<f64> = blk
-                .element(i)
-                .iter()
-                .map(|&n| {
-                    let r = idx.get(n).unwrap();
-                    m.node_blocks[r.block as usize].coords[r.index as usize][0]
-                })
-                .collect();
-            let left = xs.iter().all(|&x| x <= 0.5 + 1e-12);
-            let right = xs.iter().all(|&x| x >= 0.5 - 1e-12);
-            assert!(
-                left || right,
-                "quad {} crosses the embedded curve: {xs:?}",
-                blk.tags[i]
-            );
-        }
+    for (tag, p) in quad_coords(&m) {
+        let xs: Vec<f64> = p.iter().map(|c| c[0]).collect();
+        let left = xs.iter().all(|&x| x <= 0.5 + 1e-12);
+        let right = xs.iter().all(|&x| x >= 0.5 - 1e-12);
+        assert!(
+            left || right,
+            "quad {tag} crosses the embedded curve: {xs:?}"
+        );
     }
 }
 
@@ -268,26 +218,12 @@ fn embedded_curve_from_node_classification_only() {
     let before = b.mesh;
     let mut m = before.clone();
     recombine(&mut m, &verify_opts()).unwrap();
-    let idx = m.node_index();
-    for blk in m
-        .element_blocks
-        .iter()
-        .filter(|b| b.element_type == etype::QUAD4)
-    {
-        for i in 0..blk.len() {
-            let xs: Vec<f64> = blk
-                .element(i)
-                .iter()
-                .map(|&n| {
-                    let r = idx.get(n).unwrap();
-                    m.node_blocks[r.block as usize].coords[r.index as usize][0]
-                })
-                .collect();
-            assert!(
-                xs.iter().all(|&x| x <= 0.5 + 1e-12) || xs.iter().all(|&x| x >= 0.5 - 1e-12),
-                "quad crosses the bare curve: {xs:?}"
-            );
-        }
+    for (tag, p) in quad_coords(&m) {
+        let xs: Vec<f64> = p.iter().map(|c| c[0]).collect();
+        assert!(
+            xs.iter().all(|&x| x <= 0.5 + 1e-12) || xs.iter().all(|&x| x >= 0.5 - 1e-12),
+            "quad {tag} crosses the bare curve: {xs:?}"
+        );
     }
 }
 
@@ -438,34 +374,22 @@ fn isolated_triangles_among_quads_retriangulate_the_surface() {
     // first: a 3 x 3 quad grid whose cells (1,1) (4 triangles around a centre node) and
     // (2,1) (2 triangles) are triangulated: 6 triangles in one region, recombined among
     // themselves, the quads untouched
-    let mut b = Builder::new();
-    b.entity(2, 1, &[], &[]);
-    let mut id = vec![vec![0u64; 4]; 4];
-    for (i, col) in id.iter_mut().enumerate() {
-        for (j, cell) in col.iter_mut().enumerate() {
-            *cell = b.node(2, 1, [i as f64, j as f64, 0.0]);
-        }
-    }
     let mut quads = 0;
-    for i in 0..3 {
-        for j in 0..3 {
-            let (a, bb, c, d) = (id[i][j], id[i + 1][j], id[i + 1][j + 1], id[i][j + 1]);
-            if (i, j) == (1, 1) {
-                let x = b.node(2, 1, [i as f64 + 0.5, j as f64 + 0.5, 0.0]);
-                b.tri(1, [a, bb, x]);
-                b.tri(1, [bb, c, x]);
-                b.tri(1, [c, d, x]);
-                b.tri(1, [d, a, x]);
-            } else if (i, j) == (2, 1) {
-                b.tri(1, [a, bb, c]);
-                b.tri(1, [a, c, d]);
-            } else {
-                b.elem(2, 1, etype::QUAD4, &[a, bb, c, d]);
-                quads += 1;
-            }
+    let before = cell_grid(3, 3, |b, i, j, [a, bb, c, d]| {
+        if (i, j) == (1, 1) {
+            let x = b.node(2, 1, [i as f64 + 0.5, j as f64 + 0.5, 0.0]);
+            b.tri(1, [a, bb, x]);
+            b.tri(1, [bb, c, x]);
+            b.tri(1, [c, d, x]);
+            b.tri(1, [d, a, x]);
+        } else if (i, j) == (2, 1) {
+            b.tri(1, [a, bb, c]);
+            b.tri(1, [a, c, d]);
+        } else {
+            b.elem(2, 1, etype::QUAD4, &[a, bb, c, d]);
+            quads += 1;
         }
-    }
-    let before = b.mesh.clone();
+    });
     let mut m = before.clone();
     let r = recombine(&mut m, &verify_opts()).unwrap();
     assert!(r.retriangulated.is_empty());

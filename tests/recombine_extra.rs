@@ -7,13 +7,6 @@ use blossomquad::mesh::{etype, Mesh};
 use blossomquad::recombine::{check_invariants, recombine, RecombineError, RecombineOptions};
 use recombine_util::*;
 
-fn verify_opts() -> RecombineOptions {
-    RecombineOptions {
-        verify: true,
-        ..Default::default()
-    }
-}
-
 #[test]
 fn figure_6_coarse_needs_an_edge_swap() {
     let before = subdivided_triangle(2);

@@ -7,13 +7,6 @@ use blossomquad::mesh::etype;
 use blossomquad::recombine::{check_invariants, recombine, ParityMode, RecombineOptions};
 use recombine_util::*;
 
-fn verify_opts() -> RecombineOptions {
-    RecombineOptions {
-        verify: true,
-        ..Default::default()
-    }
-}
-
 #[test]
 fn odd_fan_gets_one_boundary_split() {
     let mut b = Builder::new();
@@ -49,12 +42,7 @@ fn odd_square_with_lines_splits_the_line_element_too() {
         ..Default::default()
     });
     // split one segment of curve 4 (left side): 19 triangles, 13 line elements
-    let left: Vec<u64> = before
-        .element_blocks
-        .iter()
-        .find(|b| b.element_type == etype::LINE2 && b.entity_tag == 4)
-        .map(|b| b.element(0).to_vec())
-        .unwrap();
+    let left = line_of(&before, 4, 0);
     split_edge(&mut before, left[0], left[1], 1, 4);
     assert_eq!(count(&before, etype::TRI3), 19);
     let lines_before = count(&before, etype::LINE2);
@@ -122,18 +110,10 @@ fn closed_shell_adjacent_odd_faces() {
     // cube faces z = 0 (1) and y = 0 (3) share the cube edge y = z = 0; splitting one of its
     // segments makes both odd; the repair must make both even again with one split
     let mut before = cube(2);
-    let idx = before.node_index();
-    let at = |p: [f64; 3]| -> u64 {
-        before
-            .node_blocks
-            .iter()
-            .flat_map(|b| b.tags.iter().zip(&b.coords))
-            .find(|(_, c)| (0..3).all(|k| (c[k] - p[k]).abs() < 1e-9))
-            .map(|(t, _)| *t)
-            .unwrap()
-    };
-    let (a, b) = (at([0.0, 0.0, 0.0]), at([0.5, 0.0, 0.0]));
-    let _ = idx;
+    let (a, b) = (
+        node_at(&before, [0.0, 0.0, 0.0]),
+        node_at(&before, [0.5, 0.0, 0.0]),
+    );
     split_edge(&mut before, a, b, 2, 1);
     assert_eq!(count_on(&before, 1, etype::TRI3), 9);
     assert_eq!(count_on(&before, 3, etype::TRI3), 9);
@@ -150,17 +130,15 @@ fn closed_shell_adjacent_odd_faces() {
 fn closed_shell_opposite_odd_faces() {
     // faces 1 (z = 0) and 2 (z = 1) odd, not adjacent: two splits through a face between
     let mut before = cube(2);
-    let at = |m: &blossomquad::mesh::Mesh, p: [f64; 3]| -> u64 {
-        m.node_blocks
-            .iter()
-            .flat_map(|b| b.tags.iter().zip(&b.coords))
-            .find(|(_, c)| (0..3).all(|k| (c[k] - p[k]).abs() < 1e-9))
-            .map(|(t, _)| *t)
-            .unwrap()
-    };
-    let (a, b) = (at(&before, [0.0, 0.0, 0.0]), at(&before, [0.5, 0.0, 0.0]));
+    let (a, b) = (
+        node_at(&before, [0.0, 0.0, 0.0]),
+        node_at(&before, [0.5, 0.0, 0.0]),
+    );
     split_edge(&mut before, a, b, 2, 1); // flips 1 and 3
-    let (a, b) = (at(&before, [0.0, 0.0, 1.0]), at(&before, [0.5, 0.0, 1.0]));
+    let (a, b) = (
+        node_at(&before, [0.0, 0.0, 1.0]),
+        node_at(&before, [0.5, 0.0, 1.0]),
+    );
     split_edge(&mut before, a, b, 2, 2); // flips 3 and 2
     let odd: Vec<i32> = (1..=6)
         .filter(|&s| count_on(&before, s, etype::TRI3) % 2 == 1)
@@ -180,20 +158,12 @@ fn closed_shell_opposite_odd_faces() {
 fn all_six_cube_faces_odd() {
     // splitting one segment on each of three disjoint cube edges makes all six faces odd
     let mut before = cube(2);
-    let at = |m: &blossomquad::mesh::Mesh, p: [f64; 3]| -> u64 {
-        m.node_blocks
-            .iter()
-            .flat_map(|b| b.tags.iter().zip(&b.coords))
-            .find(|(_, c)| (0..3).all(|k| (c[k] - p[k]).abs() < 1e-9))
-            .map(|(t, _)| *t)
-            .unwrap()
-    };
     for (p, q) in [
         ([0.0, 0.0, 0.0], [0.5, 0.0, 0.0]), // z=0 / y=0
         ([1.0, 1.0, 0.5], [1.0, 1.0, 1.0]), // x=1 / y=1
         ([0.0, 0.5, 1.0], [0.0, 1.0, 1.0]), // x=0 / z=1
     ] {
-        let (a, b) = (at(&before, p), at(&before, q));
+        let (a, b) = (node_at(&before, p), node_at(&before, q));
         split_edge(&mut before, a, b, 2, 1);
     }
     assert!((1..=6).all(|s| count_on(&before, s, etype::TRI3) % 2 == 1));
@@ -233,12 +203,7 @@ fn parity_split_interpolates_parametric_coordinates() {
         ny: 4,
         ..Default::default()
     });
-    let left: Vec<u64> = before
-        .element_blocks
-        .iter()
-        .find(|b| b.element_type == etype::LINE2 && b.entity_tag == 4)
-        .map(|b| b.element(1).to_vec())
-        .unwrap();
+    let left = line_of(&before, 4, 1);
     split_edge(&mut before, left[0], left[1], 1, 4);
     // parametric blocks: u = x on curves 1 and 3, u = y on curves 2 and 4; (u, v) = (x, y)
     let u_of = |curve: i32, c: &[f64; 3]| if curve % 2 == 1 { c[0] } else { c[1] };

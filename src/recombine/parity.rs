@@ -105,26 +105,13 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
         .collect();
     let mut groups: HashMap<(Option<i32>, Vec<u32>), usize> = HashMap::new();
     let mut list: Vec<Group> = Vec::new();
-    let mut i = 0;
-    while i < walls.len() {
-        let mut j = i;
-        while j < walls.len() && walls[j].0 == walls[i].0 {
-            j += 1;
-        }
-        let key = walls[i].0;
-        let mut sig = Vec::new();
-        let mut s = i;
-        while s < j {
-            let mut e = s;
-            while e < j && walls[e].1 == walls[s].1 {
-                e += 1;
-            }
-            if (e - s) % 2 == 1 {
-                sig.push(walls[s].1);
-            }
-            s = e;
-        }
-        i = j;
+    for run in walls.chunk_by(|x, y| x.0 == y.0) {
+        let key = run[0].0;
+        let sig: Vec<u32> = run
+            .chunk_by(|x, y| x.1 == y.1)
+            .filter(|r| r.len() % 2 == 1)
+            .map(|r| r[0].1)
+            .collect();
         if sig.is_empty() || sig.len() > 2 || blocked.binary_search(&key).is_ok() {
             continue;
         }
@@ -176,18 +163,11 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
     };
     // a group chosen twice cancels out
     chosen.sort_unstable();
-    let mut keep = Vec::new();
-    let mut i = 0;
-    while i < chosen.len() {
-        let mut j = i;
-        while j < chosen.len() && chosen[j] == chosen[i] {
-            j += 1;
-        }
-        if (j - i) % 2 == 1 {
-            keep.push(chosen[i]);
-        }
-        i = j;
-    }
+    let keep: Vec<usize> = chosen
+        .chunk_by(|a, b| a == b)
+        .filter(|r| r.len() % 2 == 1)
+        .map(|r| r[0])
+        .collect();
     let choices = keep
         .into_iter()
         .map(|g| {

@@ -228,31 +228,21 @@ impl SurfaceTopo {
         // are boundary edges, so an interior edge between two of their nodes is a chord, not
         // a segment (e.g. a triangle with three nodes on a circle)
         let mut boundary_curves: Vec<i32> = Vec::new();
-        let mut i = 0;
-        while i < keys.len() {
-            let mut j = i + 1;
-            while j < keys.len() && keys[j].0 == keys[i].0 {
-                j += 1;
-            }
-            if j - i == 1 {
-                let (a, b) = ((keys[i].0 >> 32) as u32, keys[i].0 as u32);
+        for run in keys.chunk_by(|x, y| x.0 == y.0) {
+            if let [(key, _)] = run {
+                let (a, b) = ((key >> 32) as u32, *key as u32);
                 if let OnCurve::Bare(c) = curves.on_curve(nodes, a, b) {
                     if !boundary_curves.contains(&c) {
                         boundary_curves.push(c);
                     }
                 }
             }
-            i = j;
         }
         let mut nbr = vec![NONE; 3 * n];
-        let mut i = 0;
-        while i < keys.len() {
-            let mut j = i + 1;
-            while j < keys.len() && keys[j].0 == keys[i].0 {
-                j += 1;
-            }
-            if j - i == 2 {
-                let (h0, h1) = (keys[i].1 as usize, keys[i + 1].1 as usize);
+        for run in keys.chunk_by(|x, y| x.0 == y.0) {
+            // three or more triangles: non-manifold, a wall (nbr stays NONE)
+            if let [(_, h0), (_, h1)] = run {
+                let (h0, h1) = (*h0 as usize, *h1 as usize);
                 let (t0, k0) = (h0 / 3, h0 % 3);
                 let (t1, k1) = (h1 / 3, h1 % 3);
                 let a = tris[t0][k0];
@@ -273,8 +263,6 @@ impl SurfaceTopo {
                     nbr[h1] = t0 as u32;
                 }
             }
-            // three or more triangles: non-manifold, a wall (nbr stays NONE)
-            i = j;
         }
         SurfaceTopo { tris, nbr }
     }

@@ -424,3 +424,78 @@ pub fn subdivided_triangle(n: usize) -> Mesh {
     }
     b.mesh
 }
+
+/// Recombination options with the certificate and invariant checks on.
+pub fn verify_opts() -> blossomquad::recombine::RecombineOptions {
+    blossomquad::recombine::RecombineOptions {
+        verify: true,
+        ..Default::default()
+    }
+}
+
+/// Node grid `(nx + 1) × (ny + 1)` on surface 1 at integer coordinates; each cell is handed
+/// to `cell(builder, i, j, [a, b, c, d])` (counter-clockwise corners) to fill.
+pub fn cell_grid(
+    nx: usize,
+    ny: usize,
+    mut cell: impl FnMut(&mut Builder, usize, usize, [u64; 4]),
+) -> Mesh {
+    let mut b = Builder::new();
+    b.entity(2, 1, &[], &[]);
+    let mut id = vec![vec![0u64; ny + 1]; nx + 1];
+    for (i, col) in id.iter_mut().enumerate() {
+        for (j, c) in col.iter_mut().enumerate() {
+            *c = b.node(2, 1, [i as f64, j as f64, 0.0]);
+        }
+    }
+    for i in 0..nx {
+        for j in 0..ny {
+            let q = [id[i][j], id[i + 1][j], id[i + 1][j + 1], id[i][j + 1]];
+            cell(&mut b, i, j, q);
+        }
+    }
+    b.mesh
+}
+
+/// Nodes of line element `i` of curve `curve`.
+pub fn line_of(m: &Mesh, curve: i32, i: usize) -> Vec<u64> {
+    m.element_blocks
+        .iter()
+        .find(|b| b.element_type == etype::LINE2 && b.entity_tag == curve)
+        .map(|b| b.element(i).to_vec())
+        .unwrap()
+}
+
+/// Tag of the node at `p`.
+pub fn node_at(m: &Mesh, p: [f64; 3]) -> u64 {
+    m.node_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().zip(&b.coords))
+        .find(|(_, c)| (0..3).all(|k| (c[k] - p[k]).abs() < 1e-9))
+        .map(|(t, _)| *t)
+        .unwrap()
+}
+
+/// Corner coordinates of every quad, with its tag.
+pub fn quad_coords(m: &Mesh) -> Vec<(u64, Vec<[f64; 3]>)> {
+    let idx = m.node_index();
+    let mut out = Vec::new();
+    for blk in m
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == etype::QUAD4)
+    {
+        for i in 0..blk.len() {
+            let p = blk
+                .element(i)
+                .iter()
+                .map(|&n| {
+                    let r = idx.get(n).unwrap();
+                    m.node_blocks[r.block as usize].coords[r.index as usize]
+                })
+                .collect();
+            out.push((blk.tags[i], p));
+        }
+    }
+    out
+}
