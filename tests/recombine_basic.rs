@@ -132,6 +132,7 @@ fn mixed_surface_keeps_its_quads() {
     assert_eq!(count(&m, etype::TRI3), 0);
     assert_eq!(count_on(&m, 1, etype::QUAD4), quads + 12);
     assert_eq!(r.surfaces[0].quads_out, 12);
+    assert_eq!(r.surfaces[0].quads_kept, quads);
     check_invariants(&before, &m).unwrap();
 }
 

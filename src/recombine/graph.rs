@@ -130,15 +130,18 @@ pub(crate) fn build(topo: &SurfaceTopo, coords: &[DVec3], with_extra: bool) -> G
     let mut extra_fans = Vec::new();
     if with_extra {
         let cost = extra_edge_cost(n);
-        let mut seen: Vec<(u32, u32)> = Vec::new();
-        for fan in fans(topo) {
-            let (a, b) = (fan.tris[0], fan.tris[fan.tris.len() - 1]);
-            let adjacent = (0..3).any(|k| topo.nbr[3 * a as usize + k] == b);
-            let key = (a.min(b), a.max(b));
-            if a == b || adjacent || seen.contains(&key) {
-                continue;
-            }
-            seen.push(key);
+        let mut ends: Vec<((u32, u32), Fan)> = fans(topo)
+            .into_iter()
+            .filter_map(|fan| {
+                let (a, b) = (fan.tris[0], fan.tris[fan.tris.len() - 1]);
+                let adjacent = (0..3).any(|k| topo.nbr[3 * a as usize + k] == b);
+                (a != b && !adjacent).then_some(((a.min(b), a.max(b)), fan))
+            })
+            .collect();
+        // one extra edge per pair of end triangles (stable: the first fan found is kept)
+        ends.sort_by_key(|e| e.0);
+        ends.dedup_by_key(|e| e.0);
+        for ((a, b), fan) in ends {
             edges.push((a, b, cost));
             extra_fans.push(fan);
         }

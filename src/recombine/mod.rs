@@ -318,6 +318,8 @@ pub(crate) struct SurfaceWork {
     pub elem_tags: Vec<u64>,
     /// MSH 2 partition tags of each triangle, when its block had some.
     pub partitions: Vec<Option<Vec<i32>>>,
+    /// Quads already on the surface.
+    pub quads_kept: usize,
     pub time: Duration,
 }
 
@@ -618,6 +620,12 @@ fn surface_work(
                     partitions.push(b.partitions.as_ref().and_then(|p| p.get(i).cloned()));
                 }
             }
+            let quads_kept = mesh
+                .element_blocks
+                .iter()
+                .filter(|b| b.element_type == etype::QUAD4 && b.entity_dim == 2 && b.entity_tag == tag)
+                .map(|b| b.len())
+                .sum();
             let topo = SurfaceTopo::new(tris, nodes, curves);
             let (region, n_regions) = topo.regions();
             Ok(SurfaceWork {
@@ -627,6 +635,7 @@ fn surface_work(
                 n_regions,
                 elem_tags,
                 partitions,
+                quads_kept,
                 time: t0.elapsed(),
             })
         })
@@ -714,7 +723,7 @@ fn match_surface(
         surface: w.tag,
         triangles_in: n,
         quads_out: faces.quads.len(),
-        quads_kept: 0,
+        quads_kept: w.quads_kept,
         parity_splits: 0,
         graph_edges: g.real,
         extra_edges_added: g.edges.len() - g.real,

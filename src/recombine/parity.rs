@@ -118,10 +118,21 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
         let (a, b) = ((key >> 32) as u32, key as u32);
         let curve = match line_curve.binary_search_by_key(&key, |x| x.0) {
             Ok(p) => Some(line_curve[p].1),
-            Err(_) => [a, b].iter().find_map(|&n| {
-                let (d, t) = nodes.entity(mesh, n);
-                (d == 1).then_some(t)
-            }),
+            Err(_) => {
+                let (ea, eb) = (nodes.entity(mesh, a), nodes.entity(mesh, b));
+                match (ea, eb) {
+                    ((1, c), _) | (_, (1, c)) => Some(c),
+                    // a curve meshed with one segment: the curve bounded by both points
+                    ((0, p), (0, q)) => mesh.entities[1]
+                        .iter()
+                        .find(|c| {
+                            let pts: Vec<i32> = c.bounding.iter().map(|x| x.abs()).collect();
+                            pts.len() == 2 && pts.contains(&p) && pts.contains(&q)
+                        })
+                        .map(|c| c.tag),
+                    _ => None,
+                }
+            }
         };
         if curve.is_some_and(|c| periodic.contains(&c)) {
             continue;
