@@ -20,6 +20,7 @@ fn figure_6_coarse_needs_an_edge_swap() {
     assert_eq!(count(&m, etype::QUAD4), 2);
     assert_eq!(count(&m, etype::TRI3), 0);
     assert_eq!(m.node_count(), before.node_count(), "a swap adds no node");
+    assert!(folded_quads(&m).is_empty());
     check_invariants(&before, &m).unwrap();
 }
 
@@ -65,6 +66,7 @@ fn figure_6_fine_and_larger_subdivisions() {
             n * n / 2 + s.vertex_duplications,
             "n = {n}"
         );
+        assert!(folded_quads(&m).is_empty(), "n = {n}");
         check_invariants(&before, &m).unwrap();
     }
 }
@@ -114,6 +116,7 @@ fn fan_around_boundary_vertex_needs_vertex_duplication() {
     assert_eq!((blk.entity_dim, blk.entity_tag), (2, 1));
     let p = blk.coords[blk.tags.iter().position(|&t| t == new_tag).unwrap()];
     assert!(p[1] > 0.0 && p[0].hypot(p[1]) < 1.0, "{p:?}");
+    assert!(folded_quads(&m).is_empty());
     check_invariants(&before, &m).unwrap();
 }
 
@@ -140,7 +143,7 @@ fn random_strips_of_pendants_always_recombine() {
     // a strip of triangles with random pendant triangles glued on its outer edges: many
     // have no perfect matching; every one must come out all-quad and conforming
     let mut rng = Rng(0x5eed);
-    let (mut swaps, mut dups) = (0, 0);
+    let (mut swaps, mut dups, mut folded) = (0, 0, 0);
     for case in 0..40 {
         let mut b = Builder::new();
         b.entity(2, 1, &[], &[]);
@@ -181,8 +184,10 @@ fn random_strips_of_pendants_always_recombine() {
         assert_eq!(s.edge_swaps + s.vertex_duplications, s.extra_edges_used);
         swaps += s.edge_swaps;
         dups += s.vertex_duplications;
+        folded += folded_quads(&m).len();
         check_invariants(&before, &m).unwrap_or_else(|e| panic!("case {case}: {e}"));
     }
-    eprintln!("{swaps} edge swaps, {dups} vertex duplications");
+    eprintln!("{swaps} edge swaps, {dups} vertex duplications, {folded} folded quads");
     assert!(swaps > 0 && dups > 0, "{swaps} swaps, {dups} duplications");
+    assert_eq!(folded, 0);
 }

@@ -82,13 +82,20 @@ fn random_delaunay_meshes() {
         let r = recombine(&mut m, &verify_opts()).unwrap_or_else(|e| panic!("case {case}: {e}"));
         check_invariants(&before, &m).unwrap_or_else(|e| panic!("case {case}: {e}"));
         assert_eq!(count(&m, etype::TRI3), 0, "case {case}");
+        assert!(folded_quads(&m).is_empty(), "case {case}");
         let s = &r.surfaces[0];
-        assert_eq!(s.quads_out, s.triangles_in / 2 + s.vertex_duplications, "case {case}");
+        assert_eq!(
+            s.quads_out,
+            s.triangles_in / 2 + s.vertex_duplications,
+            "case {case}"
+        );
         odd += usize::from(!r.parity_splits.is_empty());
         extra += s.extra_edges_used;
         swaps += s.edge_swaps;
         dups += s.vertex_duplications;
     }
-    eprintln!("{odd} odd meshes repaired, {extra} extra edges used ({swaps} swaps, {dups} duplications)");
+    eprintln!(
+        "{odd} odd meshes repaired, {extra} extra edges used ({swaps} swaps, {dups} duplications)"
+    );
     assert!(odd > 20, "the sample must exercise parity repair");
 }

@@ -623,7 +623,9 @@ fn surface_work(
             let quads_kept = mesh
                 .element_blocks
                 .iter()
-                .filter(|b| b.element_type == etype::QUAD4 && b.entity_dim == 2 && b.entity_tag == tag)
+                .filter(|b| {
+                    b.element_type == etype::QUAD4 && b.entity_dim == 2 && b.entity_tag == tag
+                })
                 .map(|b| b.len())
                 .sum();
             let topo = SurfaceTopo::new(tris, nodes, curves);

@@ -127,7 +127,9 @@ pub(crate) fn build_faces(
     }
     for &i in &used {
         let fan = &graph.extra_fans[i];
-        if try_swap(topo, fan, mate, &mark, &mut faces, &mut alive, &tri_face) {
+        if try_swap(
+            topo, fan, mate, &mark, coords, &mut faces, &mut alive, &tri_face,
+        ) {
             out.swaps += 1;
         } else {
             duplicate(topo, fan, coords, n_global, &mut faces, &tri_face, &mut out)?;
@@ -155,12 +157,16 @@ pub(crate) fn build_faces(
 /// matched to `t4` across the edge opposite `v`. The hexagon `t1 ∪ t2 ∪ t4 ∪ t3` is cut by
 /// the diagonal from `v` to `t4`'s far vertex `x` into two quads (the diagonal `a1 a2` of the
 /// quad `t2 ∪ t4` is swapped to `v x`). Applied only when none of the four triangles takes
-/// part in another used extra edge's fan; returns false (nothing changed) otherwise.
+/// part in another used extra edge's fan and the new diagonal lies inside the quad
+/// `t2 ∪ t4` (so both new quads are simple polygons, possibly non-convex, never folded);
+/// returns false (nothing changed) otherwise.
+#[allow(clippy::too_many_arguments)]
 fn try_swap(
     topo: &SurfaceTopo,
     fan: &super::graph::Fan,
     mate: &[u32],
     mark: &[u8],
+    coords: &[DVec3],
     faces: &mut [Vec<u32>],
     alive: &mut [bool],
     tri_face: &[u32],
@@ -196,6 +202,17 @@ fn try_swap(
         return false;
     }
     let at = |s: usize| h[(iv + s) % 6];
+    // the diagonal v-x must lie inside the quad (v, h2, x, h4): both halves turn like the
+    // input triangles
+    let p = |i: u32| coords[i as usize];
+    let normal: DVec3 = [t1, t2, t3, t4]
+        .iter()
+        .map(|&t| super::graph::tri_normal(coords, topo.tris[t as usize]))
+        .sum();
+    let turn = |a: u32, b: u32, c: u32| (p(b) - p(a)).cross(p(c) - p(a)).dot(normal);
+    if turn(v, at(2), x) <= 0.0 || turn(v, x, at(4)) <= 0.0 {
+        return false;
+    }
     faces[tri_face[t1 as usize] as usize] = vec![at(0), at(1), at(2), at(3)];
     faces[tri_face[t3 as usize] as usize] = vec![at(3), at(4), at(5), at(0)];
     alive[tri_face[t2 as usize] as usize] = false;

@@ -499,3 +499,23 @@ pub fn quad_coords(m: &Mesh) -> Vec<(u64, Vec<[f64; 3]>)> {
     }
     out
 }
+
+/// Quads (with their tag) whose signed area in the xy plane is not positive, or that are
+/// self-intersecting (two signed triangle areas of opposite sign around both diagonals):
+/// folded quads in a counter-clockwise planar mesh.
+pub fn folded_quads(m: &Mesh) -> Vec<u64> {
+    let tri = |a: &[f64; 3], b: &[f64; 3], c: &[f64; 3]| {
+        (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0])
+    };
+    quad_coords(m)
+        .into_iter()
+        .filter(|(_, p)| {
+            // a simple quad (convex or not) has one diagonal splitting it into two
+            // positive triangles
+            let d02 = tri(&p[0], &p[1], &p[2]) > 0.0 && tri(&p[0], &p[2], &p[3]) > 0.0;
+            let d13 = tri(&p[1], &p[2], &p[3]) > 0.0 && tri(&p[1], &p[3], &p[0]) > 0.0;
+            !(d02 || d13)
+        })
+        .map(|(t, _)| t)
+        .collect()
+}
