@@ -56,3 +56,43 @@ fn bench_grid_100k() {
 fn bench_grid_1m() {
     run(707, false);
 }
+
+/// Read → recombine → write of the file named by `BLOSSOMQUAD_BENCH_MSH` (skipped when
+/// unset).
+#[test]
+#[ignore]
+fn bench_file_end_to_end() {
+    let Some(path) = std::env::var_os("BLOSSOMQUAD_BENCH_MSH") else {
+        eprintln!("BLOSSOMQUAD_BENCH_MSH not set; skipping");
+        return;
+    };
+    let path = std::path::PathBuf::from(path);
+    let t = Instant::now();
+    let mut m = blossomquad::msh::read_file(&path).unwrap();
+    let read = t.elapsed();
+    eprintln!("read {:.3} s", read.as_secs_f64());
+    let t = Instant::now();
+    let opts = RecombineOptions {
+        extra_edges: std::env::var_os("BLOSSOMQUAD_BENCH_NO_EXTRA").is_none(),
+        ..Default::default()
+    };
+    let r = recombine(&mut m, &opts).unwrap();
+    let rec = t.elapsed();
+    let out = std::env::temp_dir().join("blossomquad_bench_out.msh");
+    let t = Instant::now();
+    blossomquad::msh::write_file(&m, &out, blossomquad::msh::default_output_format(&m)).unwrap();
+    let write = t.elapsed();
+    let tris: usize = r.surfaces.iter().map(|s| s.triangles_in).sum();
+    let matching: f64 = r.surfaces.iter().map(|s| s.time_matching.as_secs_f64()).sum();
+    eprintln!(
+        "{}: {tris} triangles, {} surfaces, {} parity splits: read {:.3} s, recombine {:.3} s (matching {:.3} s summed over surfaces), write {:.3} s",
+        path.display(),
+        r.surfaces.len(),
+        r.parity_splits.len(),
+        read.as_secs_f64(),
+        rec.as_secs_f64(),
+        matching,
+        write.as_secs_f64()
+    );
+    let _ = std::fs::remove_file(out);
+}
