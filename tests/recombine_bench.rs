@@ -83,7 +83,15 @@ fn bench_file_end_to_end() {
     blossomquad::msh::write_file(&m, &out, blossomquad::msh::default_output_format(&m)).unwrap();
     let write = t.elapsed();
     let tris: usize = r.surfaces.iter().map(|s| s.triangles_in).sum();
-    let matching: f64 = r.surfaces.iter().map(|s| s.time_matching.as_secs_f64()).sum();
+    let sum = |f: fn(&blossomquad::recombine::SurfaceReport) -> std::time::Duration| -> f64 {
+        r.surfaces.iter().map(|s| f(s).as_secs_f64()).sum()
+    };
+    let matching = sum(|s| s.time_matching);
+    eprintln!(
+        "graph {:.3} s, post {:.3} s (summed over surfaces)",
+        sum(|s| s.time_graph),
+        sum(|s| s.time_post)
+    );
     eprintln!(
         "{}: {tris} triangles, {} surfaces, {} parity splits: read {:.3} s, recombine {:.3} s (matching {:.3} s summed over surfaces), write {:.3} s",
         path.display(),

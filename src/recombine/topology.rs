@@ -204,6 +204,72 @@ pub(crate) enum Wall {
     Inconsistent,
 }
 
+/// Every half-edge `3t + k` of `tris` with its [`edge_key`], sorted by (key, half-edge).
+///
+/// When a key and a half-edge index fit in 64 bits together (node ids below 2^b and
+/// half-edges below 2^p with 2b + p ≤ 64: up to about 2^20 nodes and 2^22 half-edges, more
+/// when the other is smaller), they are packed in one `u64` and sorted by an LSD radix sort
+/// on the key bits (stable, so equal keys keep half-edge order); otherwise by a parallel
+/// comparison sort. Both give the same order.
+pub(crate) fn sorted_half_edges(tris: &[[u32; 3]]) -> Vec<(u64, u32)> {
+    let halves = 3 * tris.len();
+    let max_id = tris.iter().flatten().copied().max().unwrap_or(0);
+    let bits = |x: u64| 64 - x.leading_zeros();
+    let b = bits(max_id as u64);
+    let p = bits(halves.saturating_sub(1) as u64);
+    if halves < 1 << 16 || 2 * b + p > 64 {
+        let mut keys: Vec<(u64, u32)> = Vec::with_capacity(halves);
+        for (t, tri) in tris.iter().enumerate() {
+            for k in 0..3 {
+                keys.push((edge_key(tri[k], tri[(k + 1) % 3]), (3 * t + k) as u32));
+            }
+        }
+        keys.par_sort_unstable();
+        return keys;
+    }
+    let mut a: Vec<u64> = Vec::with_capacity(halves);
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let (x, y) = (tri[k], tri[(k + 1) % 3]);
+            let (lo, hi) = if x < y { (x, y) } else { (y, x) };
+            a.push(((lo as u64) << (b + p)) | ((hi as u64) << p) | (3 * t + k) as u64);
+        }
+    }
+    // LSD radix sort over the 2b key bits, 11 bits per pass
+    const DIGIT: u32 = 11;
+    let mut buf = vec![0u64; halves];
+    let mut shift = p;
+    while shift < p + 2 * b {
+        let mask = (1u64 << DIGIT) - 1;
+        let mut count = vec![0usize; 1 << DIGIT];
+        for &v in &a {
+            count[((v >> shift) & mask) as usize] += 1;
+        }
+        let mut sum = 0;
+        for c in count.iter_mut() {
+            let x = *c;
+            *c = sum;
+            sum += x;
+        }
+        for &v in &a {
+            let d = ((v >> shift) & mask) as usize;
+            buf[count[d]] = v;
+            count[d] += 1;
+        }
+        std::mem::swap(&mut a, &mut buf);
+        shift += DIGIT;
+    }
+    let low = (1u64 << p) - 1;
+    let idmask = (1u64 << b) - 1;
+    a.into_iter()
+        .map(|v| {
+            let lo = (v >> (b + p)) & idmask;
+            let hi = (v >> p) & idmask;
+            ((lo << 32) | hi, (v & low) as u32)
+        })
+        .collect()
+}
+
 /// One surface's triangles and their adjacency.
 pub(crate) struct SurfaceTopo {
     /// Triangles as global node ids, in input order.
@@ -217,13 +283,7 @@ impl SurfaceTopo {
     /// Builds the adjacency of `tris`.
     pub fn new(tris: Vec<[u32; 3]>, nodes: &NodeTable, curves: &CurveInfo) -> Self {
         let n = tris.len();
-        let mut keys: Vec<(u64, u32)> = Vec::with_capacity(3 * n);
-        for (t, tri) in tris.iter().enumerate() {
-            for k in 0..3 {
-                keys.push((edge_key(tri[k], tri[(k + 1) % 3]), (3 * t + k) as u32));
-            }
-        }
-        keys.par_sort_unstable();
+        let keys = sorted_half_edges(&tris);
         // bare curves that carry a boundary edge of this surface bound it: their segments
         // are boundary edges, so an interior edge between two of their nodes is a chord, not
         // a segment (e.g. a triangle with three nodes on a circle)
@@ -297,5 +357,32 @@ impl SurfaceTopo {
             count += 1;
         }
         (id, count as usize)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn radix_and_comparison_sorts_agree() {
+        // 30 000 random triangles on 5 000 nodes: the radix path; compare with a plain sort
+        let mut x: u64 = 0x1234_5678;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x % 5000) as u32
+        };
+        let tris: Vec<[u32; 3]> = (0..30_000).map(|_| [next(), next(), next()]).collect();
+        let fast = sorted_half_edges(&tris);
+        let mut slow: Vec<(u64, u32)> = Vec::new();
+        for (t, tri) in tris.iter().enumerate() {
+            for k in 0..3 {
+                slow.push((edge_key(tri[k], tri[(k + 1) % 3]), (3 * t + k) as u32));
+            }
+        }
+        slow.sort_unstable();
+        assert_eq!(fast, slow);
     }
 }
