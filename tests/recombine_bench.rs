@@ -104,3 +104,48 @@ fn bench_file_end_to_end() {
     );
     let _ = std::fs::remove_file(out);
 }
+
+/// Recombines (with verification) every .msh file in `BLOSSOMQUAD_STRESS_DIR` (skipped when
+/// unset) and reports failures.
+#[test]
+#[ignore]
+fn stress_dir() {
+    let Some(dir) = std::env::var_os("BLOSSOMQUAD_STRESS_DIR") else {
+        eprintln!("BLOSSOMQUAD_STRESS_DIR not set; skipping");
+        return;
+    };
+    let mut files: Vec<_> = std::fs::read_dir(dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "msh"))
+        .collect();
+    files.sort();
+    let mut failed = Vec::new();
+    for f in &files {
+        let before = blossomquad::msh::read_file(f).unwrap();
+        let mut m = before.clone();
+        let opts = RecombineOptions {
+            verify: true,
+            drop_volumes: true,
+            ..Default::default()
+        };
+        match recombine(&mut m, &opts) {
+            Ok(r) => eprintln!(
+                "{}: {} surfaces, {} triangles, {} splits, {} extra used ({} swaps, {} dups), {} retriangulated",
+                f.display(),
+                r.surfaces.len(),
+                r.surfaces.iter().map(|s| s.triangles_in).sum::<usize>(),
+                r.parity_splits.len(),
+                r.surfaces.iter().map(|s| s.extra_edges_used).sum::<usize>(),
+                r.surfaces.iter().map(|s| s.edge_swaps).sum::<usize>(),
+                r.surfaces.iter().map(|s| s.vertex_duplications).sum::<usize>(),
+                r.retriangulated.len()
+            ),
+            Err(e) => {
+                eprintln!("{}: FAILED {e}", f.display());
+                failed.push(f.clone());
+            }
+        }
+    }
+    assert!(failed.is_empty(), "{failed:?}");
+}
