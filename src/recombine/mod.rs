@@ -9,7 +9,8 @@
 //!    [`RecombineError::UnsupportedSurfaceElements`]. A surface with triangles that is in a
 //!    `$Periodic` link → [`RecombineError::PeriodicSurface`].
 //! 2. **Topology** (per surface, in parallel). Nodes get dense global `u32` ids; each
-//!    surface's triangle edges are sorted by `u64` key. An edge shared by two triangles of the
+//!    surface's half-edges are sorted by `u64` edge key (an LSD radix sort of key and
+//!    half-edge packed in one `u64`; no hash maps). An edge shared by two triangles of the
 //!    surface is a *graph edge* unless it is a *wall*: it lies on a model curve, or the two
 //!    triangles are oriented inconsistently, or three or more triangles share it. "On a
 //!    curve" means: a 2-node line element; or, for curves without any line element (rule
@@ -78,10 +79,11 @@
 //!    `(p[k+1], p[k+2], p[k], s)` (oriented like the first triangle; graph edges only join
 //!    consistently oriented triangles, so like both). For each extra edge in the matching:
 //!    - **Edge swap** (5.3.1) when the fan is `t1 t2 t3`, `t2` is matched across the edge
-//!      opposite `v` to `t4`, and none of the four triangles is in another used extra edge's
-//!      fan: the hexagon `t1 ∪ t2 ∪ t4 ∪ t3` is cut into two quads by the diagonal from `v` to
-//!      `t4`'s far vertex (the quad `t2 ∪ t4` has its diagonal swapped). The quads may be
-//!      non-convex; optimization (section 6) is expected to fix them.
+//!      opposite `v` to `t4`, none of the four triangles is in another used extra edge's fan,
+//!      and the new diagonal from `v` to `t4`'s far vertex `x` lies inside the quad `t2 ∪ t4`:
+//!      the hexagon `t1 ∪ t2 ∪ t4 ∪ t3` is cut into two quads by `v x` (the quad `t2 ∪ t4`
+//!      has its diagonal swapped). Both are simple polygons, possibly non-convex;
+//!      optimization (section 6) is expected to improve them.
 //!    - **Vertex duplication** (5.3.2) otherwise: a new node `v'` is placed halfway between
 //!      `v` and the mean of the fan's inner vertices `a_1 … a_{k−1}` (classified on the
 //!      surface, parametric coordinates averaged from those of the `a_i` when the surface
