@@ -5,10 +5,9 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::topology::{SurfaceTopo, NONE};
-use crate::quality::eta_signed;
 
 /// Integer cost of one unit of `1 − η`: a graph edge costs `round(COST_SCALE · (1 − η_s))`
-/// with η_s the signed quality ([`eta_signed`]), so a perfect square costs 0, a quad with a
+/// with η_s the signed quality ([`crate::quality::eta_signed`]), so a perfect square costs 0, a quad with a
 /// zero angle `COST_SCALE`, and non-convex or folded quads up to `2 · COST_SCALE`: always more
 /// than any valid quad. 10⁴ resolves η to 10⁻⁴, far below any meaningful quality difference,
 /// and keeps extra-edge costs (below) within the solver's cost range for 10⁷ triangles.
@@ -55,9 +54,45 @@ pub(crate) fn edge_cost(topo: &SurfaceTopo, coords: &[DVec3], t: usize, k: usize
     let u = topo.nbr[3 * t + k] as usize;
     let normal = tri_normal(coords, topo.tris[t]) + tri_normal(coords, topo.tris[u]);
     let pts = quad.map(|i| coords[i as usize]);
-    let eta = eta_signed(&pts, normal);
+    let eta = eta_signed_fast(&pts, normal);
     let eta = if eta.is_finite() { eta } else { -1.0 };
     (COST_SCALE as f64 * (1.0 - eta)).round() as i64
+}
+
+/// [`crate::quality::eta_signed`] with one `atan2` instead of four: the corner with the largest deviation
+/// `|π/2 − α_k|` is found from the sines of the angles first. With `α ∈ (−π, π]`, corners
+/// with `α < −π/2` deviate by more than `π` and more the larger `sin α` is; all others
+/// deviate by at most `π` and more the smaller `sin α` is (the deviation is the angle whose
+/// cosine is `sin α`). Degenerate corners (a zero edge) count as `α = 0`, as in
+/// [`crate::quality::eta::signed_angles`].
+pub(crate) fn eta_signed_fast(p: &[DVec3; 4], normal: DVec3) -> f64 {
+    let normal = normal.normalize_or_zero();
+    // (class, key): larger is worse
+    let mut worst = (0u8, f64::NEG_INFINITY, 0.0f64, 0.0f64);
+    for k in 0..4 {
+        let a = p[(k + 1) % 4] - p[k];
+        let b = p[(k + 3) % 4] - p[k];
+        let s = normal.dot(a.cross(b));
+        let c = a.dot(b);
+        let r = (s * s + c * c).sqrt();
+        let (class, key) = if r == 0.0 {
+            (0, 0.0)
+        } else if c < 0.0 && s < 0.0 {
+            (1, s / r)
+        } else {
+            (0, -s / r)
+        };
+        if (class, key) > (worst.0, worst.1) {
+            worst = (class, key, s, c);
+        }
+    }
+    let (_, _, s, c) = worst;
+    let alpha = if s == 0.0 && c == 0.0 {
+        0.0
+    } else {
+        s.atan2(c)
+    };
+    1.0 - (std::f64::consts::FRAC_PI_2 - alpha).abs() / std::f64::consts::FRAC_PI_2
 }
 
 /// A fan: the triangles around vertex `v` between two walls, in walking order (each one
@@ -150,5 +185,34 @@ pub(crate) fn build(topo: &SurfaceTopo, coords: &[DVec3], with_extra: bool) -> G
         edges,
         real,
         extra_fans,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::quality::eta_signed;
+
+    #[test]
+    fn fast_eta_matches_eta_signed() {
+        let mut x: u64 = 0x9E37_79B9;
+        let mut rnd = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for i in 0..200_000 {
+            let mut p = [DVec3::ZERO; 4];
+            for q in p.iter_mut() {
+                *q = DVec3::new(rnd(), rnd(), 0.3 * rnd());
+            }
+            if i % 7 == 0 {
+                p[2] = p[1]; // degenerate edge
+            }
+            let n = DVec3::new(0.2 * rnd(), 0.2 * rnd(), 1.0);
+            let (a, b) = (eta_signed(&p, n), eta_signed_fast(&p, n));
+            assert!((a - b).abs() < 1e-9, "{p:?}: {a} vs {b}");
+        }
     }
 }

@@ -98,6 +98,9 @@ impl NodeTable {
 pub(crate) struct CurveInfo {
     /// Sorted keys of every 2-node line element's edge.
     pub line_edges: Vec<u64>,
+    /// Per global node id: true when some line element uses the node (a cheap filter before
+    /// searching `line_edges`).
+    pub line_node: Vec<bool>,
     /// For each node block: `Some(curve tag)` when it classifies nodes on a curve that has no
     /// line element anywhere in the mesh (rule (b) applies to it), else `None`.
     pub bare_curve_of_block: Vec<Option<i32>>,
@@ -111,6 +114,7 @@ impl CurveInfo {
     /// Collects line edges and bare-curve data.
     pub fn new(mesh: &Mesh, nodes: &NodeTable) -> Result<Self, RecombineError> {
         let mut line_edges = Vec::new();
+        let mut line_node = vec![false; nodes.coords.len()];
         let mut curves_with_lines: Vec<i32> = Vec::new();
         for b in &mesh.element_blocks {
             if b.element_type != etype::LINE2 {
@@ -120,6 +124,8 @@ impl CurveInfo {
             for i in 0..b.len() {
                 let [a, c] = nodes.ids::<2>(b.element(i), b.entity_dim, b.entity_tag, b.tags[i])?;
                 line_edges.push(edge_key(a, c));
+                line_node[a as usize] = true;
+                line_node[c as usize] = true;
             }
         }
         line_edges.sort_unstable();
@@ -148,6 +154,7 @@ impl CurveInfo {
         bare_curve_points.sort_unstable();
         Ok(CurveInfo {
             line_edges,
+            line_node,
             bare_curve_of_block,
             point_of_block,
             bare_curve_points,
@@ -160,7 +167,10 @@ impl CurveInfo {
     /// point bounding that curve.
     #[inline]
     pub fn on_curve(&self, nodes: &NodeTable, a: u32, b: u32) -> OnCurve {
-        if !self.line_edges.is_empty() && self.line_edges.binary_search(&edge_key(a, b)).is_ok() {
+        if self.line_node[a as usize]
+            && self.line_node[b as usize]
+            && self.line_edges.binary_search(&edge_key(a, b)).is_ok()
+        {
             return OnCurve::Line;
         }
         let ba = nodes.block[a as usize] as usize;
@@ -213,7 +223,11 @@ pub(crate) enum Wall {
 /// comparison sort. Both give the same order.
 pub(crate) fn sorted_half_edges(tris: &[[u32; 3]]) -> Vec<(u64, u32)> {
     let halves = 3 * tris.len();
-    let max_id = tris.iter().flatten().copied().max().unwrap_or(0);
+    let max_id = tris
+        .iter()
+        .map(|t| t[0].max(t[1]).max(t[2]))
+        .max()
+        .unwrap_or(0);
     let bits = |x: u64| 64 - x.leading_zeros();
     let b = bits(max_id as u64);
     let p = bits(halves.saturating_sub(1) as u64);
