@@ -134,6 +134,8 @@ impl Default for Grid {
 /// A unit square `[x0, x0+1] × [0, 1]` as surface 1 bounded by curves 1..4 (bottom, right,
 /// top, left) and points 1..4, an nx × ny grid with seeded random diagonals and interior
 /// jitter. Physical group 10 on the surface ("plate"), 20 on curve 1.
+// nodes are created row by row (j outer) but indexed id[i][j]: the index loop is clearer
+#[allow(clippy::needless_range_loop)]
 pub fn grid(g: &Grid) -> Mesh {
     let mut b = Builder::new();
     for p in 1..=4 {
