@@ -427,3 +427,16 @@ fn isolated_triangles_among_quads_retriangulate_the_surface() {
     assert_eq!(count(&m, etype::TRI3), 0);
     check_invariants(&before, &m).unwrap();
 }
+
+#[test]
+fn malformed_block_is_an_error_not_a_panic() {
+    let mut m = grid(&Grid::default());
+    m.element_blocks
+        .iter_mut()
+        .find(|b| b.element_type == etype::TRI3)
+        .unwrap()
+        .nodes
+        .pop();
+    let e = recombine(&mut m, &RecombineOptions::default()).unwrap_err();
+    assert!(matches!(e, RecombineError::MalformedBlock { .. }), "{e}");
+}

@@ -247,6 +247,21 @@ pub enum RecombineError {
         /// The other surface of the link.
         master: i32,
     },
+    /// An element block whose node list does not match its element count (a bug in whatever
+    /// built the mesh).
+    #[error("element block of type {element_type} on entity ({dim}, {entity}) has {nodes} node tags for {elements} elements")]
+    MalformedBlock {
+        /// Entity dimension.
+        dim: i32,
+        /// Entity tag.
+        entity: i32,
+        /// Element type.
+        element_type: u32,
+        /// Node tags in the block.
+        nodes: usize,
+        /// Elements in the block.
+        elements: usize,
+    },
     /// An element refers to a node that does not exist.
     #[error(
         "element {element} on entity ({dim}, {entity}) refers to node {node}, which does not exist"
@@ -535,6 +550,20 @@ fn check_input(
     opts: &RecombineOptions,
     report: &mut RecombineReport,
 ) -> Result<(), RecombineError> {
+    for b in &mesh.element_blocks {
+        let k = b.nodes_per_element();
+        let ok = (k == 0 || b.nodes.len() == b.len() * k)
+            && b.partitions.as_ref().is_none_or(|p| p.len() == b.len());
+        if !ok {
+            return Err(RecombineError::MalformedBlock {
+                dim: b.entity_dim,
+                entity: b.entity_tag,
+                element_type: b.element_type,
+                nodes: b.nodes.len(),
+                elements: b.len(),
+            });
+        }
+    }
     let mut volumes: Vec<i32> = Vec::new();
     let mut count = 0;
     for b in &mesh.element_blocks {
