@@ -1,1 +1,3 @@
-//! (optimize: to be written)
+//! Quad mesh optimization, the paper's section 6 (to be written).
+
+pub mod synth;
