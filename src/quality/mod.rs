@@ -13,7 +13,7 @@ pub mod eta;
 pub mod locate;
 pub mod size;
 
-pub use eta::{eta, eta_signed};
+pub use eta::{eta, eta_signed, eta_signed_fast};
 pub use size::{ReferenceSize, SizeExpr, SizeField};
 
 use crate::mesh::{etype, Mesh};
