@@ -1,0 +1,739 @@
+//! Writers for MSH 4.1 and 2.2, ASCII and binary.
+//!
+//! Floats are written with the shortest representation that reads back to the same bits
+//! (`ryu`), integers with `itoa`; output goes through one buffer flushed every megabyte.
+
+use std::collections::HashMap;
+use std::io::{self, Write};
+
+use super::error::{ErrorKind, MshError};
+use crate::mesh::{Entity, Mesh, MshFormat, MshVersion, SectionPosition};
+
+/// Buffered output with number formatting.
+struct Out<'w> {
+    w: &'w mut dyn Write,
+    buf: Vec<u8>,
+    binary: bool,
+    ryu: ryu::Buffer,
+    itoa: itoa::Buffer,
+}
+
+const FLUSH_AT: usize = 1 << 20;
+
+impl<'w> Out<'w> {
+    fn new(w: &'w mut dyn Write, binary: bool) -> Self {
+        Out {
+            w,
+            buf: Vec::with_capacity(FLUSH_AT + 4096),
+            binary,
+            ryu: ryu::Buffer::new(),
+            itoa: itoa::Buffer::new(),
+        }
+    }
+    #[inline]
+    fn s(&mut self, s: &str) {
+        self.buf.extend_from_slice(s.as_bytes());
+    }
+    #[inline]
+    fn b(&mut self, s: &[u8]) {
+        self.buf.extend_from_slice(s);
+    }
+    #[inline]
+    fn int<I: itoa::Integer>(&mut self, v: I) {
+        self.buf.extend_from_slice(self.itoa.format(v).as_bytes());
+    }
+    /// Integer followed by a space.
+    #[inline]
+    fn int_sp<I: itoa::Integer>(&mut self, v: I) {
+        self.int(v);
+        self.buf.push(b' ');
+    }
+    /// Shortest round-trip float, without a useless `.0`.
+    #[inline]
+    fn f(&mut self, v: f64) {
+        let s = self.ryu.format(v);
+        let s = s.strip_suffix(".0").unwrap_or(s);
+        self.buf.extend_from_slice(s.as_bytes());
+    }
+    #[inline]
+    fn nl(&mut self) {
+        self.buf.push(b'\n');
+    }
+    #[inline]
+    fn sp(&mut self) {
+        self.buf.push(b' ');
+    }
+    #[inline]
+    fn le_i32(&mut self, v: i32) {
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+    #[inline]
+    fn le_u64(&mut self, v: u64) {
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+    #[inline]
+    fn le_f64(&mut self, v: f64) {
+        self.buf.extend_from_slice(&v.to_le_bytes());
+    }
+    /// A count: `size_t` in binary, ASCII text otherwise (no separator).
+    fn count_u64(&mut self, v: u64) {
+        if self.binary {
+            self.le_u64(v)
+        } else {
+            self.int(v)
+        }
+    }
+    #[inline]
+    fn maybe_flush(&mut self) -> io::Result<()> {
+        if self.buf.len() >= FLUSH_AT {
+            self.w.write_all(&self.buf)?;
+            self.buf.clear();
+        }
+        Ok(())
+    }
+    fn finish(mut self) -> io::Result<()> {
+        self.w.write_all(&self.buf)?;
+        self.buf.clear();
+        self.w.flush()
+    }
+    fn section(&mut self, name: &str) {
+        self.b(b"$");
+        self.s(name);
+        self.nl();
+    }
+    fn end(&mut self, name: &str) {
+        self.b(b"$End");
+        self.s(name);
+        self.nl();
+    }
+}
+
+/// True when the mesh's `$NodeData`/`$ElementData` sections can be copied into `format`
+/// (same encoding, and for binary the same major version).
+fn data_sections_fit(mesh: &Mesh, format: MshFormat) -> bool {
+    let src = mesh.format.unwrap_or(MshFormat {
+        version: MshVersion::V41,
+        binary: false,
+    });
+    if src.binary != format.binary {
+        return false;
+    }
+    !format.binary
+        || matches!(src.version, MshVersion::V2 { .. })
+            == matches!(format.version, MshVersion::V2 { .. })
+}
+
+/// Warnings about what writing `mesh` as `format` will drop (data sections in another
+/// encoding, parametric coordinates in binary MSH 2.2). Empty when nothing is lost.
+pub fn write_warnings(mesh: &Mesh, format: MshFormat) -> Vec<String> {
+    let mut w = Vec::new();
+    if !mesh.data_sections.is_empty() && !data_sections_fit(mesh, format) {
+        w.push(format!(
+            "dropped {} $NodeData/$ElementData/$ElementNodeData section(s): they are encoded for another MSH variant",
+            mesh.data_sections.len()
+        ));
+    }
+    let v2 = matches!(format.version, MshVersion::V2 { .. });
+    if v2 && format.binary && mesh.node_blocks.iter().any(|b| b.params.is_some()) {
+        w.push(
+            "parametric node coordinates dropped: binary MSH 2.2 has no $ParametricNodes".into(),
+        );
+    }
+    if v2
+        && mesh
+            .element_blocks
+            .iter()
+            .any(|b| crate::mesh::element_node_count(b.element_type).is_none())
+    {
+        w.push("element blocks of unknown type skipped".into());
+    }
+    w
+}
+
+/// Entities to write: the mesh's, plus a bare entity for every block that names one that is
+/// missing (Gmsh refuses element blocks on unknown entities).
+fn entities_for_output(mesh: &Mesh) -> [Vec<Entity>; 4] {
+    let mut ents = mesh.entities.clone();
+    let mut have: std::collections::HashSet<(i32, i32)> =
+        ents.iter().flatten().map(|e| (e.dim, e.tag)).collect();
+    let pairs = mesh
+        .node_blocks
+        .iter()
+        .map(|b| (b.entity_dim, b.entity_tag))
+        .chain(
+            mesh.element_blocks
+                .iter()
+                .map(|b| (b.entity_dim, b.entity_tag)),
+        );
+    for (d, t) in pairs {
+        if (0..4).contains(&d) && have.insert((d, t)) {
+            let mut bbox = [
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+                f64::NEG_INFINITY,
+            ];
+            for b in mesh
+                .node_blocks
+                .iter()
+                .filter(|b| b.entity_dim == d && b.entity_tag == t)
+            {
+                for c in &b.coords {
+                    for k in 0..3 {
+                        bbox[k] = bbox[k].min(c[k]);
+                        bbox[k + 3] = bbox[k + 3].max(c[k]);
+                    }
+                }
+            }
+            if bbox[0] > bbox[3] {
+                bbox = [0.0; 6];
+            }
+            ents[d as usize].push(Entity {
+                dim: d,
+                tag: t,
+                bbox,
+                physical_tags: Vec::new(),
+                bounding: Vec::new(),
+            });
+        }
+    }
+    ents
+}
+
+/// Writes `mesh` to `w` in `format` (MSH 4.0 is written as 4.1). `name` is used in errors.
+pub(crate) fn write_to(
+    mesh: &Mesh,
+    w: &mut dyn Write,
+    format: MshFormat,
+    name: &str,
+) -> Result<(), MshError> {
+    let mut out = Out::new(w, format.binary);
+    let r = match format.version {
+        MshVersion::V2 { .. } => write_v22(mesh, &mut out, format),
+        _ => write_v41(mesh, &mut out, format),
+    };
+    r.and_then(|_| out.finish()).map_err(|e| {
+        if let Some(inner) = e
+            .get_ref()
+            .and_then(|i| i.downcast_ref::<InvalidForFormat>())
+        {
+            MshError::new(name, ErrorKind::Invalid(inner.0.clone()))
+        } else {
+            MshError::io(name, "cannot write", e)
+        }
+    })
+}
+
+/// A mesh value the target format cannot express (carried through `io::Error`).
+#[derive(Debug)]
+struct InvalidForFormat(String);
+impl std::fmt::Display for InvalidForFormat {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.0)
+    }
+}
+impl std::error::Error for InvalidForFormat {}
+
+fn invalid(msg: String) -> io::Error {
+    io::Error::new(io::ErrorKind::InvalidData, InvalidForFormat(msg))
+}
+
+fn head(out: &mut Out, mesh: &Mesh, version: &str) -> io::Result<()> {
+    for r in mesh
+        .raw_sections
+        .iter()
+        .filter(|r| r.position == SectionPosition::BeforeFormat)
+    {
+        out.section(&r.name);
+        out.b(&r.body);
+        out.end(&r.name);
+    }
+    out.section("MeshFormat");
+    out.s(version);
+    out.s(if out.binary { " 1 8\n" } else { " 0 8\n" });
+    if out.binary {
+        out.le_i32(1);
+        out.nl();
+    }
+    out.end("MeshFormat");
+    if !mesh.physical_names.is_empty() {
+        out.section("PhysicalNames");
+        out.int(mesh.physical_names.len());
+        out.nl();
+        for p in &mesh.physical_names {
+            out.int_sp(p.dim);
+            out.int_sp(p.tag);
+            out.b(b"\"");
+            out.s(&p.name.replace(['"', '\n', '\r'], "_"));
+            out.b(b"\"\n");
+        }
+        out.end("PhysicalNames");
+    }
+    Ok(())
+}
+
+fn tail(out: &mut Out, mesh: &Mesh, format: MshFormat) -> io::Result<()> {
+    if data_sections_fit(mesh, format) {
+        for d in &mesh.data_sections {
+            let n = d.kind.section_name();
+            out.section(n);
+            out.b(&d.body);
+            out.end(n);
+            out.maybe_flush()?;
+        }
+    }
+    for r in mesh
+        .raw_sections
+        .iter()
+        .filter(|r| r.position == SectionPosition::AfterMesh)
+    {
+        out.section(&r.name);
+        out.b(&r.body);
+        out.end(&r.name);
+        out.maybe_flush()?;
+    }
+    Ok(())
+}
+
+fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
+    let bin = format.binary;
+    head(out, mesh, "4.1")?;
+
+    // $Entities
+    let ents = entities_for_output(mesh);
+    out.section("Entities");
+    for (d, v) in ents.iter().enumerate() {
+        out.count_u64(v.len() as u64);
+        if !bin {
+            out.b(if d < 3 { b" " } else { b"\n" });
+        }
+    }
+    for (d, v) in ents.iter().enumerate() {
+        for e in v {
+            let nbox = if d == 0 { 3 } else { 6 };
+            if bin {
+                out.le_i32(e.tag);
+                for &x in &e.bbox[..nbox] {
+                    out.le_f64(x);
+                }
+                out.le_u64(e.physical_tags.len() as u64);
+                for &p in &e.physical_tags {
+                    out.le_i32(p);
+                }
+                if d > 0 {
+                    out.le_u64(e.bounding.len() as u64);
+                    for &b in &e.bounding {
+                        out.le_i32(b);
+                    }
+                }
+            } else {
+                out.int_sp(e.tag);
+                for &x in &e.bbox[..nbox] {
+                    out.f(x);
+                    out.sp();
+                }
+                out.int_sp(e.physical_tags.len());
+                for &p in &e.physical_tags {
+                    out.int_sp(p);
+                }
+                if d > 0 {
+                    out.int_sp(e.bounding.len());
+                    for &b in &e.bounding {
+                        out.int_sp(b);
+                    }
+                }
+                out.nl();
+            }
+            out.maybe_flush()?;
+        }
+    }
+    if bin {
+        out.nl();
+    }
+    out.end("Entities");
+
+    // $Nodes
+    out.section("Nodes");
+    let nn: usize = mesh.node_count();
+    let (mut lo, mut hi) = (u64::MAX, 0u64);
+    for b in &mesh.node_blocks {
+        for &t in &b.tags {
+            lo = lo.min(t);
+            hi = hi.max(t);
+        }
+    }
+    if nn == 0 {
+        lo = 0;
+    }
+    header4(out, mesh.node_blocks.len() as u64, nn as u64, lo, hi);
+    for b in &mesh.node_blocks {
+        let n = b.tags.len().min(b.coords.len());
+        let np = b.entity_dim.clamp(0, 3) as usize;
+        let params = b.params.as_ref().filter(|p| p.len() == n * np);
+        let parametric = params.is_some();
+        if bin {
+            out.le_i32(b.entity_dim);
+            out.le_i32(b.entity_tag);
+            out.le_i32(parametric as i32);
+            out.le_u64(n as u64);
+            for &t in &b.tags[..n] {
+                out.le_u64(t);
+            }
+            for (i, c) in b.coords[..n].iter().enumerate() {
+                for &x in c {
+                    out.le_f64(x);
+                }
+                if let Some(p) = params {
+                    for &x in &p[i * np..(i + 1) * np] {
+                        out.le_f64(x);
+                    }
+                }
+                out.maybe_flush()?;
+            }
+        } else {
+            out.int_sp(b.entity_dim);
+            out.int_sp(b.entity_tag);
+            out.int_sp(parametric as i32);
+            out.int(n);
+            out.nl();
+            for &t in &b.tags[..n] {
+                out.int(t);
+                out.nl();
+                out.maybe_flush()?;
+            }
+            for (i, c) in b.coords[..n].iter().enumerate() {
+                out.f(c[0]);
+                out.sp();
+                out.f(c[1]);
+                out.sp();
+                out.f(c[2]);
+                if let Some(p) = params {
+                    for &x in &p[i * np..(i + 1) * np] {
+                        out.sp();
+                        out.f(x);
+                    }
+                }
+                out.nl();
+                out.maybe_flush()?;
+            }
+        }
+    }
+    if bin {
+        out.nl();
+    }
+    out.end("Nodes");
+
+    // $Elements
+    out.section("Elements");
+    let blocks: Vec<_> = mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.nodes_per_element() > 0)
+        .collect();
+    let ne: usize = blocks.iter().map(|b| b.len()).sum();
+    let (mut lo, mut hi) = (u64::MAX, 0u64);
+    for b in &blocks {
+        for &t in &b.tags {
+            lo = lo.min(t);
+            hi = hi.max(t);
+        }
+    }
+    if ne == 0 {
+        lo = 0;
+    }
+    header4(out, blocks.len() as u64, ne as u64, lo, hi);
+    for b in &blocks {
+        let k = b.nodes_per_element();
+        let n = b.tags.len().min(b.nodes.len() / k);
+        if bin {
+            out.le_i32(b.entity_dim);
+            out.le_i32(b.entity_tag);
+            out.le_i32(b.element_type as i32);
+            out.le_u64(n as u64);
+        } else {
+            out.int_sp(b.entity_dim);
+            out.int_sp(b.entity_tag);
+            out.int_sp(b.element_type);
+            out.int(n);
+            out.nl();
+        }
+        for (i, el) in b.nodes.chunks_exact(k).take(n).enumerate() {
+            if bin {
+                out.le_u64(b.tags[i]);
+                for &v in el {
+                    out.le_u64(v);
+                }
+            } else {
+                out.int(b.tags[i]);
+                for &v in el {
+                    out.sp();
+                    out.int(v);
+                }
+                out.nl();
+            }
+            out.maybe_flush()?;
+        }
+    }
+    if bin {
+        out.nl();
+    }
+    out.end("Elements");
+
+    // $Periodic
+    if !mesh.periodic.is_empty() {
+        out.section("Periodic");
+        out.count_u64(mesh.periodic.len() as u64);
+        if !bin {
+            out.nl();
+        }
+        for l in &mesh.periodic {
+            let aff: &[f64] = l.affine.as_deref().unwrap_or(&[]);
+            if bin {
+                out.le_i32(l.dim);
+                out.le_i32(l.tag);
+                out.le_i32(l.master_tag);
+                out.le_u64(aff.len() as u64);
+                for &x in aff {
+                    out.le_f64(x);
+                }
+                out.le_u64(l.node_pairs.len() as u64);
+                for &(a, m) in &l.node_pairs {
+                    out.le_u64(a);
+                    out.le_u64(m);
+                }
+            } else {
+                out.int_sp(l.dim);
+                out.int_sp(l.tag);
+                out.int(l.master_tag);
+                out.nl();
+                out.int(aff.len());
+                for &x in aff {
+                    out.sp();
+                    out.f(x);
+                }
+                out.nl();
+                out.int(l.node_pairs.len());
+                out.nl();
+                for &(a, m) in &l.node_pairs {
+                    out.int_sp(a);
+                    out.int(m);
+                    out.nl();
+                }
+            }
+            out.maybe_flush()?;
+        }
+        if bin {
+            out.nl();
+        }
+        out.end("Periodic");
+    }
+    tail(out, mesh, format)
+}
+
+/// `numBlocks numItems minTag maxTag`.
+fn header4(out: &mut Out, blocks: u64, n: u64, lo: u64, hi: u64) {
+    if out.binary {
+        for v in [blocks, n, lo, hi] {
+            out.le_u64(v);
+        }
+    } else {
+        out.int_sp(blocks);
+        out.int_sp(n);
+        out.int_sp(lo);
+        out.int(hi);
+        out.nl();
+    }
+}
+
+fn to_i32(v: u64, what: &str) -> io::Result<i32> {
+    i32::try_from(v).map_err(|_| {
+        invalid(format!(
+            "{what} {v} does not fit the 32-bit ints of binary MSH 2.2"
+        ))
+    })
+}
+
+fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
+    let bin = format.binary;
+    head(out, mesh, "2.2")?;
+
+    // $Nodes / $ParametricNodes
+    let parametric = !bin && mesh.node_blocks.iter().any(|b| b.params.is_some());
+    let nn = mesh.node_count();
+    let name = if parametric {
+        "ParametricNodes"
+    } else {
+        "Nodes"
+    };
+    out.section(name);
+    out.int(nn);
+    out.nl();
+    for b in &mesh.node_blocks {
+        let np = if b.entity_dim == 1 || b.entity_dim == 2 {
+            b.entity_dim as usize
+        } else {
+            0
+        };
+        let n = b.tags.len().min(b.coords.len());
+        let params = b.params.as_ref().filter(|p| p.len() == n * np && np > 0);
+        for (i, (&t, c)) in b.tags.iter().zip(&b.coords).enumerate() {
+            if bin {
+                out.le_i32(to_i32(t, "node tag")?);
+                for &x in c {
+                    out.le_f64(x);
+                }
+            } else {
+                out.int_sp(t);
+                out.f(c[0]);
+                out.sp();
+                out.f(c[1]);
+                out.sp();
+                out.f(c[2]);
+                if parametric {
+                    out.sp();
+                    out.int_sp(b.entity_dim);
+                    out.int(b.entity_tag);
+                    for j in 0..np {
+                        out.sp();
+                        out.f(params.map_or(0.0, |p| p[i * np + j]));
+                    }
+                }
+                out.nl();
+            }
+            out.maybe_flush()?;
+        }
+    }
+    if bin {
+        out.nl();
+    }
+    out.end(name);
+
+    // $Elements: once per physical group of the element's entity (tag 0 when none).
+    let ents: HashMap<(i32, i32), &Entity> = mesh
+        .entities
+        .iter()
+        .flatten()
+        .map(|e| ((e.dim, e.tag), e))
+        .collect();
+    let none = [0i32];
+    let phys_of = |d: i32, t: i32| -> &[i32] {
+        match ents.get(&(d, t)) {
+            Some(e) if !e.physical_tags.is_empty() => &e.physical_tags,
+            _ => &none,
+        }
+    };
+    let blocks: Vec<_> = mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.nodes_per_element() > 0)
+        .collect();
+    let total: usize = blocks
+        .iter()
+        .map(|b| b.len() * phys_of(b.entity_dim, b.entity_tag).len())
+        .sum();
+    out.section("Elements");
+    out.int(total);
+    out.nl();
+    let mut next_id = mesh.max_element_tag();
+    for b in &blocks {
+        let k = b.nodes_per_element();
+        let phys = phys_of(b.entity_dim, b.entity_tag);
+        let n = b.tags.len().min(b.nodes.len() / k);
+        let parts = |i: usize| -> &[i32] {
+            b.partitions
+                .as_ref()
+                .and_then(|p| p.get(i))
+                .map_or(&[][..], |v| v.as_slice())
+        };
+        // Binary: runs of elements with the same tag count share one block header.
+        let mut i = 0;
+        while i < n {
+            let ntags = 2 + parts(i).len();
+            let mut j = i + 1;
+            while j < n && 2 + parts(j).len() == ntags {
+                j += 1;
+            }
+            if bin {
+                out.le_i32(b.element_type as i32);
+                out.le_i32(to_i32(((j - i) * phys.len()) as u64, "element count")?);
+                out.le_i32(ntags as i32);
+            }
+            for e in i..j {
+                let el = &b.nodes[e * k..(e + 1) * k];
+                for (c, &p) in phys.iter().enumerate() {
+                    let id = if c == 0 {
+                        b.tags[e]
+                    } else {
+                        next_id += 1;
+                        next_id
+                    };
+                    if bin {
+                        out.le_i32(to_i32(id, "element id")?);
+                        out.le_i32(p);
+                        out.le_i32(b.entity_tag);
+                        for &q in parts(e) {
+                            out.le_i32(q);
+                        }
+                        for &v in el {
+                            out.le_i32(to_i32(v, "node tag")?);
+                        }
+                    } else {
+                        out.int_sp(id);
+                        out.int_sp(b.element_type);
+                        out.int_sp(ntags);
+                        out.int_sp(p);
+                        out.int(b.entity_tag);
+                        for &q in parts(e) {
+                            out.sp();
+                            out.int(q);
+                        }
+                        for &v in el {
+                            out.sp();
+                            out.int(v);
+                        }
+                        out.nl();
+                    }
+                }
+                out.maybe_flush()?;
+            }
+            i = j;
+        }
+    }
+    if bin {
+        out.nl();
+    }
+    out.end("Elements");
+
+    // $Periodic (ASCII in every 2.2 variant).
+    if !mesh.periodic.is_empty() {
+        out.section("Periodic");
+        out.int(mesh.periodic.len());
+        out.nl();
+        for l in &mesh.periodic {
+            out.int_sp(l.dim);
+            out.int_sp(l.tag);
+            out.int(l.master_tag);
+            out.nl();
+            if let Some(a) = l.affine.as_ref().filter(|a| a.len() == 16) {
+                out.s("Affine");
+                for &x in a {
+                    out.sp();
+                    out.f(x);
+                }
+                out.nl();
+            }
+            out.int(l.node_pairs.len());
+            out.nl();
+            for &(a, m) in &l.node_pairs {
+                out.int_sp(a);
+                out.int(m);
+                out.nl();
+            }
+            out.maybe_flush()?;
+        }
+        out.end("Periodic");
+    }
+    tail(out, mesh, format)
+}

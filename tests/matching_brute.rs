@@ -1,0 +1,123 @@
+//! Matching solver against the brute-force oracle on many small random graphs.
+
+use blossomquad::matching::{self, blossom::Solver, oracle::brute_force_min_cost};
+
+/// Small deterministic RNG (SplitMix64).
+struct Rng(u64);
+impl Rng {
+    fn next(&mut self) -> u64 {
+        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^ (z >> 31)
+    }
+    fn below(&mut self, k: u64) -> u64 {
+        self.next() % k
+    }
+}
+
+fn random_graph(rng: &mut Rng, n: usize, p_percent: u64, cost_range: i64) -> Vec<(u32, u32, i64)> {
+    let mut edges = Vec::new();
+    for u in 0..n as u32 {
+        for v in u + 1..n as u32 {
+            if rng.below(100) < p_percent {
+                let c = rng.below(cost_range as u64) as i64 - cost_range / 3;
+                edges.push((u, v, c));
+            }
+        }
+    }
+    edges
+}
+
+/// Solves with both entry points and checks them against the oracle and the certificate.
+fn check(n: usize, edges: &[(u32, u32, i64)]) {
+    let expect = brute_force_min_cost(n, edges);
+    for plain in [false, true] {
+        let s = Solver::new(n, edges);
+        let res = if plain { s.run_plain() } else { s.run() };
+        match (expect, res) {
+            (Some(c), Ok(m)) => {
+                assert_eq!(m.cost, c, "n={n} edges={edges:?} plain={plain}");
+                if let Err(e) = matching::verify(n, edges, &m) {
+                    panic!("certificate failed: {e} n={n} edges={edges:?} plain={plain}");
+                }
+            }
+            (None, Err(w)) => {
+                if let Err(e) = matching::verify_witness(n, edges, &w) {
+                    panic!("witness failed: {e} n={n} edges={edges:?} w={w:?}");
+                }
+            }
+            (Some(c), Err(w)) => panic!("solver failed {w:?}, optimum {c}: n={n} {edges:?}"),
+            (None, Ok(m)) => panic!("solver found {m:?} but none exists: n={n} {edges:?}"),
+        }
+    }
+    // The public entry (component split) must agree too.
+    match (expect, matching::solve(n, edges)) {
+        (Some(c), Ok(m)) => assert_eq!(m.cost, c),
+        (None, Err(w)) => assert!(matching::verify_witness(n, edges, &w).is_ok()),
+        _ => panic!("solve disagrees with oracle: n={n} {edges:?}"),
+    }
+}
+
+#[test]
+fn random_dense_and_sparse_graphs() {
+    let mut rng = Rng(12345);
+    for iter in 0..3000 {
+        let n = 2 + 2 * rng.below(7) as usize; // 2..14 even
+        let p = [15, 30, 50, 80, 100][iter % 5];
+        let range = [1, 2, 3, 10, 1000][(iter / 5) % 5];
+        let edges = random_graph(&mut rng, n, p, range.max(1));
+        check(n, &edges);
+    }
+}
+
+#[test]
+fn random_odd_sizes_and_multigraphs() {
+    let mut rng = Rng(777);
+    for _ in 0..1500 {
+        let n = 1 + rng.below(12) as usize;
+        let mut edges = random_graph(&mut rng, n, 40, 5);
+        // Parallel edges and loops.
+        for _ in 0..rng.below(6) {
+            let u = rng.below(n as u64) as u32;
+            let v = rng.below(n as u64) as u32;
+            edges.push((u, v, rng.below(7) as i64 - 2));
+        }
+        check(n, &edges);
+    }
+}
+
+#[test]
+fn all_equal_costs() {
+    let mut rng = Rng(4242);
+    for _ in 0..800 {
+        let n = 2 + 2 * rng.below(7) as usize;
+        let mut edges = random_graph(&mut rng, n, 45, 1);
+        for e in &mut edges {
+            e.2 = 7;
+        }
+        check(n, &edges);
+    }
+}
+
+#[test]
+fn random_graphs_exercise_blossoms() {
+    // Guards the value of the tests above: the random families do create and expand blossoms
+    // and do rescale duals.
+    let mut rng = Rng(99);
+    let (mut shrinks, mut expands, mut rescales) = (0, 0, 0);
+    for _ in 0..500 {
+        let n = 2 + 2 * rng.below(7) as usize;
+        let edges = random_graph(&mut rng, n, 50, 1000);
+        let mut s = Solver::new(n, &edges);
+        s.init_plain();
+        let _ = s.solve_rest();
+        shrinks += s.stats.shrinks;
+        expands += s.stats.expands;
+        rescales += s.stats.rescales;
+    }
+    assert!(shrinks > 50, "shrinks {shrinks}");
+    assert!(expands > 5, "expands {expands}");
+    eprintln!("shrinks {shrinks} expands {expands} rescales {rescales}");
+}
