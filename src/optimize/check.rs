@@ -4,6 +4,9 @@
 use crate::mesh::{element_dim, etype, Mesh};
 use std::collections::HashMap;
 
+/// (surface tag, from node, to node) of one element's pass along an edge.
+type EdgeUse = (i32, u64, u64);
+
 /// Checks that the surface elements (3- and 4-node) of `mesh` form a conforming, consistently
 /// oriented mesh:
 /// - every element names existing, pairwise distinct nodes, and no two elements use the same
@@ -19,7 +22,7 @@ pub fn check_surface_mesh(mesh: &Mesh) -> Result<(), String> {
     let index = mesh.node_index();
     let mut lines: Vec<(u64, u64)> = Vec::new();
     // edge (min, max) -> list of (surface, directed a->b)
-    let mut edges: HashMap<(u64, u64), Vec<(i32, u64, u64)>> = HashMap::new();
+    let mut edges: HashMap<(u64, u64), Vec<EdgeUse>> = HashMap::new();
     let mut sets: HashMap<Vec<u64>, u64> = HashMap::new();
     for b in &mesh.element_blocks {
         let dim = element_dim(b.element_type);

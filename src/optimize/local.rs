@@ -180,5 +180,12 @@ pub(crate) fn slot(quad: &[u32; 4], v: u32) -> Option<usize> {
 
 /// `quad` rotated so that `v` comes first.
 pub(crate) fn rotate_to(quad: &[u32; 4], v: u32) -> Option<[u32; 4]> {
-    slot(quad, v).map(|k| [quad[k], quad[(k + 1) % 4], quad[(k + 2) % 4], quad[(k + 3) % 4]])
+    slot(quad, v).map(|k| {
+        [
+            quad[k],
+            quad[(k + 1) % 4],
+            quad[(k + 2) % 4],
+            quad[(k + 3) % 4],
+        ]
+    })
 }

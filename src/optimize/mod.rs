@@ -166,8 +166,15 @@ pub fn optimize(
     let results: Vec<(Local, SurfaceOptimizeReport)> = locals
         .into_par_iter()
         .map(|mut l| {
+            let t = std::time::Instant::now();
             attach_reference(&mut l, reference);
+            if std::env::var_os("BQ_TIMING").is_some() {
+                eprintln!("attach_reference {:.3?}", t.elapsed());
+            }
             let rep = run_surface(&mut l, opts, &tick);
+            if std::env::var_os("BQ_TIMING").is_some() {
+                eprintln!("total surface {:.3?}", t.elapsed());
+            }
             (l, rep)
         })
         .collect();
@@ -176,7 +183,11 @@ pub fn optimize(
         write_back(mesh, &flat, &l, &mut report);
         report.surfaces.push(rep);
     }
-    if report.quads_removed > 0 || report.surfaces.iter().any(|s| s.operations.edge_rotations > 0)
+    if report.quads_removed > 0
+        || report
+            .surfaces
+            .iter()
+            .any(|s| s.operations.edge_rotations > 0)
     {
         mesh.invalidate_element_data();
     }
@@ -184,15 +195,18 @@ pub fn optimize(
         let before = mesh.data_sections.len();
         mesh.data_sections.retain(|d| d.kind != DataKind::Node);
         if mesh.data_sections.len() < before {
-            mesh.warnings.push(
-                "dropped $NodeData section(s): the optimizer removed nodes".to_string(),
-            );
+            mesh.warnings
+                .push("dropped $NodeData section(s): the optimizer removed nodes".to_string());
         }
     }
     Ok(report)
 }
 
-fn run_surface(l: &mut Local, opts: &OptimizeOptions, tick: &(dyn Fn(usize) + Sync)) -> SurfaceOptimizeReport {
+fn run_surface(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    tick: &(dyn Fn(usize) + Sync),
+) -> SurfaceOptimizeReport {
     l.build_adjacency();
     let before = l.stats();
     let mut ops = OperationCounts {
@@ -237,7 +251,9 @@ fn node_owners(mesh: &Mesh, flat: &FlatNodes, surfaces: &[i32]) -> Result<Vec<u3
     }
     for b in &mesh.element_blocks {
         let key = if b.entity_dim == 2 && b.element_type == etype::QUAD4 {
-            surfaces.binary_search(&b.entity_tag).map_or(SHARED, |i| i as u32)
+            surfaces
+                .binary_search(&b.entity_tag)
+                .map_or(SHARED, |i| i as u32)
         } else {
             SHARED
         };
@@ -262,7 +278,13 @@ fn node_owners(mesh: &Mesh, flat: &FlatNodes, surfaces: &[i32]) -> Result<Vec<u3
 }
 
 /// Copies surface `s`'s quads into a [`Local`].
-fn extract(mesh: &Mesh, flat: &FlatNodes, owner: &[u32], sid: u32, s: i32) -> Result<Local, OptimizeError> {
+fn extract(
+    mesh: &Mesh,
+    flat: &FlatNodes,
+    owner: &[u32],
+    sid: u32,
+    s: i32,
+) -> Result<Local, OptimizeError> {
     let mut local_of: Vec<u32> = Vec::new();
     let mut global = Vec::new();
     let mut quads = Vec::new();
@@ -343,7 +365,9 @@ fn extract(mesh: &Mesh, flat: &FlatNodes, owner: &[u32], sid: u32, s: i32) -> Re
     let diag = (hi - lo).length();
     let plane = total.normalize_or_zero();
     let planar = plane != DVec3::ZERO
-        && pos.iter().all(|&p| (p - centre).dot(plane).abs() <= 1e-9 * diag);
+        && pos
+            .iter()
+            .all(|&p| (p - centre).dot(plane).abs() <= 1e-9 * diag);
     for v in nrm.iter_mut() {
         *v = if planar { plane } else { v.normalize_or_zero() };
     }

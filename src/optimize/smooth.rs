@@ -19,7 +19,13 @@ use super::local::{rotate_to, Local};
 /// the opposite corners relative to edge neighbours.
 pub(crate) fn smooth(l: &mut Local, iterations: usize, diag: f64) -> usize {
     let mut cache: Vec<f64> = (0..l.quads.len() as u32)
-        .map(|q| if l.alive[q as usize] { l.quality(q) } else { 0.0 })
+        .map(|q| {
+            if l.alive[q as usize] {
+                l.quality(q)
+            } else {
+                0.0
+            }
+        })
         .collect();
     let mut buf: Vec<f64> = Vec::with_capacity(16);
     let mut moves = 0usize;

@@ -308,3 +308,84 @@ fn bbox(points: &[DVec3]) -> [f64; 6] {
     }
     [lo.x, lo.y, lo.z, hi.x, hi.y, hi.z]
 }
+
+/// A Delaunay triangulation (spade) of the unit square `[0, l]²`: `n` nodes per side on the
+/// boundary (an even number of boundary nodes, so the triangle count is even, eq. 5) and a
+/// jittered `n × n` lattice inside, like the output of a 2D mesher at uniform size `l / n`.
+pub fn delaunay_square(n: usize, l: f64, jitter_amount: f64, seed: u64) -> Soup {
+    use spade::{DelaunayTriangulation, Point2, Triangulation};
+    let mut rng = Rng::new(seed);
+    let h = l / n as f64;
+    let mut pts: Vec<DVec3> = Vec::new();
+    for i in 0..n {
+        let t = i as f64 * h;
+        pts.push(DVec3::new(t, 0.0, 0.0));
+        pts.push(DVec3::new(l, t, 0.0));
+        pts.push(DVec3::new(l - t, l, 0.0));
+        pts.push(DVec3::new(0.0, l - t, 0.0));
+    }
+    for j in 1..n {
+        for i in 1..n {
+            // shift every other row by half a cell: a triangular lattice, like a frontal mesher
+            let shift = if j % 2 == 1 { 0.5 * h } else { 0.0 };
+            let x = i as f64 * h + shift + rng.sym() * jitter_amount * h;
+            let y = j as f64 * h + rng.sym() * jitter_amount * h;
+            if x > 0.5 * h && x < l - 0.5 * h {
+                pts.push(DVec3::new(x, y, 0.0));
+            }
+        }
+    }
+    let mut dt: DelaunayTriangulation<Point2<f64>> = DelaunayTriangulation::new();
+    let mut ids = Vec::new();
+    for p in &pts {
+        if let Ok(v) = dt.insert(Point2::new(p.x, p.y)) {
+            ids.push(v);
+        }
+    }
+    let points: Vec<DVec3> = dt
+        .vertices()
+        .map(|v| DVec3::new(v.position().x, v.position().y, 0.0))
+        .collect();
+    let faces = dt
+        .inner_faces()
+        .map(|f| f.vertices().iter().map(|v| v.fix().index()).collect())
+        .collect();
+    Soup { points, faces }
+}
+
+/// All-quad recombination of a triangle soup by an exact minimum-cost perfect matching
+/// (eq. 4, cost 1 − η) over interior edges, without extra edges: `None` when the triangle
+/// count is odd or no perfect matching exists. A stand-in for `recombine` in fixtures.
+pub fn pair_optimal(s: &Soup) -> Option<Soup> {
+    let mut half: Vec<(usize, usize, usize)> = Vec::new();
+    for (t, f) in s.faces.iter().enumerate() {
+        for k in 0..3 {
+            let (a, b) = (f[k], f[(k + 1) % 3]);
+            half.push((a.min(b), a.max(b), t));
+        }
+    }
+    half.sort_unstable();
+    let mut edges = Vec::new();
+    let mut quads = Vec::new();
+    for w in half.windows(2) {
+        if w[0].0 == w[1].0 && w[0].1 == w[1].1 {
+            let q = merge_triangles(&s.faces[w[0].2], &s.faces[w[1].2])?;
+            let p = q.map(|i| s.points[i]);
+            let n = (p[2] - p[0]).cross(p[3] - p[1]);
+            let c = 1.0 - crate::quality::eta_signed(&p, n);
+            edges.push((w[0].2 as u32, w[1].2 as u32, c));
+            quads.push(((w[0].2, w[1].2), q));
+        }
+    }
+    let m = crate::matching::solve_f64(s.faces.len(), &edges).ok()?;
+    let mut out = Soup {
+        points: s.points.clone(),
+        faces: Vec::new(),
+    };
+    for ((a, b), q) in quads {
+        if m.mate.get(a).copied() == Some(b as u32) {
+            out.faces.push(q.to_vec());
+        }
+    }
+    (2 * out.faces.len() == s.faces.len()).then_some(out)
+}

@@ -113,7 +113,10 @@ mod tests {
             q([[0., 0.], [0., 1.], [1., 1.], [1., 0.]]),
         ];
         for p in &quads {
-            let (a, b) = (eta_signed(p, DVec3::Z * 3.0), eta_signed_fast(p, DVec3::Z * 3.0));
+            let (a, b) = (
+                eta_signed(p, DVec3::Z * 3.0),
+                eta_signed_fast(p, DVec3::Z * 3.0),
+            );
             assert!((a - b).abs() < 1e-12, "{a} vs {b}");
         }
     }

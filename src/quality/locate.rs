@@ -118,11 +118,14 @@ impl TriSurface {
                     ));
                 }
             });
+            let reach = g.unvisited_distance(p, c, r);
             if let Some((d, _)) = best {
-                let reach = r as f64 * g.cell;
                 if d <= reach * reach {
                     break;
                 }
+            }
+            if reach == f64::INFINITY {
+                break;
             }
         }
         best.map(|(_, h)| h)
@@ -270,6 +273,23 @@ impl Grid {
                 (f as usize).min(self.dims[i] - 1)
             }
         })
+    }
+
+    /// Lower bound of the distance from `p` (in cell `c`) to any cell outside the cube of
+    /// cells at Chebyshev distance ≤ `r` from `c`; infinite when that cube covers the grid.
+    fn unvisited_distance(&self, p: DVec3, c: [usize; 3], r: usize) -> f64 {
+        let mut d = f64::INFINITY;
+        for i in 0..3 {
+            if c[i] > r {
+                let face = self.origin[i] + (c[i] - r) as f64 * self.cell;
+                d = d.min((p[i] - face).max(0.0));
+            }
+            if c[i] + r + 1 < self.dims[i] {
+                let face = self.origin[i] + (c[i] + r + 1) as f64 * self.cell;
+                d = d.min((face - p[i]).max(0.0));
+            }
+        }
+        d
     }
 
     fn index(&self, c: [usize; 3]) -> usize {
