@@ -20,6 +20,9 @@ fn main() {
         if let Some(k) = a.strip_prefix("diag=") {
             opts.diagonal_weight = k.parse().unwrap_or(opts.diagonal_weight);
         }
+        if let Some(k) = a.strip_prefix("angles=") {
+            opts.angle_sweeps = k.parse().unwrap_or(opts.angle_sweeps);
+        }
         if let Some(k) = a.strip_prefix("rounds=") {
             opts.max_rounds = k.parse().unwrap_or(opts.max_rounds);
         }
@@ -28,10 +31,22 @@ fn main() {
         }
     }
     let t0 = Instant::now();
-    let Some((mut tris, mut quads)) = (7..40).find_map(|seed| {
-        let tris = synth::delaunay_square(n, 1.0, 0.3, seed);
-        synth::pair_optimal(&tris).map(|q| (tris, q))
-    }) else {
+    let from_file = args
+        .iter()
+        .find_map(|a| a.strip_prefix("file="))
+        .map(|path| {
+            let m = blossomquad::msh::read_file(std::path::Path::new(path)).expect("read");
+            soup_of(&m)
+        });
+    let Some((mut tris, mut quads)) = from_file
+        .and_then(|t| synth::pair_optimal(&t).map(|q| (t, q)))
+        .or_else(|| {
+            (7..40).find_map(|seed| {
+                let tris = synth::delaunay_square(n, 1.0, 0.3, seed);
+                synth::pair_optimal(&tris).map(|q| (tris, q))
+            })
+        })
+    else {
         eprintln!("no perfect matching for these inputs");
         return;
     };
@@ -74,6 +89,7 @@ fn main() {
     row("triangles", &tri_q.total);
     row("before", &before.total);
     row("after", &after.total);
+    println!("histogram after: {:?}", after.total.eta_histogram);
     if args.iter().any(|a| a == "worst") {
         let mut etas = quality::quad_etas(&mesh);
         etas.sort_by(|a, b| a.1.total_cmp(&b.1));
@@ -102,4 +118,31 @@ fn main() {
             println!("worst {tag}: {e:.3} {}", pts.join(" "));
         }
     }
+}
+
+/// All 3-node triangles of a mesh as a soup over its nodes.
+fn soup_of(m: &blossomquad::mesh::Mesh) -> synth::Soup {
+    let index = m.node_index();
+    let mut points = Vec::new();
+    let mut id = std::collections::HashMap::new();
+    let mut faces = Vec::new();
+    for b in m.element_blocks.iter().filter(|b| b.element_type == 2) {
+        for e in 0..b.len() {
+            let f = b
+                .element(e)
+                .iter()
+                .map(|&t| {
+                    *id.entry(t).or_insert_with(|| {
+                        let r = index.get(t).expect("node");
+                        points.push(glam::DVec3::from_array(
+                            m.node_blocks[r.block as usize].coords[r.index as usize],
+                        ));
+                        points.len() - 1
+                    })
+                })
+                .collect();
+            faces.push(f);
+        }
+    }
+    synth::Soup { points, faces }
 }

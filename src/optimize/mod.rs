@@ -45,6 +45,8 @@ pub struct OptimizeOptions<'a> {
     /// Weight of a quad's opposite corner relative to an edge neighbour in the smoothing
     /// centroid.
     pub diagonal_weight: f64,
+    /// Final quality-maximizing sweeps (pattern search on the star's mean η, worst η kept).
+    pub angle_sweeps: usize,
     /// Called with (steps done, total steps) as surfaces progress, from any thread.
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
 }
@@ -57,6 +59,7 @@ impl Default for OptimizeOptions<'_> {
             topology: true,
             max_rounds: 4,
             diagonal_weight: 0.5,
+            angle_sweeps: 2,
             progress: None,
         }
     }
@@ -69,6 +72,7 @@ impl std::fmt::Debug for OptimizeOptions<'_> {
             .field("topology", &self.topology)
             .field("max_rounds", &self.max_rounds)
             .field("diagonal_weight", &self.diagonal_weight)
+            .field("angle_sweeps", &self.angle_sweeps)
             .field("progress", &self.progress.is_some())
             .finish()
     }
@@ -226,6 +230,9 @@ fn run_surface(
                 break;
             }
         }
+    }
+    if opts.angle_sweeps > 0 {
+        ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
     }
     tick(opts.max_rounds - rounds);
     SurfaceOptimizeReport {

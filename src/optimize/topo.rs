@@ -5,10 +5,10 @@
 //!
 //! 1. **Doublet collapse** (Figure 11): a free node with exactly two quads around it is
 //!    removed and its two quads become one.
-//! 2. **Quad-vertex merge** (Figure 10, Gmsh's "diamond"): a quad whose two opposite corners
-//!    are free and have three quads each is removed by merging those two nodes into one (with
-//!    four quads). Accepted when the merged star's worst signed η is not below the worst of
-//!    the two old stars.
+//! 2. **Quad-vertex merge** (Figure 10, Gmsh's "diamond"): a quad is removed by merging two
+//!    opposite free corners into one node, when that lowers the valence defect (the paper's
+//!    case: two corners with three quads each, becoming one node with four). Accepted when
+//!    the merged star's worst signed η is not below the worst of the two old stars.
 //! 3. **Edge rotation**: the edge shared by two quads is replaced by another diagonal of the
 //!    hexagon they form, when that lowers the valence defect Σ (d − d*)² (d* = 4 inside; on
 //!    the boundary the number of right angles in the boundary angle, at least 1) and the two
@@ -36,7 +36,7 @@ pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts) -> usize {
         }
     }
     for q in 0..l.quads.len() as u32 {
-        if quad_vertex_merge(l, q, &mut dirty) {
+        if quad_vertex_merge(l, q, &ideal, &mut dirty) {
             ops.quad_vertex_merges += 1;
         }
     }
@@ -143,36 +143,45 @@ fn doublet_collapse(l: &mut Local, v: u32, dirty: &mut [bool]) -> bool {
     true
 }
 
-/// Figure 10: removes quad `q` by merging its opposite free corners of valence 3.
-fn quad_vertex_merge(l: &mut Local, q: u32, dirty: &mut [bool]) -> bool {
+/// Figure 10: removes quad `q` by merging two opposite free corners when that lowers the
+/// valence defect: the paper's diamond (two corners of valence 3 whose other two corners
+/// have 5 or more) and its generalizations. A 3-3 diamond whose other corners have valence
+/// 4 is left alone: merging it would only turn those two into valence 3.
+fn quad_vertex_merge(l: &mut Local, q: u32, ideal: &[i32], dirty: &mut [bool]) -> bool {
     if !l.alive[q as usize] {
         return false;
     }
     let quad = l.quads[q as usize];
     for k in 0..2 {
         let (a, b, c, d) = (quad[k], quad[k + 1], quad[(k + 2) % 4], quad[(k + 3) % 4]);
-        if try_merge(l, q, [a, b, c, d], dirty) {
+        if try_merge(l, q, [a, b, c, d], ideal, dirty) {
             return true;
         }
     }
     false
 }
 
-fn try_merge(l: &mut Local, q: u32, [a, b, c, d]: [u32; 4], dirty: &mut [bool]) -> bool {
-    let free3 = |v: u32| !l.fixed[v as usize] && !l.removed[v as usize] && l.star(v).len() == 3;
-    if !free3(a) || !free3(c) {
+fn try_merge(
+    l: &mut Local,
+    q: u32,
+    [a, b, c, d]: [u32; 4],
+    ideal: &[i32],
+    dirty: &mut [bool],
+) -> bool {
+    let free = |v: u32| !l.fixed[v as usize] && !l.removed[v as usize];
+    if !free(a) || !free(c) {
         return false;
     }
+    let val = |v: u32| l.star(v).len() as i32;
     // b and d lose a quad: keep free ones at 3 or more, fixed ones at 1 or more
-    let keeps = |v: u32| {
-        let n = l.star(v).len();
-        if l.fixed[v as usize] {
-            n >= 2
-        } else {
-            n >= 4
-        }
-    };
+    let keeps = |v: u32| val(v) >= if l.fixed[v as usize] { 2 } else { 4 };
     if !keeps(b) || !keeps(d) {
+        return false;
+    }
+    let def = |v: u32, n: i32| (n - ideal[v as usize]) * (n - ideal[v as usize]);
+    let before = def(a, val(a)) + def(c, val(c)) + def(b, val(b)) + def(d, val(d));
+    let after = def(a, val(a) + val(c) - 2) + def(b, val(b) - 1) + def(d, val(d) - 1);
+    if after >= before {
         return false;
     }
     // the two stars must only meet along q (else the merge pinches the surface)
