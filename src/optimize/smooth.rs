@@ -132,10 +132,10 @@ pub(crate) fn optimize_angles(l: &mut Local, sweeps: usize) -> usize {
                 -t1,
                 t2,
                 -t2,
-                (t1 + t2) * 0.7071,
-                (t1 - t2) * 0.7071,
-                (-t1 + t2) * 0.7071,
-                (-t1 - t2) * 0.7071,
+                (t1 + t2) * std::f64::consts::FRAC_1_SQRT_2,
+                (t1 - t2) * std::f64::consts::FRAC_1_SQRT_2,
+                (-t1 + t2) * std::f64::consts::FRAC_1_SQRT_2,
+                (-t1 - t2) * std::f64::consts::FRAC_1_SQRT_2,
             ];
             for s in [0.2, 0.1, 0.05] {
                 let base = best.map_or(x0, |b| b.0);
