@@ -38,6 +38,29 @@ fn main() {
             let m = blossomquad::msh::read_file(std::path::Path::new(path)).expect("read");
             soup_of(&m)
         });
+    if let Some(g) = args.iter().find_map(|a| a.strip_prefix("grid=")) {
+        // performance mode: a jittered g x g quad grid (g^2 quads), its own reference
+        let g: usize = g.parse().unwrap_or(1000);
+        let mut s = synth::quad_grid(g, g, 1.0, 1.0);
+        synth::jitter(&mut s, 0.3 / g as f64, 3);
+        let mut mesh = synth::to_mesh(&s);
+        // the triangulation it came from: each quad split along a diagonal
+        let split = synth::Soup {
+            points: s.points.clone(),
+            faces: s
+                .faces
+                .iter()
+                .flat_map(|f| [vec![f[0], f[1], f[2]], vec![f[0], f[2], f[3]]])
+                .collect(),
+        };
+        let reference = synth::to_mesh(&split);
+        let t = Instant::now();
+        let rep = optimize::optimize(&mut mesh, &reference, &opts).expect("optimize");
+        println!("options: {opts:?}");
+        println!("optimize time: {:.3?} for {} quads", t.elapsed(), g * g);
+        println!("{:?}", rep.surfaces[0]);
+        return;
+    }
     let Some((mut tris, mut quads)) = from_file
         .and_then(|t| synth::pair_optimal(&t).map(|q| (t, q)))
         .or_else(|| {

@@ -31,6 +31,8 @@ pub(crate) struct Local {
     pub tri: Vec<u32>,
     /// Flat node index in the mesh (see `quality::FlatNodes`).
     pub global: Vec<u32>,
+    /// Node tags.
+    pub tags: Vec<u64>,
     /// Quads (local node indices).
     pub quads: Vec<[u32; 4]>,
     /// False once an operator removed the quad.
@@ -45,6 +47,8 @@ pub(crate) struct Local {
     pub start: Vec<u32>,
     /// CSR payload.
     pub adj: Vec<u32>,
+    /// Unit reference normal per quad (see [`Local::refresh_quad_normals`]).
+    pub qn: Vec<DVec3>,
 }
 
 impl Local {
@@ -76,6 +80,25 @@ impl Local {
         self.adj = adj;
     }
 
+    /// Recomputes the unit reference normal of every quad from its nodes' normals.
+    pub fn refresh_quad_normals(&mut self) {
+        self.qn = (0..self.quads.len() as u32)
+            .map(|q| self.quad_normal(q).normalize_or_zero())
+            .collect();
+    }
+
+    /// Shape key of quad `q` with node `v` at `p` (uses the cached quad normals): a monotone
+    /// function of the signed η (eq. 3) that needs no trigonometry, see [`shape_key`].
+    pub fn key_with(&self, q: u32, v: u32, p: DVec3) -> f64 {
+        let quad = &self.quads[q as usize];
+        let mut pts = [DVec3::ZERO; 4];
+        for k in 0..4 {
+            let w = quad[k];
+            pts[k] = if w == v { p } else { self.pos[w as usize] };
+        }
+        shape_key(&pts, self.qn[q as usize])
+    }
+
     /// Quads around node `v` (as of the last [`Local::build_adjacency`]).
     pub fn star(&self, v: u32) -> &[u32] {
         &self.adj[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
@@ -97,13 +120,6 @@ impl Local {
     /// Signed quality of quad `q` (eq. 3, negative when inverted w.r.t. the surface).
     pub fn quality(&self, q: u32) -> f64 {
         eta_signed_fast(&self.corners(q), self.quad_normal(q))
-    }
-
-    /// Signed quality of quad `q` with node `v` placed at `p`.
-    pub fn quality_with(&self, q: u32, v: u32, p: DVec3) -> f64 {
-        let quad = self.quads[q as usize];
-        let pts = quad.map(|w| if w == v { p } else { self.pos[w as usize] });
-        eta_signed_fast(&pts, self.quad_normal(q))
     }
 
     /// Projects `p` on the reference surface starting from node `v`'s triangle; returns the
@@ -154,6 +170,60 @@ impl Local {
             } else {
                 100.0
             },
+        }
+    }
+}
+
+/// A key ordered like the signed quality η (eq. 3) of the quad `p` about the unit normal
+/// `n`, without trigonometry: for a valid quad (every corner turning positively) it is
+/// 1 / (1 + max_k |cot α_k|) in (0, 1] (1 for a rectangle); for an invalid one it is
+/// η_signed − 1 in [−2, −1]. Convert with [`key_to_eta`].
+pub(crate) fn shape_key(p: &[DVec3; 4], n: DVec3) -> f64 {
+    let mut worst = 0.0_f64;
+    for k in 0..4 {
+        let a = p[(k + 1) & 3] - p[k];
+        let b = p[(k + 3) & 3] - p[k];
+        let s = n.dot(a.cross(b));
+        if s <= 0.0 {
+            return crate::quality::eta_signed(p, n) - 1.0;
+        }
+        worst = worst.max(a.dot(b).abs() / s);
+    }
+    1.0 / (1.0 + worst)
+}
+
+/// The signed η a [`shape_key`] stands for.
+#[cfg_attr(not(test), allow(dead_code))]
+pub(crate) fn key_to_eta(key: f64) -> f64 {
+    if key > 0.0 {
+        1.0 - (1.0 / key - 1.0).atan() / std::f64::consts::FRAC_PI_2
+    } else {
+        key + 1.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shape_key_orders_like_eta_and_converts_back() {
+        let q = |pts: [[f64; 2]; 4]| pts.map(|[x, y]| DVec3::new(x, y, 0.0));
+        let quads = [
+            q([[0., 0.], [1., 0.], [1., 1.], [0., 1.]]),
+            q([[0., 0.], [1., 0.2], [1.3, 1.1], [-0.2, 0.7]]),
+            q([[0., 0.], [1., 0.], [1.5, 0.8], [0.5, 0.8]]),
+            q([[0., 0.], [1., 0.], [0.5, 0.4], [0.5, 1.]]),
+        ];
+        let mut prev: Option<(f64, f64)> = None;
+        for p in &quads {
+            let e = crate::quality::eta_signed(p, DVec3::Z);
+            let k = shape_key(p, DVec3::Z);
+            assert!((key_to_eta(k) - e).abs() < 1e-12, "{e} {k}");
+            if let Some((pe, pk)) = prev {
+                assert_eq!(pe > e, pk > k);
+            }
+            prev = Some((e, k));
         }
     }
 }

@@ -55,7 +55,7 @@ impl Default for OptimizeOptions<'_> {
     /// Defaults chosen by measurement (see the module's report in the README/BENCHMARKS).
     fn default() -> Self {
         OptimizeOptions {
-            smooth_iterations: 10,
+            smooth_iterations: 5,
             topology: true,
             max_rounds: 4,
             diagonal_weight: 0.5,
@@ -211,34 +211,48 @@ fn run_surface(
     opts: &OptimizeOptions,
     tick: &(dyn Fn(usize) + Sync),
 ) -> SurfaceOptimizeReport {
+    let timing = std::env::var_os("BQ_TIMING").is_some();
+    let t = std::time::Instant::now();
+    let lap = |what: &str| {
+        if timing {
+            eprintln!("  {what}: {:.3?}", t.elapsed());
+        }
+    };
     l.build_adjacency();
     let before = l.stats();
+    lap("adjacency + stats");
     let mut ops = OperationCounts {
         smoothing_moves: smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
         ..Default::default()
     };
+    lap("smoothing");
     tick(1);
-    let mut rounds = 0;
+    let mut ticks = 1;
     if opts.topology {
-        while rounds < opts.max_rounds {
-            rounds += 1;
+        for _ in 0..opts.max_rounds {
             let changed = topo::pass(l, &mut ops);
-            l.build_adjacency();
-            ops.smoothing_moves += smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight);
-            tick(1);
+            lap("topology pass");
             if changed == 0 {
                 break;
             }
+            l.build_adjacency();
+            ops.smoothing_moves += smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight);
+            lap("smoothing");
+            tick(1);
+            ticks += 1;
         }
     }
     if opts.angle_sweeps > 0 {
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
+        lap("angle sweeps");
     }
-    tick(opts.max_rounds - rounds);
+    tick(1 + opts.max_rounds - ticks);
+    let after = l.stats();
+    lap("stats");
     SurfaceOptimizeReport {
         surface: l.surface,
         before,
-        after: l.stats(),
+        after,
         operations: ops,
     }
 }
@@ -297,7 +311,7 @@ fn extract(
     let mut quads = Vec::new();
     let mut origin = Vec::new();
     // map flat -> local lazily through a sorted list to avoid a full-size array per surface
-    let mut used: Vec<u32> = Vec::new();
+    let mut used: Vec<(u32, u64)> = Vec::new();
     for (bi, b) in mesh.element_blocks.iter().enumerate() {
         if b.entity_dim != 2 || b.entity_tag != s || b.element_type != etype::QUAD4 {
             continue;
@@ -310,7 +324,7 @@ fn extract(
                     element: b.tags[e],
                     node: t,
                 })?;
-                used.push(q[k]);
+                used.push((q[k], t));
             }
             quads.push(q);
             origin.push((bi as u32, e as u32));
@@ -318,8 +332,9 @@ fn extract(
     }
     used.sort_unstable();
     used.dedup();
-    local_of.extend_from_slice(&used);
-    global.extend_from_slice(&used);
+    local_of.extend(used.iter().map(|u| u.0));
+    global.extend(used.iter().map(|u| u.0));
+    let node_tags: Vec<u64> = used.iter().map(|u| u.1).collect();
     let lid = |g: u32| local_of.binary_search(&g).map_or(0, |i| i as u32);
     let quads: Vec<[u32; 4]> = quads.iter().map(|q| q.map(lid)).collect();
     let n = global.len();
@@ -388,12 +403,14 @@ fn extract(
         nrm,
         fixed,
         global,
+        tags: node_tags,
         quads,
         origin,
         planar,
         reference: None,
         start: Vec::new(),
         adj: Vec::new(),
+        qn: Vec::new(),
     })
 }
 
@@ -441,14 +458,38 @@ fn attach_reference(l: &mut Local, reference: &Mesh) {
         (pts, tris_ok)
     };
     let nodal = mean_incident_edge_length(&pts, tris_ok.iter().map(|t| &t[..]));
-    let surface = TriSurface::new(pts, tris_ok);
     if own {
-        // quad edges are ~h; the split diagonals (√2 h) inflate the mean: use the quads'
-        // own edges instead.
+        // quad edges are ~h; the split diagonals (√2 h) would inflate the mean: use the
+        // quads' own edges instead.
         let qh = mean_incident_edge_length(&l.pos, l.quads.iter().map(|q| &q[..]));
         l.h = qh.iter().map(|&x| if x > 0.0 { x } else { 1.0 }).collect();
     }
-    for v in 0..l.pos.len() {
+    // a node of the reference (same tag, same place) is located without a search
+    let mut unmatched = Vec::new();
+    if own {
+        unmatched.extend(0..l.pos.len());
+    } else {
+        let mut incident = vec![NONE; pts.len()];
+        for (t, tri) in tris_ok.iter().enumerate() {
+            for &v in tri {
+                incident[v as usize] = t as u32;
+            }
+        }
+        for v in 0..l.pos.len() {
+            match tags.binary_search(&l.tags[v]) {
+                Ok(i) if incident[i] != NONE && pts[i] == l.pos[v] => {
+                    l.tri[v] = incident[i];
+                    l.h[v] = if nodal[i] > 0.0 { nodal[i] } else { 1.0 };
+                }
+                _ => unmatched.push(v),
+            }
+        }
+    }
+    if l.planar && !own && unmatched.is_empty() {
+        return; // sizes known, nothing to project on
+    }
+    let surface = TriSurface::new(pts, tris_ok);
+    for v in unmatched {
         if let Some(hit) = surface.closest(l.pos[v]) {
             l.tri[v] = hit.tri;
             if !own {

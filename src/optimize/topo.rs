@@ -40,12 +40,21 @@ pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts) -> usize {
             ops.quad_vertex_merges += 1;
         }
     }
+    let qual: Vec<f64> = (0..l.quads.len() as u32)
+        .map(|q| {
+            if l.alive[q as usize] {
+                l.quality(q)
+            } else {
+                0.0
+            }
+        })
+        .collect();
     let mut valence: Vec<i32> = (0..l.pos.len() as u32)
         .map(|v| l.star(v).len() as i32)
         .collect();
     for q in 0..l.quads.len() as u32 {
         for k in 0..4 {
-            if edge_rotation(l, q, k, &ideal, &mut valence, &mut dirty) {
+            if edge_rotation(l, q, k, &ideal, &mut valence, &qual, &mut dirty) {
                 ops.edge_rotations += 1;
                 break;
             }
@@ -277,6 +286,7 @@ fn edge_rotation(
     k: usize,
     ideal: &[i32],
     valence: &mut [i32],
+    qual: &[f64],
     dirty: &mut [bool],
 ) -> bool {
     if !l.alive[q1 as usize] {
@@ -284,7 +294,8 @@ fn edge_rotation(
     }
     let quad = l.quads[q1 as usize];
     let (u, v) = (quad[k], quad[(k + 1) % 4]);
-    if l.fixed[u as usize] && l.fixed[v as usize] {
+    // each interior edge once (from the quad running through it from the smaller node)
+    if u > v || l.fixed[u as usize] && l.fixed[v as usize] || any_dirty(dirty, &[u, v]) {
         return false;
     }
     // the other quad through v -> u
@@ -309,25 +320,29 @@ fn edge_rotation(
         let d = val - ideal[w as usize];
         d * d
     };
-    let old_min = l.quality(q1).min(l.quality(q2));
-    let n = l.quad_normal(q1) + l.quad_normal(q2);
-    let mut best: Option<(i32, f64, [[u32; 4]; 2])> = None;
-    for s in [1usize, 2] {
-        // new diagonal hex[s] - hex[s+3]
+    // qualities cached at the start of the pass (quads touched since have dirty nodes)
+    let old_min = qual[q1 as usize].min(qual[q2 as usize]);
+    let gains = [1usize, 2].map(|s| {
         let (x, y) = (hex[s], hex[s + 3]);
-        if share_a_quad(l, x, y, &[q1, q2]) {
-            continue;
-        }
         let before: i32 = [u, v, x, y]
             .iter()
             .map(|&w| defect(w, valence[w as usize]))
             .sum();
-        let after = defect(u, valence[u as usize] - 1)
-            + defect(v, valence[v as usize] - 1)
-            + defect(x, valence[x as usize] + 1)
-            + defect(y, valence[y as usize] + 1);
-        let gain = before - after;
-        if gain < -2 {
+        before
+            - (defect(u, valence[u as usize] - 1)
+                + defect(v, valence[v as usize] - 1)
+                + defect(x, valence[x as usize] + 1)
+                + defect(y, valence[y as usize] + 1))
+    });
+    if gains.iter().all(|&g| g <= 0) && old_min >= 0.2 {
+        return false;
+    }
+    let n = l.quad_normal(q1) + l.quad_normal(q2);
+    let mut best: Option<(i32, f64, [[u32; 4]; 2])> = None;
+    for (s, gain) in [1usize, 2].into_iter().zip(gains) {
+        // new diagonal hex[s] - hex[s+3]
+        let (x, y) = (hex[s], hex[s + 3]);
+        if gain < -2 || share_a_quad(l, x, y, &[q1, q2]) {
             continue;
         }
         let qa = [hex[s], hex[s + 1], hex[s + 2], hex[s + 3]];

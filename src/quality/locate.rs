@@ -9,6 +9,7 @@
 //! **Invariant:** indices only; the structure never looks at mesh tags.
 
 use glam::DVec3;
+use rayon::slice::ParallelSliceMut;
 
 /// Sentinel for "no neighbour" in [`TriSurface`] adjacency.
 pub const NONE: u32 = u32::MAX;
@@ -179,7 +180,7 @@ fn triangle_neighbours(tris: &[[u32; 3]]) -> Vec<[u32; 3]> {
             half.push((a.min(b), a.max(b), (t as u32) * 3 + k as u32));
         }
     }
-    half.sort_unstable();
+    half.par_sort_unstable();
     let mut nbr = vec![[NONE; 3]; tris.len()];
     let mut i = 0;
     while i < half.len() {

@@ -30,6 +30,7 @@ use evalexpr::{
     build_operator_tree, Context, DefaultNumericTypes, EvalexprError, EvalexprResult, Node, Value,
 };
 use glam::DVec3;
+use rayon::slice::ParallelSliceMut;
 
 /// A compiled size expression h(x, y, z).
 ///
@@ -303,7 +304,7 @@ pub fn mean_incident_edge_length<'a>(
             edges.push((a.min(b), a.max(b)));
         }
     }
-    edges.sort_unstable();
+    edges.par_sort_unstable();
     edges.dedup();
     let mut sum = vec![0.0; points.len()];
     let mut cnt = vec![0u32; points.len()];
