@@ -22,7 +22,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 /// A move proposal for one node: its new position and reference triangle, or none.
-type Propose = dyn Fn(&Local, u32) -> Option<(DVec3, u32)> + Sync;
+type Propose<'a> = dyn Fn(&Local, u32) -> Option<(DVec3, u32)> + Sync + 'a;
 
 /// Free nodes grouped by colour: no two nodes of a group share a quad.
 pub(crate) fn colour_free_nodes(l: &Local) -> Vec<Vec<u32>> {
@@ -60,7 +60,7 @@ fn sweep(
     groups: &[Vec<u32>],
     active: &[bool],
     next: &mut [bool],
-    propose: &Propose,
+    propose: &Propose<'_>,
 ) -> usize {
     let mut moves = 0;
     for g in groups {
