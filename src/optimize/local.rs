@@ -1,0 +1,261 @@
+//! The optimizer's working copy of one surface's quads: flat arrays indexed by local node and
+//! quad numbers, a node → quads CSR rebuilt after each topological pass, and the reference
+//! surface nodes are projected on.
+//!
+//! **Invariant:** a quad's nodes are listed in the orientation of the input; operators keep
+//! it. Fixed nodes (on curves, points, the boundary, or used by any element that is not a
+//! quad of this surface) never move and are never removed.
+
+use crate::quality::eta::{eta, eta_signed_fast};
+use crate::quality::locate::TriSurface;
+use glam::DVec3;
+
+/// Sentinel for "none".
+pub(crate) const NONE: u32 = u32::MAX;
+
+/// One surface's quads and nodes.
+pub(crate) struct Local {
+    /// Surface entity tag.
+    pub surface: i32,
+    /// Node positions.
+    pub pos: Vec<DVec3>,
+    /// Unit reference normal per node (orientation of the input quads).
+    pub nrm: Vec<DVec3>,
+    /// Target size h per node (eq. 1's field at the node).
+    pub h: Vec<f64>,
+    /// Fixed nodes never move nor disappear.
+    pub fixed: Vec<bool>,
+    /// Removed by an operator.
+    pub removed: Vec<bool>,
+    /// Reference triangle each node lies on (projection hint), [`NONE`] if unknown.
+    pub tri: Vec<u32>,
+    /// Flat node index in the mesh (see `quality::FlatNodes`).
+    pub global: Vec<u32>,
+    /// Node tags.
+    pub tags: Vec<u64>,
+    /// Quads (local node indices).
+    pub quads: Vec<[u32; 4]>,
+    /// False once an operator removed the quad.
+    pub alive: Vec<bool>,
+    /// (element block, element index) each quad came from.
+    pub origin: Vec<(u32, u32)>,
+    /// True when all nodes lie in one plane: moves stay in it, no projection.
+    pub planar: bool,
+    /// The surface nodes are projected on (curved surfaces).
+    pub reference: Option<TriSurface>,
+    /// CSR: quads around node `v` are `adj[start[v]..start[v+1]]`.
+    pub start: Vec<u32>,
+    /// CSR payload.
+    pub adj: Vec<u32>,
+    /// Unit reference normal per quad (see [`Local::refresh_quad_normals`]).
+    pub qn: Vec<DVec3>,
+}
+
+impl Local {
+    /// Rebuilds the node → alive quads CSR.
+    pub fn build_adjacency(&mut self) {
+        let n = self.pos.len();
+        let mut start = vec![0u32; n + 1];
+        for (q, quad) in self.quads.iter().enumerate() {
+            if self.alive[q] {
+                for &v in quad {
+                    start[v as usize + 1] += 1;
+                }
+            }
+        }
+        for i in 0..n {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut adj = vec![0u32; start[n] as usize];
+        for (q, quad) in self.quads.iter().enumerate() {
+            if self.alive[q] {
+                for &v in quad {
+                    adj[fill[v as usize] as usize] = q as u32;
+                    fill[v as usize] += 1;
+                }
+            }
+        }
+        self.start = start;
+        self.adj = adj;
+    }
+
+    /// Recomputes the unit reference normal of every quad from its nodes' normals.
+    pub fn refresh_quad_normals(&mut self) {
+        self.qn = (0..self.quads.len() as u32)
+            .map(|q| self.quad_normal(q).normalize_or_zero())
+            .collect();
+    }
+
+    /// Shape key of quad `q` with node `v` at `p` (uses the cached quad normals): a monotone
+    /// function of the signed η (eq. 3) that needs no trigonometry, see [`shape_key`].
+    pub fn key_with(&self, q: u32, v: u32, p: DVec3) -> f64 {
+        let quad = &self.quads[q as usize];
+        let mut pts = [DVec3::ZERO; 4];
+        for k in 0..4 {
+            let w = quad[k];
+            pts[k] = if w == v { p } else { self.pos[w as usize] };
+        }
+        shape_key(&pts, self.qn[q as usize])
+    }
+
+    /// Quads around node `v` (as of the last [`Local::build_adjacency`]).
+    pub fn star(&self, v: u32) -> &[u32] {
+        &self.adj[self.start[v as usize] as usize..self.start[v as usize + 1] as usize]
+    }
+
+    /// Corner positions of quad `q`.
+    pub fn corners(&self, q: u32) -> [DVec3; 4] {
+        self.quads[q as usize].map(|v| self.pos[v as usize])
+    }
+
+    /// Reference normal of quad `q`: the sum of its nodes' normals.
+    pub fn quad_normal(&self, q: u32) -> DVec3 {
+        self.quads[q as usize]
+            .iter()
+            .map(|&v| self.nrm[v as usize])
+            .sum()
+    }
+
+    /// Signed quality of quad `q` (eq. 3, negative when inverted w.r.t. the surface).
+    pub fn quality(&self, q: u32) -> f64 {
+        eta_signed_fast(&self.corners(q), self.quad_normal(q))
+    }
+
+    /// Projects `p` on the reference surface starting from node `v`'s triangle; returns the
+    /// point and its triangle. Planar surfaces (or no reference) return `p` unchanged.
+    pub fn project(&self, v: u32, p: DVec3) -> (DVec3, u32) {
+        match (&self.reference, self.planar) {
+            (Some(r), false) => match r.walk(self.tri[v as usize], p) {
+                Some(hit) => (hit.point, hit.tri),
+                None => (p, self.tri[v as usize]),
+            },
+            _ => (p, self.tri[v as usize]),
+        }
+    }
+
+    /// Unsigned quality statistics: (η_w, η̄, quads, d4 %, interior vertices), with degrees
+    /// over free nodes (interior by construction). Needs a current adjacency.
+    pub fn stats(&self) -> Stats {
+        let mut n = 0usize;
+        let mut sum = 0.0;
+        let mut worst = f64::INFINITY;
+        for (q, quad) in self.quads.iter().enumerate() {
+            if !self.alive[q] {
+                continue;
+            }
+            let e = eta(&quad.map(|v| self.pos[v as usize]));
+            n += 1;
+            sum += e;
+            worst = worst.min(e);
+        }
+        let mut interior = 0usize;
+        let mut d4 = 0usize;
+        for v in 0..self.pos.len() as u32 {
+            if self.fixed[v as usize] || self.removed[v as usize] {
+                continue;
+            }
+            interior += 1;
+            if self.star(v).len() == 4 {
+                d4 += 1;
+            }
+        }
+        Stats {
+            quads: n,
+            eta_worst: if n > 0 { worst } else { 0.0 },
+            eta_mean: if n > 0 { sum / n as f64 } else { 0.0 },
+            interior_vertices: interior,
+            d4_percent: if interior > 0 {
+                100.0 * d4 as f64 / interior as f64
+            } else {
+                100.0
+            },
+        }
+    }
+}
+
+/// A key ordered like the signed quality η (eq. 3) of the quad `p` about the unit normal
+/// `n`, without trigonometry: for a valid quad (every corner turning positively) it is
+/// 1 / (1 + max_k |cot α_k|) in (0, 1] (1 for a rectangle); for an invalid one it is
+/// η_signed − 1 in [−2, −1]. Convert with [`key_to_eta`].
+pub(crate) fn shape_key(p: &[DVec3; 4], n: DVec3) -> f64 {
+    let mut worst = 0.0_f64;
+    for k in 0..4 {
+        let a = p[(k + 1) & 3] - p[k];
+        let b = p[(k + 3) & 3] - p[k];
+        let s = n.dot(a.cross(b));
+        if s <= 0.0 {
+            return crate::quality::eta_signed(p, n) - 1.0;
+        }
+        worst = worst.max(a.dot(b).abs() / s);
+    }
+    1.0 / (1.0 + worst)
+}
+
+/// The signed η a [`shape_key`] stands for.
+#[cfg_attr(not(test), allow(dead_code))]
+pub(crate) fn key_to_eta(key: f64) -> f64 {
+    if key > 0.0 {
+        1.0 - (1.0 / key - 1.0).atan() / std::f64::consts::FRAC_PI_2
+    } else {
+        key + 1.0
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shape_key_orders_like_eta_and_converts_back() {
+        let q = |pts: [[f64; 2]; 4]| pts.map(|[x, y]| DVec3::new(x, y, 0.0));
+        let quads = [
+            q([[0., 0.], [1., 0.], [1., 1.], [0., 1.]]),
+            q([[0., 0.], [1., 0.2], [1.3, 1.1], [-0.2, 0.7]]),
+            q([[0., 0.], [1., 0.], [1.5, 0.8], [0.5, 0.8]]),
+            q([[0., 0.], [1., 0.], [0.5, 0.4], [0.5, 1.]]),
+        ];
+        let mut prev: Option<(f64, f64)> = None;
+        for p in &quads {
+            let e = crate::quality::eta_signed(p, DVec3::Z);
+            let k = shape_key(p, DVec3::Z);
+            assert!((key_to_eta(k) - e).abs() < 1e-12, "{e} {k}");
+            if let Some((pe, pk)) = prev {
+                assert_eq!(pe > e, pk > k);
+            }
+            prev = Some((e, k));
+        }
+    }
+}
+
+/// Quality of one surface at one moment (η by eq. 3, unsigned).
+#[derive(Debug, Clone, Copy, PartialEq, serde::Serialize)]
+pub struct Stats {
+    /// Number of quads.
+    pub quads: usize,
+    /// Worst η.
+    pub eta_worst: f64,
+    /// Mean η.
+    pub eta_mean: f64,
+    /// Free (interior) vertices.
+    pub interior_vertices: usize,
+    /// Percentage of interior vertices with four quads.
+    pub d4_percent: f64,
+}
+
+/// Index of `v` in `quad`.
+pub(crate) fn slot(quad: &[u32; 4], v: u32) -> Option<usize> {
+    quad.iter().position(|&w| w == v)
+}
+
+/// `quad` rotated so that `v` comes first.
+pub(crate) fn rotate_to(quad: &[u32; 4], v: u32) -> Option<[u32; 4]> {
+    slot(quad, v).map(|k| {
+        [
+            quad[k],
+            quad[(k + 1) % 4],
+            quad[(k + 2) % 4],
+            quad[(k + 3) % 4],
+        ]
+    })
+}

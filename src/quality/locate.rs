@@ -1,0 +1,434 @@
+//! Closest-point queries on a triangulated surface: the reference triangulation that sizes
+//! are interpolated on (τ, eq. 1) and that smoothed nodes are projected back onto.
+//!
+//! Two queries: [`TriSurface::closest`] searches a uniform grid of triangle buckets (any
+//! point, no prior knowledge), [`TriSurface::walk`] starts from a known triangle and walks
+//! across edges towards the point (a node that moved a fraction of an edge needs one or two
+//! steps). Both return the triangle, the closest point on it and its barycentric coordinates.
+//!
+//! **Invariant:** indices only; the structure never looks at mesh tags.
+
+use glam::DVec3;
+use rayon::slice::ParallelSliceMut;
+
+/// Sentinel for "no neighbour" in [`TriSurface`] adjacency.
+pub const NONE: u32 = u32::MAX;
+
+/// Result of a closest-point query.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Hit {
+    /// Index of the triangle the closest point lies on.
+    pub tri: u32,
+    /// The closest point.
+    pub point: DVec3,
+    /// Barycentric coordinates of `point` in the triangle (sum 1, each in [0, 1]).
+    pub bary: [f64; 3],
+}
+
+/// A triangle soup with edge adjacency and a uniform bucket grid.
+#[derive(Debug, Clone)]
+pub struct TriSurface {
+    points: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+    /// `nbr[t][k]`: triangle across the edge opposite vertex `k` of `t`, or [`NONE`]
+    /// (boundary or non-manifold edge).
+    nbr: Vec<[u32; 3]>,
+    grid: Grid,
+}
+
+#[derive(Debug, Clone)]
+struct Grid {
+    origin: DVec3,
+    cell: f64,
+    dims: [usize; 3],
+    start: Vec<u32>,
+    items: Vec<u32>,
+}
+
+impl TriSurface {
+    /// Builds the adjacency and the grid. Triangles referring to a point index out of range
+    /// are dropped (callers build indices themselves, so this only guards against misuse).
+    pub fn new(points: Vec<DVec3>, tris: Vec<[u32; 3]>) -> Self {
+        let n = points.len();
+        let tris: Vec<[u32; 3]> = tris
+            .into_iter()
+            .filter(|t| t.iter().all(|&v| (v as usize) < n))
+            .collect();
+        let nbr = triangle_neighbours(&tris);
+        let grid = Grid::new(&points, &tris);
+        TriSurface {
+            points,
+            tris,
+            nbr,
+            grid,
+        }
+    }
+
+    /// Number of triangles.
+    pub fn len(&self) -> usize {
+        self.tris.len()
+    }
+
+    /// True when there is no triangle.
+    pub fn is_empty(&self) -> bool {
+        self.tris.is_empty()
+    }
+
+    /// Point indices of triangle `t`.
+    pub fn triangle(&self, t: u32) -> [u32; 3] {
+        self.tris[t as usize]
+    }
+
+    /// Unit normal of triangle `t` (zero for a degenerate triangle), oriented by its vertex
+    /// order.
+    pub fn normal(&self, t: u32) -> DVec3 {
+        let [a, b, c] = self.corners(t);
+        (b - a).cross(c - a).normalize_or_zero()
+    }
+
+    fn corners(&self, t: u32) -> [DVec3; 3] {
+        let [a, b, c] = self.tris[t as usize];
+        [
+            self.points[a as usize],
+            self.points[b as usize],
+            self.points[c as usize],
+        ]
+    }
+
+    /// Closest point on the whole surface, or `None` when there is no triangle.
+    pub fn closest(&self, p: DVec3) -> Option<Hit> {
+        if self.tris.is_empty() {
+            return None;
+        }
+        let g = &self.grid;
+        let c = g.cell_of(p);
+        let mut best: Option<(f64, Hit)> = None;
+        let max_r = g.dims.iter().copied().max().unwrap_or(1);
+        for r in 0..=max_r {
+            g.for_ring(c, r, |t| {
+                let (q, bary) = closest_on_triangle(p, self.corners(t));
+                let d = q.distance_squared(p);
+                if best.is_none_or(|(bd, _)| d < bd) {
+                    best = Some((
+                        d,
+                        Hit {
+                            tri: t,
+                            point: q,
+                            bary,
+                        },
+                    ));
+                }
+            });
+            let reach = g.unvisited_distance(p, c, r);
+            if let Some((d, _)) = best {
+                if d <= reach * reach {
+                    break;
+                }
+            }
+            if reach == f64::INFINITY {
+                break;
+            }
+        }
+        best.map(|(_, h)| h)
+    }
+
+    /// Closest point found by walking from triangle `start` towards `p` across edges; falls
+    /// back to [`TriSurface::closest`] when the walk does not settle.
+    pub fn walk(&self, start: u32, p: DVec3) -> Option<Hit> {
+        if start as usize >= self.tris.len() {
+            return self.closest(p);
+        }
+        let mut t = start;
+        let mut prev = NONE;
+        for _ in 0..48 {
+            let bary = plane_barycentric(p, self.corners(t));
+            if bary.iter().all(|&b| b >= -1e-12) {
+                let (q, bary) = closest_on_triangle(p, self.corners(t));
+                return Some(Hit {
+                    tri: t,
+                    point: q,
+                    bary,
+                });
+            }
+            // cross the edge of the most negative coordinate that leads somewhere new
+            let mut order = [0usize, 1, 2];
+            order.sort_by(|&a, &b| bary[a].total_cmp(&bary[b]));
+            let next = order
+                .iter()
+                .filter(|&&k| bary[k] < -1e-12)
+                .map(|&k| self.nbr[t as usize][k])
+                .find(|&n| n != NONE && n != prev);
+            match next {
+                Some(n) => {
+                    prev = t;
+                    t = n;
+                }
+                None => break,
+            }
+        }
+        self.closest(p)
+    }
+}
+
+/// Neighbour across each edge; edges used by other than exactly two triangles have none.
+fn triangle_neighbours(tris: &[[u32; 3]]) -> Vec<[u32; 3]> {
+    let mut half: Vec<(u32, u32, u32)> = Vec::with_capacity(tris.len() * 3);
+    for (t, tri) in tris.iter().enumerate() {
+        for k in 0..3 {
+            let a = tri[(k + 1) % 3];
+            let b = tri[(k + 2) % 3];
+            half.push((a.min(b), a.max(b), (t as u32) * 3 + k as u32));
+        }
+    }
+    half.par_sort_unstable();
+    let mut nbr = vec![[NONE; 3]; tris.len()];
+    let mut i = 0;
+    while i < half.len() {
+        let mut j = i + 1;
+        while j < half.len() && half[j].0 == half[i].0 && half[j].1 == half[i].1 {
+            j += 1;
+        }
+        if j - i == 2 {
+            let (x, y) = (half[i].2, half[i + 1].2);
+            nbr[(x / 3) as usize][(x % 3) as usize] = y / 3;
+            nbr[(y / 3) as usize][(y % 3) as usize] = x / 3;
+        }
+        i = j;
+    }
+    nbr
+}
+
+impl Grid {
+    fn new(points: &[DVec3], tris: &[[u32; 3]]) -> Self {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        let mut diag_sum = 0.0;
+        for t in tris {
+            let (a, b) = tri_box(points, t);
+            lo = lo.min(a);
+            hi = hi.max(b);
+            diag_sum += (b - a).length();
+        }
+        if tris.is_empty() {
+            return Grid {
+                origin: DVec3::ZERO,
+                cell: 1.0,
+                dims: [1, 1, 1],
+                start: vec![0, 0],
+                items: Vec::new(),
+            };
+        }
+        let ext = hi - lo;
+        let mut cell = (diag_sum / tris.len() as f64).max(ext.max_element() * 1e-6);
+        if cell.is_nan() || cell <= 0.0 || !cell.is_finite() {
+            cell = 1.0;
+        }
+        // Cap the cell count at a few per triangle.
+        let dims_for = |c: f64| [0, 1, 2].map(|i| ((ext[i] / c).floor() as usize + 1).max(1));
+        let mut dims = dims_for(cell);
+        while dims[0] * dims[1] * dims[2] > 4 * tris.len() + 64 {
+            cell *= 1.5;
+            dims = dims_for(cell);
+        }
+        let mut g = Grid {
+            origin: lo,
+            cell,
+            dims,
+            start: Vec::new(),
+            items: Vec::new(),
+        };
+        let ncell = dims[0] * dims[1] * dims[2];
+        let mut count = vec![0u32; ncell + 1];
+        let ranges: Vec<([usize; 3], [usize; 3])> = tris
+            .iter()
+            .map(|t| {
+                let (a, b) = tri_box(points, t);
+                (g.cell_of(a), g.cell_of(b))
+            })
+            .collect();
+        for (a, b) in &ranges {
+            g.each_cell(*a, *b, |c| count[c + 1] += 1);
+        }
+        for i in 0..ncell {
+            count[i + 1] += count[i];
+        }
+        let mut fill = count.clone();
+        let mut items = vec![0u32; count[ncell] as usize];
+        for (t, (a, b)) in ranges.iter().enumerate() {
+            g.each_cell(*a, *b, |c| {
+                items[fill[c] as usize] = t as u32;
+                fill[c] += 1;
+            });
+        }
+        g.start = count;
+        g.items = items;
+        g
+    }
+
+    fn cell_of(&self, p: DVec3) -> [usize; 3] {
+        [0, 1, 2].map(|i| {
+            let f = ((p[i] - self.origin[i]) / self.cell).floor();
+            if f.is_nan() || f < 0.0 {
+                0
+            } else {
+                (f as usize).min(self.dims[i] - 1)
+            }
+        })
+    }
+
+    /// Lower bound of the distance from `p` (in cell `c`) to any cell outside the cube of
+    /// cells at Chebyshev distance ≤ `r` from `c`; infinite when that cube covers the grid.
+    fn unvisited_distance(&self, p: DVec3, c: [usize; 3], r: usize) -> f64 {
+        let mut d = f64::INFINITY;
+        for i in 0..3 {
+            if c[i] > r {
+                let face = self.origin[i] + (c[i] - r) as f64 * self.cell;
+                d = d.min((p[i] - face).max(0.0));
+            }
+            if c[i] + r + 1 < self.dims[i] {
+                let face = self.origin[i] + (c[i] + r + 1) as f64 * self.cell;
+                d = d.min((face - p[i]).max(0.0));
+            }
+        }
+        d
+    }
+
+    fn index(&self, c: [usize; 3]) -> usize {
+        (c[2] * self.dims[1] + c[1]) * self.dims[0] + c[0]
+    }
+
+    fn each_cell(&self, a: [usize; 3], b: [usize; 3], mut f: impl FnMut(usize)) {
+        for z in a[2]..=b[2] {
+            for y in a[1]..=b[1] {
+                for x in a[0]..=b[0] {
+                    f(self.index([x, y, z]));
+                }
+            }
+        }
+    }
+
+    /// Calls `f` for every triangle of the cells at Chebyshev distance exactly `r` from `c`
+    /// (a triangle spanning several cells may be visited more than once).
+    fn for_ring(&self, c: [usize; 3], r: usize, mut f: impl FnMut(u32)) {
+        let lo = c.map(|v| v as isize - r as isize);
+        let hi = c.map(|v| v as isize + r as isize);
+        for z in lo[2].max(0)..=hi[2].min(self.dims[2] as isize - 1) {
+            for y in lo[1].max(0)..=hi[1].min(self.dims[1] as isize - 1) {
+                let on_yz = z == lo[2] || z == hi[2] || y == lo[1] || y == hi[1];
+                let mut x = lo[0].max(0);
+                let xe = hi[0].min(self.dims[0] as isize - 1);
+                while x <= xe {
+                    if on_yz || x == lo[0] || x == hi[0] {
+                        let i = self.index([x as usize, y as usize, z as usize]);
+                        for &t in &self.items[self.start[i] as usize..self.start[i + 1] as usize] {
+                            f(t);
+                        }
+                        x += 1;
+                    } else {
+                        // skip the interior of the ring row
+                        x = hi[0];
+                    }
+                }
+            }
+        }
+    }
+}
+
+fn tri_box(points: &[DVec3], t: &[u32; 3]) -> (DVec3, DVec3) {
+    let a = points[t[0] as usize];
+    let b = points[t[1] as usize];
+    let c = points[t[2] as usize];
+    (a.min(b).min(c), a.max(b).max(c))
+}
+
+/// Barycentric coordinates of the projection of `p` onto the plane of the triangle
+/// (unclamped: negative outside). A degenerate triangle gives `[1, 0, 0]`.
+pub fn plane_barycentric(p: DVec3, [a, b, c]: [DVec3; 3]) -> [f64; 3] {
+    let e0 = b - a;
+    let e1 = c - a;
+    let w = p - a;
+    let d00 = e0.dot(e0);
+    let d01 = e0.dot(e1);
+    let d11 = e1.dot(e1);
+    let d20 = w.dot(e0);
+    let d21 = w.dot(e1);
+    let den = d00 * d11 - d01 * d01;
+    if den.abs() <= f64::EPSILON * d00 * d11 || den == 0.0 {
+        return [1.0, 0.0, 0.0];
+    }
+    let v = (d11 * d20 - d01 * d21) / den;
+    let w2 = (d00 * d21 - d01 * d20) / den;
+    [1.0 - v - w2, v, w2]
+}
+
+/// Closest point of triangle `[a, b, c]` to `p`, with its barycentric coordinates.
+pub fn closest_on_triangle(p: DVec3, t: [DVec3; 3]) -> (DVec3, [f64; 3]) {
+    let bary = plane_barycentric(p, t);
+    if bary.iter().all(|&x| x >= 0.0) {
+        return (t[0] * bary[0] + t[1] * bary[1] + t[2] * bary[2], bary);
+    }
+    // Outside: the closest point is on one of the three edges.
+    let mut best = (f64::INFINITY, DVec3::ZERO, [1.0, 0.0, 0.0]);
+    for k in 0..3 {
+        let (i, j) = (k, (k + 1) % 3);
+        let e = t[j] - t[i];
+        let len2 = e.length_squared();
+        let s = if len2 > 0.0 {
+            ((p - t[i]).dot(e) / len2).clamp(0.0, 1.0)
+        } else {
+            0.0
+        };
+        let q = t[i] + e * s;
+        let d = q.distance_squared(p);
+        if d < best.0 {
+            let mut b = [0.0; 3];
+            b[i] = 1.0 - s;
+            b[j] = s;
+            best = (d, q, b);
+        }
+    }
+    (best.1, best.2)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn grid_surface(n: usize) -> TriSurface {
+        let mut pts = Vec::new();
+        for j in 0..=n {
+            for i in 0..=n {
+                pts.push(DVec3::new(i as f64, j as f64, 0.0));
+            }
+        }
+        let id = |i: usize, j: usize| (j * (n + 1) + i) as u32;
+        let mut tris = Vec::new();
+        for j in 0..n {
+            for i in 0..n {
+                tris.push([id(i, j), id(i + 1, j), id(i + 1, j + 1)]);
+                tris.push([id(i, j), id(i + 1, j + 1), id(i, j + 1)]);
+            }
+        }
+        TriSurface::new(pts, tris)
+    }
+
+    #[test]
+    fn closest_and_walk_agree_on_a_plane() {
+        let s = grid_surface(10);
+        for &(x, y, z) in &[
+            (3.3, 4.7, 1.0),
+            (0.1, 9.9, -2.0),
+            (12.0, 5.5, 0.0),
+            (-1.0, -1.0, 0.5),
+        ] {
+            let p = DVec3::new(x, y, z);
+            let expect = DVec3::new(x.clamp(0.0, 10.0), y.clamp(0.0, 10.0), 0.0);
+            let h = s.closest(p).unwrap();
+            assert!(h.point.distance(expect) < 1e-9, "{p} -> {}", h.point);
+            let w = s.walk(0, p).unwrap();
+            assert!(w.point.distance(expect) < 1e-9, "walk {p} -> {}", w.point);
+            let sum: f64 = h.bary.iter().sum();
+            assert!((sum - 1.0).abs() < 1e-12);
+        }
+    }
+}
