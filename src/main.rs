@@ -4,12 +4,13 @@
 //! structs, calls the stages and maps every error to one line on stderr and exit code 1
 //! (usage errors exit with 2, from clap).
 
+use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
 use blossomquad::mesh::{Mesh, MshFormat, MshVersion};
-use blossomquad::msh;
+use blossomquad::{msh, optimize, quality, recombine};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 /// Turn Gmsh triangle surface meshes into all-quadrilateral meshes (Blossom-Quad).
@@ -178,7 +179,40 @@ fn run(cli: Cli) -> Result<(), String> {
             print!("{}", msh::summary(&mesh));
             Ok(())
         }
-        Some(Command::Quality { .. }) => Err("the quality command is not available yet".into()),
+        Some(Command::Quality {
+            input,
+            size,
+            reference,
+            json,
+        }) => {
+            let mesh = read(&input)?;
+            let field = match (&size, &reference) {
+                (Some(expr), _) => quality::SizeField::Expression(
+                    quality::SizeExpr::new(expr).map_err(|e| e.to_string())?,
+                ),
+                (None, Some(r)) => {
+                    let reference = read(r)?;
+                    match quality::ReferenceSize::from_mesh(&reference) {
+                        Some(f) => quality::SizeField::Reference(f),
+                        None => {
+                            return Err(format!(
+                                "{}: no triangles or quads to estimate sizes from",
+                                r.display()
+                            ))
+                        }
+                    }
+                }
+                (None, None) => quality::SizeField::SelfEstimate,
+            };
+            let report =
+                quality::report(&mesh, &field).map_err(|e| format!("{}: {e}", input.display()))?;
+            if json {
+                println!("{}", report.to_json());
+            } else {
+                print!("{report}");
+            }
+            Ok(())
+        }
         None => recombine_main(cli.run),
     }
 }
@@ -191,11 +225,78 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     let quiet = args.quiet;
     let log = Log { quiet };
     let t0 = Instant::now();
-    let mesh = read(&input)?;
+    let mut mesh = read(&input)?;
     let t_read = t0.elapsed().as_secs_f64();
     print_warnings(&mesh, &log);
 
-    let (t_recombine, t_opt) = (0.0, 0.0);
+    let opts = recombine::RecombineOptions {
+        parity: match args.parity {
+            ParityArg::Repair => recombine::ParityMode::Repair,
+            ParityArg::Error => recombine::ParityMode::Error,
+        },
+        drop_volumes: args.drop_volumes,
+        verify: args.verify,
+        ..Default::default()
+    };
+    let t1 = Instant::now();
+    let before = mesh.clone();
+    let report =
+        recombine::recombine(&mut mesh, &opts).map_err(|e| format!("{}: {e}", input.display()))?;
+    let t_recombine = t1.elapsed().as_secs_f64();
+    for line in &report.log {
+        log.say(line);
+    }
+
+    let mut t_opt = 0.0;
+    if !args.no_optimize {
+        let t2 = Instant::now();
+        let mut oopts = optimize::OptimizeOptions::default();
+        if let Some(n) = args.smooth {
+            oopts.smooth_iterations = n;
+        }
+        oopts.topology = !args.no_topology;
+        let show_bar = !quiet && std::io::stderr().is_terminal();
+        let bar = show_bar.then(|| {
+            let b = indicatif::ProgressBar::new(0);
+            b.set_style(
+                indicatif::ProgressStyle::with_template("optimizing {bar:40} {pos}/{len} surfaces")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b
+        });
+        let progress = |done: usize, total: usize| {
+            if let Some(b) = &bar {
+                b.set_length(total as u64);
+                b.set_position(done as u64);
+            }
+        };
+        oopts.progress = Some(&progress);
+        let orep = optimize::optimize(&mut mesh, &before, &oopts)
+            .map_err(|e| format!("{}: {e}", input.display()))?;
+        if let Some(b) = bar {
+            b.finish_and_clear();
+        }
+        for s in &orep.surfaces {
+            log.say(format!(
+                "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",
+                s.surface,
+                s.before.eta_worst,
+                s.after.eta_worst,
+                s.before.eta_mean,
+                s.after.eta_mean,
+                s.after.quads
+            ));
+        }
+        t_opt = t2.elapsed().as_secs_f64();
+        if args.verify {
+            recombine::check_invariants(&before, &mesh).map_err(|e| {
+                format!(
+                    "{}: invariant violated after optimization: {e}",
+                    input.display()
+                )
+            })?;
+        }
+    }
     let t3 = Instant::now();
     write(&mesh, &output, &args.format, &log)?;
     let t_write = t3.elapsed().as_secs_f64();
