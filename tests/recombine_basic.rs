@@ -440,3 +440,20 @@ fn malformed_block_is_an_error_not_a_panic() {
     let e = recombine(&mut m, &RecombineOptions::default()).unwrap_err();
     assert!(matches!(e, RecombineError::MalformedBlock { .. }), "{e}");
 }
+
+#[test]
+fn large_grid_takes_the_radix_path_and_stays_valid() {
+    // 2 * 130 * 130 = 33 800 triangles: more than 2^16 half-edges, so the packed radix sort
+    // builds the adjacency
+    let before = grid(&Grid {
+        nx: 130,
+        ny: 130,
+        jitter: 0.5,
+        seed: 3,
+        ..Default::default()
+    });
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.surfaces[0].quads_out, 130 * 130);
+    check_invariants(&before, &m).unwrap();
+}

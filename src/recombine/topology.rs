@@ -214,14 +214,51 @@ pub(crate) enum Wall {
     Inconsistent,
 }
 
-/// Every half-edge `3t + k` of `tris` with its [`edge_key`], sorted by (key, half-edge).
+/// The half-edges `3t + k` of a triangle list, sorted by (edge key, half-edge).
+pub(crate) enum SortedHalves {
+    /// Key and half-edge packed in one `u64`: `key_bits << p | half_edge`.
+    Packed {
+        /// Packed values, sorted.
+        v: Vec<u64>,
+        /// Bits of the half-edge part.
+        p: u32,
+    },
+    /// `(edge_key, half_edge)` pairs, sorted.
+    Pairs(Vec<(u64, u32)>),
+}
+
+impl SortedHalves {
+    /// Calls `f` with the half-edges of each run of equal keys, in key order.
+    pub fn runs(&self, mut f: impl FnMut(&[u32])) {
+        let mut buf: Vec<u32> = Vec::with_capacity(4);
+        match self {
+            SortedHalves::Packed { v, p } => {
+                let low = (1u64 << p) - 1;
+                for run in v.chunk_by(|x, y| x >> p == y >> p) {
+                    buf.clear();
+                    buf.extend(run.iter().map(|x| (x & low) as u32));
+                    f(&buf);
+                }
+            }
+            SortedHalves::Pairs(v) => {
+                for run in v.chunk_by(|x, y| x.0 == y.0) {
+                    buf.clear();
+                    buf.extend(run.iter().map(|x| x.1));
+                    f(&buf);
+                }
+            }
+        }
+    }
+}
+
+/// Sorts the half-edges of `tris` by [`edge_key`].
 ///
 /// When a key and a half-edge index fit in 64 bits together (node ids below 2^b and
 /// half-edges below 2^p with 2b + p ≤ 64: up to about 2^20 nodes and 2^22 half-edges, more
 /// when the other is smaller), they are packed in one `u64` and sorted by an LSD radix sort
 /// on the key bits (stable, so equal keys keep half-edge order); otherwise by a parallel
 /// comparison sort. Both give the same order.
-pub(crate) fn sorted_half_edges(tris: &[[u32; 3]]) -> Vec<(u64, u32)> {
+pub(crate) fn sorted_half_edges(tris: &[[u32; 3]]) -> SortedHalves {
     let halves = 3 * tris.len();
     let max_id = tris
         .iter()
@@ -239,7 +276,7 @@ pub(crate) fn sorted_half_edges(tris: &[[u32; 3]]) -> Vec<(u64, u32)> {
             }
         }
         keys.par_sort_unstable();
-        return keys;
+        return SortedHalves::Pairs(keys);
     }
     let mut a: Vec<u64> = Vec::with_capacity(halves);
     for (t, tri) in tris.iter().enumerate() {
@@ -273,15 +310,7 @@ pub(crate) fn sorted_half_edges(tris: &[[u32; 3]]) -> Vec<(u64, u32)> {
         std::mem::swap(&mut a, &mut buf);
         shift += DIGIT;
     }
-    let low = (1u64 << p) - 1;
-    let idmask = (1u64 << b) - 1;
-    a.into_iter()
-        .map(|v| {
-            let lo = (v >> (b + p)) & idmask;
-            let hi = (v >> p) & idmask;
-            ((lo << 32) | hi, (v & low) as u32)
-        })
-        .collect()
+    SortedHalves::Packed { v: a, p }
 }
 
 /// One surface's triangles and their adjacency.
@@ -302,20 +331,21 @@ impl SurfaceTopo {
         // are boundary edges, so an interior edge between two of their nodes is a chord, not
         // a segment (e.g. a triangle with three nodes on a circle)
         let mut boundary_curves: Vec<i32> = Vec::new();
-        for run in keys.chunk_by(|x, y| x.0 == y.0) {
-            if let [(key, _)] = run {
-                let (a, b) = ((key >> 32) as u32, *key as u32);
+        keys.runs(|run| {
+            if let [h] = run {
+                let (t, k) = (*h as usize / 3, *h as usize % 3);
+                let (a, b) = (tris[t][k], tris[t][(k + 1) % 3]);
                 if let OnCurve::Bare(c) = curves.on_curve(nodes, a, b) {
                     if !boundary_curves.contains(&c) {
                         boundary_curves.push(c);
                     }
                 }
             }
-        }
+        });
         let mut nbr = vec![NONE; 3 * n];
-        for run in keys.chunk_by(|x, y| x.0 == y.0) {
+        keys.runs(|run| {
             // three or more triangles: non-manifold, a wall (nbr stays NONE)
-            if let [(_, h0), (_, h1)] = run {
+            if let [h0, h1] = run {
                 let (h0, h1) = (*h0 as usize, *h1 as usize);
                 let (t0, k0) = (h0 / 3, h0 % 3);
                 let (t1, k1) = (h1 / 3, h1 % 3);
@@ -337,7 +367,7 @@ impl SurfaceTopo {
                     nbr[h1] = t0 as u32;
                 }
             }
-        }
+        });
         SurfaceTopo { tris, nbr }
     }
 
@@ -378,6 +408,14 @@ impl SurfaceTopo {
 mod tests {
     use super::*;
 
+    impl SortedHalves {
+        fn runs_vec(&self) -> Vec<Vec<u32>> {
+            let mut out = Vec::new();
+            self.runs(|r| out.push(r.to_vec()));
+            out
+        }
+    }
+
     #[test]
     fn radix_and_comparison_sorts_agree() {
         // 30 000 random triangles on 5 000 nodes: the radix path; compare with a plain sort
@@ -389,7 +427,11 @@ mod tests {
             (x % 5000) as u32
         };
         let tris: Vec<[u32; 3]> = (0..30_000).map(|_| [next(), next(), next()]).collect();
-        let fast = sorted_half_edges(&tris);
+        let SortedHalves::Packed { .. } = sorted_half_edges(&tris) else {
+            panic!("expected the radix path");
+        };
+        let mut fast: Vec<Vec<u32>> = Vec::new();
+        sorted_half_edges(&tris).runs(|r| fast.push(r.to_vec()));
         let mut slow: Vec<(u64, u32)> = Vec::new();
         for (t, tri) in tris.iter().enumerate() {
             for k in 0..3 {
@@ -397,6 +439,7 @@ mod tests {
             }
         }
         slow.sort_unstable();
+        let slow: Vec<Vec<u32>> = SortedHalves::Pairs(slow).runs_vec();
         assert_eq!(fast, slow);
     }
 }
