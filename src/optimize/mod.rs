@@ -170,15 +170,8 @@ pub fn optimize(
     let results: Vec<(Local, SurfaceOptimizeReport)> = locals
         .into_par_iter()
         .map(|mut l| {
-            let t = std::time::Instant::now();
             attach_reference(&mut l, reference);
-            if std::env::var_os("BQ_TIMING").is_some() {
-                eprintln!("attach_reference {:.3?}", t.elapsed());
-            }
             let rep = run_surface(&mut l, opts, &tick);
-            if std::env::var_os("BQ_TIMING").is_some() {
-                eprintln!("total surface {:.3?}", t.elapsed());
-            }
             (l, rep)
         })
         .collect();
@@ -211,44 +204,31 @@ fn run_surface(
     opts: &OptimizeOptions,
     tick: &(dyn Fn(usize) + Sync),
 ) -> SurfaceOptimizeReport {
-    let timing = std::env::var_os("BQ_TIMING").is_some();
-    let t = std::time::Instant::now();
-    let lap = |what: &str| {
-        if timing {
-            eprintln!("  {what}: {:.3?}", t.elapsed());
-        }
-    };
     l.build_adjacency();
     let before = l.stats();
-    lap("adjacency + stats");
     let mut ops = OperationCounts {
         smoothing_moves: smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
         ..Default::default()
     };
-    lap("smoothing");
     tick(1);
     let mut ticks = 1;
     if opts.topology {
         for _ in 0..opts.max_rounds {
             let changed = topo::pass(l, &mut ops);
-            lap("topology pass");
             if changed == 0 {
                 break;
             }
             l.build_adjacency();
             ops.smoothing_moves += smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight);
-            lap("smoothing");
             tick(1);
             ticks += 1;
         }
     }
     if opts.angle_sweeps > 0 {
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
-        lap("angle sweeps");
     }
     tick(1 + opts.max_rounds - ticks);
     let after = l.stats();
-    lap("stats");
     SurfaceOptimizeReport {
         surface: l.surface,
         before,
@@ -504,6 +484,20 @@ fn attach_reference(l: &mut Local, reference: &Mesh) {
     }
 }
 
+/// Removes the entries at the (sorted, distinct) positions `rm` from `v`, keeping order.
+fn remove_sorted<T>(v: &mut Vec<T>, rm: &[usize]) {
+    let mut k = 0;
+    let mut idx = 0;
+    v.retain(|_| {
+        let keep = rm.get(k) != Some(&idx);
+        if !keep {
+            k += 1;
+        }
+        idx += 1;
+        keep
+    });
+}
+
 /// Writes node positions, removed nodes and changed/removed quads back into `mesh`.
 fn write_back(mesh: &mut Mesh, flat: &FlatNodes, l: &Local, report: &mut OptimizeReport) {
     // nodes: flat index -> (block, index)
@@ -547,25 +541,8 @@ fn write_back(mesh: &mut Mesh, flat: &FlatNodes, l: &Local, report: &mut Optimiz
             continue;
         }
         rm.sort_unstable();
-        let mut k = 0;
-        let mut idx = 0;
-        block.tags.retain(|_| {
-            let keep = rm.get(k) != Some(&idx);
-            if !keep {
-                k += 1;
-            }
-            idx += 1;
-            keep
-        });
-        let (mut k, mut idx) = (0, 0);
-        block.coords.retain(|_| {
-            let keep = rm.get(k) != Some(&idx);
-            if !keep {
-                k += 1;
-            }
-            idx += 1;
-            keep
-        });
+        remove_sorted(&mut block.tags, &rm);
+        remove_sorted(&mut block.coords, &rm);
     }
     // quads
     let mut dead_by_block: Vec<Vec<u32>> = vec![Vec::new(); mesh.element_blocks.len()];

@@ -12,7 +12,8 @@
 //! 3. **Edge rotation**: the edge shared by two quads is replaced by another diagonal of the
 //!    hexagon they form, when that lowers the valence defect Σ (d − d*)² (d* = 4 inside; on
 //!    the boundary the number of right angles in the boundary angle, at least 1) and the two
-//!    new quads are valid with worst η at least min(old worst, 0.3); or, whatever the
+//!    new quads are valid (requiring them to be as good as the old pair before smoothing was
+//!    measured to block two thirds of the useful rotations); or, whatever the
 //!    valences (defect up by 2 at most), when it lifts a bad pair (worst η < 0.2) by more
 //!    than 0.2 (e.g. a quad with two boundary edges in line, a straight angle).
 //!
@@ -350,8 +351,8 @@ fn edge_rotation(
         let ea = crate::quality::eta_signed_fast(&qa.map(|w| l.pos[w as usize]), n);
         let eb = crate::quality::eta_signed_fast(&qb.map(|w| l.pos[w as usize]), n);
         let new_min = ea.min(eb);
-        // fewer irregular vertices without a bad quad, or a much better quad pair
-        let topological = gain > 0 && new_min >= old_min.min(0.3);
+        // fewer irregular vertices (smoothing follows), or a much better quad pair
+        let topological = gain > 0;
         let geometric = old_min < 0.2 && new_min > old_min + 0.2;
         if new_min <= 0.0 || !(topological || geometric) {
             continue;
