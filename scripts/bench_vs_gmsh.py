@@ -112,14 +112,15 @@ def gmsh_ok(res):
     return res["code"] == 0 and not res["timeout"] and "Error" not in res["out"] + res["err"]
 
 
-def quality(binary, path, size_expr, timeout):
+def quality(binary, path, size_expr, reference, timeout):
+    """Our `quality --json` of PATH; tau from the exact size field when known, else
+    estimated from the triangle mesh REFERENCE (the same for every output)."""
     cmd = [binary, "quality", path, "--json"]
-    if size_expr:
-        cmd += ["--size", size_expr]
+    cmd += ["--size", size_expr] if size_expr else ["--reference", reference]
     res = run(cmd, timeout)
     if res["code"] != 0:
         if size_expr:  # fall back to the estimated size field
-            return quality(binary, path, None, timeout)
+            return quality(binary, path, None, reference, timeout)
         return None
     try:
         return json.loads(res["out"].strip().splitlines()[-1])
@@ -203,7 +204,7 @@ def case(binary, fixture, target, work, timeout):
 
     for row in rows:
         if "file" in row:
-            row["quality"] = quality(binary, row["file"], size_expr, timeout)
+            row["quality"] = quality(binary, row["file"], size_expr, tri, timeout)
     reference = next((r.get("time") for r in rows if r["method"] == "Gmsh blossom from CAD"), None)
     for row in rows:
         if reference and row.get("time") and row["method"] != "gmsh -2 (triangles)":
@@ -295,8 +296,9 @@ def main():
         "(read, recombine, optimise, write); **--no-optimize**: the same without smoothing and "
         "topological operations (the optimal matching as is).",
         "- Quality columns: our `blossomquad quality OUT --json` on every output "
-        "(η_w = worst η, η̄ = mean η, eq. 3; τ eq. 2, with the exact size field for the rectangle, "
-        "otherwise estimated by the quality command; d4 = % interior vertices with 4 quads). "
+        "(η_w = worst η, η̄ = mean η, eq. 3; τ eq. 2, with the exact size field for the rectangle "
+        "(`--size`), otherwise the size field estimated from the triangle mesh (`--reference tri.msh`); "
+        "d4 = % interior vertices with 4 quads). "
         "Peak memory: maximum resident set size of the process. "
         "Speed-up = Gmsh blossom-from-CAD time / row time.",
         "",

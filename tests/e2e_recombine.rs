@@ -172,8 +172,6 @@ fn format_override_on_recombination() {
     let input = geo_dir().join("rectangle.msh");
     for target in Variant::ALL {
         let output = dir.path().join(format!("quads-{}.msh", target.name()));
-        let mut args: Vec<&str> = vec!["--quiet"];
-        args.extend(target.cli_args());
-        recombine_and_check(&input, &output, target, &args);
+        recombine_and_check(&input, &output, target, &target.cli_args());
     }
 }
