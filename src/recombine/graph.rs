@@ -13,11 +13,16 @@ use super::topology::{SurfaceTopo, NONE};
 /// and keeps extra-edge costs (below) within the solver's cost range for 10⁷ triangles.
 pub const COST_SCALE: i64 = 10_000;
 
+/// Cost of a quad that optimization can never make valid: a (nearly) straight or zero corner
+/// at a wall node (see [`edge_cost`]). Ten times the cost of a degenerate quad, so the
+/// matching rearranges up to about twenty ordinary quads to avoid one of these.
+pub const HOPELESS_COST: i64 = 10 * COST_SCALE;
+
 /// Largest cost of a real graph edge.
-pub const MAX_REAL_COST: i64 = 2 * COST_SCALE;
+pub const MAX_REAL_COST: i64 = HOPELESS_COST;
 
 /// Cost of an extra edge in a graph of `n` triangles: `MAX_REAL_COST · (n/2 + 1) + 1`, capped
-/// at 2³⁹. Any perfect matching with fewer extra edges is then cheaper than every matching
+/// at 2³⁹ (reached beyond 10⁷ triangles). Any perfect matching with fewer extra edges is then cheaper than every matching
 /// with more (a perfect matching has `n/2` edges, each costing at most `MAX_REAL_COST`), so
 /// the optimum uses the fewest extra edges possible, and none when the original graph has a
 /// perfect matching (the paper's "very high value", made exact).
@@ -47,16 +52,77 @@ pub(crate) fn tri_normal(c: &[DVec3], t: [u32; 3]) -> DVec3 {
     (b - a).cross(d - a)
 }
 
+/// Corner quality below which a corner at a wall node makes a quad as bad as a folded one
+/// (see [`edge_cost`]): η of the corner alone ≤ 0.1, i.e. an angle above 171° or below 9°.
+pub const FIXED_CORNER_MIN_ETA: f64 = 0.1;
+
 /// Cost (eq. 4) of merging `t` with its neighbour across local edge `k`: `1 − η_s` of the
 /// merged quad with angles measured in 3D about the sum of the two triangles' normals.
-pub(crate) fn edge_cost(topo: &SurfaceTopo, coords: &[DVec3], t: usize, k: usize) -> i64 {
+///
+/// One refinement of the paper's cost: nodes on walls (curves, the surface boundary) never
+/// move during optimization (section 6), so a corner there keeps its angle for good. A quad
+/// whose corner at a wall node is (nearly) straight or (nearly) zero — typically the two
+/// halves of a triangle split by a parity repair, merged back into a "quad" with a 180°
+/// angle — can never become valid, so it costs [`HOPELESS_COST`], far more than a folded
+/// quad, and the matching takes it only when avoiding it would cost even more. `wall_nodes` is the
+/// sorted list of the surface's wall nodes.
+pub(crate) fn edge_cost(
+    topo: &SurfaceTopo,
+    coords: &[DVec3],
+    wall_nodes: &[u32],
+    t: usize,
+    k: usize,
+) -> i64 {
     let quad = merged_quad(topo, t, k);
     let u = topo.nbr[3 * t + k] as usize;
     let normal = tri_normal(coords, topo.tris[t]) + tri_normal(coords, topo.tris[u]);
     let pts = quad.map(|i| coords[i as usize]);
     let eta = eta_signed_fast(&pts, normal);
     let eta = if eta.is_finite() { eta } else { -1.0 };
-    (COST_SCALE as f64 * (1.0 - eta)).round() as i64
+    let cost = (COST_SCALE as f64 * (1.0 - eta)).round() as i64;
+    if fixed_corner_hopeless(&quad, &pts, normal, wall_nodes) {
+        return HOPELESS_COST;
+    }
+    cost
+}
+
+/// True when a corner of the quad at a wall node has corner quality ≤
+/// [`FIXED_CORNER_MIN_ETA`].
+fn fixed_corner_hopeless(
+    quad: &[u32; 4],
+    pts: &[DVec3; 4],
+    normal: DVec3,
+    wall_nodes: &[u32],
+) -> bool {
+    let normal = normal.normalize_or_zero();
+    (0..4).any(|k| {
+        if wall_nodes.binary_search(&quad[k]).is_err() {
+            return false;
+        }
+        let a = pts[(k + 1) % 4] - pts[k];
+        let b = pts[(k + 3) % 4] - pts[k];
+        let alpha = normal.dot(a.cross(b)).atan2(a.dot(b));
+        let corner_eta =
+            1.0 - (std::f64::consts::FRAC_PI_2 - alpha).abs() / std::f64::consts::FRAC_PI_2;
+        corner_eta <= FIXED_CORNER_MIN_ETA
+    })
+}
+
+/// Sorted, deduplicated nodes that lie on a wall edge of the surface (an edge with no
+/// graph neighbour: boundary, curve, orientation change, non-manifold).
+pub(crate) fn wall_nodes(topo: &SurfaceTopo) -> Vec<u32> {
+    let mut out: Vec<u32> = Vec::new();
+    for (t, tri) in topo.tris.iter().enumerate() {
+        for k in 0..3 {
+            if topo.nbr[3 * t + k] == NONE {
+                out.push(tri[k]);
+                out.push(tri[(k + 1) % 3]);
+            }
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
 }
 
 /// [`crate::quality::eta_signed`] with one `atan2` instead of four: the corner with the largest deviation
@@ -151,13 +217,16 @@ pub(crate) struct Graph {
 /// 5.3; a fan ends at walls: the surface boundary, curves, or orientation changes).
 pub(crate) fn build(topo: &SurfaceTopo, coords: &[DVec3], with_extra: bool) -> Graph {
     let n = topo.len();
+    let walls = wall_nodes(topo);
+    let walls = &walls;
     let mut edges: Vec<(u32, u32, i64)> = (0..n)
         .into_par_iter()
         .with_min_len(4096)
         .flat_map_iter(|t| {
             (0..3).filter_map(move |k| {
                 let u = topo.nbr[3 * t + k];
-                (u != NONE && (t as u32) < u).then(|| (t as u32, u, edge_cost(topo, coords, t, k)))
+                (u != NONE && (t as u32) < u)
+                    .then(|| (t as u32, u, edge_cost(topo, coords, walls, t, k)))
             })
         })
         .collect();

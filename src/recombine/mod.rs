@@ -44,7 +44,10 @@
 //!    spanning-forest T-join is used instead, and regions it cannot fix are reported.)
 //!    Groups flipping three or more regions (non-manifold curves) and segments of periodic
 //!    curves or next to quads are never split. In each chosen group the longest segment is
-//!    split at its chord midpoint (so planar areas are unchanged), parametric coordinates
+//!    split — preferring segments whose triangles are not *ears* nor next to one (an ear has
+//!    two wall edges: a split
+//!    half would have the other half as its only neighbour, forcing a 180° "quad") — at its
+//!    chord midpoint (so planar areas are unchanged), parametric coordinates
 //!    interpolated; the new node gets tag `max + 1` and is classified on the curve (appended
 //!    to its node block), or on the first flipped surface when no curve is known. Every
 //!    triangle and 2-node line element holding the segment is split in two: the first piece
@@ -61,14 +64,16 @@
 //! 4. **Graph** (section 4.2). Cost of a graph edge = `1 − η_s` of the quad formed by its two
 //!    triangles (eq. 4), η_s the signed quality of [`crate::quality::eta_signed`] with angles
 //!    measured in 3D about the sum of the two triangles' normals, so a non-convex or folded
-//!    quad (η_s ≤ 0) costs more than any valid one. Integer costs: `round(10⁴ · (1 − η_s))`
+//!    quad (η_s ≤ 0) costs more than any valid one. A quad with a (nearly) straight or zero
+//!    corner at a wall node — which optimization can never move — costs as much as a folded
+//!    quad ([`FIXED_CORNER_MIN_ETA`]). Integer costs: `round(10⁴ · (1 − η_s))`
 //!    ∈ [0, 2·10⁴] ([`COST_SCALE`]).
 //! 5. **Extra edges** (section 5.3). Around every vertex, the triangles between two walls
 //!    form a *fan* `t1 … tk` (each sharing a graph edge `{v, a_i}` with the next). The paper
 //!    joins the triangles of two successive boundary edges; here every fan with k ≥ 3 whose
 //!    ends are not already adjacent gets an extra edge `t1–tk` (walls from curves and
 //!    orientation changes count as boundary, so post-processing never crosses a curve). Its
-//!    cost, `2·10⁴ · (n/2 + 1) + 1` ([`extra_edge_cost`]), exceeds the cost of any
+//!    cost, `10⁵ · (n/2 + 1) + 1` ([`extra_edge_cost`]), exceeds the cost of any
 //!    perfect matching's real edges, so the optimum uses the fewest extra edges possible —
 //!    none when the original graph has a perfect matching.
 //! 6. **Matching.** [`crate::matching::solve`]; with [`RecombineOptions::verify`] its
@@ -116,7 +121,7 @@ use rayon::prelude::*;
 use crate::mesh::{element_dim, etype, ElementBlock, Mesh};
 use topology::{CurveInfo, NodeTable, SurfaceTopo};
 
-pub use graph::{extra_edge_cost, COST_SCALE, MAX_REAL_COST};
+pub use graph::{extra_edge_cost, COST_SCALE, FIXED_CORNER_MIN_ETA, HOPELESS_COST, MAX_REAL_COST};
 pub use invariants::check_invariants;
 pub use parity::OddRegion;
 

@@ -47,7 +47,8 @@ pub(crate) struct Plan {
 struct Group {
     curve: Option<i32>,
     sig: Vec<u32>,
-    best: (f64, u32, u32),
+    /// (no ear beside it, length, a, b) of the best segment so far.
+    best: (bool, f64, u32, u32),
 }
 
 /// Finds the odd regions and a set of segments whose splits make all of them even: a
@@ -82,14 +83,21 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
             unsolved: Vec::new(),
         };
     }
-    // wall half-edges with their region
-    let mut walls: Vec<(u64, u32)> = Vec::new();
+    // wall half-edges with their region, and whether their triangle is an "ear" (two or
+    // three wall edges) or a few graph steps from one: splitting a segment of an ear leaves
+    // a half with a single graph neighbour, the other half, so the matching must merge them
+    // back into a "quad" with a straight angle at the new node, and an ear nearby forces its
+    // neighbours' matches in a chain that often ends the same way; such segments are split
+    // only when no other will do
+    let mut walls: Vec<(u64, u32, bool)> = Vec::new();
     for (w, &off) in work.iter().zip(&offset) {
-        for t in 0..w.topo.len() {
+        let near_ear = near_ears(&w.topo, 3);
+        for (t, &ear) in near_ear.iter().enumerate() {
+            let nb = &w.topo.nbr[3 * t..3 * t + 3];
             for k in 0..3 {
-                if w.topo.nbr[3 * t + k] == NONE {
+                if nb[k] == NONE {
                     let tri = w.topo.tris[t];
-                    walls.push((edge_key(tri[k], tri[(k + 1) % 3]), off + w.region[t]));
+                    walls.push((edge_key(tri[k], tri[(k + 1) % 3]), off + w.region[t], ear));
                 }
             }
         }
@@ -138,16 +146,18 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
             continue;
         }
         let len = (nodes.coords[a as usize] - nodes.coords[b as usize]).length();
+        let no_ear = run.iter().all(|x| !x.2);
         let id = *groups.entry((curve, sig.clone())).or_insert_with(|| {
             list.push(Group {
                 curve,
                 sig,
-                best: (-1.0, a, b),
+                best: (false, -1.0, a, b),
             });
             list.len() - 1
         });
-        if len > list[id].best.0 {
-            list[id].best = (len, a, b);
+        let best = list[id].best;
+        if (no_ear, len) > (best.0, best.1) {
+            list[id].best = (no_ear, len, a, b);
         }
     }
     // region graph: region-region groups are edges, one-region groups join the ground node
@@ -190,8 +200,8 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
                 .collect();
             surfaces.dedup();
             Choice {
-                a: grp.best.1,
-                b: grp.best.2,
+                a: grp.best.2,
+                b: grp.best.3,
                 curve: grp.curve,
                 surfaces,
             }
@@ -202,6 +212,40 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
         choices,
         unsolved,
     }
+}
+
+/// Triangles within `depth` graph steps of an *ear* (a triangle with two or three wall
+/// edges), found by a breadth-first search from all ears.
+fn near_ears(topo: &super::topology::SurfaceTopo, depth: u8) -> Vec<bool> {
+    let n = topo.len();
+    let mut dist = vec![u8::MAX; n];
+    let mut queue: Vec<usize> = (0..n)
+        .filter(|&t| {
+            topo.nbr[3 * t..3 * t + 3]
+                .iter()
+                .filter(|&&x| x == NONE)
+                .count()
+                >= 2
+        })
+        .collect();
+    for &t in &queue {
+        dist[t] = 0;
+    }
+    let mut head = 0;
+    while head < queue.len() {
+        let t = queue[head];
+        head += 1;
+        if dist[t] >= depth {
+            continue;
+        }
+        for &u in &topo.nbr[3 * t..3 * t + 3] {
+            if u != NONE && dist[u as usize] == u8::MAX {
+                dist[u as usize] = dist[t] + 1;
+                queue.push(u as usize);
+            }
+        }
+    }
+    dist.into_iter().map(|d| d <= depth).collect()
 }
 
 /// Keys of edges of 2D elements other than 3-node triangles (quads …): splitting them would

@@ -521,3 +521,43 @@ pub fn folded_quads(m: &Mesh) -> Vec<u64> {
         .map(|(t, _)| t)
         .collect()
 }
+
+/// Largest interior angle (degrees) at node `v` over the quads that use it.
+pub fn max_angle_at(m: &blossomquad::mesh::Mesh, v: u64) -> f64 {
+    let mut worst: f64 = 0.0;
+    for (_, pts, nodes) in quads_with_nodes(m) {
+        if let Some(k) = nodes.iter().position(|&n| n == v) {
+            let p = |i: usize| pts[i % 4];
+            let (c, a, b) = (p(k), p(k + 1), p(k + 3));
+            let u = [a[0] - c[0], a[1] - c[1]];
+            let w = [b[0] - c[0], b[1] - c[1]];
+            let ang = (u[0] * w[1] - u[1] * w[0]).atan2(u[0] * w[0] + u[1] * w[1]);
+            worst = worst.max(ang.to_degrees());
+        }
+    }
+    worst
+}
+
+/// Every quad as (tag, coordinates, node tags).
+pub fn quads_with_nodes(m: &blossomquad::mesh::Mesh) -> Vec<(u64, Vec<[f64; 3]>, Vec<u64>)> {
+    let idx = m.node_index();
+    let mut out = Vec::new();
+    for b in m
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == blossomquad::mesh::etype::QUAD4)
+    {
+        for i in 0..b.len() {
+            let nodes = b.element(i).to_vec();
+            let pts = nodes
+                .iter()
+                .map(|&t| {
+                    let r = idx.get(t).unwrap();
+                    m.node_blocks[r.block as usize].coords[r.index as usize]
+                })
+                .collect();
+            out.push((b.tags[i], pts, nodes));
+        }
+    }
+    out
+}
