@@ -28,7 +28,6 @@
 pub mod blossom;
 pub mod oracle;
 pub mod radix;
-pub mod reference;
 mod verify;
 
 pub use verify::{verify, verify_witness, CertificateError};

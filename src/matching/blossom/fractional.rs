@@ -46,11 +46,12 @@ impl Solver {
             let e = id as usize;
             let key = key as i64;
             let Some(k2) = self.edge_key(e) else { continue };
-            if k2 != key {
+            debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
+            if k2 >> 1 > key >> 1 {
                 self.heap.push(k2 as u64, id);
                 continue;
             }
-            self.eps = key;
+            self.eps = key >> 1;
             let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
             if pu && pv {
