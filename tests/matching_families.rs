@@ -9,23 +9,8 @@ use blossomquad::matching::{
 
 type Edges = Vec<(u32, u32, i64)>;
 
-/// Small deterministic RNG (SplitMix64).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, k: u64) -> u64 {
-        self.next() % k
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
-}
+mod matching_common;
+use matching_common::Rng;
 
 /// Solves from the plain start (no jump start) and from the greedy start only: other dual
 /// trajectories than [`matching::solve`]'s; checks both certificates, returns both costs.

@@ -659,12 +659,9 @@ impl Solver {
         b
     }
 
-    /// Forms a blossom from tight `+`–`+` edge `(u, v)`.
-    fn shrink(&mut self, u: u32, v: u32) {
-        self.stats.shrinks += 1;
-        let (tu, tv) = (self.top_of(u), self.top_of(v));
-        let t = self.nd[tu as usize].tree;
-        // Find the lowest common `+` ancestor by walking up alternately.
+    /// Lowest common `+` ancestor of `+` nodes `tu` and `tv` of one tree, found by walking up
+    /// from both alternately (cost proportional to the cycle, not the tree).
+    fn lowest_common_plus(&mut self, tu: u32, tv: u32) -> u32 {
         self.mark_stamp = self.mark_stamp.wrapping_add(1);
         if self.mark_stamp == 0 {
             self.mark.iter_mut().for_each(|m| *m = 0);
@@ -673,27 +670,32 @@ impl Solver {
         let st = self.mark_stamp;
         self.mark[tu as usize] = st;
         self.mark[tv as usize] = st;
-        let (mut a, mut b) = (tu, tv);
-        let lca = loop {
-            if a != NONE {
-                a = self.up2(a);
-                if a != NONE {
-                    if self.mark[a as usize] == st {
-                        break a;
+        let mut side = [tu, tv];
+        loop {
+            for x in &mut side {
+                if *x == NONE {
+                    continue;
+                }
+                *x = self.up2(*x);
+                if *x != NONE {
+                    if self.mark[*x as usize] == st {
+                        return *x;
                     }
-                    self.mark[a as usize] = st;
+                    self.mark[*x as usize] = st;
                 }
             }
-            if b != NONE {
-                b = self.up2(b);
-                if b != NONE {
-                    if self.mark[b as usize] == st {
-                        break b;
-                    }
-                    self.mark[b as usize] = st;
-                }
+            if side == [NONE, NONE] {
+                return NONE; // not in one tree (cannot happen for a `+`–`+` edge of a tree)
             }
-        };
+        }
+    }
+
+    /// Forms a blossom from tight `+`–`+` edge `(u, v)`.
+    fn shrink(&mut self, u: u32, v: u32) {
+        self.stats.shrinks += 1;
+        let (tu, tv) = (self.top_of(u), self.top_of(v));
+        let t = self.nd[tu as usize].tree;
+        let lca = self.lowest_common_plus(tu, tv);
         // Cycle: lca, (down to tu), tu, tv, (up to lca).
         let mut path_u: Vec<(u32, (u32, u32))> = Vec::new(); // (node, edge to next node up)
         let mut p = tu;
