@@ -160,8 +160,6 @@ pub struct Stats {
     pub pops: usize,
     /// Nodes freed by dissolves.
     pub freed: usize,
-    /// Vertices relabelled by shrinks and expands.
-    pub relabel: usize,
 }
 
 impl Solver {
