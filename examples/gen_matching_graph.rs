@@ -46,16 +46,16 @@ fn eta(p: [[f64; 2]; 4]) -> f64 {
     (1.0 - 2.0 / PI * worst).max(0.0)
 }
 
-fn main() -> Result<(), Box<dyn std::error::Error>> {
-    let args: Vec<String> = std::env::args().collect();
-    if args.len() < 4 {
-        return Err(
-            "usage: gen_matching_graph <lattice|random> <triangles> <out-file> [seed]".into(),
-        );
-    }
-    let kind = args[1].as_str();
-    let target: usize = args[2].parse()?;
-    let seed: u64 = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or(1);
+/// A graph: vertex count and edges `(u, v, cost)`.
+pub type Graph = (usize, Vec<(u32, u32, i64)>);
+
+/// The triangle-adjacency graph with Blossom-Quad costs of a Delaunay mesh of about `target`
+/// triangles: `kind` is `lattice` or `random` (see the module docs). Returns `(n, edges)`.
+pub fn delaunay_graph(
+    kind: &str,
+    target: usize,
+    seed: u64,
+) -> Result<Graph, Box<dyn std::error::Error>> {
     let mut rng = Rng(seed);
     let mut pts = Vec::new();
     match kind {
@@ -124,6 +124,20 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         }
         n -= 1;
     }
+    Ok((n, edges))
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let args: Vec<String> = std::env::args().collect();
+    if args.len() < 4 {
+        return Err(
+            "usage: gen_matching_graph <lattice|random> <triangles> <out-file> [seed]".into(),
+        );
+    }
+    let kind = args[1].as_str();
+    let target: usize = args[2].parse()?;
+    let seed: u64 = args.get(4).map(|s| s.parse()).transpose()?.unwrap_or(1);
+    let (n, edges) = delaunay_graph(kind, target, seed)?;
     let mut out = std::io::BufWriter::new(std::fs::File::create(&args[3])?);
     writeln!(out, "{} {}", n, edges.len())?;
     for (u, v, c) in &edges {

@@ -2,20 +2,8 @@
 
 use blossomquad::matching::{self, blossom::Solver, oracle::brute_force_min_cost};
 
-/// Small deterministic RNG (SplitMix64).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, k: u64) -> u64 {
-        self.next() % k
-    }
-}
+mod matching_common;
+use matching_common::Rng;
 
 fn random_graph(rng: &mut Rng, n: usize, p_percent: u64, cost_range: i64) -> Vec<(u32, u32, i64)> {
     let mut edges = Vec::new();
@@ -33,14 +21,22 @@ fn random_graph(rng: &mut Rng, n: usize, p_percent: u64, cost_range: i64) -> Vec
 /// Solves with both entry points and checks them against the oracle and the certificate.
 fn check(n: usize, edges: &[(u32, u32, i64)]) {
     let expect = brute_force_min_cost(n, edges);
-    for plain in [false, true] {
-        let s = Solver::new(n, edges);
-        let res = if plain { s.run_plain() } else { s.run() };
+    // Three starts: fractional (default), none, greedy only.
+    for start in 0..3 {
+        let mut s = Solver::new(n, edges);
+        let res = match start {
+            0 => s.run(),
+            1 => s.run_plain(),
+            _ => {
+                s.init_greedy();
+                s.solve_rest()
+            }
+        };
         match (expect, res) {
             (Some(c), Ok(m)) => {
-                assert_eq!(m.cost, c, "n={n} edges={edges:?} plain={plain}");
+                assert_eq!(m.cost, c, "n={n} edges={edges:?} start={start}");
                 if let Err(e) = matching::verify(n, edges, &m) {
-                    panic!("certificate failed: {e} n={n} edges={edges:?} plain={plain}");
+                    panic!("certificate failed: {e} n={n} edges={edges:?} start={start}");
                 }
             }
             (None, Err(w)) => {

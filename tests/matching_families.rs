@@ -1,30 +1,31 @@
 //! Matching solver on structured families: graphs without a perfect matching (paper Fig. 6,
 //! stars, odd components), adversarial families (long odd cycles, nested blossoms, chains,
-//! near-ties), mid-size graphs against the single-tree reference solver, and the
+//! near-ties), mid-size graphs solved from three different starts, and the
 //! optimality certificate on mesh-like graphs of 10^5 and 10^6 vertices.
 
 use blossomquad::matching::{
-    self, blossom::Solver, oracle::brute_force_min_cost, reference, CertificateError,
+    self, blossom::Solver, oracle::brute_force_min_cost, CertificateError,
 };
 
 type Edges = Vec<(u32, u32, i64)>;
 
-/// Small deterministic RNG (SplitMix64).
-struct Rng(u64);
-impl Rng {
-    fn next(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-    fn below(&mut self, k: u64) -> u64 {
-        self.next() % k
-    }
-    fn unit(&mut self) -> f64 {
-        (self.next() >> 11) as f64 / (1u64 << 53) as f64
-    }
+/// The benchmark generator (spade Delaunay meshes, paper eq. (3) costs), reused as a library.
+#[path = "../examples/gen_matching_graph.rs"]
+#[allow(dead_code)]
+mod gen_matching_graph;
+mod matching_common;
+use matching_common::Rng;
+
+/// Solves from the plain start (no jump start) and from the greedy start only: other dual
+/// trajectories than [`matching::solve`]'s; checks both certificates, returns both costs.
+fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 2] {
+    let plain = Solver::new(n, edges).run_plain().expect("plain start");
+    assert!(matching::verify(n, edges, &plain).is_ok());
+    let mut s = Solver::new(n, edges);
+    s.init_greedy();
+    let greedy = s.solve_rest().expect("greedy start");
+    assert!(matching::verify(n, edges, &greedy).is_ok());
+    [plain.cost, greedy.cost]
 }
 
 /// Solves, checks the certificate, and returns the cost.
@@ -183,7 +184,7 @@ fn nested_triangles(
 }
 
 #[test]
-fn nested_blossoms_match_reference_and_brute_force() {
+fn nested_blossoms_agree_across_starts_and_with_brute_force() {
     let mut rng = Rng(3);
     for depth in 0..6 {
         for variant in 0..4 {
@@ -195,8 +196,11 @@ fn nested_blossoms_match_reference_and_brute_force() {
             };
             let (n, e) = nested_triangles(depth, &mut rng, &mut cost);
             let got = solve_verified(n, &e);
-            let refm = reference::Solver::new(n, &e).run().expect("reference");
-            assert_eq!(got, refm.cost, "depth {depth} variant {variant}");
+            assert_eq!(
+                other_starts(n, &e),
+                [got; 2],
+                "depth {depth} variant {variant}"
+            );
             if n <= 20 {
                 assert_eq!(Some(got), brute_force_min_cost(n, &e));
             }
@@ -232,7 +236,7 @@ fn near_ties_and_all_equal_on_dense_graphs_match_brute_force() {
 }
 
 #[test]
-fn mid_size_random_graphs_match_reference_solver() {
+fn mid_size_random_graphs_agree_across_starts() {
     let mut rng = Rng(21);
     for it in 0..60 {
         let n = 50 + 2 * rng.below(400) as usize;
@@ -252,9 +256,7 @@ fn mid_size_random_graphs_match_reference_solver() {
             e.push((u, v, c));
         }
         let got = solve_verified(n, &e);
-        let refm = reference::Solver::new(n, &e).run().expect("reference");
-        assert!(matching::verify(n, &e, &refm).is_ok());
-        assert_eq!(got, refm.cost, "iteration {it}");
+        assert_eq!(other_starts(n, &e), [got; 2], "iteration {it}");
     }
 }
 
@@ -327,8 +329,9 @@ fn eta(p: [[f64; 2]; 4]) -> f64 {
 }
 
 /// Triangle-adjacency graph of a jittered `w × h` lattice, each cell cut along its shorter
-/// diagonal (a cheap Delaunay-like planar triangulation), with cost `round(1000·(1 − η))` of
-/// the quad made by merging two adjacent triangles. `2·w·h` vertices.
+/// diagonal (a cheap Delaunay-like planar triangulation) or, one time in four, along the
+/// other one (poorer triangles, more varied costs), with cost `round(1000·(1 − η))` of the
+/// quad made by merging two adjacent triangles. `2·w·h` vertices.
 fn mesh_graph(w: usize, h: usize, rng: &mut Rng) -> (usize, Edges) {
     let pts: Vec<[f64; 2]> = (0..(w + 1) * (h + 1))
         .map(|k| {
@@ -364,7 +367,7 @@ fn mesh_graph(w: usize, h: usize, rng: &mut Rng) -> (usize, Edges) {
             let c = j * w + i;
             let (ll, lr, ur, ul) = (p(i, j), p(i + 1, j), p(i + 1, j + 1), p(i, j + 1));
             let (t0, t1) = (2 * c as u32, 2 * c as u32 + 1);
-            if d2(ll, ur) <= d2(lr, ul) {
+            if (d2(ll, ur) <= d2(lr, ul)) != (rng.below(4) == 0) {
                 tri[t0 as usize] = [ll, lr, ur];
                 tri[t1 as usize] = [ll, ur, ul];
                 side[c] = [t1, t0, t0, t1];
@@ -402,8 +405,7 @@ fn mesh_graph_costs_are_quad_badness() {
     let small = e.iter().filter(|&&(_, _, c)| c < 300).count();
     assert!(small > e.len() / 4, "{small} of {}", e.len());
     let got = solve_verified(n, &e);
-    let refm = reference::Solver::new(n, &e).run().expect("reference");
-    assert_eq!(got, refm.cost);
+    assert_eq!(other_starts(n, &e), [got; 2]);
 }
 
 #[test]
@@ -411,11 +413,15 @@ fn certificate_on_mesh_graph_1e5() {
     let mut rng = Rng(2024);
     let (n, e) = mesh_graph(250, 200, &mut rng);
     assert_eq!(n, 100_000);
-    solve_verified(n, &e);
-    // The plain start (no greedy jump start) must reach the same optimum.
-    let plain = Solver::new(n, &e).run_plain().expect("matching");
-    assert!(matching::verify(n, &e, &plain).is_ok());
-    assert_eq!(plain.cost, matching::solve(n, &e).expect("matching").cost);
+    let got = solve_verified(n, &e);
+    assert_eq!(other_starts(n, &e), [got; 2]);
+    // Delaunay meshes of the benchmark: near-ties (lattice) and poor quads (random).
+    for kind in ["lattice", "random"] {
+        let (n, e) = gen_matching_graph::delaunay_graph(kind, 100_000, 7).expect("mesh");
+        assert!(n > 90_000 && n % 2 == 0);
+        let got = solve_verified(n, &e);
+        assert_eq!(other_starts(n, &e)[1], got);
+    }
 }
 
 #[test]
@@ -428,4 +434,9 @@ fn certificate_on_mesh_graph_1e6() {
     let (n, e) = mesh_graph(1000, 500, &mut rng);
     assert_eq!(n, 1_000_000);
     solve_verified(n, &e);
+    for kind in ["lattice", "random"] {
+        let (n, e) = gen_matching_graph::delaunay_graph(kind, 1_000_000, 8).expect("mesh");
+        assert!(n > 900_000 && n % 2 == 0);
+        solve_verified(n, &e);
+    }
 }

@@ -1,29 +1,39 @@
 //! The primal-dual blossom solver behind [`super::solve`].
 //!
-//! Edmonds' algorithm (1965) in the form of Kolmogorov's Blossom V (2009), one alternating tree
-//! at a time:
-//! 1. **Jump start** ([`Solver::init_greedy`]): `y_v = min cost at v` (costs are doubled, so
-//!    this is half of the cheapest doubled cost), then each vertex in turn raises its dual to
-//!    its smallest slack and takes the tight edge if both ends are still exposed.
-//! 2. For each exposed vertex `r`, grow an alternating tree `T` rooted at `r` with a lazy dual
-//!    change `ε_T`: the stored dual of a tree node is corrected by `+(ε_T − join)` for `+`
-//!    nodes and `−(ε_T − join)` for `−` nodes. Events live in one binary heap keyed by the
-//!    value of `ε_T` at which they happen:
-//!    - `+` node to a node outside `T` (slack `s`): at `ε_T + s` → *grow* (outside node is a
-//!      matched free node) or *augment* (outside node is another exposed vertex);
-//!    - `+` to `+` inside `T` (slack `s`): at `ε_T + s/2` → *shrink* into a new blossom;
-//!    - `−` blossom with dual `y`: at `ε_T + y` → *expand*.
+//! Edmonds' algorithm (1965) with the data-structure ideas of Kolmogorov's Blossom V (2009)
+//! and of Galil, Micali & Gabow (1986):
+//! 0. **Renumbering** (`locality_order`): vertices are renumbered in breadth-first order and
+//!    edges sorted by endpoint, so that neighbours share cache lines.
+//! 1. **Jump start** ([`Solver::init_greedy`], then [`Solver::init_fractional`]): greedy duals
+//!    `y_v` = cheapest cost at `v` (costs are doubled), each vertex raises its dual to its
+//!    smallest slack and takes a tight edge to an exposed neighbour, short tight augmenting
+//!    paths are flipped; then the fractional phase solves the LP without odd-set constraints
+//!    with the same tree machinery (see the `fractional` module), which leaves one exposed
+//!    vertex per odd cycle of half-edges (e.g. 134 of 10^6 on the lattice family).
+//! 2. **Forest**: every exposed vertex roots an alternating tree; all trees grow together
+//!    under one global dual change `ε`. Dual changes are lazy: a tree node stores its dual and
+//!    the `ε` at which it joined, and its current dual is corrected by `+(ε − join)` for `+`
+//!    nodes and `−(ε − join)` for `−` nodes, so a dual change costs O(1). Events live in one
+//!    monotone radix heap ([`super::radix`]) keyed by the `ε` at which they happen:
+//!    - `+` node to a free node (slack `s`): at `ε + s` → *grow*;
+//!    - `+` to `+` (slack `s`): at `ε + s/2` → *shrink* into a blossom (same tree) or
+//!      *augment* (different trees);
+//!    - `−` blossom with dual `y`: at `ε + y` → *expand*.
 //!
-//!    Heap entries are validated when popped (lazy deletion), and re-pushed with the right key
-//!    when the situation changed.
-//! 3. After an augmentation the tree's duals are committed and the tree dissolves; blossoms
-//!    stay (Blossom V keeps them until their dual drops to zero while `−`).
+//!    Among equal times, tree-ending events come first. Entries are validated when popped
+//!    (lazy deletion) and re-pushed with the right key when the situation changed.
+//! 3. After an augmentation only the two trees involved are dissolved (their duals committed);
+//!    blossoms persist until their dual drops to zero while `−` (Blossom V). The enclosing
+//!    top-level blossom of a vertex is found through path-compressed shortcuts that stay exact
+//!    because the duals of non-top blossoms are frozen, so forming a blossom never relabels
+//!    its vertices.
 //!
-//! If a tree's heap runs dry, `ε_T` is unbounded: the `−` vertices of `T` form a Tutte set
-//! whose removal isolates the `|−| + 1` `+` nodes of `T` (each an odd set).
+//! If the heap runs dry while trees remain, `ε` is unbounded: the `−` vertices of the trees
+//! form a Tutte set whose removal isolates the more numerous `+` nodes (each an odd set).
 //!
 //! Half-integral steps: costs are doubled, and when a `+`↔`+` slack is odd every cost, dual
-//! and key is doubled again (`scale` records the factor), so all arithmetic stays in `i64`.
+//! and key is doubled again (`scale` records the factor; in practice it happens once), so all
+//! arithmetic stays exact in `i64`.
 
 use super::radix::RadixHeap;
 
@@ -150,8 +160,6 @@ pub struct Stats {
     pub pops: usize,
     /// Nodes freed by dissolves.
     pub freed: usize,
-    /// Vertices relabelled by shrinks and expands.
-    pub relabel: usize,
 }
 
 impl Solver {
@@ -427,8 +435,10 @@ impl Solver {
         self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv)
     }
 
-    /// Event time of edge `e` for the current tree, or None if it is not an event edge.
-    /// May rescale (which invalidates previously computed values).
+    /// Heap key of edge `e`, or None if it is not an event edge: the event time `ε` shifted
+    /// left by one, with bit 0 clear for events that end a tree (`+`–`+`, `+` to an exposed
+    /// or half-matched vertex) and set for grows, so that among equal times the tree-ending
+    /// events come first (ties are the rule on mesh graphs). May rescale.
     fn edge_key(&mut self, e: usize) -> Option<i64> {
         let (tu, iu) = self.find(self.ed[e].u);
         let (tv, iv) = self.find(self.ed[e].v);
@@ -440,15 +450,17 @@ impl Solver {
             let s = self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv);
             if s % 2 != 0 {
                 self.rescale();
-                return Some(self.eps + self.slack(e) / 2);
+                return Some((self.eps + self.slack(e) / 2) << 1);
             }
-            Some(self.eps + s / 2)
+            Some((self.eps + s / 2) << 1)
         } else if pu || pv {
             let other = if pu { tv } else { tu };
             if self.nd[other as usize].tree != NONE {
                 return None; // `+`–`−` edge (any trees): slack does not change
             }
-            Some(self.eps + self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv))
+            let grow = self.mate[self.nd[other as usize].base as usize] != NONE;
+            let t = self.eps + self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv);
+            Some((t << 1) | grow as i64)
         } else {
             None
         }
@@ -456,7 +468,7 @@ impl Solver {
 
     fn push_edge(&mut self, e: usize) {
         if let Some(k) = self.edge_key(e) {
-            debug_assert!(k >= self.eps, "negative slack on edge {e}");
+            debug_assert!(k >> 1 >= self.eps, "negative slack on edge {e}");
             self.stats.pushes += 1;
             self.heap.push(k as u64, e as u32);
         }
@@ -513,7 +525,7 @@ impl Solver {
             y.set(y.get() * 2);
         }
         self.eps *= 2;
-        self.heap.double_keys();
+        self.heap.double_keys_flagged();
     }
 
     fn add_to_tree(&mut self, node: u32, lab: u8, t: u32) {
@@ -526,7 +538,7 @@ impl Solver {
             self.push_edges_of(node);
         } else if i >= self.n {
             let k = self.eps + self.nd[i].y;
-            self.heap.push(k as u64, node | EXPAND);
+            self.heap.push(((k << 1) | 1) as u64, node | EXPAND);
         }
     }
 
@@ -561,24 +573,25 @@ impl Solver {
                 if self.nd[bi].label == DEAD
                     || self.nd[bi].parent != NONE
                     || !self.in_tree(b, MINUS)
-                    || (self.nd[bi].join + self.nd[bi].y) as u64 != key
+                    || (((self.nd[bi].join + self.nd[bi].y) << 1) | 1) as u64 != key
                 {
                     continue;
                 }
-                self.eps = key as i64;
+                self.eps = (key >> 1) as i64;
                 self.expand(b);
                 continue;
             }
             let e = id as usize;
             let key = key as i64;
             let Some(k2) = self.edge_key(e) else { continue };
-            if k2 != key {
+            debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
+            if k2 >> 1 > key >> 1 {
                 // Keys were rescaled or the situation changed since the push.
                 self.heap.push(k2 as u64, id);
                 continue;
             }
-            debug_assert!(key >= self.eps);
-            self.eps = key;
+            debug_assert!(key >> 1 >= self.eps);
+            self.eps = key >> 1;
             let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (tu, tv) = (self.top_of(u), self.top_of(v));
             let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
@@ -644,12 +657,9 @@ impl Solver {
         b
     }
 
-    /// Forms a blossom from tight `+`–`+` edge `(u, v)`.
-    fn shrink(&mut self, u: u32, v: u32) {
-        self.stats.shrinks += 1;
-        let (tu, tv) = (self.top_of(u), self.top_of(v));
-        let t = self.nd[tu as usize].tree;
-        // Find the lowest common `+` ancestor by walking up alternately.
+    /// Lowest common `+` ancestor of `+` nodes `tu` and `tv` of one tree, found by walking up
+    /// from both alternately (cost proportional to the cycle, not the tree).
+    fn lowest_common_plus(&mut self, tu: u32, tv: u32) -> u32 {
         self.mark_stamp = self.mark_stamp.wrapping_add(1);
         if self.mark_stamp == 0 {
             self.mark.iter_mut().for_each(|m| *m = 0);
@@ -658,27 +668,32 @@ impl Solver {
         let st = self.mark_stamp;
         self.mark[tu as usize] = st;
         self.mark[tv as usize] = st;
-        let (mut a, mut b) = (tu, tv);
-        let lca = loop {
-            if a != NONE {
-                a = self.up2(a);
-                if a != NONE {
-                    if self.mark[a as usize] == st {
-                        break a;
+        let mut side = [tu, tv];
+        loop {
+            for x in &mut side {
+                if *x == NONE {
+                    continue;
+                }
+                *x = self.up2(*x);
+                if *x != NONE {
+                    if self.mark[*x as usize] == st {
+                        return *x;
                     }
-                    self.mark[a as usize] = st;
+                    self.mark[*x as usize] = st;
                 }
             }
-            if b != NONE {
-                b = self.up2(b);
-                if b != NONE {
-                    if self.mark[b as usize] == st {
-                        break b;
-                    }
-                    self.mark[b as usize] = st;
-                }
+            if side == [NONE, NONE] {
+                return NONE; // not in one tree (cannot happen for a `+`–`+` edge of a tree)
             }
-        };
+        }
+    }
+
+    /// Forms a blossom from tight `+`–`+` edge `(u, v)`.
+    fn shrink(&mut self, u: u32, v: u32) {
+        self.stats.shrinks += 1;
+        let (tu, tv) = (self.top_of(u), self.top_of(v));
+        let t = self.nd[tu as usize].tree;
+        let lca = self.lowest_common_plus(tu, tv);
         // Cycle: lca, (down to tu), tu, tv, (up to lca).
         let mut path_u: Vec<(u32, (u32, u32))> = Vec::new(); // (node, edge to next node up)
         let mut p = tu;

@@ -12,13 +12,14 @@
 //! on its own, so the cheapest copy wins).
 //!
 //! # Algorithm (see [`blossom`])
-//! Edmonds' primal-dual algorithm with odd-set (blossom) duals (Edmonds 1965), organised as in
-//! Kolmogorov's Blossom V (Math. Prog. Comp. 2009): a greedy dual jump start, then one
-//! alternating tree per exposed vertex grown with its own lazy dual change `ε_T`, one
-//! priority queue of events per tree (`+`→free edges, `+`↔`+` edges, `−` blossoms with zero
-//! dual) instead of rescans, persistent blossoms that are expanded only when their dual drops
-//! to zero. No per-phase `O(n)` reset (trees are told apart by a stamp), no hash maps, `u32`
-//! indices, `O(n + m)` memory.
+//! Edmonds' primal-dual algorithm with odd-set (blossom) duals (Edmonds 1965), with ideas from
+//! Kolmogorov's Blossom V (Math. Prog. Comp. 2009) and Galil-Micali-Gabow (1986): a greedy
+//! and then fractional-matching jump start, then one alternating tree per remaining exposed
+//! vertex, all grown together with lazy O(1) dual changes; one monotone radix heap of events
+//! (`+`→free edges, `+`↔`+` edges, `−` blossoms with zero dual) instead of rescans; persistent
+//! blossoms expanded only when their dual drops to zero; blossom membership through
+//! path-compressed shortcuts (no relabelling). No per-phase `O(n)` reset, no hash maps, `u32`
+//! indices, `O(n + m)` memory, vertices renumbered for cache locality.
 //!
 //! # Certificate
 //! [`verify`] checks, with exact integer arithmetic, the LP optimality conditions of the
@@ -28,7 +29,6 @@
 pub mod blossom;
 pub mod oracle;
 pub mod radix;
-pub mod reference;
 mod verify;
 
 pub use verify::{verify, verify_witness, CertificateError};
@@ -124,8 +124,10 @@ impl std::error::Error for NoPerfectMatching {}
 /// `±`[`MAX_ABS_COST`]. Each connected component is solved on its own; a component with an
 /// odd number of vertices fails at once with `U = ∅` as witness.
 ///
-/// Complexity: `O(n + m)` memory; time near-linear on mesh graphs in practice, worst case
-/// `O(n · (m log m + n·d))` with `d` the blossom nesting depth.
+/// Complexity: `O(n + m)` memory. Time: at most `n/2` augmentations with `O(n)` grow /
+/// shrink / expand events between two of them, each touching `O(deg)` edges, so
+/// `O(n · m · (d + log C))` in the worst case (`d` blossom nesting depth, `C` cost range, for
+/// the radix heap); on mesh graphs it grows slightly faster than linearly (cache effects).
 pub fn solve(n: usize, edges: &[(u32, u32, i64)]) -> Result<Matching, NoPerfectMatching> {
     if let Some(err) = odd_component_witness(n, edges) {
         return Err(err);

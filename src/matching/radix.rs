@@ -83,16 +83,18 @@ impl RadixHeap {
         self.len = 0;
     }
 
-    /// Multiplies every key (and the running minimum) by 2.
-    pub fn double_keys(&mut self) {
+    /// For keys of the form `(time << 1) | flag`: doubles every time (and the running
+    /// minimum's), keeping the flags.
+    pub fn double_keys_flagged(&mut self) {
         let mut all = Vec::with_capacity(self.len);
         for b in &mut self.buckets {
             all.append(b);
         }
-        self.last *= 2;
+        let dbl = |k: u64| ((k & !1) << 1) | (k & 1);
+        self.last = dbl(self.last);
         self.len = 0;
         for (k, id) in all {
-            self.push(k * 2, id);
+            self.push(dbl(k), id);
         }
     }
 }

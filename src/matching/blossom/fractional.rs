@@ -46,11 +46,12 @@ impl Solver {
             let e = id as usize;
             let key = key as i64;
             let Some(k2) = self.edge_key(e) else { continue };
-            if k2 != key {
+            debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
+            if k2 >> 1 > key >> 1 {
                 self.heap.push(k2 as u64, id);
                 continue;
             }
-            self.eps = key;
+            self.eps = key >> 1;
             let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
             if pu && pv {
@@ -126,35 +127,7 @@ impl Solver {
     /// vertices in this phase): flips the path from the cycle's top vertex to the root and
     /// returns the cycle's vertices in order.
     fn odd_cycle(&mut self, u: u32, v: u32) -> Vec<u32> {
-        self.mark_stamp = self.mark_stamp.wrapping_add(1);
-        if self.mark_stamp == 0 {
-            self.mark.iter_mut().for_each(|m| *m = 0);
-            self.mark_stamp = 1;
-        }
-        let st = self.mark_stamp;
-        self.mark[u as usize] = st;
-        self.mark[v as usize] = st;
-        let (mut a, mut b) = (u, v);
-        let lca = loop {
-            if a != NONE {
-                a = self.up2(a);
-                if a != NONE {
-                    if self.mark[a as usize] == st {
-                        break a;
-                    }
-                    self.mark[a as usize] = st;
-                }
-            }
-            if b != NONE {
-                b = self.up2(b);
-                if b != NONE {
-                    if self.mark[b as usize] == st {
-                        break b;
-                    }
-                    self.mark[b as usize] = st;
-                }
-            }
-        };
+        let lca = self.lowest_common_plus(u, v);
         // Cycle order: lca, down the u-branch to u, then v, up the v-branch.
         let branch = |s: &Self, from: u32| {
             let mut out = Vec::new();
