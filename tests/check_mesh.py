@@ -38,13 +38,27 @@ Prints one JSON line and exits 0 when every check passes, 1 on any violation,
 """
 
 import json
+
+
+def _plain(o):
+    """JSON fallback for numpy values (the gmsh module returns numpy arrays when numpy is installed)."""
+    if hasattr(o, "tolist"):
+        return o.tolist()
+    if hasattr(o, "item"):
+        return o.item()
+    return str(o)
+
+
+def _dumps(obj, **kw):
+    return json.dumps(obj, default=_plain, **kw)
+
 import math
 import sys
 
 try:
     import gmsh
 except ImportError:  # pragma: no cover - reported as a usage problem
-    print(json.dumps({"ok": False, "error": "python module gmsh not found (pip install gmsh==4.15.2)"}))
+    print(_dumps({"ok": False, "error": "python module gmsh not found (pip install gmsh==4.15.2)"}))
     sys.exit(2)
 
 TRIANGLE_TYPES = {2, 9, 20, 21, 22, 23, 24, 25}
@@ -438,17 +452,17 @@ def main(argv):
     gmsh.option.setNumber("General.Terminal", 0)
     inp = load(args[0])
     if inp.errors:
-        print(json.dumps({"ok": False, "input": args[0], "error": "cannot read input", "messages": inp.errors[:5]}))
+        print(_dumps({"ok": False, "input": args[0], "error": "cannot read input", "messages": inp.errors[:5]}))
         return 2
     out = load(args[1])
     if out.errors:
-        print(json.dumps({"ok": False, "input": args[0], "output": args[1],
+        print(_dumps({"ok": False, "input": args[0], "output": args[1],
                           "checks": {"loads": False}, "violations": [f"loads: {m}" for m in out.errors[:5]]}))
         return 1
     rep, quads, tris = check(inp, out, "--allow-dropped-volumes" in flags, "--allow-triangles" in flags)
     rep.checks["loads"] = True
     ok = all(rep.checks.values())
-    print(json.dumps({
+    print(_dumps({
         "ok": ok,
         "input": args[0],
         "output": args[1],
