@@ -94,6 +94,12 @@ def _dedup(elements):
     return out
 
 
+def plain(values):
+    """A list of Python numbers (the gmsh module returns numpy arrays when numpy
+    is installed, lists otherwise)."""
+    return values.tolist() if hasattr(values, "tolist") else list(values)
+
+
 def is_msh2(path):
     """True when the file's $MeshFormat says version 2.x."""
     with open(path, "rb") as f:
@@ -119,12 +125,14 @@ def load(path):
     for dim, tag in gmsh.model.getEntities():
         mesh.entities.add((dim, tag))
         tags, coords, _ = gmsh.model.mesh.getNodes(dim, tag, False, False)
+        tags, coords = plain(tags), plain(coords)
         for i, t in enumerate(tags):
             t = int(t)
             mesh.nodes[t] = (coords[3 * i], coords[3 * i + 1], coords[3 * i + 2])
             mesh.node_dim.setdefault(t, dim)
             mesh.node_dim[t] = min(mesh.node_dim[t], dim)
         types, _, node_tags = gmsh.model.mesh.getElements(dim, tag)
+        types, node_tags = plain(types), [plain(n) for n in node_tags]
         if len(types) > 0:
             mesh.with_elements.add((dim, tag))
         for etype, conn in zip(types, node_tags):
@@ -212,6 +220,7 @@ class Report:
         self.violations = []
 
     def check(self, name, ok, message=None):
+        ok = bool(ok)
         self.checks[name] = self.checks.get(name, True) and ok
         if not ok and message is not None and len(self.violations) < MAX_REPORTED:
             self.violations.append(f"{name}: {message}")
