@@ -1,5 +1,361 @@
-//! The `blossomquad` command line (a thin driver over the library).
+//! The `blossomquad` command line: a thin driver over the library (`main → run → exit code`).
+//!
+//! Raw flags are parsed by clap into [`Cli`]; `run` turns them into the library's option
+//! structs, calls the stages and maps every error to one line on stderr and exit code 1
+//! (usage errors exit with 2, from clap).
 
-fn main() {
-    std::process::exit(0);
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use blossomquad::mesh::{Mesh, MshFormat, MshVersion};
+use blossomquad::{msh, optimize, quality, recombine};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Turn Gmsh triangle surface meshes into all-quadrilateral meshes (Blossom-Quad).
+///
+/// The main job: `blossomquad INPUT.msh -o OUTPUT.msh` recombines the triangles of every
+/// surface entity into quads with an exact minimum-cost perfect matching, then optimizes the
+/// quads. Everything else in the file (nodes, curves, physical groups, other elements) is kept.
+#[derive(Parser, Debug)]
+#[command(
+    name = "blossomquad",
+    version,
+    about,
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    #[command(flatten)]
+    run: RunArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Copy a mesh through the reader and writer (format conversion), no recombination.
+    Convert {
+        /// Input mesh (MSH 2.x or 4.x, ASCII or binary), `-` for stdin.
+        input: PathBuf,
+        /// Output mesh, `-` for stdout.
+        #[arg(short, long)]
+        output: PathBuf,
+        #[command(flatten)]
+        format: FormatArgs,
+        /// Allow the output to overwrite the input file.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Print the format, entities, element counts per surface, physical groups and parity.
+    Info {
+        /// Mesh to describe, `-` for stdin.
+        input: PathBuf,
+    },
+    /// Print quad quality η (eq. 3), vertex degrees and efficiency τ (eq. 1-2) of any mesh.
+    Quality {
+        /// Mesh to measure, `-` for stdin.
+        input: PathBuf,
+        /// Size field h(x, y, z) as an expression, e.g. `0.1+0.08*sin(3*x)*cos(6*y)`;
+        /// default: estimated from the mesh's own edge lengths.
+        #[arg(long, value_name = "EXPR")]
+        size: Option<String>,
+        /// Triangle mesh the quads came from, to estimate the size field from it.
+        #[arg(long, value_name = "MESH")]
+        reference: Option<PathBuf>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Args, Debug)]
+struct RunArgs {
+    /// Input triangle mesh (MSH 2.x or 4.x, ASCII or binary), `-` for stdin.
+    #[arg(required = true)]
+    input: Option<PathBuf>,
+    /// Output quad mesh, `-` for stdout.
+    #[arg(short, long, required = true)]
+    output: Option<PathBuf>,
+    #[command(flatten)]
+    format: FormatArgs,
+    /// What to do with surfaces that have an odd number of triangles.
+    #[arg(long, value_enum, default_value_t = ParityArg::Repair)]
+    parity: ParityArg,
+    /// Drop volume elements instead of refusing a volume mesh.
+    #[arg(long)]
+    drop_volumes: bool,
+    /// Check the matching's optimality certificate and the mesh invariants; fail if either
+    /// does not hold.
+    #[arg(long)]
+    verify: bool,
+    /// Smoothing iterations of the optimization.
+    #[arg(long, value_name = "N")]
+    smooth: Option<usize>,
+    /// Skip the topological operators (quad-vertex merge, doublet collapse, ...).
+    #[arg(long)]
+    no_topology: bool,
+    /// Skip the whole optimization (smoothing and topology).
+    #[arg(long)]
+    no_optimize: bool,
+    /// Allow the output to overwrite the input file.
+    #[arg(long)]
+    force: bool,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+#[derive(Args, Debug, Default)]
+struct FormatArgs {
+    /// Output format version (default: the input's).
+    #[arg(long, value_enum)]
+    format: Option<FormatArg>,
+    /// Write binary (default: the input's encoding).
+    #[arg(long, conflicts_with = "ascii")]
+    binary: bool,
+    /// Write ASCII (default: the input's encoding).
+    #[arg(long)]
+    ascii: bool,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum FormatArg {
+    /// MSH 4.1.
+    Msh41,
+    /// MSH 2.2.
+    Msh22,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum ParityArg {
+    /// Split boundary segments so every surface has an even triangle count.
+    Repair,
+    /// Refuse odd surfaces with a message saying how to fix the .geo.
+    Error,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(msg) => {
+            eprintln!("blossomquad: error: {msg}");
+            ExitCode::from(1)
+        }
+    }
+}
+
+/// Log sink: prints to stderr unless quiet.
+struct Log {
+    quiet: bool,
+}
+
+impl Log {
+    fn say(&self, msg: impl AsRef<str>) {
+        if !self.quiet {
+            eprintln!("{}", msg.as_ref());
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<(), String> {
+    match cli.command {
+        Some(Command::Convert {
+            input,
+            output,
+            format,
+            force,
+        }) => {
+            check_not_input(&input, &output, force)?;
+            let mesh = read(&input)?;
+            let log = Log { quiet: false };
+            print_warnings(&mesh, &log);
+            write(&mesh, &output, &format, &log)
+        }
+        Some(Command::Info { input }) => {
+            let mesh = read(&input)?;
+            print!("{}", msh::summary(&mesh));
+            Ok(())
+        }
+        Some(Command::Quality {
+            input,
+            size,
+            reference,
+            json,
+        }) => {
+            let mesh = read(&input)?;
+            let field = match (&size, &reference) {
+                (Some(expr), _) => quality::SizeField::Expression(
+                    quality::SizeExpr::new(expr).map_err(|e| e.to_string())?,
+                ),
+                (None, Some(r)) => {
+                    let reference = read(r)?;
+                    match quality::ReferenceSize::from_mesh(&reference) {
+                        Some(f) => quality::SizeField::Reference(f),
+                        None => {
+                            return Err(format!(
+                                "{}: no triangles or quads to estimate sizes from",
+                                r.display()
+                            ))
+                        }
+                    }
+                }
+                (None, None) => quality::SizeField::SelfEstimate,
+            };
+            let report =
+                quality::report(&mesh, &field).map_err(|e| format!("{}: {e}", input.display()))?;
+            if json {
+                println!("{}", report.to_json());
+            } else {
+                print!("{report}");
+            }
+            Ok(())
+        }
+        None => recombine_main(cli.run),
+    }
+}
+
+fn recombine_main(args: RunArgs) -> Result<(), String> {
+    let (Some(input), Some(output)) = (args.input, args.output) else {
+        return Err("missing INPUT or -o OUTPUT (see --help)".into());
+    };
+    check_not_input(&input, &output, args.force)?;
+    let quiet = args.quiet;
+    let log = Log { quiet };
+    let t0 = Instant::now();
+    let mut mesh = read(&input)?;
+    let t_read = t0.elapsed().as_secs_f64();
+    print_warnings(&mesh, &log);
+
+    let opts = recombine::RecombineOptions {
+        parity: match args.parity {
+            ParityArg::Repair => recombine::ParityMode::Repair,
+            ParityArg::Error => recombine::ParityMode::Error,
+        },
+        drop_volumes: args.drop_volumes,
+        verify: args.verify,
+        ..Default::default()
+    };
+    let t1 = Instant::now();
+    let before = mesh.clone();
+    let report =
+        recombine::recombine(&mut mesh, &opts).map_err(|e| format!("{}: {e}", input.display()))?;
+    let t_recombine = t1.elapsed().as_secs_f64();
+    for line in &report.log {
+        log.say(line);
+    }
+
+    let mut t_opt = 0.0;
+    if !args.no_optimize {
+        let t2 = Instant::now();
+        let mut oopts = optimize::OptimizeOptions::default();
+        if let Some(n) = args.smooth {
+            oopts.smooth_iterations = n;
+        }
+        oopts.topology = !args.no_topology;
+        let show_bar = !quiet && std::io::stderr().is_terminal();
+        let bar = show_bar.then(|| {
+            let b = indicatif::ProgressBar::new(0);
+            b.set_style(
+                indicatif::ProgressStyle::with_template("optimizing {bar:40} {pos}/{len} surfaces")
+                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+            );
+            b
+        });
+        let progress = |done: usize, total: usize| {
+            if let Some(b) = &bar {
+                b.set_length(total as u64);
+                b.set_position(done as u64);
+            }
+        };
+        oopts.progress = Some(&progress);
+        let orep = optimize::optimize(&mut mesh, &before, &oopts)
+            .map_err(|e| format!("{}: {e}", input.display()))?;
+        if let Some(b) = bar {
+            b.finish_and_clear();
+        }
+        for s in &orep.surfaces {
+            log.say(format!(
+                "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",
+                s.surface,
+                s.before.eta_worst,
+                s.after.eta_worst,
+                s.before.eta_mean,
+                s.after.eta_mean,
+                s.after.quads
+            ));
+        }
+        t_opt = t2.elapsed().as_secs_f64();
+        if args.verify {
+            recombine::check_invariants(&before, &mesh).map_err(|e| {
+                format!(
+                    "{}: invariant violated after optimization: {e}",
+                    input.display()
+                )
+            })?;
+        }
+    }
+    let t3 = Instant::now();
+    write(&mesh, &output, &args.format, &log)?;
+    let t_write = t3.elapsed().as_secs_f64();
+    log.say(format!(
+        "time: read {t_read:.3} s, recombine {t_recombine:.3} s, optimize {t_opt:.3} s, write {t_write:.3} s"
+    ));
+    Ok(())
+}
+
+fn read(path: &Path) -> Result<Mesh, String> {
+    msh::read_file(path).map_err(|e| e.to_string())
+}
+
+fn print_warnings(mesh: &Mesh, log: &Log) {
+    for w in &mesh.warnings {
+        log.say(format!("warning: {w}"));
+    }
+}
+
+fn output_format(mesh: &Mesh, args: &FormatArgs) -> MshFormat {
+    let default = msh::default_output_format(mesh);
+    MshFormat {
+        version: match args.format {
+            Some(FormatArg::Msh41) => MshVersion::V41,
+            Some(FormatArg::Msh22) => MshVersion::V2 { minor: 2 },
+            None => default.version,
+        },
+        binary: if args.binary {
+            true
+        } else if args.ascii {
+            false
+        } else {
+            default.binary
+        },
+    }
+}
+
+fn write(mesh: &Mesh, path: &Path, args: &FormatArgs, log: &Log) -> Result<(), String> {
+    let format = output_format(mesh, args);
+    for w in msh::write_warnings(mesh, format) {
+        log.say(format!("warning: {w}"));
+    }
+    msh::write_file(mesh, path, format).map_err(|e| e.to_string())
+}
+
+/// Refuses an output path that is the input file itself, unless `force`.
+fn check_not_input(input: &Path, output: &Path, force: bool) -> Result<(), String> {
+    if force || input.as_os_str() == "-" || output.as_os_str() == "-" {
+        return Ok(());
+    }
+    let same = match (std::fs::canonicalize(input), std::fs::canonicalize(output)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same {
+        return Err(format!(
+            "{}: output would overwrite the input; choose another -o or pass --force",
+            output.display()
+        ));
+    }
+    Ok(())
 }

@@ -3,7 +3,7 @@
 //! The model mirrors MSH 4.1, the richer of the two formats: entities by dimension with
 //! their physical groups and bounding entities, node blocks per entity and element blocks
 //! per (entity, element type). MSH 2.2 files are lifted into it by the reader (entities are
-//! derived from elementary tags, see `msh::v2`).
+//! derived from elementary tags, see "Reading MSH 2.x" in [`crate::msh`]).
 //!
 //! **Invariant:** node and element tags are kept exactly as read (sparse and unordered tags
 //! are legal); a stage that creates nodes or elements gives them fresh tags above the current
@@ -34,6 +34,36 @@ pub enum MshVersion {
     V40,
     /// MSH 4.1: entity blocks (the default written by Gmsh 4).
     V41,
+}
+
+impl MshVersion {
+    /// The version for one of Gmsh's `-format` names (`msh41`, `msh4`, `msh22`, `msh2`).
+    /// Writing supports 4.1 and 2.2 only, so `msh40` is refused (`None`).
+    pub fn from_gmsh_name(name: &str) -> Option<MshVersion> {
+        match name.to_ascii_lowercase().as_str() {
+            "msh41" | "msh4" | "msh" => Some(MshVersion::V41),
+            "msh22" | "msh2" => Some(MshVersion::V2 { minor: 2 }),
+            _ => None,
+        }
+    }
+}
+
+impl std::fmt::Display for MshVersion {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            MshVersion::V2 { minor } => write!(f, "2.{minor}"),
+            MshVersion::V40 => f.write_str("4.0"),
+            MshVersion::V41 => f.write_str("4.1"),
+        }
+    }
+}
+
+impl std::fmt::Display for MshFormat {
+    /// `MSH 4.1 binary`, `MSH 2.2 ASCII`, ...
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let enc = if self.binary { "binary" } else { "ASCII" };
+        write!(f, "MSH {} {enc}", self.version)
+    }
 }
 
 /// A physical group name, from `$PhysicalNames`.
@@ -445,11 +475,24 @@ pub const ELEMENT_TYPES: &[(u32, i32, usize)] = &[
     (137, 3, 16),  // Tetrahedron 16
 ];
 
+/// Largest type code in [`ELEMENT_TYPES`] plus one.
+const TYPE_SLOTS: usize = 138;
+
+/// `TYPE_INDEX[code]` = index of `code` in [`ELEMENT_TYPES`] + 1 (0 = unknown): a direct
+/// lookup, since element types are queried for every element read.
+const TYPE_INDEX: [u8; TYPE_SLOTS] = {
+    let mut t = [0u8; TYPE_SLOTS];
+    let mut i = 0;
+    while i < ELEMENT_TYPES.len() {
+        t[ELEMENT_TYPES[i].0 as usize] = (i + 1) as u8;
+        i += 1;
+    }
+    t
+};
+
 fn element_type_entry(element_type: u32) -> Option<&'static (u32, i32, usize)> {
-    ELEMENT_TYPES
-        .binary_search_by_key(&element_type, |e| e.0)
-        .ok()
-        .map(|i| &ELEMENT_TYPES[i])
+    let slot = *TYPE_INDEX.get(element_type as usize)?;
+    ELEMENT_TYPES.get((slot as usize).checked_sub(1)?)
 }
 
 /// Number of nodes of a Gmsh element type, or `None` for an unknown type code.
@@ -478,4 +521,36 @@ pub mod etype {
     pub const POINT: u32 = 15;
     /// 6-node second-order triangle.
     pub const TRI6: u32 = 9;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn format_names_and_display() {
+        assert_eq!(MshVersion::from_gmsh_name("msh41"), Some(MshVersion::V41));
+        assert_eq!(
+            MshVersion::from_gmsh_name("MSH22"),
+            Some(MshVersion::V2 { minor: 2 })
+        );
+        assert_eq!(MshVersion::from_gmsh_name("msh40"), None);
+        let f = MshFormat {
+            version: MshVersion::V2 { minor: 0 },
+            binary: true,
+        };
+        assert_eq!(f.to_string(), "MSH 2.0 binary");
+    }
+
+    #[test]
+    fn type_lookup_matches_the_table_and_rejects_unknown_codes() {
+        for &(code, dim, n) in ELEMENT_TYPES {
+            assert_eq!(element_node_count(code), Some(n), "type {code}");
+            assert_eq!(element_dim(code), Some(dim), "type {code}");
+        }
+        for code in [0, 34, 90, 91, 136, 138, 1000, u32::MAX] {
+            assert_eq!(element_node_count(code), None, "type {code}");
+        }
+        assert!(ELEMENT_TYPES.windows(2).all(|w| w[0].0 < w[1].0));
+    }
 }

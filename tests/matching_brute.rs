@@ -121,3 +121,41 @@ fn random_graphs_exercise_blossoms() {
     assert!(expands > 5, "expands {expands}");
     eprintln!("shrinks {shrinks} expands {expands} rescales {rescales}");
 }
+
+mod properties {
+    use super::check;
+    use proptest::prelude::*;
+
+    fn graph() -> impl Strategy<Value = (usize, Vec<(u32, u32, i64)>)> {
+        (1usize..=12).prop_flat_map(|n| {
+            let e = (0..n as u32, 0..n as u32, -20i64..40);
+            (Just(n), proptest::collection::vec(e, 0..40))
+        })
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig { cases: 400, ..ProptestConfig::default() })]
+
+        /// Optimal cost equals brute force, certificate or witness verifies, for both
+        /// starts and the public entry point.
+        #[test]
+        fn agrees_with_brute_force((n, edges) in graph()) {
+            check(n, &edges);
+        }
+
+        /// Relabelling the vertices does not change the optimum.
+        #[test]
+        fn invariant_under_relabelling((n, edges) in graph(), seed in any::<u64>()) {
+            let mut perm: Vec<u32> = (0..n as u32).collect();
+            let mut s = seed | 1;
+            for i in (1..n).rev() {
+                s ^= s << 13; s ^= s >> 7; s ^= s << 17;
+                perm.swap(i, (s % (i as u64 + 1)) as usize);
+            }
+            let relabelled: Vec<_> = edges.iter().map(|&(u, v, c)| (perm[u as usize], perm[v as usize], c)).collect();
+            let a = blossomquad::matching::solve(n, &edges).map(|m| m.cost).ok();
+            let b = blossomquad::matching::solve(n, &relabelled).map(|m| m.cost).ok();
+            prop_assert_eq!(a, b);
+        }
+    }
+}

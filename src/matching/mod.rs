@@ -27,6 +27,8 @@
 
 pub mod blossom;
 pub mod oracle;
+pub mod radix;
+pub mod reference;
 mod verify;
 
 pub use verify::{verify, verify_witness, CertificateError};

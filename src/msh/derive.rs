@@ -7,9 +7,10 @@
 //! surface) do not make a bounding entity. Signs are positive except for a curve's end
 //! point, which is negative as Gmsh writes it.
 
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
-use crate::mesh::{element_dim, Mesh};
+use super::tags::TagSet;
+use crate::mesh::{element_dim, Entity, Mesh};
 
 /// Corner count of an element type's family (first nodes are the corners in Gmsh's
 /// ordering), `None` for families whose facets we do not derive.
@@ -75,33 +76,105 @@ fn facets(ty: u32, nodes: &[u64], mut f: impl FnMut(&[u64])) {
     }
 }
 
-/// Sets every entity's bounding box from the nodes classified on it and the nodes of its
-/// elements.
-pub(crate) fn bounding_boxes(mesh: &mut Mesh) {
-    let index = mesh.node_index();
-    let mut boxes: HashMap<(i32, i32), [f64; 6]> = HashMap::new();
-    let empty = [
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-        f64::NEG_INFINITY,
-    ];
-    let grow = |b: &mut [f64; 6], c: &[f64; 3]| {
-        for k in 0..3 {
-            b[k] = b[k].min(c[k]);
-            b[k + 3] = b[k + 3].max(c[k]);
-        }
-    };
-    for nb in &mesh.node_blocks {
-        let b = boxes.entry((nb.entity_dim, nb.entity_tag)).or_insert(empty);
-        for c in &nb.coords {
-            grow(b, c);
+/// Adds a bare entity (no physical group, box from its nodes) for every node or element block
+/// whose entity `$Entities` does not define (legal: Gmsh reads 4.1 files without
+/// `$Entities`). Returns how many were added.
+pub(crate) fn missing_entities(mesh: &mut Mesh) -> usize {
+    let missing = find_missing_entities(mesh);
+    for &(d, t) in &missing {
+        mesh.entities[d as usize].push(Entity {
+            dim: d,
+            tag: t,
+            bbox: [0.0; 6],
+            physical_tags: Vec::new(),
+            bounding: Vec::new(),
+        });
+    }
+    let added: HashSet<(i32, i32)> = missing.iter().copied().collect();
+    if !added.is_empty() {
+        boxes(mesh, &added);
+    }
+    added.len()
+}
+
+/// The (dim, tag) of entities that blocks use but `mesh.entities` lacks, in first-use order.
+pub(crate) fn find_missing_entities(mesh: &Mesh) -> Vec<(i32, i32)> {
+    let mut have: HashSet<(i32, i32)> = mesh
+        .entities
+        .iter()
+        .flatten()
+        .map(|e| (e.dim, e.tag))
+        .collect();
+    let pairs: Vec<(i32, i32)> = mesh
+        .node_blocks
+        .iter()
+        .map(|b| (b.entity_dim, b.entity_tag))
+        .chain(
+            mesh.element_blocks
+                .iter()
+                .map(|b| (b.entity_dim, b.entity_tag)),
+        )
+        .collect();
+    let mut missing = Vec::new();
+    for (d, t) in pairs {
+        if (0..4).contains(&d) && have.insert((d, t)) {
+            missing.push((d, t));
         }
     }
-    for eb in &mesh.element_blocks {
-        let b = boxes.entry((eb.entity_dim, eb.entity_tag)).or_insert(empty);
+    missing
+}
+
+/// An empty bounding box (`[min xyz, max xyz]`), neutral for [`grow_box`].
+pub(crate) const EMPTY_BOX: [f64; 6] = [
+    f64::INFINITY,
+    f64::INFINITY,
+    f64::INFINITY,
+    f64::NEG_INFINITY,
+    f64::NEG_INFINITY,
+    f64::NEG_INFINITY,
+];
+
+/// Extends box `b` to contain point `c`.
+#[inline]
+pub(crate) fn grow_box(b: &mut [f64; 6], c: &[f64; 3]) {
+    for k in 0..3 {
+        b[k] = b[k].min(c[k]);
+        b[k + 3] = b[k + 3].max(c[k]);
+    }
+}
+
+/// The box to store: all zeros when nothing was added.
+pub(crate) fn finish_box(b: [f64; 6]) -> [f64; 6] {
+    if b[0] <= b[3] {
+        b
+    } else {
+        [0.0; 6]
+    }
+}
+
+/// Sets the bounding box of the entities in `only` from the nodes classified on them and
+/// the nodes of their elements.
+fn boxes(mesh: &mut Mesh, only: &HashSet<(i32, i32)>) {
+    let wanted = |d: i32, t: i32| only.contains(&(d, t));
+    let index = mesh.node_index();
+    let mut acc: HashMap<(i32, i32), [f64; 6]> = HashMap::new();
+    let empty = EMPTY_BOX;
+    for nb in mesh
+        .node_blocks
+        .iter()
+        .filter(|b| wanted(b.entity_dim, b.entity_tag))
+    {
+        let b = acc.entry((nb.entity_dim, nb.entity_tag)).or_insert(empty);
+        for c in &nb.coords {
+            grow_box(b, c);
+        }
+    }
+    for eb in mesh
+        .element_blocks
+        .iter()
+        .filter(|b| wanted(b.entity_dim, b.entity_tag))
+    {
+        let b = acc.entry((eb.entity_dim, eb.entity_tag)).or_insert(empty);
         for &v in &eb.nodes {
             if let Some(r) = index.get(v) {
                 if let Some(c) = mesh
@@ -109,17 +182,14 @@ pub(crate) fn bounding_boxes(mesh: &mut Mesh) {
                     .get(r.block as usize)
                     .and_then(|nb| nb.coords.get(r.index as usize))
                 {
-                    grow(b, c);
+                    grow_box(b, c);
                 }
             }
         }
     }
     for ents in mesh.entities.iter_mut() {
-        for e in ents.iter_mut() {
-            match boxes.get(&(e.dim, e.tag)) {
-                Some(b) if b[0] <= b[3] => e.bbox = *b,
-                _ => e.bbox = [0.0; 6],
-            }
+        for e in ents.iter_mut().filter(|e| wanted(e.dim, e.tag)) {
+            e.bbox = finish_box(acc.get(&(e.dim, e.tag)).copied().unwrap_or(EMPTY_BOX));
         }
     }
 }
@@ -127,6 +197,9 @@ pub(crate) fn bounding_boxes(mesh: &mut Mesh) {
 /// Derives `Entity::bounding` for curves, surfaces and volumes (see the module doc).
 pub(crate) fn bounding_entities(mesh: &mut Mesh) {
     for dim in 1..=3i32 {
+        if !mesh.element_blocks.iter().any(|b| b.entity_dim == dim) {
+            continue;
+        }
         // Facets of the lower-dimension entities' elements → those entities.
         let mut low: HashMap<Key, Vec<i32>> = HashMap::new();
         for eb in mesh
@@ -151,6 +224,14 @@ pub(crate) fn bounding_entities(mesh: &mut Mesh) {
         if low.is_empty() {
             continue;
         }
+        // Nodes of those facets: most facets of the higher-dimension elements touch none of
+        // them and are rejected by one bit test instead of a hash lookup.
+        let (low_nodes, _) = TagSet::new(
+            mesh.element_blocks
+                .iter()
+                .filter(|b| b.entity_dim == dim - 1)
+                .map(|b| b.nodes.as_slice()),
+        );
         // For each entity of `dim`, count uses of those facets, and remember start corners
         // (for curves: the first node of an element is a start).
         let mut uses: HashMap<(i32, Key), (u32, bool)> = HashMap::new();
@@ -163,6 +244,9 @@ pub(crate) fn bounding_entities(mesh: &mut Mesh) {
             for el in eb.nodes.chunks_exact(k) {
                 let first = el[0];
                 facets(ty, el, |f| {
+                    if !f.iter().all(|&v| low_nodes.contains(v)) {
+                        return;
+                    }
                     let kk = key(f);
                     if low.contains_key(&kk) {
                         let u = uses.entry((eb.entity_tag, kk)).or_insert((0, false));

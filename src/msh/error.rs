@@ -53,6 +53,17 @@ pub enum ErrorKind {
         /// The section end marker that was found instead.
         found: String,
     },
+    /// A count announces more records than the rest of the file can hold: the file is
+    /// truncated or the count is wrong.
+    #[error("{what} {count} cannot fit in the {left} bytes left (file truncated, or count wrong)")]
+    CountTooLarge {
+        /// What is counted.
+        what: String,
+        /// The announced count.
+        count: u64,
+        /// Bytes left in the file.
+        left: u64,
+    },
     /// A token is not what the grammar requires at this point.
     #[error("expected {expected}, found '{found}'")]
     Unexpected {
@@ -220,6 +231,10 @@ impl Fail {
             binary: false,
             kind,
         }
+    }
+    /// A failure in binary data (`binary`) or ASCII text.
+    pub fn new(pos: usize, binary: bool, kind: ErrorKind) -> Self {
+        Fail { pos, binary, kind }
     }
     /// A binary-position failure.
     pub fn bin(pos: usize, kind: ErrorKind) -> Self {

@@ -1,13 +1,62 @@
 //! Reading and writing Gmsh MSH files (2.0/2.1/2.2 and 4.1, ASCII and binary; 4.0 ASCII
 //! read only) into and from the [`Mesh`] model.
 //!
-//! Entry points: [`read_file`], [`read_bytes`], [`write`], [`write_file`],
-//! [`default_output_format`], [`summary`].
+//! Entry points: [`read_file`], [`read_bytes`], [`write()`], [`write_file`],
+//! [`default_output_format`], [`summary()`].
+//!
+//! ```
+//! use blossomquad::msh;
+//! let text = b"$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 0 1 0\n$EndNodes\n$Elements\n1\n1 2 2 7 1 1 2 3\n$EndElements\n";
+//! let mesh = msh::read_bytes(text, "tri.msh")?;
+//! assert_eq!(mesh.entities[2][0].physical_tags, vec![7]);
+//! let mut out = Vec::new();
+//! msh::write(&mesh, &mut out, msh::default_output_format(&mesh))?; // MSH 2.2 ASCII
+//! println!("{}", msh::summary(&mesh)); // format, entities, counts, parity, groups
+//! # Ok::<(), msh::MshError>(())
+//! ```
 //!
 //! Layout: `read` runs the section loop and dispatches to `v4` (4.1/4.0 sections) or `v2`
-//! (2.x sections and the lift of flat 2.x lists into entities, see that module for the
-//! rules); `derive` computes bounding boxes and bounding entities that 2.x does not store;
+//! (2.x sections and the lift of flat 2.x lists into entities, rules below); `derive` computes bounding boxes and bounding entities that 2.x does not store;
 //! `write` holds both writers; `scan` the allocation-free ASCII and binary cursors.
+//!
+//! # Writing
+//!
+//! MSH 2.2 output writes every element once per physical group of its entity (copies get
+//! fresh ids above the largest element tag; an entity without group is written with
+//! physical tag 0, so nothing is dropped), `$PhysicalNames` and `$Periodic` (ASCII) kept.
+//! MSH 4.1 output writes every entity, including those derived from 2.x files (bounding
+//! boxes from their nodes, bounding entities from lower-dimension elements on their
+//! boundary, see `derive`). Unknown sections are written back (those read before
+//! `$MeshFormat` first, the others after the mesh); data sections only when the target has
+//! the same encoding ([`write_warnings`] says what a format drops).
+//!
+//! # Partitioned meshes
+//!
+//! `$PartitionedEntities` (4.1) is read into plain entities: every partition entity keeps
+//! its physical groups and bounding entities, so the mesh is written back unpartitioned
+//! (with a warning; `$GhostElements` are dropped). MSH 2.x partition tags are kept per
+//! element ([`crate::mesh::ElementBlock::partitions`]) and written back in 2.2.
+//!
+//! # Reading MSH 2.x
+//!
+//! MSH 2.x has no `$Entities`; the reader lifts its flat lists into the model:
+//! - Entities are derived from elementary tags; an element's entity dimension is its type's
+//!   dimension. An element with fewer than two tags has elementary tag 0.
+//! - Gmsh writes an element once per physical group of its entity. Copies (same entity,
+//!   same type, same nodes, same partition tags, a physical tag not yet seen for that
+//!   element) are merged into one element that keeps the first id; writing 2.2 writes it
+//!   back once per physical group.
+//! - Physical tags of an entity = the tags its elements carry (0 = no group). If elements of
+//!   one elementary entity carry different physical sets (hand-written files), the entity is
+//!   split: the first set keeps the tag, each other set gets a new entity (tag above the
+//!   largest of that dimension) and a warning says so, so no element changes groups.
+//! - A negative physical tag `-t` (reversed element in old Gmsh files) is read as group `t`,
+//!   nodes kept as written, with a warning.
+//! - Each node is classified on the lowest-dimension entity whose elements use it (ties: the
+//!   smallest entity tag). A node no element uses gets its own new point entity. When
+//!   `$ParametricNodes` is present, its classification and parametric values are used.
+//! - Duplicate node tags are refused (references would be ambiguous); duplicate element
+//!   tags are kept with a warning.
 //!
 //! **Invariant:** reading never panics: every failure is an [`MshError`] naming the file, the
 //! section, and the line (ASCII) or byte offset (binary).
@@ -20,6 +69,7 @@ mod error;
 mod read;
 mod scan;
 mod summary;
+mod tags;
 mod v2;
 mod v4;
 mod write;

@@ -8,14 +8,17 @@ use nom::{IResult, Parser};
 
 use super::error::{show, ErrorKind, Fail, MshError, PResult};
 use super::scan::{parse_i64, Bin, Text};
-use super::{v2, v4};
+use super::tags::TagSet;
+use super::{derive, v2, v4};
 use crate::mesh::{
-    DataKind, DataSection, Mesh, MshFormat, MshVersion, NodeIndex, PhysicalName, RawSection,
-    SectionPosition,
+    DataKind, DataSection, Mesh, MshFormat, MshVersion, PhysicalName, RawSection, SectionPosition,
 };
 
+/// Three byte-slice fields of one line.
+type Fields3<'a> = (&'a [u8], &'a [u8], &'a [u8]);
+
 /// `version file-type data-size`, e.g. `4.1 0 8`.
-fn format_line(i: &[u8]) -> IResult<&[u8], (&[u8], &[u8], &[u8])> {
+fn format_line(i: &[u8]) -> IResult<&[u8], Fields3<'_>> {
     (
         preceded(space0, take_while1(|c: u8| !c.is_ascii_whitespace())),
         preceded(space1, digit1),
@@ -25,7 +28,7 @@ fn format_line(i: &[u8]) -> IResult<&[u8], (&[u8], &[u8], &[u8])> {
 }
 
 /// `dim tag "name"` of `$PhysicalNames`.
-fn physical_name_line(i: &[u8]) -> IResult<&[u8], (&[u8], &[u8], &[u8])> {
+fn physical_name_line(i: &[u8]) -> IResult<&[u8], Fields3<'_>> {
     (
         preceded(space0, take_while1(|c: u8| c == b'-' || c.is_ascii_digit())),
         preceded(space1, take_while1(|c: u8| c == b'-' || c.is_ascii_digit())),
@@ -105,11 +108,10 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
             break;
         }
         let hpos = t.p;
-        let (name, body) = match header(&mut t) {
+        let name = match header(&mut t) {
             Ok(x) => x,
             Err(f) => return Err(f.into_error(d, file, None)),
         };
-        let _ = body;
         if let Err(f) = r.section(&mut t, name, hpos) {
             return Err(f.into_error(d, file, Some(name)));
         }
@@ -142,29 +144,37 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
             }
         }
     }
+    if !matches!(format.version, MshVersion::V2 { .. }) {
+        let added = derive::missing_entities(&mut r.mesh);
+        if added > 0 && r.mesh.has_entities_section {
+            r.mesh.warnings.push(format!(
+                "{added} entit(y/ies) used by node or element blocks are missing from $Entities: added without physical groups"
+            ));
+        }
+    }
+    let (_, dup) = TagSet::new(r.mesh.element_blocks.iter().map(|b| b.tags.as_slice()));
+    if let Some(t) = dup {
+        r.mesh.warnings.push(format!(
+            "element tag {t} is used by more than one element (kept as written)"
+        ));
+    }
     r.mesh.format = Some(format);
     Ok(r.mesh)
 }
 
-/// Reads a `$Name` header line; returns the name and the body start.
-fn header<'a>(t: &mut Text<'a>) -> PResult<(&'a str, usize)> {
+/// Reads a `$Name` header line; returns the name (the cursor is left at the body start).
+fn header<'a>(t: &mut Text<'a>) -> PResult<&'a str> {
+    t.skip_ws();
     let start = t.p;
-    let tok = t
-        .token("a section header ($Name)")
-        .or_else(|f| match f.kind {
-            // `token` refuses `$` tokens inside data; here they are what we want.
-            ErrorKind::EarlyEnd { .. } => {
-                let mut u = Text::new(t.d, start);
-                u.skip_ws();
-                let s = u.p;
-                while u.p < u.d.len() && !u.d[u.p].is_ascii_whitespace() {
-                    u.p += 1;
-                }
-                t.p = u.p;
-                Ok(&t.d[s..u.p])
-            }
-            _ => Err(f),
-        })?;
+    let tok = t.word();
+    if tok.is_empty() {
+        return Err(Fail::at(
+            start,
+            ErrorKind::Truncated {
+                expected: "a section header ($Name)".into(),
+            },
+        ));
+    }
     if tok.len() < 2 || tok[0] != b'$' {
         return Err(Fail::at(
             start,
@@ -190,7 +200,18 @@ fn header<'a>(t: &mut Text<'a>) -> PResult<(&'a str, usize)> {
         ));
     }
     t.end_line("section header line")?;
-    Ok((name, t.p))
+    Ok(name)
+}
+
+/// Two nodes with one tag make every reference to it ambiguous: refused.
+fn duplicate_node(dup: Option<u64>, section_pos: usize) -> PResult<()> {
+    match dup {
+        None => Ok(()),
+        Some(t) => Err(Fail::at(
+            section_pos,
+            ErrorKind::Invalid(format!("node tag {t} is defined more than once")),
+        )),
+    }
 }
 
 struct Reader<'a> {
@@ -199,7 +220,7 @@ struct Reader<'a> {
     format: Option<MshFormat>,
     swap: bool,
     raw2: Option<v2::Raw2>,
-    index: Option<NodeIndex>,
+    index: Option<TagSet>,
 }
 
 impl<'a> Reader<'a> {
@@ -245,7 +266,10 @@ impl<'a> Reader<'a> {
                 } else {
                     v4::nodes_ascii(t, v40, &mut self.mesh)?;
                 }
-                self.index = Some(self.mesh.node_index());
+                let (set, dup) =
+                    TagSet::new(self.mesh.node_blocks.iter().map(|b| b.tags.as_slice()));
+                duplicate_node(dup, hpos)?;
+                self.index = Some(set);
             }
             "Elements" if !v2 => {
                 if bin {
@@ -256,23 +280,42 @@ impl<'a> Reader<'a> {
                     v4::elements_ascii(t, v40, &mut self.mesh, self.index.as_ref())?;
                 }
             }
+            "PartitionedEntities" if !v2 && !v40 => {
+                let nparts = if bin {
+                    let mut b = Bin::new(self.d, t.p, self.swap);
+                    let n = v4::partitioned_entities_binary(&mut b, &mut self.mesh)?;
+                    t.p = b.p;
+                    n
+                } else {
+                    v4::partitioned_entities_ascii(t, &mut self.mesh)?
+                };
+                self.mesh.warnings.push(format!(
+                    "partitioned mesh ({nparts} partitions): partition entities are read as plain entities with their physical groups; the output is not partitioned"
+                ));
+            }
+            "GhostElements" => {
+                self.raw_body(t, name)?;
+                self.mesh
+                    .warnings
+                    .push("$GhostElements dropped (the output is not partitioned)".into());
+                return Ok(());
+            }
             "Periodic" if !v2 && bin => {
                 let mut b = Bin::new(self.d, t.p, self.swap);
                 v4::periodic_binary(&mut b, &mut self.mesh)?;
                 t.p = b.p;
             }
             "Periodic" => v4::periodic_ascii(t, &mut self.mesh)?,
-            "Nodes" => {
+            "Nodes" | "ParametricNodes" if v2 => {
                 let raw = self.raw2.get_or_insert_with(Default::default);
-                if bin {
+                if name == "ParametricNodes" {
+                    v2::parametric_nodes_ascii(t, raw)?;
+                } else if bin {
                     v2::nodes_binary(t, self.swap, raw)?;
                 } else {
                     v2::nodes_ascii(t, raw)?;
                 }
-            }
-            "ParametricNodes" if v2 => {
-                let raw = self.raw2.get_or_insert_with(Default::default);
-                v2::parametric_nodes_ascii(t, raw)?;
+                duplicate_node(TagSet::new(std::iter::once(raw.node_tags())).1, hpos)?;
             }
             "Elements" => {
                 let raw = self.raw2.get_or_insert_with(Default::default);
@@ -429,7 +472,7 @@ impl<'a> Reader<'a> {
 
     /// `$PhysicalNames` (ASCII in every variant): `n`, then `dim tag "name"` per line.
     fn physical_names(&mut self, t: &mut Text<'a>) -> PResult<()> {
-        let n = t.count("number of physical names")?;
+        let n = t.count("number of physical names", 6)?;
         for _ in 0..n {
             t.skip_ws();
             let pos = t.p;

@@ -64,6 +64,12 @@ impl<'a> Text<'a> {
         &self.d[start..self.p]
     }
 
+    /// The next whitespace-delimited word, crossing newlines (empty at end of input).
+    pub fn word(&mut self) -> &'a [u8] {
+        self.skip_ws();
+        self.take_run()
+    }
+
     /// The next token, crossing newlines. Fails at end of input, or on a `$` section
     /// marker (the section ended before the records its header announced).
     #[inline]
@@ -160,7 +166,7 @@ impl<'a> Text<'a> {
         }
     }
 
-    /// Offset where the previous token started (for error positions).
+    /// Current offset (callers skip whitespace first to point at the next token).
     pub fn at(&self) -> usize {
         self.p
     }
@@ -185,20 +191,22 @@ impl<'a> Text<'a> {
             .ok_or_else(|| not_int(start, t, what))
     }
 
-    /// Next token as a count (`usize`), refusing counts larger than the input could hold.
-    pub fn count(&mut self, what: &str) -> PResult<usize> {
+    /// Next token as a count (`usize`) of records that each take at least `min_bytes` bytes
+    /// of text, refusing counts the rest of the input cannot hold (they are certainly wrong
+    /// and would make us reserve absurd amounts of memory).
+    pub fn count(&mut self, what: &str, min_bytes: u64) -> PResult<usize> {
         self.skip_ws();
         let start = self.p;
         let v = self.u64(what)?;
-        // Every record takes at least two bytes; a larger count is certainly wrong and
-        // would make us reserve absurd amounts of memory.
-        if v > self.d.len() as u64 {
+        let left = self.d.len().saturating_sub(self.p) as u64;
+        if v.saturating_mul(min_bytes) > left {
             return Err(Fail::at(
                 start,
-                ErrorKind::Invalid(format!(
-                    "{what} {v} is larger than the file could hold ({} bytes)",
-                    self.d.len()
-                )),
+                ErrorKind::CountTooLarge {
+                    what: what.to_string(),
+                    count: v,
+                    left,
+                },
             ));
         }
         Ok(v as usize)

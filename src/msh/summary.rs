@@ -2,7 +2,7 @@
 
 use std::fmt;
 
-use crate::mesh::{etype, Mesh, MshFormat, MshVersion};
+use crate::mesh::{etype, Mesh, MshFormat};
 
 /// Element counts of one surface entity.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -20,7 +20,7 @@ pub struct SurfaceSummary {
 impl SurfaceSummary {
     /// True when the triangle count is even (a perfect matching of the triangles can exist).
     pub fn triangles_even(&self) -> bool {
-        self.triangles % 2 == 0
+        self.triangles.is_multiple_of(2)
     }
 }
 
@@ -151,15 +151,7 @@ pub fn summary(mesh: &Mesh) -> MeshSummary {
 impl fmt::Display for MeshSummary {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         match self.format {
-            Some(fm) => {
-                let v = match fm.version {
-                    MshVersion::V2 { minor } => format!("2.{minor}"),
-                    MshVersion::V40 => "4.0".into(),
-                    MshVersion::V41 => "4.1".into(),
-                };
-                let enc = if fm.binary { "binary" } else { "ASCII" };
-                writeln!(f, "format: MSH {v} {enc}")?;
-            }
+            Some(fm) => writeln!(f, "format: {fm}")?,
             None => writeln!(f, "format: (built in memory)")?,
         }
         let e = self.entities_per_dim;

@@ -1,28 +1,14 @@
 //! MSH 2.x (2.0, 2.1, 2.2): section readers and the lift of the flat node and element lists
 //! into the entity-based [`Mesh`] model.
 //!
-//! What the lift does (MSH 2.x has no `$Entities`):
-//! - Entities are derived from elementary tags; an element's entity dimension is its type's
-//!   dimension. An element with fewer than two tags has elementary tag 0.
-//! - Gmsh writes an element once per physical group of its entity. Copies (same entity,
-//!   same type, same nodes, same partition tags, a physical tag not yet seen for that
-//!   element) are merged into one element that keeps the first id; writing 2.2 writes it
-//!   back once per physical group.
-//! - Physical tags of an entity = the tags its elements carry (0 = no group). If elements of
-//!   one elementary entity carry different physical sets (hand-written files), the entity is
-//!   split: the first set keeps the tag, each other set gets a new entity (tag above the
-//!   largest of that dimension) and a warning says so, so no element changes groups.
-//! - A negative physical tag `-t` (reversed element in old Gmsh files) is read as group `t`,
-//!   nodes kept as written, with a warning.
-//! - Each node is classified on the lowest-dimension entity whose elements use it (ties: the
-//!   smallest entity tag). A node no element uses gets its own new point entity. When
-//!   `$ParametricNodes` is present, its classification and parametric values are used.
+//! The conventions of the lift are documented on the `msh` module ("Reading MSH 2.x").
 
 use std::collections::HashMap;
 
 use super::derive;
 use super::error::{ErrorKind, Fail, PResult};
 use super::scan::{i32_at, u64_at, Bin, Text};
+use super::tags::TagMap;
 use crate::mesh::{element_dim, element_node_count, ElementBlock, Entity, Mesh, NodeBlock};
 
 /// One element as read, before the lift.
@@ -53,9 +39,16 @@ pub(crate) struct Raw2 {
     negative_phys: usize,
 }
 
+impl Raw2 {
+    /// Node tags read so far, in file order.
+    pub fn node_tags(&self) -> &[u64] {
+        &self.node_tags
+    }
+}
+
 /// `$Nodes` (ASCII): `n`, then `id x y z` per line.
 pub(crate) fn nodes_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
-    let n = t.count("number of nodes")?;
+    let n = t.count("number of nodes", 8)?;
     raw.node_tags.reserve(n);
     raw.coords.reserve(n);
     for _ in 0..n {
@@ -71,7 +64,7 @@ pub(crate) fn nodes_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
 
 /// `$Nodes` (binary): ASCII count line, then per node `int id` and three doubles.
 pub(crate) fn nodes_binary(t: &mut Text, swap: bool, raw: &mut Raw2) -> PResult<()> {
-    let n = t.count("number of nodes")?;
+    let n = t.count("number of nodes", 8)?;
     // The count line ends with a newline; binary data starts right after it.
     t.next_line();
     let mut b = Bin::new(t.d, t.p, swap);
@@ -109,7 +102,7 @@ pub(crate) fn nodes_binary(t: &mut Text, swap: bool, raw: &mut Raw2) -> PResult<
 
 /// `$ParametricNodes` (ASCII): `n`, then `id x y z dim tag [u [v]]` per line.
 pub(crate) fn parametric_nodes_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
-    let n = t.count("number of nodes")?;
+    let n = t.count("number of nodes", 8)?;
     for _ in 0..n {
         raw.node_tags.push(t.u64("node tag")?);
         let x = t.f64_inline("fields", 0, 5)?;
@@ -146,14 +139,7 @@ fn elem_type(pos: usize, binary: bool, ty: i32) -> PResult<(u32, usize)> {
     u32::try_from(ty)
         .ok()
         .and_then(|t| element_node_count(t).map(|k| (t, k)))
-        .ok_or_else(|| {
-            let kind = ErrorKind::UnknownElementType(ty as i64);
-            if binary {
-                Fail::bin(pos, kind)
-            } else {
-                Fail::at(pos, kind)
-            }
-        })
+        .ok_or_else(|| Fail::new(pos, binary, ErrorKind::UnknownElementType(ty as i64)))
 }
 
 impl Raw2 {
@@ -185,7 +171,7 @@ const MAX_TAGS: usize = 1024;
 /// `$Elements` (ASCII): `n`, then one line per element `id type ntags tag… node…`. A line
 /// with more fields than `ntags` + the type's node count is refused.
 pub(crate) fn elements_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
-    let n = t.count("number of elements")?;
+    let n = t.count("number of elements", 8)?;
     raw.elems.reserve(n);
     let mut tags = Vec::new();
     let mut nodes = Vec::new();
@@ -229,7 +215,7 @@ pub(crate) fn elements_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
 /// `$Elements` (binary): ASCII count line, then blocks: header `int type, int count, int
 /// ntags`, and per element `int id`, `ntags` ints, the node ints.
 pub(crate) fn elements_binary(t: &mut Text, swap: bool, raw: &mut Raw2) -> PResult<()> {
-    let n = t.count("number of elements")?;
+    let n = t.count("number of elements", 8)?;
     t.next_line();
     let mut b = Bin::new(t.d, t.p, swap);
     raw.elem_binary = true;
@@ -295,46 +281,9 @@ pub(crate) fn elements_binary(t: &mut Text, swap: bool, raw: &mut Raw2) -> PResu
     Ok(())
 }
 
-/// Tag → index lookup, dense when tags are compact.
-pub(crate) struct TagMap {
-    dense: Vec<u32>,
-    sparse: HashMap<u64, u32>,
-}
-
-impl TagMap {
-    /// Maps every tag of `tags` to its position (later duplicates win).
-    pub fn new(tags: &[u64]) -> Self {
-        let max = tags.iter().copied().max().unwrap_or(0);
-        let mut m = TagMap {
-            dense: Vec::new(),
-            sparse: HashMap::new(),
-        };
-        if max <= (4 * tags.len() as u64).max(1024) {
-            m.dense = vec![u32::MAX; max as usize + 1];
-            for (i, &t) in tags.iter().enumerate() {
-                m.dense[t as usize] = i as u32;
-            }
-        } else {
-            m.sparse.reserve(tags.len());
-            for (i, &t) in tags.iter().enumerate() {
-                m.sparse.insert(t, i as u32);
-            }
-        }
-        m
-    }
-    /// Position of `tag`.
-    #[inline]
-    pub fn get(&self, tag: u64) -> Option<usize> {
-        if self.dense.is_empty() {
-            self.sparse.get(&tag).map(|&i| i as usize)
-        } else {
-            match self.dense.get(tag as usize) {
-                Some(&i) if i != u32::MAX => Some(i as usize),
-                _ => None,
-            }
-        }
-    }
-}
+/// Identity of an element for merging per-group copies: entity dim, elementary tag, type,
+/// nodes, partition tags.
+type CopyKey<'a> = (i32, i32, u32, &'a [u64], &'a [i32]);
 
 /// Builds the entity-based model from the flat 2.x data (see the module documentation).
 pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
@@ -347,23 +296,15 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     // Every referenced node must exist.
     let node_map = TagMap::new(&raw.node_tags);
     for (i, e) in raw.elems.iter().enumerate() {
-        for (j, &v) in nodes_of(e).iter().enumerate() {
+        for &v in nodes_of(e) {
             if node_map.get(v).is_none() {
                 let pos = raw.elem_pos[i];
                 let kind = ErrorKind::MissingNode {
                     element: e.id,
                     node: v,
                 };
-                return Err(if raw.elem_binary {
-                    let ntags = if e.nparts > 0 {
-                        2 + e.nparts as usize
-                    } else {
-                        2
-                    };
-                    Fail::bin(pos + 4 * (1 + ntags + j), kind)
-                } else {
-                    Fail::at(pos, kind)
-                });
+                // Position: the element's line (ASCII) or record start (binary).
+                return Err(Fail::new(pos, raw.elem_binary, kind));
             }
         }
     }
@@ -377,8 +318,14 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     // Which elementary entities carry more than one physical tag (only those can hold
     // per-group copies).
     let mut ent_phys: HashMap<(i32, i32), (i32, bool)> = HashMap::new();
+    let mut last = None;
     for e in &raw.elems {
         let dim = element_dim(e.etype).unwrap_or(0);
+        // Consecutive elements mostly share entity and group: skip the hash then.
+        if last == Some((dim, e.elementary, e.phys)) {
+            continue;
+        }
+        last = Some((dim, e.elementary, e.phys));
         let s = ent_phys
             .entry((dim, e.elementary))
             .or_insert((e.phys, false));
@@ -390,11 +337,20 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     // Merge per-group copies. `kept` lists raw indices; `extra` the merged physical tags.
     let mut kept: Vec<usize> = Vec::with_capacity(raw.elems.len());
     let mut extra: HashMap<usize, Vec<i32>> = HashMap::new();
-    let mut seen: HashMap<(i32, i32, u32, &[u64], &[i32]), Vec<usize>> = HashMap::new();
+    let mut seen: HashMap<CopyKey, Vec<usize>> = HashMap::new();
     let mut merged = 0usize;
+    let mut last_multi: Option<((i32, i32), bool)> = None;
     for (i, e) in raw.elems.iter().enumerate() {
         let dim = element_dim(e.etype).unwrap_or(0);
-        if !ent_phys.get(&(dim, e.elementary)).is_some_and(|s| s.1) {
+        let multi = match last_multi {
+            Some((key, m)) if key == (dim, e.elementary) => m,
+            _ => {
+                let m = ent_phys.get(&(dim, e.elementary)).is_some_and(|s| s.1);
+                last_multi = Some(((dim, e.elementary), m));
+                m
+            }
+        };
+        if !multi {
             kept.push(i);
             continue;
         }
@@ -444,6 +400,7 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     let mut elem_ent: Vec<u32> = Vec::with_capacity(kept.len());
     let mut set = Vec::new();
     let mut splits = 0usize;
+    let mut last_ent: Option<(i32, i32, u32)> = None;
     for (k, &i) in kept.iter().enumerate() {
         let e = &raw.elems[i];
         let dim = element_dim(e.etype).unwrap_or(0);
@@ -451,11 +408,17 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
         if e.phys != 0 {
             set.push(e.phys);
         }
-        if let Some(x) = extra.get(&k) {
+        if let Some(x) = (!extra.is_empty()).then(|| extra.get(&k)).flatten() {
             for &p in x {
                 if p != 0 && !set.contains(&p) {
                     set.push(p);
                 }
+            }
+        }
+        if let Some((d, el, idx)) = last_ent {
+            if d == dim && el == e.elementary && ents[idx as usize].2 == set {
+                elem_ent.push(idx);
+                continue;
             }
         }
         let cands = ent_of.entry((dim, e.elementary)).or_default();
@@ -476,6 +439,7 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
             }
         };
         elem_ent.push(idx as u32);
+        last_ent = Some((dim, e.elementary, idx as u32));
     }
     if splits > 0 {
         mesh.warnings.push(format!(
@@ -494,21 +458,26 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     let with_parts = raw.elems.iter().any(|e| e.nparts > 0);
     let mut block_of: HashMap<(u32, u32), usize> = HashMap::new();
     let mut blocks: Vec<ElementBlock> = Vec::new();
+    let mut last_block: Option<(u32, u32, usize)> = None;
     for (k, &i) in kept.iter().enumerate() {
         let e = &raw.elems[i];
         let ei = elem_ent[k];
-        let b = *block_of.entry((ei, e.etype)).or_insert_with(|| {
-            let (d, t, _) = &ents[ei as usize];
-            blocks.push(ElementBlock {
-                entity_dim: *d,
-                entity_tag: *t,
-                element_type: e.etype,
-                tags: Vec::new(),
-                nodes: Vec::new(),
-                partitions: with_parts.then(Vec::new),
-            });
-            blocks.len() - 1
-        });
+        let b = match last_block {
+            Some((lei, lty, lb)) if lei == ei && lty == e.etype => lb,
+            _ => *block_of.entry((ei, e.etype)).or_insert_with(|| {
+                let (d, t, _) = &ents[ei as usize];
+                blocks.push(ElementBlock {
+                    entity_dim: *d,
+                    entity_tag: *t,
+                    element_type: e.etype,
+                    tags: Vec::new(),
+                    nodes: Vec::new(),
+                    partitions: with_parts.then(Vec::new),
+                });
+                blocks.len() - 1
+            }),
+        };
+        last_block = Some((ei, e.etype, b));
         let blk = &mut blocks[b];
         blk.tags.push(e.id);
         blk.nodes.extend_from_slice(nodes_of(e));
@@ -535,15 +504,21 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
             }
         }
     }
+    // Bounding boxes are grown here, where the node positions are at hand.
+    let mut ebox = vec![derive::EMPTY_BOX; ents.len()];
     for b in &blocks {
         let e = ent_index
             .get(&(b.entity_dim, b.entity_tag))
             .copied()
-            .unwrap_or(0) as u32;
+            .unwrap_or(0);
         for &v in &b.nodes {
             if let Some(i) = node_map.get(v) {
                 if class[i] == u32::MAX {
-                    class[i] = e;
+                    class[i] = e as u32;
+                } else if class[i] != e as u32 {
+                    // Nodes classified on this entity are added to its box below, in one
+                    // sequential pass; only the others need the (cache-missing) lookup.
+                    derive::grow_box(&mut ebox[e], &raw.coords[i]);
                 }
             }
         }
@@ -561,6 +536,10 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
         mesh.warnings.push(format!(
             "{unused} node(s) used by no element: each put on a new point entity"
         ));
+    }
+    ebox.resize(ents.len(), derive::EMPTY_BOX);
+    for (c, x) in class.iter().zip(&raw.coords) {
+        derive::grow_box(&mut ebox[*c as usize], x);
     }
     // Node blocks in entity order (dim, tag), nodes in file order.
     let mut order: Vec<usize> = (0..ents.len()).collect();
@@ -611,7 +590,7 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
         mesh.entities[d as usize].push(Entity {
             dim: d,
             tag: t,
-            bbox: [0.0; 6],
+            bbox: derive::finish_box(ebox[i]),
             physical_tags: phys.clone(),
             bounding: Vec::new(),
         });
@@ -623,7 +602,6 @@ pub(crate) fn lift(raw: Raw2, mesh: &mut Mesh) -> PResult<()> {
     mesh.node_blocks = nblocks;
     mesh.element_blocks = blocks;
     mesh.has_entities_section = false;
-    derive::bounding_boxes(mesh);
     derive::bounding_entities(mesh);
     Ok(())
 }

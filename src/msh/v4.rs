@@ -5,9 +5,8 @@
 
 use super::error::{ErrorKind, Fail, PResult};
 use super::scan::{f64s_into, u64_at, Bin, Text};
-use crate::mesh::{
-    element_node_count, ElementBlock, Entity, Mesh, NodeBlock, NodeIndex, PeriodicLink,
-};
+use super::tags::TagSet;
+use crate::mesh::{element_node_count, ElementBlock, Entity, Mesh, NodeBlock, PeriodicLink};
 
 /// Number of parametric values per node for a block on an entity of dimension `dim`.
 fn param_count(parametric: bool, dim: i32) -> usize {
@@ -19,136 +18,221 @@ fn param_count(parametric: bool, dim: i32) -> usize {
 }
 
 fn bad_dim(pos: usize, binary: bool, dim: i32) -> Fail {
-    let kind = ErrorKind::Invalid(format!("entity dimension {dim} is not in 0..=3"));
-    if binary {
-        Fail::bin(pos, kind)
-    } else {
-        Fail::at(pos, kind)
+    Fail::new(
+        pos,
+        binary,
+        ErrorKind::Invalid(format!("entity dimension {dim} is not in 0..=3")),
+    )
+}
+
+/// Compares the records read with the count a section header announced.
+fn check_count(found: u64, declared: u64, pos: usize, binary: bool, what: &str) -> PResult<()> {
+    if found == declared {
+        return Ok(());
+    }
+    Err(Fail::new(
+        pos,
+        binary,
+        ErrorKind::CountMismatch {
+            what: what.to_string(),
+            declared,
+            found,
+        },
+    ))
+}
+
+/// Field access shared by the ASCII and binary `$Entities` readers (the layouts only differ
+/// in encoding: counts are `size_t` and tags `int` in binary).
+trait Fields {
+    fn int(&mut self, what: &str) -> PResult<i32>;
+    fn real(&mut self, what: &str) -> PResult<f64>;
+    /// A count of `int` records.
+    fn ints(&mut self, what: &str) -> PResult<usize>;
+}
+
+impl Fields for Text<'_> {
+    fn int(&mut self, what: &str) -> PResult<i32> {
+        self.i32(what)
+    }
+    fn real(&mut self, what: &str) -> PResult<f64> {
+        self.f64(what)
+    }
+    fn ints(&mut self, what: &str) -> PResult<usize> {
+        self.count(what, 2)
     }
 }
 
-/// `$Entities` (ASCII). 4.1: `numPoints numCurves numSurfaces numVolumes`, a point is
-/// `tag x y z numPhys phys…`, other entities `tag minX minY minZ maxX maxY maxZ numPhys
-/// phys… numBound bound…`. 4.0 gives points a bounding box too.
-pub(crate) fn entities_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<()> {
-    let mut counts = [0usize; 4];
-    for c in counts.iter_mut() {
-        *c = t.count("entity count")?;
+impl Fields for Bin<'_> {
+    fn int(&mut self, what: &str) -> PResult<i32> {
+        self.i32(what)
     }
-    for (dim, &n) in counts.iter().enumerate() {
-        let mut v = Vec::with_capacity(n);
-        for _ in 0..n {
-            let tag = t.i32("entity tag")?;
-            let mut bbox = [0.0; 6];
-            if dim == 0 && !v40 {
-                for k in 0..3 {
-                    bbox[k] = t.f64("point coordinate")?;
-                    bbox[k + 3] = bbox[k];
-                }
-            } else {
-                for b in bbox.iter_mut() {
-                    *b = t.f64("bounding box value")?;
-                }
-            }
-            let np = t.count("number of physical tags")?;
-            let mut physical_tags = Vec::with_capacity(np);
-            for _ in 0..np {
-                physical_tags.push(t.i32("physical tag")?);
-            }
-            let mut bounding = Vec::new();
-            if dim > 0 {
-                let nb = t.count("number of bounding entities")?;
-                bounding.reserve(nb);
-                for _ in 0..nb {
-                    bounding.push(t.i32("bounding entity tag")?);
-                }
-            }
-            v.push(Entity {
-                dim: dim as i32,
-                tag,
-                bbox,
-                physical_tags,
-                bounding,
-            });
+    fn real(&mut self, what: &str) -> PResult<f64> {
+        self.f64(what)
+    }
+    fn ints(&mut self, what: &str) -> PResult<usize> {
+        self.count(what, 4)
+    }
+}
+
+/// The fields of one entity after its tag: box (or point coordinates), physical tags,
+/// bounding entities.
+fn entity_fields<F: Fields>(f: &mut F, dim: usize, tag: i32, point_box: bool) -> PResult<Entity> {
+    let mut bbox = [0.0; 6];
+    if dim == 0 && !point_box {
+        for k in 0..3 {
+            bbox[k] = f.real("point coordinate")?;
+            bbox[k + 3] = bbox[k];
         }
-        mesh.entities[dim].extend(v);
+    } else {
+        for b in bbox.iter_mut() {
+            *b = f.real("bounding box value")?;
+        }
+    }
+    let np = f.ints("number of physical tags")?;
+    let mut physical_tags = Vec::with_capacity(np);
+    for _ in 0..np {
+        physical_tags.push(f.int("physical tag")?);
+    }
+    let mut bounding = Vec::new();
+    if dim > 0 {
+        let nb = f.ints("number of bounding entities")?;
+        bounding.reserve(nb);
+        for _ in 0..nb {
+            bounding.push(f.int("bounding entity tag")?);
+        }
+    }
+    Ok(Entity {
+        dim: dim as i32,
+        tag,
+        bbox,
+        physical_tags,
+        bounding,
+    })
+}
+
+/// `$Entities` body after the four counts. 4.1: a point is `tag x y z numPhys phys…`, other
+/// entities `tag minX minY minZ maxX maxY maxZ numPhys phys… numBound bound…`. 4.0 gives
+/// points a bounding box too (`point_box`).
+fn entities<F: Fields>(
+    f: &mut F,
+    counts: [usize; 4],
+    point_box: bool,
+    mesh: &mut Mesh,
+) -> PResult<()> {
+    for (dim, &n) in counts.iter().enumerate() {
+        for _ in 0..n {
+            let tag = f.int("entity tag")?;
+            let e = entity_fields(f, dim, tag, point_box)?;
+            mesh.entities[dim].push(e);
+        }
     }
     mesh.has_entities_section = true;
     Ok(())
 }
 
-/// `$Entities` (binary 4.1): the same fields, counts as `size_t`, tags as `int`.
+/// `$PartitionedEntities` (4.1, ASCII or binary): `numPartitions`, `numGhostEntities` and
+/// `(tag, partition)` pairs, the four counts, then per entity `tag parentDim parentTag
+/// numPartitions partition…` followed by the fields of a plain entity. The partition
+/// entities are added to the model as plain entities (they keep their physical groups and
+/// bounding entities); the partition structure itself is not kept. Returns the number of
+/// partitions.
+fn partitioned_entities<F: Fields>(f: &mut F, mesh: &mut Mesh) -> PResult<usize> {
+    let nparts = f.ints("number of partitions")?;
+    let nghost = f.ints("number of ghost entities")?;
+    for _ in 0..nghost {
+        f.int("ghost entity tag")?;
+        f.int("ghost entity partition")?;
+    }
+    let mut counts = [0usize; 4];
+    for c in counts.iter_mut() {
+        *c = f.ints("partitioned entity count")?;
+    }
+    for (dim, &n) in counts.iter().enumerate() {
+        for _ in 0..n {
+            let tag = f.int("entity tag")?;
+            f.int("parent dimension")?;
+            f.int("parent tag")?;
+            let np = f.ints("number of partitions of the entity")?;
+            for _ in 0..np {
+                f.int("partition tag")?;
+            }
+            let e = entity_fields(f, dim, tag, false)?;
+            if mesh.entity(e.dim, e.tag).is_none() {
+                mesh.entities[dim].push(e);
+            }
+        }
+    }
+    Ok(nparts)
+}
+
+/// `$PartitionedEntities` in ASCII.
+pub(crate) fn partitioned_entities_ascii(t: &mut Text, mesh: &mut Mesh) -> PResult<usize> {
+    partitioned_entities(t, mesh)
+}
+
+/// `$PartitionedEntities` in binary.
+pub(crate) fn partitioned_entities_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<usize> {
+    partitioned_entities(b, mesh)
+}
+
+/// `$Entities` (ASCII): `numPoints numCurves numSurfaces numVolumes`, then the entities.
+pub(crate) fn entities_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<()> {
+    let mut counts = [0usize; 4];
+    for c in counts.iter_mut() {
+        *c = t.count("entity count", 8)?;
+    }
+    entities(t, counts, v40, mesh)
+}
+
+/// `$Entities` (binary 4.1): counts as `size_t`, then the entities.
 pub(crate) fn entities_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<()> {
     let mut counts = [0usize; 4];
     for c in counts.iter_mut() {
         *c = b.count("entity count", 4)?;
     }
-    for (dim, &n) in counts.iter().enumerate() {
-        for _ in 0..n {
-            let tag = b.i32("entity tag")?;
-            let mut bbox = [0.0; 6];
-            if dim == 0 {
-                for k in 0..3 {
-                    bbox[k] = b.f64("point coordinate")?;
-                    bbox[k + 3] = bbox[k];
-                }
-            } else {
-                for v in bbox.iter_mut() {
-                    *v = b.f64("bounding box value")?;
-                }
-            }
-            let np = b.count("number of physical tags", 4)?;
-            let mut physical_tags = Vec::with_capacity(np);
-            for _ in 0..np {
-                physical_tags.push(b.i32("physical tag")?);
-            }
-            let mut bounding = Vec::new();
-            if dim > 0 {
-                let nb = b.count("number of bounding entities", 4)?;
-                for _ in 0..nb {
-                    bounding.push(b.i32("bounding entity tag")?);
-                }
-            }
-            mesh.entities[dim].push(Entity {
-                dim: dim as i32,
-                tag,
-                bbox,
-                physical_tags,
-                bounding,
-            });
-        }
+    entities(b, counts, false, mesh)
+}
+
+/// Section header `numBlocks numItems [minTag maxTag]` (no min/max in 4.0); returns the block
+/// count, the item count and the item count's offset.
+fn header_ascii(t: &mut Text, v40: bool, item: &str) -> PResult<(usize, u64, usize)> {
+    let nblocks = t.count(&format!("number of {item} blocks"), 8)?;
+    t.skip_ws();
+    let pos = t.at();
+    let total = t.u64(&format!("number of {item}s"))?;
+    if !v40 {
+        t.u64(&format!("minimum {item} tag"))?;
+        t.u64(&format!("maximum {item} tag"))?;
     }
-    mesh.has_entities_section = true;
-    Ok(())
+    Ok((nblocks, total, pos))
+}
+
+/// Entity of a block header: `entityDim entityTag` (4.1) or `entityTag entityDim` (4.0).
+fn block_entity_ascii(t: &mut Text, v40: bool) -> PResult<(i32, i32)> {
+    t.skip_ws();
+    let pos = t.at();
+    let (dim, tag) = if v40 {
+        let tag = t.i32("entity tag")?;
+        (t.i32("entity dimension")?, tag)
+    } else {
+        (t.i32("entity dimension")?, t.i32("entity tag")?)
+    };
+    if !(0..=3).contains(&dim) {
+        return Err(bad_dim(pos, false, dim));
+    }
+    Ok((dim, tag))
 }
 
 /// `$Nodes` (ASCII). 4.1: `numBlocks numNodes minTag maxTag`, per block `entityDim entityTag
 /// parametric numNodes`, then all node tags, then one coordinate row per node. 4.0: header
 /// without min/max, block header `entityTag entityDim ...`, each row `tag x y z [u v]`.
 pub(crate) fn nodes_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<()> {
-    let nblocks = t.count("number of node blocks")?;
-    t.skip_ws();
-    let header_pos = t.at();
-    let total = t.u64("number of nodes")?;
-    if !v40 {
-        t.u64("minimum node tag")?;
-        t.u64("maximum node tag")?;
-    }
+    let (nblocks, total, header_pos) = header_ascii(t, v40, "node")?;
     let mut found = 0u64;
     for _ in 0..nblocks {
-        t.skip_ws();
-        let bpos = t.at();
-        let (entity_dim, entity_tag) = if v40 {
-            let tag = t.i32("entity tag")?;
-            (t.i32("entity dimension")?, tag)
-        } else {
-            (t.i32("entity dimension")?, t.i32("entity tag")?)
-        };
-        if !(0..=3).contains(&entity_dim) {
-            return Err(bad_dim(bpos, false, entity_dim));
-        }
+        let (entity_dim, entity_tag) = block_entity_ascii(t, v40)?;
         let parametric = t.i32("parametric flag")? != 0;
-        let n = t.count("number of nodes in block")?;
+        let n = t.count("number of nodes in block", 8)?;
         let np = param_count(parametric, entity_dim);
         let mut tags = Vec::with_capacity(n);
         let mut coords = Vec::with_capacity(n);
@@ -190,35 +274,37 @@ pub(crate) fn nodes_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<(
             params: parametric.then_some(params),
         });
     }
-    if found != total {
-        return Err(Fail::at(
-            header_pos,
-            ErrorKind::CountMismatch {
-                what: "number of nodes".into(),
-                declared: total,
-                found,
-            },
-        ));
+    check_count(found, total, header_pos, false, "number of nodes")
+}
+
+/// Binary section header: four `size_t` (blocks, items, min tag, max tag).
+fn header_binary(b: &mut Bin, item: &str) -> PResult<(usize, u64, usize)> {
+    let nblocks = b.count(&format!("number of {item} blocks"), 20)?;
+    let pos = b.p;
+    let total = b.u64(&format!("number of {item}s"))?;
+    b.u64(&format!("minimum {item} tag"))?;
+    b.u64(&format!("maximum {item} tag"))?;
+    Ok((nblocks, total, pos))
+}
+
+/// Binary block header entity: `int entityDim, int entityTag`.
+fn block_entity_binary(b: &mut Bin) -> PResult<(i32, i32)> {
+    let pos = b.p;
+    let dim = b.i32("entity dimension")?;
+    let tag = b.i32("entity tag")?;
+    if !(0..=3).contains(&dim) {
+        return Err(bad_dim(pos, true, dim));
     }
-    Ok(())
+    Ok((dim, tag))
 }
 
 /// `$Nodes` (binary 4.1): header of four `size_t`, block headers `int int int size_t`, node
 /// tags as `size_t`, coordinates as `double`.
 pub(crate) fn nodes_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<()> {
-    let nblocks = b.count("number of node blocks", 20)?;
-    let header_pos = b.p;
-    let total = b.u64("number of nodes")?;
-    b.u64("minimum node tag")?;
-    b.u64("maximum node tag")?;
+    let (nblocks, total, header_pos) = header_binary(b, "node")?;
     let mut found = 0u64;
     for _ in 0..nblocks {
-        let bpos = b.p;
-        let entity_dim = b.i32("entity dimension")?;
-        let entity_tag = b.i32("entity tag")?;
-        if !(0..=3).contains(&entity_dim) {
-            return Err(bad_dim(bpos, true, entity_dim));
-        }
+        let (entity_dim, entity_tag) = block_entity_binary(b)?;
         let parametric = b.i32("parametric flag")? != 0;
         let np = param_count(parametric, entity_dim);
         let n = b.count("number of nodes in block", 8 * (4 + np as u64))?;
@@ -255,26 +341,11 @@ pub(crate) fn nodes_binary(b: &mut Bin, mesh: &mut Mesh) -> PResult<()> {
             },
         });
     }
-    if found != total {
-        return Err(Fail::bin(
-            header_pos,
-            ErrorKind::CountMismatch {
-                what: "number of nodes".into(),
-                declared: total,
-                found,
-            },
-        ));
-    }
-    Ok(())
+    check_count(found, total, header_pos, true, "number of nodes")
 }
 
 fn unknown_type(pos: usize, binary: bool, ty: i64) -> Fail {
-    let kind = ErrorKind::UnknownElementType(ty);
-    if binary {
-        Fail::bin(pos, kind)
-    } else {
-        Fail::at(pos, kind)
-    }
+    Fail::new(pos, binary, ErrorKind::UnknownElementType(ty))
 }
 
 /// `$Elements` (ASCII). 4.1: `numBlocks numElements minTag maxTag`, per block `entityDim
@@ -284,29 +355,12 @@ pub(crate) fn elements_ascii(
     t: &mut Text,
     v40: bool,
     mesh: &mut Mesh,
-    index: Option<&NodeIndex>,
+    index: Option<&TagSet>,
 ) -> PResult<()> {
-    let nblocks = t.count("number of element blocks")?;
-    t.skip_ws();
-    let header_pos = t.at();
-    let total = t.u64("number of elements")?;
-    if !v40 {
-        t.u64("minimum element tag")?;
-        t.u64("maximum element tag")?;
-    }
+    let (nblocks, total, header_pos) = header_ascii(t, v40, "element")?;
     let mut found = 0u64;
     for _ in 0..nblocks {
-        t.skip_ws();
-        let bpos = t.at();
-        let (entity_dim, entity_tag) = if v40 {
-            let tag = t.i32("entity tag")?;
-            (t.i32("entity dimension")?, tag)
-        } else {
-            (t.i32("entity dimension")?, t.i32("entity tag")?)
-        };
-        if !(0..=3).contains(&entity_dim) {
-            return Err(bad_dim(bpos, false, entity_dim));
-        }
+        let (entity_dim, entity_tag) = block_entity_ascii(t, v40)?;
         t.skip_ws();
         let tpos = t.at();
         let ty = t.i32("element type")?;
@@ -314,7 +368,7 @@ pub(crate) fn elements_ascii(
             .ok()
             .and_then(element_node_count)
             .ok_or_else(|| unknown_type(tpos, false, ty as i64))?;
-        let n = t.count("number of elements in block")?;
+        let n = t.count("number of elements in block", 2 * (k as u64 + 1))?;
         let mut tags = Vec::with_capacity(n);
         let mut nodes = Vec::with_capacity(n * k);
         for _ in 0..n {
@@ -325,7 +379,7 @@ pub(crate) fn elements_ascii(
                 let npos = t.at();
                 let node = t.u64_inline("node tags", j, k)?;
                 if let Some(ix) = index {
-                    if ix.get(node).is_none() {
+                    if !ix.contains(node) {
                         return Err(Fail::at(
                             npos,
                             ErrorKind::MissingNode {
@@ -349,39 +403,16 @@ pub(crate) fn elements_ascii(
             partitions: None,
         });
     }
-    if found != total {
-        return Err(Fail::at(
-            header_pos,
-            ErrorKind::CountMismatch {
-                what: "number of elements".into(),
-                declared: total,
-                found,
-            },
-        ));
-    }
-    Ok(())
+    check_count(found, total, header_pos, false, "number of elements")
 }
 
 /// `$Elements` (binary 4.1): header of four `size_t`, block headers `int int int size_t`,
 /// then per element `size_t` tag and node tags.
-pub(crate) fn elements_binary(
-    b: &mut Bin,
-    mesh: &mut Mesh,
-    index: Option<&NodeIndex>,
-) -> PResult<()> {
-    let nblocks = b.count("number of element blocks", 20)?;
-    let header_pos = b.p;
-    let total = b.u64("number of elements")?;
-    b.u64("minimum element tag")?;
-    b.u64("maximum element tag")?;
+pub(crate) fn elements_binary(b: &mut Bin, mesh: &mut Mesh, index: Option<&TagSet>) -> PResult<()> {
+    let (nblocks, total, header_pos) = header_binary(b, "element")?;
     let mut found = 0u64;
     for _ in 0..nblocks {
-        let bpos = b.p;
-        let entity_dim = b.i32("entity dimension")?;
-        let entity_tag = b.i32("entity tag")?;
-        if !(0..=3).contains(&entity_dim) {
-            return Err(bad_dim(bpos, true, entity_dim));
-        }
+        let (entity_dim, entity_tag) = block_entity_binary(b)?;
         let tpos = b.p;
         let ty = b.i32("element type")?;
         let k = u32::try_from(ty)
@@ -400,7 +431,7 @@ pub(crate) fn elements_binary(
             nodes.extend(rec[8..].chunks_exact(8).map(|c| u64_at(c, swap)));
         }
         if let Some(ix) = index {
-            if let Some(i) = nodes.iter().position(|&v| ix.get(v).is_none()) {
+            if let Some(i) = nodes.iter().position(|&v| !ix.contains(v)) {
                 let e = i / k.max(1);
                 return Err(Fail::bin(
                     base + e * w as usize + 8 * (1 + i % k.max(1)),
@@ -421,24 +452,14 @@ pub(crate) fn elements_binary(
             partitions: None,
         });
     }
-    if found != total {
-        return Err(Fail::bin(
-            header_pos,
-            ErrorKind::CountMismatch {
-                what: "number of elements".into(),
-                declared: total,
-                found,
-            },
-        ));
-    }
-    Ok(())
+    check_count(found, total, header_pos, true, "number of elements")
 }
 
 /// `$Periodic` (ASCII 4.1): `n`, per link `dim tag masterTag`, `numAffine value…`,
 /// `numNodes`, then `node masterNode` pairs. The 4.0 / 2.2 form (`Affine v…` line, optional)
 /// is accepted too.
 pub(crate) fn periodic_ascii(t: &mut Text, mesh: &mut Mesh) -> PResult<()> {
-    let n = t.count("number of periodic links")?;
+    let n = t.count("number of periodic links", 8)?;
     for _ in 0..n {
         let dim = t.i32("entity dimension")?;
         let tag = t.i32("entity tag")?;
@@ -455,7 +476,7 @@ pub(crate) fn periodic_ascii(t: &mut Text, mesh: &mut Mesh) -> PResult<()> {
             affine = Some(v);
             t.skip_ws();
         }
-        let mut count = t.count("number of values or nodes")?;
+        let mut count = t.count("number of values or nodes", 2)?;
         if affine.is_none() && looks_like_affine_count(t, count) {
             let mut v = Vec::with_capacity(count);
             for _ in 0..count {
@@ -464,7 +485,7 @@ pub(crate) fn periodic_ascii(t: &mut Text, mesh: &mut Mesh) -> PResult<()> {
             if count > 0 {
                 affine = Some(v);
             }
-            count = t.count("number of periodic nodes")?;
+            count = t.count("number of periodic nodes", 4)?;
         }
         let mut node_pairs = Vec::with_capacity(count);
         for _ in 0..count {
@@ -499,11 +520,12 @@ fn looks_like_affine_count(t: &Text, count: usize) -> bool {
         p.skip_ws();
         let start = p.p;
         let line_end2 = memchr::memchr(b'\n', &t.d[start..]).map_or(t.d.len(), |i| start + i);
-        let toks = t.d[start..line_end2]
+        let line = &t.d[start..line_end2];
+        let toks = line
             .split(|b| b.is_ascii_whitespace())
             .filter(|s| !s.is_empty())
             .count();
-        return toks == 1;
+        return toks == 1 && line.first() != Some(&b'$');
     }
     false
 }

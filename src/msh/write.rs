@@ -6,6 +6,7 @@
 use std::collections::HashMap;
 use std::io::{self, Write};
 
+use super::derive;
 use super::error::{ErrorKind, MshError};
 use crate::mesh::{Entity, Mesh, MshFormat, MshVersion, SectionPosition};
 
@@ -123,6 +124,38 @@ fn data_sections_fit(mesh: &Mesh, format: MshFormat) -> bool {
             == matches!(format.version, MshVersion::V2 { .. })
 }
 
+/// Number of nodes the writers emit (a block's tags without coordinates are skipped).
+fn written_nodes(mesh: &Mesh) -> usize {
+    mesh.node_blocks
+        .iter()
+        .map(|b| b.tags.len().min(b.coords.len()))
+        .sum()
+}
+
+/// Number of elements the writers emit from block `b` (complete node lists only).
+fn written_elements(b: &crate::mesh::ElementBlock) -> usize {
+    b.tags
+        .len()
+        .min(b.nodes.len() / b.nodes_per_element().max(1))
+}
+
+/// True when MSH 2.2 output carries `$ParametricNodes`: ASCII, some parametric block, and
+/// parametric values for every node on a curve or surface (the section has no way to say
+/// "none" for a node, and zeros would be wrong data).
+fn v22_parametric(mesh: &Mesh, format: MshFormat) -> bool {
+    !format.binary
+        && mesh.node_blocks.iter().any(|b| b.params.is_some())
+        && mesh
+            .node_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 1 || b.entity_dim == 2)
+            .all(|b| {
+                b.params
+                    .as_ref()
+                    .is_some_and(|p| p.len() == b.tags.len() * b.entity_dim as usize)
+            })
+}
+
 /// Warnings about what writing `mesh` as `format` will drop (data sections in another
 /// encoding, parametric coordinates in binary MSH 2.2). Empty when nothing is lost.
 pub fn write_warnings(mesh: &Mesh, format: MshFormat) -> Vec<String> {
@@ -134,72 +167,27 @@ pub fn write_warnings(mesh: &Mesh, format: MshFormat) -> Vec<String> {
         ));
     }
     let v2 = matches!(format.version, MshVersion::V2 { .. });
-    if v2 && format.binary && mesh.node_blocks.iter().any(|b| b.params.is_some()) {
+    if v2 && mesh.node_blocks.iter().any(|b| b.params.is_some()) && !v22_parametric(mesh, format) {
         w.push(
-            "parametric node coordinates dropped: binary MSH 2.2 has no $ParametricNodes".into(),
+            "parametric node coordinates dropped: MSH 2.2 keeps them only in ASCII $ParametricNodes, with values for every curve and surface node".into(),
         );
     }
-    if v2
-        && mesh
-            .element_blocks
-            .iter()
-            .any(|b| crate::mesh::element_node_count(b.element_type).is_none())
+    for r in &mesh.raw_sections {
+        if !raw_section_fits(mesh, &r.name, format) {
+            w.push(format!(
+                "${} dropped: its data is encoded for another MSH variant",
+                r.name
+            ));
+        }
+    }
+    if mesh
+        .element_blocks
+        .iter()
+        .any(|b| crate::mesh::element_node_count(b.element_type).is_none())
     {
         w.push("element blocks of unknown type skipped".into());
     }
     w
-}
-
-/// Entities to write: the mesh's, plus a bare entity for every block that names one that is
-/// missing (Gmsh refuses element blocks on unknown entities).
-fn entities_for_output(mesh: &Mesh) -> [Vec<Entity>; 4] {
-    let mut ents = mesh.entities.clone();
-    let mut have: std::collections::HashSet<(i32, i32)> =
-        ents.iter().flatten().map(|e| (e.dim, e.tag)).collect();
-    let pairs = mesh
-        .node_blocks
-        .iter()
-        .map(|b| (b.entity_dim, b.entity_tag))
-        .chain(
-            mesh.element_blocks
-                .iter()
-                .map(|b| (b.entity_dim, b.entity_tag)),
-        );
-    for (d, t) in pairs {
-        if (0..4).contains(&d) && have.insert((d, t)) {
-            let mut bbox = [
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-                f64::NEG_INFINITY,
-            ];
-            for b in mesh
-                .node_blocks
-                .iter()
-                .filter(|b| b.entity_dim == d && b.entity_tag == t)
-            {
-                for c in &b.coords {
-                    for k in 0..3 {
-                        bbox[k] = bbox[k].min(c[k]);
-                        bbox[k + 3] = bbox[k + 3].max(c[k]);
-                    }
-                }
-            }
-            if bbox[0] > bbox[3] {
-                bbox = [0.0; 6];
-            }
-            ents[d as usize].push(Entity {
-                dim: d,
-                tag: t,
-                bbox,
-                physical_tags: Vec::new(),
-                bounding: Vec::new(),
-            });
-        }
-    }
-    ents
 }
 
 /// Writes `mesh` to `w` in `format` (MSH 4.0 is written as 4.1). `name` is used in errors.
@@ -284,11 +272,9 @@ fn tail(out: &mut Out, mesh: &Mesh, format: MshFormat) -> io::Result<()> {
             out.maybe_flush()?;
         }
     }
-    for r in mesh
-        .raw_sections
-        .iter()
-        .filter(|r| r.position == SectionPosition::AfterMesh)
-    {
+    for r in mesh.raw_sections.iter().filter(|r| {
+        r.position == SectionPosition::AfterMesh && raw_section_fits(mesh, &r.name, format)
+    }) {
         out.section(&r.name);
         out.b(&r.body);
         out.end(&r.name);
@@ -297,12 +283,35 @@ fn tail(out: &mut Out, mesh: &Mesh, format: MshFormat) -> io::Result<()> {
     Ok(())
 }
 
+/// Sections Gmsh itself interprets, whose encoding follows the file's (binary data in
+/// binary files), and that exist in MSH 4 only.
+const ENCODED_V4_SECTIONS: &[&str] = &["Parametrizations", "Edges", "Faces"];
+
+/// True when kept section `name` can be written into `format`: unknown sections always
+/// (Gmsh skips them), encoded 4.x sections only into 4.1 with the input's encoding.
+fn raw_section_fits(mesh: &Mesh, name: &str, format: MshFormat) -> bool {
+    if !ENCODED_V4_SECTIONS.contains(&name) {
+        return true;
+    }
+    let src_binary = mesh.format.is_some_and(|f| f.binary);
+    format.version == MshVersion::V41 && format.binary == src_binary
+}
+
 fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
     let bin = format.binary;
     head(out, mesh, "4.1")?;
 
     // $Entities
-    let ents = entities_for_output(mesh);
+    // Gmsh refuses blocks on entities it does not know: complete the list when needed.
+    let completed;
+    let ents = if derive::find_missing_entities(mesh).is_empty() {
+        &mesh.entities
+    } else {
+        let mut m = mesh.clone();
+        derive::missing_entities(&mut m);
+        completed = m.entities;
+        &completed
+    };
     out.section("Entities");
     for (d, v) in ents.iter().enumerate() {
         out.count_u64(v.len() as u64);
@@ -356,17 +365,8 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
 
     // $Nodes
     out.section("Nodes");
-    let nn: usize = mesh.node_count();
-    let (mut lo, mut hi) = (u64::MAX, 0u64);
-    for b in &mesh.node_blocks {
-        for &t in &b.tags {
-            lo = lo.min(t);
-            hi = hi.max(t);
-        }
-    }
-    if nn == 0 {
-        lo = 0;
-    }
+    let nn = written_nodes(mesh);
+    let (lo, hi) = tag_range(mesh.node_blocks.iter().flat_map(|b| &b.tags));
     header4(out, mesh.node_blocks.len() as u64, nn as u64, lo, hi);
     for b in &mesh.node_blocks {
         let n = b.tags.len().min(b.coords.len());
@@ -432,21 +432,12 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
         .iter()
         .filter(|b| b.nodes_per_element() > 0)
         .collect();
-    let ne: usize = blocks.iter().map(|b| b.len()).sum();
-    let (mut lo, mut hi) = (u64::MAX, 0u64);
-    for b in &blocks {
-        for &t in &b.tags {
-            lo = lo.min(t);
-            hi = hi.max(t);
-        }
-    }
-    if ne == 0 {
-        lo = 0;
-    }
+    let ne: usize = blocks.iter().map(|b| written_elements(b)).sum();
+    let (lo, hi) = tag_range(blocks.iter().flat_map(|b| &b.tags));
     header4(out, blocks.len() as u64, ne as u64, lo, hi);
     for b in &blocks {
         let k = b.nodes_per_element();
-        let n = b.tags.len().min(b.nodes.len() / k);
+        let n = written_elements(b);
         if bin {
             out.le_i32(b.entity_dim);
             out.le_i32(b.entity_tag);
@@ -504,23 +495,7 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
                     out.le_u64(m);
                 }
             } else {
-                out.int_sp(l.dim);
-                out.int_sp(l.tag);
-                out.int(l.master_tag);
-                out.nl();
-                out.int(aff.len());
-                for &x in aff {
-                    out.sp();
-                    out.f(x);
-                }
-                out.nl();
-                out.int(l.node_pairs.len());
-                out.nl();
-                for &(a, m) in &l.node_pairs {
-                    out.int_sp(a);
-                    out.int(m);
-                    out.nl();
-                }
+                periodic_link_ascii(out, l, false);
             }
             out.maybe_flush()?;
         }
@@ -530,6 +505,48 @@ fn write_v41(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
         out.end("Periodic");
     }
     tail(out, mesh, format)
+}
+
+/// One ASCII `$Periodic` link: `dim tag masterTag`, the affine transform (4.1: `16 v…` or
+/// `0`; 2.2: an `Affine v…` line when present), the node count and the node pairs.
+fn periodic_link_ascii(out: &mut Out, l: &crate::mesh::PeriodicLink, v22: bool) {
+    out.int_sp(l.dim);
+    out.int_sp(l.tag);
+    out.int(l.master_tag);
+    out.nl();
+    let aff: &[f64] = l.affine.as_deref().unwrap_or(&[]);
+    if v22 {
+        if aff.len() == 16 {
+            out.s("Affine");
+            for &x in aff {
+                out.sp();
+                out.f(x);
+            }
+            out.nl();
+        }
+    } else {
+        out.int(aff.len());
+        for &x in aff {
+            out.sp();
+            out.f(x);
+        }
+        out.nl();
+    }
+    out.int(l.node_pairs.len());
+    out.nl();
+    for &(a, m) in &l.node_pairs {
+        out.int_sp(a);
+        out.int(m);
+        out.nl();
+    }
+}
+
+/// Smallest and largest tag (`(0, 0)` when there is none).
+fn tag_range<'a>(tags: impl Iterator<Item = &'a u64>) -> (u64, u64) {
+    tags.fold(None, |acc: Option<(u64, u64)>, &t| {
+        Some(acc.map_or((t, t), |(lo, hi)| (lo.min(t), hi.max(t))))
+    })
+    .unwrap_or((0, 0))
 }
 
 /// `numBlocks numItems minTag maxTag`.
@@ -560,8 +577,8 @@ fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
     head(out, mesh, "2.2")?;
 
     // $Nodes / $ParametricNodes
-    let parametric = !bin && mesh.node_blocks.iter().any(|b| b.params.is_some());
-    let nn = mesh.node_count();
+    let parametric = v22_parametric(mesh, format);
+    let nn = written_nodes(mesh);
     let name = if parametric {
         "ParametricNodes"
     } else {
@@ -631,7 +648,7 @@ fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
         .collect();
     let total: usize = blocks
         .iter()
-        .map(|b| b.len() * phys_of(b.entity_dim, b.entity_tag).len())
+        .map(|b| written_elements(b) * phys_of(b.entity_dim, b.entity_tag).len())
         .sum();
     out.section("Elements");
     out.int(total);
@@ -640,7 +657,7 @@ fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
     for b in &blocks {
         let k = b.nodes_per_element();
         let phys = phys_of(b.entity_dim, b.entity_tag);
-        let n = b.tags.len().min(b.nodes.len() / k);
+        let n = written_elements(b);
         let parts = |i: usize| -> &[i32] {
             b.partitions
                 .as_ref()
@@ -712,25 +729,7 @@ fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
         out.int(mesh.periodic.len());
         out.nl();
         for l in &mesh.periodic {
-            out.int_sp(l.dim);
-            out.int_sp(l.tag);
-            out.int(l.master_tag);
-            out.nl();
-            if let Some(a) = l.affine.as_ref().filter(|a| a.len() == 16) {
-                out.s("Affine");
-                for &x in a {
-                    out.sp();
-                    out.f(x);
-                }
-                out.nl();
-            }
-            out.int(l.node_pairs.len());
-            out.nl();
-            for &(a, m) in &l.node_pairs {
-                out.int_sp(a);
-                out.int(m);
-                out.nl();
-            }
+            periodic_link_ascii(out, l, true);
             out.maybe_flush()?;
         }
         out.end("Periodic");

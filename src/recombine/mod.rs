@@ -1,1 +1,854 @@
-//! (recombine: to be written)
+//! Blossom-Quad recombination (Remacle et al. 2012, sections 4, 5 and 7 steps 1–5): every
+//! surface's 3-node triangles become 4-node quads through an exact minimum-cost perfect
+//! matching of the triangle-adjacency graph.
+//!
+//! # Pipeline ([`recombine`])
+//! 1. **Checks.** Volume elements → [`RecombineError::VolumeElements`] unless
+//!    [`RecombineOptions::drop_volumes`] (then they are dropped with a warning; volume entities
+//!    are kept). Surface elements other than tri3/quad4 (tri6, quad9 …) →
+//!    [`RecombineError::UnsupportedSurfaceElements`]. A surface with triangles that is in a
+//!    `$Periodic` link → [`RecombineError::PeriodicSurface`].
+//! 2. **Topology** (per surface, in parallel). Nodes get dense global `u32` ids; each
+//!    surface's half-edges are sorted by `u64` edge key (an LSD radix sort of key and
+//!    half-edge packed in one `u64`; no hash maps). An edge shared by two triangles of the
+//!    surface is a *graph edge* unless it is a *wall*: it lies on a model curve, or the two
+//!    triangles are oriented inconsistently, or three or more triangles share it. "On a
+//!    curve" means: a 2-node line element; or, for curves without any line element (rule
+//!    (b)), both nodes classified on the same curve, or on a curve and a point bounding it —
+//!    unless that curve also carries boundary edges of this surface, in which case its
+//!    segments are boundary edges and the interior edge is a chord (a triangle with three
+//!    nodes on a circle). An edge with one triangle of the surface is a wall too: this is how
+//!    surfaces without any line element (MSH 2.2 files, `gmsh -2` with physical surfaces only)
+//!    are bounded — where the surface's triangle set ends or meets another surface. (A seam
+//!    curve in a file with neither line elements nor curve node classification cannot be
+//!    seen; the graph then crosses it, which keeps the mesh valid.) The connected components
+//!    of the graph are the surface's *regions*.
+//! 3. **Parity** (eq. 5–6). Every region needs an even number of triangles. Splitting a wall
+//!    segment at its midpoint splits the adjacent triangle on each side, so it flips the
+//!    parity of every region that has an odd number of triangles on that segment: a segment
+//!    on the outer boundary flips its one region, an interface between two surfaces (or two
+//!    regions cut by an embedded curve) flips both, a seam or a dangling embedded curve with
+//!    the same region on both sides flips nothing. Segments are grouped by (curve, flipped
+//!    regions) — the curve from the line element, or from node classification, or none for
+//!    files without curve data — and the choice of groups is a GF(2) system over the
+//!    group–region incidence. Seen as a graph (regions are nodes, a group flipping two
+//!    regions is an edge, a group flipping one region joins it to a "ground" node), a
+//!    solution is a T-join with T = the odd regions. The fewest splits are found exactly: a
+//!    minimum-cost perfect matching ([`crate::matching`]) pairs the odd regions with each
+//!    other (cost = shortest-path length in the region graph) or with the ground (each odd
+//!    region has a ground twin at its distance to the nearest outer-boundary group; twins pair
+//!    with each other at cost 0), and the groups along each pair's shortest path are split
+//!    (a group used twice cancels). Two odd surfaces sharing a curve are fixed by one split
+//!    of that curve; a closed shell (no ground) always has an even number of odd regions, so
+//!    it is always solvable. (Beyond 1500 odd regions, or when no pairing exists, a
+//!    spanning-forest T-join is used instead, and regions it cannot fix are reported.)
+//!    Groups flipping three or more regions (non-manifold curves) and segments of periodic
+//!    curves or next to quads are never split. In each chosen group the longest segment is
+//!    split at its chord midpoint (so planar areas are unchanged), parametric coordinates
+//!    interpolated; the new node gets tag `max + 1` and is classified on the curve (appended
+//!    to its node block), or on the first flipped surface when no curve is known. Every
+//!    triangle and 2-node line element holding the segment is split in two: the first piece
+//!    keeps the element tag, the second gets a fresh tag above the maximum. With
+//!    [`ParityMode::Error`] nothing is changed and [`RecombineError::OddParity`] lists the odd
+//!    surfaces, the curves to fix and how to fix them in the .geo.
+//!
+//!    *Mixed surfaces.* Quads already present are kept and only the triangles recombined.
+//!    When a surface's triangles are enclosed by quads so that they cannot be made even (no
+//!    splittable segment) or have no perfect matching — typically the isolated triangles a
+//!    partial recombination leaves — that surface's quads are split into two triangles each
+//!    (shorter diagonal, orientation kept, the first half keeps the quad's tag) and the whole
+//!    surface is recombined; [`RecombineReport::retriangulated`] and the log say so.
+//! 4. **Graph** (section 4.2). Cost of a graph edge = `1 − η_s` of the quad formed by its two
+//!    triangles (eq. 4), η_s the signed quality of [`crate::quality::eta_signed`] with angles
+//!    measured in 3D about the sum of the two triangles' normals, so a non-convex or folded
+//!    quad (η_s ≤ 0) costs more than any valid one. Integer costs: `round(10⁴ · (1 − η_s))`
+//!    ∈ [0, 2·10⁴] ([`COST_SCALE`]).
+//! 5. **Extra edges** (section 5.3). Around every vertex, the triangles between two walls
+//!    form a *fan* `t1 … tk` (each sharing a graph edge `{v, a_i}` with the next). The paper
+//!    joins the triangles of two successive boundary edges; here every fan with k ≥ 3 whose
+//!    ends are not already adjacent gets an extra edge `t1–tk` (walls from curves and
+//!    orientation changes count as boundary, so post-processing never crosses a curve). Its
+//!    cost, `2·10⁴ · (n/2 + 1) + 1` ([`extra_edge_cost`]), exceeds the cost of any
+//!    perfect matching's real edges, so the optimum uses the fewest extra edges possible —
+//!    none when the original graph has a perfect matching.
+//! 6. **Matching.** [`crate::matching::solve`]; with [`RecombineOptions::verify`] its
+//!    optimality certificate is checked ([`crate::matching::verify`]). No perfect matching
+//!    even with extra edges → [`RecombineError::NoPerfectMatching`] naming the surface and the
+//!    Tutte witness size; no triangle is ever left silently.
+//! 7. **Quads.** Two triangles matched through a graph edge become the quad
+//!    `(p[k+1], p[k+2], p[k], s)` (oriented like the first triangle; graph edges only join
+//!    consistently oriented triangles, so like both). For each extra edge in the matching:
+//!    - **Edge swap** (5.3.1) when the fan is `t1 t2 t3`, `t2` is matched across the edge
+//!      opposite `v` to `t4`, none of the four triangles is in another used extra edge's fan,
+//!      and the new diagonal from `v` to `t4`'s far vertex `x` lies inside the quad `t2 ∪ t4`:
+//!      the hexagon `t1 ∪ t2 ∪ t4 ∪ t3` is cut into two quads by `v x` (the quad `t2 ∪ t4`
+//!      has its diagonal swapped). Both are simple polygons, possibly non-convex;
+//!      optimization (section 6) is expected to improve them.
+//!    - **Vertex duplication** (5.3.2) otherwise: a new node `v'` is placed halfway between
+//!      `v` and the mean of the fan's inner vertices `a_1 … a_{k−1}` (classified on the
+//!      surface, parametric coordinates averaged from those of the `a_i` when the surface
+//!      block is parametric); the faces of the middle triangles `t2 … t(k−1)` get `v'` instead
+//!      of `v`, and `v'` is inserted into the edge `{v, a_1}` of `t1` and `{v, a_(k−1)}` of
+//!      `tk`, which become quads sharing the new edge `v v'`. The boundary and the curves are
+//!      untouched, the mesh stays conforming, orientations are kept.
+//! 8. **Write back.** Each surface's tri3 blocks are replaced by one quad4 block (appended to
+//!    an existing quad4 block of that surface: quads already present are kept). **A quad
+//!    reuses the element tag of one of its triangles** (the first in input order for a plain
+//!    merge; `t1` and `tk` for the two quads of an edge swap or a vertex duplication), so no
+//!    element tag is invented. New nodes get tags above the maximum. Element data sections
+//!    are invalidated.
+//!
+//! **Invariant** (checked by [`check_invariants`], which shares no code with the above): no
+//! triangle is left on a surface, the mesh is conforming, boundaries and curve nodes are
+//! unchanged (up to parity splits), planar areas are unchanged, orientations are kept,
+//! physical groups are identical.
+
+mod graph;
+mod invariants;
+mod parity;
+mod post;
+mod topology;
+
+use std::time::{Duration, Instant};
+
+use rayon::prelude::*;
+
+use crate::mesh::{element_dim, etype, ElementBlock, Mesh};
+use topology::{CurveInfo, NodeTable, SurfaceTopo};
+
+pub use graph::{extra_edge_cost, COST_SCALE, MAX_REAL_COST};
+pub use invariants::check_invariants;
+pub use parity::OddRegion;
+
+/// What to do with surfaces that have an odd number of triangles.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum ParityMode {
+    /// Split boundary segments so that every surface becomes even (default).
+    #[default]
+    Repair,
+    /// Refuse with [`RecombineError::OddParity`].
+    Error,
+}
+
+/// Options of [`recombine`].
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct RecombineOptions {
+    /// Parity handling.
+    pub parity: ParityMode,
+    /// Drop volume elements instead of refusing the mesh.
+    pub drop_volumes: bool,
+    /// Check the matching's optimality certificate and [`check_invariants`].
+    pub verify: bool,
+    /// Add the extra edges of section 5.3 (on by default; off only for experiments).
+    pub extra_edges: bool,
+}
+
+impl Default for RecombineOptions {
+    fn default() -> Self {
+        RecombineOptions {
+            parity: ParityMode::Repair,
+            drop_volumes: false,
+            verify: false,
+            extra_edges: true,
+        }
+    }
+}
+
+/// One parity split.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct ParitySplit {
+    /// The curve that was split, when known.
+    pub curve: Option<i32>,
+    /// Surfaces whose triangle count changed parity.
+    pub surfaces: Vec<i32>,
+    /// Node tags of the split segment.
+    pub segment: (u64, u64),
+    /// Tag of the new midpoint node.
+    pub new_node: u64,
+}
+
+/// Figures for one surface.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct SurfaceReport {
+    /// Surface entity tag.
+    pub surface: i32,
+    /// Triangles recombined (after parity splits).
+    pub triangles_in: usize,
+    /// Quads produced.
+    pub quads_out: usize,
+    /// Quads that were already present and kept.
+    pub quads_kept: usize,
+    /// Parity splits that touched this surface.
+    pub parity_splits: usize,
+    /// Graph edges (real).
+    pub graph_edges: usize,
+    /// Extra edges added to the graph.
+    pub extra_edges_added: usize,
+    /// Extra edges in the optimal matching.
+    pub extra_edges_used: usize,
+    /// Edge swaps done (5.3.1).
+    pub edge_swaps: usize,
+    /// Vertex duplications done (5.3.2).
+    pub vertex_duplications: usize,
+    /// Matching cost in units of 1/[`COST_SCALE`] (extra edges included).
+    pub matching_cost: i64,
+    /// Time to build topology and graph.
+    pub time_graph: Duration,
+    /// Time in the matching solver (and certificate check).
+    pub time_matching: Duration,
+    /// Time to build the quads.
+    pub time_post: Duration,
+}
+
+/// What [`recombine`] did.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct RecombineReport {
+    /// One entry per surface that had triangles, by surface tag.
+    pub surfaces: Vec<SurfaceReport>,
+    /// Parity splits done.
+    pub parity_splits: Vec<ParitySplit>,
+    /// Mixed surfaces whose triangles were enclosed by quads (could not be made even or
+    /// matched): their quads were split into triangles and the whole surface recombined.
+    pub retriangulated: Vec<i32>,
+    /// Volume elements dropped (with [`RecombineOptions::drop_volumes`]).
+    pub dropped_volume_elements: usize,
+    /// Human-readable log lines.
+    pub log: Vec<String>,
+    /// Total wall time.
+    pub time_total: Duration,
+}
+
+/// Why [`recombine`] refused or failed.
+#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+pub enum RecombineError {
+    /// Volume elements are present (recombining their boundary would break conformity).
+    #[error("the mesh has {count} volume elements (volumes {volumes:?}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone")]
+    VolumeElements {
+        /// Number of volume elements.
+        count: usize,
+        /// Their volume entity tags.
+        volumes: Vec<i32>,
+    },
+    /// Surface elements that are neither 3-node triangles nor 4-node quads.
+    #[error("surface {surface} has {count} elements of type {element_type} (only 3-node triangles and 4-node quads are supported for now; mesh with Mesh.ElementOrder = 1)")]
+    UnsupportedSurfaceElements {
+        /// Surface entity tag.
+        surface: i32,
+        /// Gmsh element type code.
+        element_type: u32,
+        /// How many.
+        count: usize,
+    },
+    /// A surface with triangles is periodic.
+    #[error("surface {surface} is periodic ($Periodic link to surface {master}); periodic surfaces are not supported for now")]
+    PeriodicSurface {
+        /// The surface.
+        surface: i32,
+        /// The other surface of the link.
+        master: i32,
+    },
+    /// An element block whose node list does not match its element count (a bug in whatever
+    /// built the mesh).
+    #[error("element block of type {element_type} on entity ({dim}, {entity}) has {nodes} node tags for {elements} elements")]
+    MalformedBlock {
+        /// Entity dimension.
+        dim: i32,
+        /// Entity tag.
+        entity: i32,
+        /// Element type.
+        element_type: u32,
+        /// Node tags in the block.
+        nodes: usize,
+        /// Elements in the block.
+        elements: usize,
+    },
+    /// An element refers to a node that does not exist.
+    #[error(
+        "element {element} on entity ({dim}, {entity}) refers to node {node}, which does not exist"
+    )]
+    UnknownNode {
+        /// Entity dimension.
+        dim: i32,
+        /// Entity tag.
+        entity: i32,
+        /// Element tag.
+        element: u64,
+        /// Missing node tag.
+        node: u64,
+    },
+    /// Odd surfaces with [`ParityMode::Error`].
+    #[error("{message}")]
+    OddParity {
+        /// The odd regions.
+        regions: Vec<OddRegion>,
+        /// Curves whose node counts should change (`None`: a boundary without curve data).
+        curves: Vec<Option<i32>>,
+        /// The full explanation.
+        message: String,
+    },
+    /// Odd regions that no segment split can fix.
+    #[error("cannot make these triangle regions even (no splittable boundary segment: closed, periodic or bordered by quads): {regions:?}")]
+    ParityUnsolvable {
+        /// The regions.
+        regions: Vec<OddRegion>,
+    },
+    /// No perfect matching even with extra edges.
+    #[error("surface {surface}: no perfect matching of its {triangles} triangles even with extra edges (Tutte witness: removing {witness} triangles leaves {odd_components} odd components); the triangulation cannot be recombined into quads as is")]
+    NoPerfectMatching {
+        /// Surface tag.
+        surface: i32,
+        /// Triangles in the surface.
+        triangles: usize,
+        /// Size of the Tutte set.
+        witness: usize,
+        /// Number of odd components.
+        odd_components: usize,
+    },
+    /// Edge swap / vertex duplication could not build quads.
+    #[error("surface {surface}: extra-edge post-processing failed: {detail}")]
+    PostProcess {
+        /// Surface tag.
+        surface: i32,
+        /// What went wrong.
+        detail: String,
+    },
+    /// The matching's optimality certificate failed (a solver bug).
+    #[error("surface {surface}: matching certificate check failed: {detail}")]
+    Certificate {
+        /// Surface tag.
+        surface: i32,
+        /// What failed.
+        detail: String,
+    },
+    /// [`check_invariants`] failed after recombination.
+    #[error("invariant check failed: {0}")]
+    Invariant(String),
+}
+
+/// Triangles of one surface, ready for parity analysis and matching.
+pub(crate) struct SurfaceWork {
+    pub tag: i32,
+    pub topo: SurfaceTopo,
+    pub region: Vec<u32>,
+    pub n_regions: usize,
+    /// Element tag of each triangle.
+    pub elem_tags: Vec<u64>,
+    /// MSH 2 partition tags of each triangle, when its block had some.
+    pub partitions: Vec<Option<Vec<i32>>>,
+    /// Quads already on the surface.
+    pub quads_kept: usize,
+    pub time: Duration,
+}
+
+/// Result of one surface's matching and post-processing.
+struct SurfaceResult {
+    faces: post::Faces,
+    report: SurfaceReport,
+}
+
+/// Turns every surface's tri3 triangles into quad4 quads (see the module documentation).
+///
+/// Everything else is kept: node tags, curve and point elements, physical groups, entities,
+/// quads already present, other element types. On error the mesh may be partly changed
+/// (parity splits and dropped volumes); callers that need the input should clone it first.
+pub fn recombine(
+    mesh: &mut Mesh,
+    opts: &RecombineOptions,
+) -> Result<RecombineReport, RecombineError> {
+    let start = Instant::now();
+    let before = opts.verify.then(|| mesh.clone());
+    let mut report = RecombineReport::default();
+    check_input(mesh, opts, &mut report)?;
+
+    // Topology, parity, matching. A surface whose triangles are enclosed by quads so that
+    // they cannot be made even or matched (isolated triangles left by a partial
+    // recombination) has its quads split into triangles and is recombined whole; this
+    // happens at most once per surface, so the loop ends.
+    let mut retriangulated: Vec<i32> = Vec::new();
+    let (nodes, work, mut results) = loop {
+        let staged = parity_stage(mesh, opts, &mut report).and_then(|(nodes, work)| {
+            let coords = &nodes.coords;
+            let n_global = coords.len() as u32;
+            let results: Result<Vec<SurfaceResult>, RecombineError> = work
+                .par_iter()
+                .map(|w| match_surface(w, coords, n_global, opts))
+                .collect();
+            results.map(|r| (nodes, work, r))
+        });
+        match staged {
+            Ok(done) => break done,
+            Err(RecombineError::NoPerfectMatching { surface, .. })
+                if has_quads(mesh, surface) && !retriangulated.contains(&surface) =>
+            {
+                retriangulate(mesh, &[surface], &mut report);
+                retriangulated.push(surface);
+            }
+            Err(RecombineError::ParityUnsolvable { regions }) => {
+                let fix: Vec<i32> = regions
+                    .iter()
+                    .map(|r| r.surface)
+                    .filter(|&s| has_quads(mesh, s) && !retriangulated.contains(&s))
+                    .collect();
+                if fix.is_empty() {
+                    return Err(RecombineError::ParityUnsolvable { regions });
+                }
+                retriangulate(mesh, &fix, &mut report);
+                retriangulated.extend(fix);
+            }
+            Err(e) => return Err(e),
+        }
+    };
+    for (r, w) in results.iter_mut().zip(&work) {
+        r.report.parity_splits = report
+            .parity_splits
+            .iter()
+            .filter(|s| s.surfaces.contains(&w.tag))
+            .count();
+    }
+    write_back(mesh, &nodes, &work, &results);
+    mesh.invalidate_element_data();
+    for r in &results {
+        let s = &r.report;
+        report.log.push(format!(
+            "surface {}: {} triangles -> {} quads (cost {}, {} extra edges used, {} edge swaps, {} vertex duplications)",
+            s.surface, s.triangles_in, s.quads_out, s.matching_cost, s.extra_edges_used, s.edge_swaps, s.vertex_duplications
+        ));
+    }
+    report.surfaces = results.into_iter().map(|r| r.report).collect();
+    if let Some(before) = before {
+        check_invariants(&before, mesh).map_err(RecombineError::Invariant)?;
+    }
+    report.time_total = start.elapsed();
+    Ok(report)
+}
+
+/// Steps 2–3: topology of every surface, then parity repair (one round, checked).
+fn parity_stage(
+    mesh: &mut Mesh,
+    opts: &RecombineOptions,
+    report: &mut RecombineReport,
+) -> Result<(NodeTable, Vec<SurfaceWork>), RecombineError> {
+    let nodes = NodeTable::new(mesh);
+    let curves = CurveInfo::new(mesh, &nodes)?;
+    let work = surface_work(mesh, &nodes, &curves)?;
+    let plan = parity::plan(mesh, &nodes, &work);
+    if plan.odd.is_empty() {
+        return Ok((nodes, work));
+    }
+    if opts.parity == ParityMode::Error {
+        return Err(odd_parity_error(&plan));
+    }
+    if !plan.unsolved.is_empty() {
+        return Err(RecombineError::ParityUnsolvable {
+            regions: plan.unsolved,
+        });
+    }
+    let splits = parity::apply(mesh, &nodes, &plan.choices)?;
+    for o in &plan.odd {
+        report.log.push(format!(
+            "surface {}: region {} of {} has {} triangles (odd)",
+            o.surface,
+            o.region.0 + 1,
+            o.region.1,
+            o.triangles
+        ));
+    }
+    for s in &splits {
+        report.log.push(format!(
+            "parity repair: split segment {}-{} of {} at its midpoint (new node {}), flipping surface(s) {:?}",
+            s.segment.0,
+            s.segment.1,
+            s.curve
+                .map(|c| format!("curve {c}"))
+                .unwrap_or_else(|| "a boundary without curve data".into()),
+            s.new_node,
+            s.surfaces
+        ));
+    }
+    report.parity_splits.extend(splits);
+    mesh.invalidate_element_data();
+    let nodes = NodeTable::new(mesh);
+    let curves = CurveInfo::new(mesh, &nodes)?;
+    let work = surface_work(mesh, &nodes, &curves)?;
+    let again = parity::plan(mesh, &nodes, &work);
+    if !again.odd.is_empty() {
+        return Err(RecombineError::ParityUnsolvable { regions: again.odd });
+    }
+    Ok((nodes, work))
+}
+
+/// True when surface `s` has 4-node quads.
+fn has_quads(mesh: &Mesh, s: i32) -> bool {
+    mesh.element_blocks.iter().any(|b| {
+        b.element_type == etype::QUAD4 && b.entity_dim == 2 && b.entity_tag == s && !b.is_empty()
+    })
+}
+
+/// Splits every quad of the given surfaces into two triangles along its shorter diagonal
+/// (orientation kept; the first triangle keeps the quad's tag, the second gets a fresh tag),
+/// so that the whole surface is recombined.
+fn retriangulate(mesh: &mut Mesh, surfaces: &[i32], report: &mut RecombineReport) {
+    let idx = mesh.node_index();
+    let pos = |t: u64| -> Option<glam::DVec3> {
+        idx.get(t).map(|r| {
+            glam::DVec3::from_array(mesh.node_blocks[r.block as usize].coords[r.index as usize])
+        })
+    };
+    let mut next = mesh.max_element_tag() + 1;
+    let mut new_blocks = Vec::new();
+    for b in &mesh.element_blocks {
+        if !(b.element_type == etype::QUAD4
+            && b.entity_dim == 2
+            && surfaces.contains(&b.entity_tag))
+        {
+            continue;
+        }
+        let mut tri = ElementBlock {
+            entity_dim: 2,
+            entity_tag: b.entity_tag,
+            element_type: etype::TRI3,
+            tags: Vec::with_capacity(2 * b.len()),
+            nodes: Vec::with_capacity(6 * b.len()),
+            partitions: b.partitions.as_ref().map(|_| Vec::new()),
+        };
+        for i in 0..b.len() {
+            let q = b.element(i);
+            let d02 = pos(q[0]).zip(pos(q[2])).map(|(a, c)| a.distance(c));
+            let d13 = pos(q[1]).zip(pos(q[3])).map(|(a, c)| a.distance(c));
+            let halves = if d13 < d02 {
+                [[q[0], q[1], q[3]], [q[1], q[2], q[3]]]
+            } else {
+                [[q[0], q[1], q[2]], [q[0], q[2], q[3]]]
+            };
+            for (h, t) in halves.iter().zip([b.tags[i], next]) {
+                tri.tags.push(t);
+                tri.nodes.extend_from_slice(h);
+                if let (Some(dst), Some(src)) = (tri.partitions.as_mut(), b.partitions.as_ref()) {
+                    dst.push(src.get(i).cloned().unwrap_or_default());
+                }
+            }
+            next += 1;
+        }
+        report.retriangulated.push(b.entity_tag);
+        report.log.push(format!(
+            "surface {}: its triangles are enclosed by quads and cannot be paired; its {} quads were split into triangles and the whole surface recombined",
+            b.entity_tag,
+            b.len()
+        ));
+        new_blocks.push(tri);
+    }
+    mesh.element_blocks.retain(|b| {
+        !(b.element_type == etype::QUAD4 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag))
+    });
+    mesh.element_blocks.extend(new_blocks);
+    mesh.invalidate_element_data();
+}
+
+/// Step 1 of the pipeline: refuses what cannot be recombined, drops volumes when asked.
+fn check_input(
+    mesh: &mut Mesh,
+    opts: &RecombineOptions,
+    report: &mut RecombineReport,
+) -> Result<(), RecombineError> {
+    for b in &mesh.element_blocks {
+        let k = b.nodes_per_element();
+        let ok = (k == 0 || b.nodes.len() == b.len() * k)
+            && b.partitions.as_ref().is_none_or(|p| p.len() == b.len());
+        if !ok {
+            return Err(RecombineError::MalformedBlock {
+                dim: b.entity_dim,
+                entity: b.entity_tag,
+                element_type: b.element_type,
+                nodes: b.nodes.len(),
+                elements: b.len(),
+            });
+        }
+    }
+    let mut volumes: Vec<i32> = Vec::new();
+    let mut count = 0;
+    for b in &mesh.element_blocks {
+        if element_dim(b.element_type) == Some(3) && !b.is_empty() {
+            count += b.len();
+            volumes.push(b.entity_tag);
+        }
+    }
+    volumes.sort_unstable();
+    volumes.dedup();
+    if count > 0 {
+        if !opts.drop_volumes {
+            return Err(RecombineError::VolumeElements { count, volumes });
+        }
+        mesh.element_blocks
+            .retain(|b| element_dim(b.element_type) != Some(3));
+        mesh.warnings.push(format!(
+            "dropped {count} volume elements (volumes {volumes:?}); the volume entities are kept"
+        ));
+        report.dropped_volume_elements = count;
+        report.log.push(format!("dropped {count} volume elements"));
+    }
+    let mut has_tris: Vec<i32> = Vec::new();
+    for b in &mesh.element_blocks {
+        if element_dim(b.element_type) != Some(2) || b.is_empty() {
+            continue;
+        }
+        if b.element_type == etype::TRI3 {
+            has_tris.push(b.entity_tag);
+        } else if b.element_type != etype::QUAD4 {
+            return Err(RecombineError::UnsupportedSurfaceElements {
+                surface: b.entity_tag,
+                element_type: b.element_type,
+                count: b.len(),
+            });
+        }
+    }
+    for p in mesh.periodic.iter().filter(|p| p.dim == 2) {
+        for (s, m) in [(p.tag, p.master_tag), (p.master_tag, p.tag)] {
+            if has_tris.contains(&s) {
+                return Err(RecombineError::PeriodicSurface {
+                    surface: s,
+                    master: m,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Surface tags with 3-node triangles, in first-appearance order.
+fn surface_tags(mesh: &Mesh) -> Vec<i32> {
+    let mut tags: Vec<i32> = Vec::new();
+    for b in &mesh.element_blocks {
+        if b.element_type == etype::TRI3
+            && b.entity_dim == 2
+            && !b.is_empty()
+            && !tags.contains(&b.entity_tag)
+        {
+            tags.push(b.entity_tag);
+        }
+    }
+    tags
+}
+
+/// Step 2: every surface's triangles, topology and regions.
+fn surface_work(
+    mesh: &Mesh,
+    nodes: &NodeTable,
+    curves: &CurveInfo,
+) -> Result<Vec<SurfaceWork>, RecombineError> {
+    surface_tags(mesh)
+        .into_par_iter()
+        .map(|tag| {
+            let t0 = Instant::now();
+            let mut tris = Vec::new();
+            let mut elem_tags = Vec::new();
+            let mut partitions = Vec::new();
+            for b in mesh.element_blocks.iter().filter(|b| {
+                b.element_type == etype::TRI3 && b.entity_dim == 2 && b.entity_tag == tag
+            }) {
+                for i in 0..b.len() {
+                    tris.push(nodes.ids::<3>(b.element(i), 2, tag, b.tags[i])?);
+                    elem_tags.push(b.tags[i]);
+                    partitions.push(b.partitions.as_ref().and_then(|p| p.get(i).cloned()));
+                }
+            }
+            let quads_kept = mesh
+                .element_blocks
+                .iter()
+                .filter(|b| {
+                    b.element_type == etype::QUAD4 && b.entity_dim == 2 && b.entity_tag == tag
+                })
+                .map(|b| b.len())
+                .sum();
+            let topo = SurfaceTopo::new(tris, nodes, curves);
+            let (region, n_regions) = topo.regions();
+            Ok(SurfaceWork {
+                tag,
+                topo,
+                region,
+                n_regions,
+                elem_tags,
+                partitions,
+                quads_kept,
+                time: t0.elapsed(),
+            })
+        })
+        .collect()
+}
+
+fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
+    let mut curves: Vec<Option<i32>> = plan.choices.iter().map(|c| c.curve).collect();
+    curves.sort_unstable();
+    curves.dedup();
+    let mut msg = String::from(
+        "surfaces with an odd number of triangles cannot be recombined into quads only:\n",
+    );
+    for o in &plan.odd {
+        msg.push_str(&format!(
+            "  surface {}{}: {} triangles\n",
+            o.surface,
+            if o.region.1 > 1 {
+                format!(
+                    " (region {} of {}, separated by embedded curves)",
+                    o.region.0 + 1,
+                    o.region.1
+                )
+            } else {
+                String::new()
+            },
+            o.triangles
+        ));
+    }
+    let named: Vec<String> = curves.iter().flatten().map(|c| c.to_string()).collect();
+    if !named.is_empty() {
+        msg.push_str(&format!(
+            "changing the number of nodes on curve(s) {} by one fixes them\n",
+            named.join(", ")
+        ));
+    }
+    if curves.contains(&None) {
+        msg.push_str("some odd surfaces have boundaries without curve data (no line elements)\n");
+    }
+    msg.push_str(
+        "fix in the .geo: give every curve an odd number of nodes (e.g. `Transfinite Curve{...} = 11;`), \
+         or mesh with `Mesh.RecombineAll = 1;` and `Mesh.RecombinationAlgorithm = 1;` (Gmsh then meshes curves \
+         with odd node counts), or rerun with parity repair (the default), which splits one boundary segment per curve above",
+    );
+    RecombineError::OddParity {
+        regions: plan.odd.clone(),
+        curves,
+        message: msg,
+    }
+}
+
+/// Steps 4–7 for one surface.
+fn match_surface(
+    w: &SurfaceWork,
+    coords: &[glam::DVec3],
+    n_global: u32,
+    opts: &RecombineOptions,
+) -> Result<SurfaceResult, RecombineError> {
+    let t0 = Instant::now();
+    let g = graph::build(&w.topo, coords, opts.extra_edges);
+    let time_graph = w.time + t0.elapsed();
+    let t1 = Instant::now();
+    let n = w.topo.len();
+    let m = crate::matching::solve(n, &g.edges).map_err(|e| RecombineError::NoPerfectMatching {
+        surface: w.tag,
+        triangles: n,
+        witness: e.witness.len(),
+        odd_components: e.odd_components.len(),
+    })?;
+    if opts.verify {
+        crate::matching::verify(n, &g.edges, &m).map_err(|e| RecombineError::Certificate {
+            surface: w.tag,
+            detail: e.to_string(),
+        })?;
+    }
+    let time_matching = t1.elapsed();
+    let t2 = Instant::now();
+    let faces = post::build_faces(&w.topo, &g, &m.mate, coords, n_global).map_err(|detail| {
+        RecombineError::PostProcess {
+            surface: w.tag,
+            detail,
+        }
+    })?;
+    let report = SurfaceReport {
+        surface: w.tag,
+        triangles_in: n,
+        quads_out: faces.quads.len(),
+        quads_kept: w.quads_kept,
+        parity_splits: 0,
+        graph_edges: g.real,
+        extra_edges_added: g.edges.len() - g.real,
+        extra_edges_used: faces.extra_used,
+        edge_swaps: faces.swaps,
+        vertex_duplications: faces.duplications,
+        matching_cost: m.cost,
+        time_graph,
+        time_matching,
+        time_post: t2.elapsed(),
+    };
+    Ok(SurfaceResult { faces, report })
+}
+
+/// Step 8: new nodes, then each surface's triangle blocks replaced by quads.
+fn write_back(mesh: &mut Mesh, nodes: &NodeTable, work: &[SurfaceWork], results: &[SurfaceResult]) {
+    let n_global = nodes.coords.len() as u32;
+    let mut next_node = mesh.max_node_tag() + 1;
+    for (w, r) in work.iter().zip(results) {
+        let new_tags: Vec<u64> = r
+            .faces
+            .new_nodes
+            .iter()
+            .map(|nn| {
+                let tag = next_node;
+                next_node += 1;
+                parity::add_node(mesh, nodes, 2, w.tag, tag, nn.pos, &nn.near);
+                tag
+            })
+            .collect();
+        let tag_of = |id: u32| -> u64 {
+            if id < n_global {
+                nodes.tags[id as usize]
+            } else {
+                new_tags[(id - n_global) as usize]
+            }
+        };
+        let mut quad_nodes = Vec::with_capacity(4 * r.faces.quads.len());
+        for q in &r.faces.quads {
+            quad_nodes.extend(q.iter().map(|&i| tag_of(i)));
+        }
+        let quad_tags: Vec<u64> = r
+            .faces
+            .source
+            .iter()
+            .map(|&t| w.elem_tags[t as usize])
+            .collect();
+        let any_parts = w.partitions.iter().any(|p| p.is_some());
+        let parts: Option<Vec<Vec<i32>>> = any_parts.then(|| {
+            r.faces
+                .source
+                .iter()
+                .map(|&t| w.partitions[t as usize].clone().unwrap_or_default())
+                .collect()
+        });
+        let is_tri = |b: &ElementBlock| {
+            b.element_type == etype::TRI3 && b.entity_dim == 2 && b.entity_tag == w.tag
+        };
+        let first_tri = mesh.element_blocks.iter().position(is_tri);
+        let quad_block = mesh.element_blocks.iter().position(|b| {
+            b.element_type == etype::QUAD4 && b.entity_dim == 2 && b.entity_tag == w.tag
+        });
+        match quad_block {
+            Some(qb) => {
+                let b = &mut mesh.element_blocks[qb];
+                b.tags.extend_from_slice(&quad_tags);
+                b.nodes.extend_from_slice(&quad_nodes);
+                match (b.partitions.as_mut(), parts) {
+                    (Some(p), Some(new)) => p.extend(new),
+                    (Some(p), None) => p.extend(quad_tags.iter().map(|_| Vec::new())),
+                    (None, Some(new)) => {
+                        let mut all = vec![Vec::new(); b.tags.len() - new.len()];
+                        all.extend(new);
+                        b.partitions = Some(all);
+                    }
+                    (None, None) => {}
+                }
+                mesh.element_blocks.retain(|b| !is_tri(b));
+            }
+            None => {
+                let block = ElementBlock {
+                    entity_dim: 2,
+                    entity_tag: w.tag,
+                    element_type: etype::QUAD4,
+                    tags: quad_tags,
+                    nodes: quad_nodes,
+                    partitions: parts,
+                };
+                let at = first_tri.unwrap_or(mesh.element_blocks.len());
+                mesh.element_blocks.insert(at, block);
+                mesh.element_blocks.retain(|b| !is_tri(b));
+            }
+        }
+    }
+}

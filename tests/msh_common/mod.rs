@@ -37,7 +37,7 @@ pub fn corpus_files() -> Vec<PathBuf> {
     }
     v.sort();
     assert!(
-        v.len() >= 22,
+        v.len() >= 21,
         "corpus not found or incomplete at {} ({} files)",
         dir.display(),
         v.len()
@@ -48,10 +48,34 @@ pub fn corpus_files() -> Vec<PathBuf> {
 /// The four written variants.
 pub fn variants() -> [(MshFormat, &'static str); 4] {
     [
-        (MshFormat { version: MshVersion::V41, binary: false }, "41a"),
-        (MshFormat { version: MshVersion::V41, binary: true }, "41b"),
-        (MshFormat { version: MshVersion::V2 { minor: 2 }, binary: false }, "22a"),
-        (MshFormat { version: MshVersion::V2 { minor: 2 }, binary: true }, "22b"),
+        (
+            MshFormat {
+                version: MshVersion::V41,
+                binary: false,
+            },
+            "41a",
+        ),
+        (
+            MshFormat {
+                version: MshVersion::V41,
+                binary: true,
+            },
+            "41b",
+        ),
+        (
+            MshFormat {
+                version: MshVersion::V2 { minor: 2 },
+                binary: false,
+            },
+            "22a",
+        ),
+        (
+            MshFormat {
+                version: MshVersion::V2 { minor: 2 },
+                binary: true,
+            },
+            "22b",
+        ),
     ]
 }
 
@@ -66,6 +90,16 @@ pub fn nodes(m: &Mesh) -> BTreeMap<u64, [u64; 3]> {
     out
 }
 
+/// Physical tags of entity (`dim`, `tag`), sorted (empty when the entity is unknown).
+pub fn sorted_phys(m: &Mesh, dim: i32, tag: i32) -> Vec<i32> {
+    let mut phys = m
+        .entity(dim, tag)
+        .map(|e| e.physical_tags.clone())
+        .unwrap_or_default();
+    phys.sort_unstable();
+    phys
+}
+
 /// Element tag → (type, nodes, physical tags of its entity (sorted), entity dim).
 pub type ElementView = BTreeMap<u64, (u32, Vec<u64>, Vec<i32>, i32)>;
 
@@ -73,16 +107,17 @@ pub type ElementView = BTreeMap<u64, (u32, Vec<u64>, Vec<i32>, i32)>;
 pub fn elements(m: &Mesh) -> ElementView {
     let mut out = BTreeMap::new();
     for b in &m.element_blocks {
-        let mut phys = m
-            .entity(b.entity_dim, b.entity_tag)
-            .map(|e| e.physical_tags.clone())
-            .unwrap_or_default();
-        phys.sort_unstable();
+        let phys = sorted_phys(m, b.entity_dim, b.entity_tag);
         let k = b.nodes_per_element();
         for (i, t) in b.tags.iter().enumerate() {
             out.insert(
                 *t,
-                (b.element_type, b.nodes[i * k..(i + 1) * k].to_vec(), phys.clone(), b.entity_dim),
+                (
+                    b.element_type,
+                    b.nodes[i * k..(i + 1) * k].to_vec(),
+                    phys.clone(),
+                    b.entity_dim,
+                ),
             );
         }
     }
@@ -104,11 +139,7 @@ pub fn element_entities(m: &Mesh) -> BTreeMap<u64, (i32, i32)> {
 pub fn entities_with_elements(m: &Mesh) -> BTreeSet<(i32, i32, Vec<i32>)> {
     let mut out = BTreeSet::new();
     for b in &m.element_blocks {
-        let mut phys = m
-            .entity(b.entity_dim, b.entity_tag)
-            .map(|e| e.physical_tags.clone())
-            .unwrap_or_default();
-        phys.sort_unstable();
+        let phys = sorted_phys(m, b.entity_dim, b.entity_tag);
         out.insert((b.entity_dim, b.entity_tag, phys));
     }
     out
@@ -116,7 +147,10 @@ pub fn entities_with_elements(m: &Mesh) -> BTreeSet<(i32, i32, Vec<i32>)> {
 
 /// Physical names as a set.
 pub fn names(m: &Mesh) -> BTreeSet<(i32, i32, String)> {
-    m.physical_names.iter().map(|p| (p.dim, p.tag, p.name.clone())).collect()
+    m.physical_names
+        .iter()
+        .map(|p| (p.dim, p.tag, p.name.clone()))
+        .collect()
 }
 
 /// Physical groups (dim, tag) that hold at least one element.
@@ -129,7 +163,10 @@ pub fn groups_with_elements(m: &Mesh) -> BTreeSet<(i32, i32)> {
 
 /// True when the `gmsh` executable runs.
 pub fn have_gmsh() -> bool {
-    Command::new("gmsh").arg("--version").output().is_ok_and(|o| o.status.success())
+    Command::new("gmsh")
+        .arg("--version")
+        .output()
+        .is_ok_and(|o| o.status.success())
 }
 
 /// Runs gmsh with `args`; panics with its output on failure or on an `Error` line.
@@ -141,7 +178,10 @@ pub fn gmsh(args: &[&str]) -> String {
         String::from_utf8_lossy(&out.stderr)
     );
     assert!(out.status.success(), "gmsh {args:?} failed:\n{text}");
-    assert!(!text.contains("Error"), "gmsh {args:?} reported an error:\n{text}");
+    assert!(
+        !text.contains("Error"),
+        "gmsh {args:?} reported an error:\n{text}"
+    );
     text
 }
 

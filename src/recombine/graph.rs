@@ -1,0 +1,218 @@
+//! The weighted graph of one surface (paper section 4.2): graph edges between adjacent
+//! triangles with cost `1 − η` (eq. 4), and the extra edges of section 5.3.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use super::topology::{SurfaceTopo, NONE};
+
+/// Integer cost of one unit of `1 − η`: a graph edge costs `round(COST_SCALE · (1 − η_s))`
+/// with η_s the signed quality ([`crate::quality::eta_signed`]), so a perfect square costs 0, a quad with a
+/// zero angle `COST_SCALE`, and non-convex or folded quads up to `2 · COST_SCALE`: always more
+/// than any valid quad. 10⁴ resolves η to 10⁻⁴, far below any meaningful quality difference,
+/// and keeps extra-edge costs (below) within the solver's cost range for 10⁷ triangles.
+pub const COST_SCALE: i64 = 10_000;
+
+/// Largest cost of a real graph edge.
+pub const MAX_REAL_COST: i64 = 2 * COST_SCALE;
+
+/// Cost of an extra edge in a graph of `n` triangles: `MAX_REAL_COST · (n/2 + 1) + 1`, capped
+/// at 2³⁹. Any perfect matching with fewer extra edges is then cheaper than every matching
+/// with more (a perfect matching has `n/2` edges, each costing at most `MAX_REAL_COST`), so
+/// the optimum uses the fewest extra edges possible, and none when the original graph has a
+/// perfect matching (the paper's "very high value", made exact).
+pub fn extra_edge_cost(n: usize) -> i64 {
+    let c = (MAX_REAL_COST as i128) * (n as i128 / 2 + 1) + 1;
+    c.min(1i128 << 39) as i64
+}
+
+/// The quad formed by triangle `t` and its neighbour across local edge `k`, oriented like
+/// `t`: `(p[k+1], p[k+2], p[k], s)` with `s` the neighbour's vertex opposite the edge.
+pub(crate) fn merged_quad(topo: &SurfaceTopo, t: usize, k: usize) -> [u32; 4] {
+    let p = topo.tris[t];
+    let u = topo.nbr[3 * t + k] as usize;
+    let q = topo.tris[u];
+    let s = q
+        .iter()
+        .copied()
+        .find(|&x| x != p[k] && x != p[(k + 1) % 3])
+        .unwrap_or(q[0]);
+    [p[(k + 1) % 3], p[(k + 2) % 3], p[k], s]
+}
+
+/// Area-weighted normal (cross product) of a triangle.
+#[inline]
+pub(crate) fn tri_normal(c: &[DVec3], t: [u32; 3]) -> DVec3 {
+    let (a, b, d) = (c[t[0] as usize], c[t[1] as usize], c[t[2] as usize]);
+    (b - a).cross(d - a)
+}
+
+/// Cost (eq. 4) of merging `t` with its neighbour across local edge `k`: `1 − η_s` of the
+/// merged quad with angles measured in 3D about the sum of the two triangles' normals.
+pub(crate) fn edge_cost(topo: &SurfaceTopo, coords: &[DVec3], t: usize, k: usize) -> i64 {
+    let quad = merged_quad(topo, t, k);
+    let u = topo.nbr[3 * t + k] as usize;
+    let normal = tri_normal(coords, topo.tris[t]) + tri_normal(coords, topo.tris[u]);
+    let pts = quad.map(|i| coords[i as usize]);
+    let eta = eta_signed_fast(&pts, normal);
+    let eta = if eta.is_finite() { eta } else { -1.0 };
+    (COST_SCALE as f64 * (1.0 - eta)).round() as i64
+}
+
+/// [`crate::quality::eta_signed`] with one `atan2` instead of four: the corner with the largest deviation
+/// `|π/2 − α_k|` is found from the sines of the angles first. With `α ∈ (−π, π]`, corners
+/// with `α < −π/2` deviate by more than `π` and more the larger `sin α` is; all others
+/// deviate by at most `π` and more the smaller `sin α` is (the deviation is the angle whose
+/// cosine is `sin α`). Degenerate corners (a zero edge) count as `α = 0`, as in
+/// [`crate::quality::eta::signed_angles`].
+pub(crate) fn eta_signed_fast(p: &[DVec3; 4], normal: DVec3) -> f64 {
+    let normal = normal.normalize_or_zero();
+    // (class, key): larger is worse
+    let mut worst = (0u8, f64::NEG_INFINITY, 0.0f64, 0.0f64);
+    for k in 0..4 {
+        let a = p[(k + 1) % 4] - p[k];
+        let b = p[(k + 3) % 4] - p[k];
+        let s = normal.dot(a.cross(b));
+        let c = a.dot(b);
+        let r = (s * s + c * c).sqrt();
+        let (class, key) = if r == 0.0 {
+            (0, 0.0)
+        } else if c < 0.0 && s < 0.0 {
+            (1, s / r)
+        } else {
+            (0, -s / r)
+        };
+        if (class, key) > (worst.0, worst.1) {
+            worst = (class, key, s, c);
+        }
+    }
+    let (_, _, s, c) = worst;
+    let alpha = if s == 0.0 && c == 0.0 {
+        0.0
+    } else {
+        s.atan2(c)
+    };
+    1.0 - (std::f64::consts::FRAC_PI_2 - alpha).abs() / std::f64::consts::FRAC_PI_2
+}
+
+/// A fan: the triangles around vertex `v` between two walls, in walking order (each one
+/// shares the graph edge `{v, a_i}` with the next).
+#[derive(Debug, Clone)]
+pub(crate) struct Fan {
+    /// The vertex (global id).
+    pub v: u32,
+    /// The triangles `t1 … tk`.
+    pub tris: Vec<u32>,
+}
+
+/// Every fan with at least three triangles: starts at each corner whose incoming edge is a
+/// wall and walks across graph edges around the corner's vertex until the next wall.
+pub(crate) fn fans(topo: &SurfaceTopo) -> Vec<Fan> {
+    let mut out = Vec::new();
+    let n = topo.len();
+    for t in 0..n {
+        for c in 0..3 {
+            // incoming edge at corner c is local edge (c + 2) % 3
+            if topo.nbr[3 * t + (c + 2) % 3] != NONE {
+                continue;
+            }
+            let v = topo.tris[t][c];
+            let mut list = vec![t as u32];
+            let (mut cur, mut corner) = (t, c);
+            while topo.nbr[3 * cur + corner] != NONE && list.len() <= n {
+                let next = topo.nbr[3 * cur + corner] as usize;
+                let Some(nc) = topo.tris[next].iter().position(|&x| x == v) else {
+                    break;
+                };
+                list.push(next as u32);
+                cur = next;
+                corner = nc;
+            }
+            if list.len() >= 3 && list.len() <= n {
+                out.push(Fan { v, tris: list });
+            }
+        }
+    }
+    out
+}
+
+/// The matching graph of one surface.
+pub(crate) struct Graph {
+    /// `(t, t', cost)`: real graph edges first (`real` of them), then extra edges.
+    pub edges: Vec<(u32, u32, i64)>,
+    /// Number of real graph edges at the front of `edges`.
+    pub real: usize,
+    /// For extra edge `real + i`, the fan it joins the ends of.
+    pub extra_fans: Vec<Fan>,
+}
+
+/// Builds the graph: one edge per graph edge with its cost (eq. 4), plus one extra edge per
+/// fan of three or more triangles whose end triangles are not already adjacent (section
+/// 5.3; a fan ends at walls: the surface boundary, curves, or orientation changes).
+pub(crate) fn build(topo: &SurfaceTopo, coords: &[DVec3], with_extra: bool) -> Graph {
+    let n = topo.len();
+    let mut edges: Vec<(u32, u32, i64)> = (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .flat_map_iter(|t| {
+            (0..3).filter_map(move |k| {
+                let u = topo.nbr[3 * t + k];
+                (u != NONE && (t as u32) < u).then(|| (t as u32, u, edge_cost(topo, coords, t, k)))
+            })
+        })
+        .collect();
+    let real = edges.len();
+    let mut extra_fans = Vec::new();
+    if with_extra {
+        let cost = extra_edge_cost(n);
+        let mut ends: Vec<((u32, u32), Fan)> = fans(topo)
+            .into_iter()
+            .filter_map(|fan| {
+                let (a, b) = (fan.tris[0], fan.tris[fan.tris.len() - 1]);
+                let adjacent = (0..3).any(|k| topo.nbr[3 * a as usize + k] == b);
+                (a != b && !adjacent).then_some(((a.min(b), a.max(b)), fan))
+            })
+            .collect();
+        // one extra edge per pair of end triangles (stable: the first fan found is kept)
+        ends.sort_by_key(|e| e.0);
+        ends.dedup_by_key(|e| e.0);
+        for ((a, b), fan) in ends {
+            edges.push((a, b, cost));
+            extra_fans.push(fan);
+        }
+    }
+    Graph {
+        edges,
+        real,
+        extra_fans,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::quality::eta_signed;
+
+    #[test]
+    fn fast_eta_matches_eta_signed() {
+        let mut x: u64 = 0x9E37_79B9;
+        let mut rnd = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            (x >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for i in 0..200_000 {
+            let mut p = [DVec3::ZERO; 4];
+            for q in p.iter_mut() {
+                *q = DVec3::new(rnd(), rnd(), 0.3 * rnd());
+            }
+            if i % 7 == 0 {
+                p[2] = p[1]; // degenerate edge
+            }
+            let n = DVec3::new(0.2 * rnd(), 0.2 * rnd(), 1.0);
+            let (a, b) = (eta_signed(&p, n), eta_signed_fast(&p, n));
+            assert!((a - b).abs() < 1e-9, "{p:?}: {a} vs {b}");
+        }
+    }
+}

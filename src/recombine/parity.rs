@@ -1,0 +1,549 @@
+//! Parity repair (paper eq. 5–6 and section 7 step 1): every triangle region must hold an
+//! even number of triangles. Design in the module documentation of [`super`].
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use super::topology::{edge_key, NodeTable, NONE};
+use super::{ParitySplit, RecombineError, SurfaceWork};
+use crate::mesh::{etype, Mesh, NodeBlock};
+
+/// One odd triangle region.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OddRegion {
+    /// Surface entity tag.
+    pub surface: i32,
+    /// Index of the region inside the surface (regions are the connected parts of the
+    /// surface's triangles separated by curves), and the number of regions.
+    pub region: (usize, usize),
+    /// Number of triangles in the region.
+    pub triangles: usize,
+}
+
+/// A boundary segment chosen for splitting.
+#[derive(Debug, Clone)]
+pub(crate) struct Choice {
+    /// Global ids of the segment's nodes.
+    pub a: u32,
+    /// See `a`.
+    pub b: u32,
+    /// Curve the segment lies on, when known.
+    pub curve: Option<i32>,
+    /// Surfaces whose parity the split flips.
+    pub surfaces: Vec<i32>,
+}
+
+/// Result of the parity analysis.
+pub(crate) struct Plan {
+    /// Odd regions.
+    pub odd: Vec<OddRegion>,
+    /// Segments to split so that every region becomes even.
+    pub choices: Vec<Choice>,
+    /// Odd regions the plan cannot fix (no splittable segment connects them to a fix).
+    pub unsolved: Vec<OddRegion>,
+}
+
+struct Group {
+    curve: Option<i32>,
+    sig: Vec<u32>,
+    best: (f64, u32, u32),
+}
+
+/// Finds the odd regions and a set of segments whose splits make all of them even: a
+/// T-join on the graph whose nodes are the regions plus a "ground" node (see module doc).
+pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan {
+    // regions, their sizes and owners
+    let mut offset = Vec::with_capacity(work.len());
+    let mut region_surface: Vec<(i32, usize, usize)> = Vec::new();
+    let mut size: Vec<usize> = Vec::new();
+    for w in work {
+        offset.push(size.len() as u32);
+        for r in 0..w.n_regions {
+            region_surface.push((w.tag, r, w.n_regions));
+            size.push(0);
+        }
+        let base = size.len() - w.n_regions;
+        for &r in &w.region {
+            size[base + r as usize] += 1;
+        }
+    }
+    let nr = size.len();
+    let odd_of = |r: usize| OddRegion {
+        surface: region_surface[r].0,
+        region: (region_surface[r].1, region_surface[r].2),
+        triangles: size[r],
+    };
+    let odd: Vec<OddRegion> = (0..nr).filter(|&r| size[r] % 2 == 1).map(odd_of).collect();
+    if odd.is_empty() {
+        return Plan {
+            odd,
+            choices: Vec::new(),
+            unsolved: Vec::new(),
+        };
+    }
+    // wall half-edges with their region
+    let mut walls: Vec<(u64, u32)> = Vec::new();
+    for (w, &off) in work.iter().zip(&offset) {
+        for t in 0..w.topo.len() {
+            for k in 0..3 {
+                if w.topo.nbr[3 * t + k] == NONE {
+                    let tri = w.topo.tris[t];
+                    walls.push((edge_key(tri[k], tri[(k + 1) % 3]), off + w.region[t]));
+                }
+            }
+        }
+    }
+    walls.sort_unstable();
+    let blocked = blocked_edges(mesh, nodes);
+    let line_curve = line_curves(mesh, nodes);
+    let periodic: Vec<i32> = mesh
+        .periodic
+        .iter()
+        .filter(|p| p.dim == 1)
+        .flat_map(|p| [p.tag, p.master_tag])
+        .collect();
+    let mut groups: HashMap<(Option<i32>, Vec<u32>), usize> = HashMap::new();
+    let mut list: Vec<Group> = Vec::new();
+    for run in walls.chunk_by(|x, y| x.0 == y.0) {
+        let key = run[0].0;
+        let sig: Vec<u32> = run
+            .chunk_by(|x, y| x.1 == y.1)
+            .filter(|r| r.len() % 2 == 1)
+            .map(|r| r[0].1)
+            .collect();
+        if sig.is_empty() || sig.len() > 2 || blocked.binary_search(&key).is_ok() {
+            continue;
+        }
+        let (a, b) = ((key >> 32) as u32, key as u32);
+        let curve = match line_curve.binary_search_by_key(&key, |x| x.0) {
+            Ok(p) => Some(line_curve[p].1),
+            Err(_) => {
+                let (ea, eb) = (nodes.entity(mesh, a), nodes.entity(mesh, b));
+                match (ea, eb) {
+                    ((1, c), _) | (_, (1, c)) => Some(c),
+                    // a curve meshed with one segment: the curve bounded by both points
+                    ((0, p), (0, q)) => mesh.entities[1]
+                        .iter()
+                        .find(|c| {
+                            let pts: Vec<i32> = c.bounding.iter().map(|x| x.abs()).collect();
+                            pts.len() == 2 && pts.contains(&p) && pts.contains(&q)
+                        })
+                        .map(|c| c.tag),
+                    _ => None,
+                }
+            }
+        };
+        if curve.is_some_and(|c| periodic.contains(&c)) {
+            continue;
+        }
+        let len = (nodes.coords[a as usize] - nodes.coords[b as usize]).length();
+        let id = *groups.entry((curve, sig.clone())).or_insert_with(|| {
+            list.push(Group {
+                curve,
+                sig,
+                best: (-1.0, a, b),
+            });
+            list.len() - 1
+        });
+        if len > list[id].best.0 {
+            list[id].best = (len, a, b);
+        }
+    }
+    // region graph: region-region groups are edges, one-region groups join the ground node
+    let ground = nr as u32;
+    let mut adj: Vec<Vec<(u32, usize)>> = vec![Vec::new(); nr + 1];
+    for (g, grp) in list.iter().enumerate() {
+        let (u, v) = if grp.sig.len() == 2 {
+            (grp.sig[0], grp.sig[1])
+        } else {
+            (grp.sig[0], ground)
+        };
+        adj[u as usize].push((v, g));
+        adj[v as usize].push((u, g));
+    }
+    let odd_ids: Vec<u32> = (0..nr as u32)
+        .filter(|&r| size[r as usize] % 2 == 1)
+        .collect();
+    let (mut chosen, unsolved) = match min_tjoin(&adj, &odd_ids, ground) {
+        Some(c) => (c, Vec::new()),
+        None => {
+            let (c, u) = tree_tjoin(&adj, &size, ground);
+            (c, u.into_iter().map(|r| odd_of(r as usize)).collect())
+        }
+    };
+    // a group chosen twice cancels out
+    chosen.sort_unstable();
+    let keep: Vec<usize> = chosen
+        .chunk_by(|a, b| a == b)
+        .filter(|r| r.len() % 2 == 1)
+        .map(|r| r[0])
+        .collect();
+    let choices = keep
+        .into_iter()
+        .map(|g| {
+            let grp = &list[g];
+            let mut surfaces: Vec<i32> = grp
+                .sig
+                .iter()
+                .map(|&r| region_surface[r as usize].0)
+                .collect();
+            surfaces.dedup();
+            Choice {
+                a: grp.best.1,
+                b: grp.best.2,
+                curve: grp.curve,
+                surfaces,
+            }
+        })
+        .collect();
+    Plan {
+        odd,
+        choices,
+        unsolved,
+    }
+}
+
+/// Keys of edges of 2D elements other than 3-node triangles (quads …): splitting them would
+/// leave a hanging node.
+fn blocked_edges(mesh: &Mesh, nodes: &NodeTable) -> Vec<u64> {
+    let mut out = Vec::new();
+    for b in &mesh.element_blocks {
+        if b.entity_dim != 2 || b.element_type == etype::TRI3 {
+            continue;
+        }
+        let k = b.nodes_per_element();
+        let corners = if b.element_type == etype::QUAD4 { 4 } else { k };
+        for i in 0..b.len() {
+            let e = b.element(i);
+            let ids: Vec<u32> = e.iter().filter_map(|&t| nodes.id(t)).collect();
+            if ids.len() != e.len() || corners == 0 {
+                continue;
+            }
+            for c in 0..corners {
+                out.push(edge_key(ids[c], ids[(c + 1) % corners]));
+            }
+        }
+    }
+    out.sort_unstable();
+    out.dedup();
+    out
+}
+
+/// `(edge key, curve tag)` of every 2-node line element, sorted by key.
+fn line_curves(mesh: &Mesh, nodes: &NodeTable) -> Vec<(u64, i32)> {
+    let mut out = Vec::new();
+    for b in &mesh.element_blocks {
+        if b.element_type != etype::LINE2 {
+            continue;
+        }
+        for i in 0..b.len() {
+            let e = b.element(i);
+            if let (Some(x), Some(y)) = (nodes.id(e[0]), nodes.id(e[1])) {
+                out.push((edge_key(x, y), b.entity_tag));
+            }
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// Applies the splits: a new node at the midpoint of each chosen segment (classified on the
+/// segment's curve, or on its first surface when no curve is known), each triangle and 2-node
+/// line element holding the segment split in two (the first piece keeps the element's tag,
+/// the second gets a fresh one), orientation kept.
+pub(crate) fn apply(
+    mesh: &mut Mesh,
+    nodes: &NodeTable,
+    choices: &[Choice],
+) -> Result<Vec<ParitySplit>, RecombineError> {
+    let first_node = mesh.max_node_tag() + 1;
+    let mut next_elem = mesh.max_element_tag() + 1;
+    let mut mids: Vec<((u64, u64), u64)> = Vec::new();
+    let mut report = Vec::new();
+    for (tag, c) in (first_node..).zip(choices) {
+        let (ta, tb) = (nodes.tags[c.a as usize], nodes.tags[c.b as usize]);
+        let pos = 0.5 * (nodes.coords[c.a as usize] + nodes.coords[c.b as usize]);
+        let (dim, ent) = match c.curve {
+            Some(t) => (1, t),
+            None => (2, c.surfaces.first().copied().unwrap_or(0)),
+        };
+        add_node(mesh, nodes, dim, ent, tag, pos, &[c.a, c.b]);
+        mids.push(((ta.min(tb), ta.max(tb)), tag));
+        report.push(ParitySplit {
+            curve: c.curve,
+            surfaces: c.surfaces.clone(),
+            segment: (ta, tb),
+            new_node: tag,
+        });
+    }
+    mids.sort_unstable();
+    let mid = |a: u64, b: u64| {
+        mids.binary_search_by_key(&(a.min(b), a.max(b)), |x| x.0)
+            .ok()
+            .map(|i| mids[i].1)
+    };
+    for blk in mesh.element_blocks.iter_mut() {
+        let k = match blk.element_type {
+            etype::TRI3 => 3,
+            etype::LINE2 => 2,
+            _ => continue,
+        };
+        let count = blk.len();
+        for i in 0..count {
+            let e: Vec<u64> = blk.element(i).to_vec();
+            let mut pieces = vec![e];
+            let mut changed = true;
+            while changed {
+                changed = false;
+                let mut next = Vec::new();
+                for p in pieces {
+                    match (0..k).find_map(|j| mid(p[j], p[(j + 1) % k]).map(|m| (j, m))) {
+                        Some((j, m)) if k == 3 => {
+                            let (x, y, z) = (p[j], p[(j + 1) % 3], p[(j + 2) % 3]);
+                            next.push(vec![x, m, z]);
+                            next.push(vec![m, y, z]);
+                            changed = true;
+                        }
+                        Some((_, m)) => {
+                            next.push(vec![p[0], m]);
+                            next.push(vec![m, p[1]]);
+                            changed = true;
+                        }
+                        None => next.push(p),
+                    }
+                }
+                pieces = next;
+            }
+            if pieces.len() == 1 {
+                continue;
+            }
+            blk.nodes[i * k..(i + 1) * k].copy_from_slice(&pieces[0]);
+            let part = blk.partitions.as_ref().and_then(|p| p.get(i).cloned());
+            for p in &pieces[1..] {
+                blk.tags.push(next_elem);
+                next_elem += 1;
+                blk.nodes.extend_from_slice(p);
+                if let (Some(parts), Some(v)) = (blk.partitions.as_mut(), part.as_ref()) {
+                    parts.push(v.clone());
+                }
+            }
+        }
+    }
+    Ok(report)
+}
+
+/// Adds node `tag` at `pos` to the node block of entity (`dim`, `ent`) (a new block when the
+/// entity has none). When the block is parametric, the new node's parametric coordinates
+/// are the mean of those of the `refs` nodes that are in that block (a warning says so when
+/// some are not; 0 when none is).
+pub(crate) fn add_node(
+    mesh: &mut Mesh,
+    nodes: &NodeTable,
+    dim: i32,
+    ent: i32,
+    tag: u64,
+    pos: DVec3,
+    refs: &[u32],
+) {
+    let bi = mesh
+        .node_blocks
+        .iter()
+        .position(|bl| bl.entity_dim == dim && bl.entity_tag == ent);
+    let Some(bi) = bi else {
+        mesh.node_blocks.push(NodeBlock {
+            entity_dim: dim,
+            entity_tag: ent,
+            tags: vec![tag],
+            coords: vec![pos.to_array()],
+            params: None,
+        });
+        return;
+    };
+    let np = dim.max(0) as usize;
+    let param_of = |n: u32, mesh: &Mesh| -> Option<Vec<f64>> {
+        if nodes.block.get(n as usize).copied() != Some(bi as u32) {
+            return None;
+        }
+        let i = (n - nodes.block_start[bi]) as usize;
+        mesh.node_blocks[bi]
+            .params
+            .as_ref()
+            .and_then(|p| p.get(i * np..(i + 1) * np))
+            .map(|s| s.to_vec())
+    };
+    let has_params = mesh.node_blocks[bi].params.is_some();
+    let uv = if has_params {
+        let known: Vec<Vec<f64>> = refs.iter().filter_map(|&n| param_of(n, mesh)).collect();
+        if known.len() < refs.len() {
+            mesh.warnings.push(format!(
+                "node {tag}: parametric coordinates on entity ({dim}, {ent}) averaged from {} of {} neighbouring nodes (the others are not on that entity)",
+                known.len(),
+                refs.len()
+            ));
+        }
+        let mut uv = vec![0.0; np];
+        for k in &known {
+            for (u, x) in uv.iter_mut().zip(k) {
+                *u += x / known.len() as f64;
+            }
+        }
+        uv
+    } else {
+        Vec::new()
+    };
+    let blk = &mut mesh.node_blocks[bi];
+    blk.tags.push(tag);
+    blk.coords.push(pos.to_array());
+    if let Some(p) = blk.params.as_mut() {
+        p.extend_from_slice(&uv);
+    }
+}
+
+/// Fallback T-join over a spanning forest (used when the odd regions are too many for
+/// [`min_tjoin`] or some cannot be paired): odd parity is pushed from the leaves to the root
+/// of each tree; a root left odd is fixed through a ground group reached along the tree.
+/// Returns the chosen groups (with repeats) and the roots that stay odd.
+fn tree_tjoin(adj: &[Vec<(u32, usize)>], size: &[usize], ground: u32) -> (Vec<usize>, Vec<u32>) {
+    let nr = size.len();
+    let mut parity: Vec<bool> = size.iter().map(|s| s % 2 == 1).collect();
+    parity.push(false);
+    let mut seen = vec![false; nr + 1];
+    let mut chosen: Vec<usize> = Vec::new();
+    let mut unsolved: Vec<u32> = Vec::new();
+    for start in 0..nr {
+        if seen[start] {
+            continue;
+        }
+        // component over region-region edges
+        let mut comp = vec![start as u32];
+        seen[start] = true;
+        let mut parent: HashMap<u32, (u32, usize)> = HashMap::new();
+        let mut q = 0;
+        while q < comp.len() {
+            let u = comp[q];
+            q += 1;
+            for &(v, g) in &adj[u as usize] {
+                if v != ground && !seen[v as usize] {
+                    seen[v as usize] = true;
+                    parent.insert(v, (u, g));
+                    comp.push(v);
+                }
+            }
+        }
+        if !comp.iter().any(|&r| parity[r as usize]) {
+            continue;
+        }
+        // re-root at a region with a ground group, when there is one, by pushing the
+        // odd parity along tree paths to `start` and then from `start` to that region
+        for &u in comp.iter().skip(1).rev() {
+            if parity[u as usize] {
+                let (p, g) = parent[&u];
+                parity[u as usize] = false;
+                parity[p as usize] ^= true;
+                chosen.push(g);
+            }
+        }
+        if parity[start] {
+            let ground_at = comp.iter().find_map(|&r| {
+                adj[r as usize]
+                    .iter()
+                    .find(|&&(v, _)| v == ground)
+                    .map(|&(_, g)| (r, g))
+            });
+            match ground_at {
+                Some((r, g)) => {
+                    // path start -> r in the tree: toggle edges from r up to start
+                    let mut x = r;
+                    while x != start as u32 {
+                        let (p, pg) = parent[&x];
+                        chosen.push(pg);
+                        x = p;
+                    }
+                    chosen.push(g);
+                    parity[start] = false;
+                }
+                None => unsolved.push(start as u32),
+            }
+        }
+    }
+    (chosen, unsolved)
+}
+
+/// Minimum T-join (fewest splits): the odd regions are paired, or paired with the ground, by
+/// a minimum-cost perfect matching on shortest-path distances in the region graph
+/// (each odd region `i` has a ground twin `K + i` joined to it at its distance to the ground;
+/// twins are joined to each other at cost 0), then the groups along each pair's shortest path
+/// are chosen. `None` when there are too many odd regions or no pairing exists.
+fn min_tjoin(adj: &[Vec<(u32, usize)>], odd: &[u32], ground: u32) -> Option<Vec<usize>> {
+    let k = odd.len();
+    let nr = adj.len();
+    if k == 0 {
+        return Some(Vec::new());
+    }
+    if k > 1500 {
+        return None;
+    }
+    // BFS from each odd region over region-region edges (not through the ground)
+    let bfs = |src: u32| -> (Vec<u32>, Vec<(u32, usize)>, Vec<u32>) {
+        let mut dist = vec![NONE; nr];
+        let mut parent = vec![(NONE, 0usize); nr];
+        let mut order = vec![src];
+        dist[src as usize] = 0;
+        let mut q = 0;
+        while q < order.len() {
+            let u = order[q];
+            q += 1;
+            for &(v, g) in &adj[u as usize] {
+                if v != ground && dist[v as usize] == NONE {
+                    dist[v as usize] = dist[u as usize] + 1;
+                    parent[v as usize] = (u, g);
+                    order.push(v);
+                }
+            }
+        }
+        (dist, parent, order)
+    };
+    let ground_group = |r: u32| adj[r as usize].iter().find(|e| e.0 == ground).map(|e| e.1);
+    let mut edges: Vec<(u32, u32, i64)> = Vec::new();
+    for (i, &src) in odd.iter().enumerate() {
+        let (dist, _, order) = bfs(src);
+        for (j, &dst) in odd.iter().enumerate().skip(i + 1) {
+            if dist[dst as usize] != NONE {
+                edges.push((i as u32, j as u32, dist[dst as usize] as i64));
+            }
+        }
+        if let Some(r) = order.iter().find(|&&r| ground_group(r).is_some()) {
+            edges.push((i as u32, (k + i) as u32, dist[*r as usize] as i64 + 1));
+        }
+        for j in i + 1..k {
+            edges.push(((k + i) as u32, (k + j) as u32, 0));
+        }
+    }
+    let m = crate::matching::solve(2 * k, &edges).ok()?;
+    let mut chosen = Vec::new();
+    for (i, &src) in odd.iter().enumerate() {
+        let mate = m.mate[i] as usize;
+        if mate < i {
+            continue;
+        }
+        let (_, parent, order) = bfs(src);
+        let end = if mate < k {
+            odd[mate]
+        } else {
+            let r = *order.iter().find(|&&r| ground_group(r).is_some())?;
+            chosen.push(ground_group(r)?);
+            r
+        };
+        let mut x = end;
+        while x != src {
+            let (p, g) = parent[x as usize];
+            if p == NONE {
+                return None;
+            }
+            chosen.push(g);
+            x = p;
+        }
+    }
+    Some(chosen)
+}

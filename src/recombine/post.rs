@@ -1,0 +1,293 @@
+//! From a perfect matching to quads: plain merges, and the post-processing of extra edges
+//! by edge swap (section 5.3.1) and vertex duplication (section 5.3.2). Design in the
+//! module documentation of [`super`].
+
+use glam::DVec3;
+
+use super::graph::{merged_quad, Graph};
+use super::topology::{SurfaceTopo, NONE};
+
+/// A node created by vertex duplication.
+#[derive(Debug, Clone)]
+pub(crate) struct NewNode {
+    /// Position.
+    pub pos: DVec3,
+    /// Global ids of the fan's inner vertices `a_1 … a_{k−1}` (used to average parametric
+    /// coordinates).
+    pub near: Vec<u32>,
+}
+
+/// Quads of one surface.
+#[derive(Debug, Default)]
+pub(crate) struct Faces {
+    /// Quads as node ids: global ids, or `n_global + j` for `new_nodes[j]`.
+    pub quads: Vec<[u32; 4]>,
+    /// For each quad, the triangle whose element tag it reuses.
+    pub source: Vec<u32>,
+    /// Nodes created by vertex duplication.
+    pub new_nodes: Vec<NewNode>,
+    /// Extra edges in the matching.
+    pub extra_used: usize,
+    /// Edge swaps done.
+    pub swaps: usize,
+    /// Vertex duplications done.
+    pub duplications: usize,
+}
+
+/// Merges two oriented polygons sharing an edge run in opposite directions. `None` when they
+/// share no such edge.
+fn merge(a: &[u32], b: &[u32]) -> Option<Vec<u32>> {
+    let (na, nb) = (a.len(), b.len());
+    for i in 0..na {
+        let (p, q) = (a[i], a[(i + 1) % na]);
+        for j in 0..nb {
+            if b[j] == q && b[(j + 1) % nb] == p {
+                let mut out = Vec::with_capacity(na + nb - 2);
+                out.extend_from_slice(&a[..=i]);
+                for s in 2..nb {
+                    out.push(b[(j + s) % nb]);
+                }
+                out.extend_from_slice(&a[i + 1..]);
+                return Some(out);
+            }
+        }
+    }
+    None
+}
+
+/// The vertex `t` and `u` share besides `v` (original topology).
+fn shared_other(topo: &SurfaceTopo, t: u32, u: u32, v: u32) -> u32 {
+    let a = topo.tris[t as usize];
+    let b = topo.tris[u as usize];
+    a.iter()
+        .copied()
+        .find(|&x| x != v && b.contains(&x))
+        .unwrap_or(NONE)
+}
+
+/// Builds the quads from the matching `mate` (a perfect matching of `graph`).
+pub(crate) fn build_faces(
+    topo: &SurfaceTopo,
+    graph: &Graph,
+    mate: &[u32],
+    coords: &[DVec3],
+    n_global: u32,
+) -> Result<Faces, String> {
+    let n = topo.len();
+    let mut faces: Vec<Vec<u32>> = Vec::with_capacity(n / 2 + 8);
+    let mut source: Vec<u32> = Vec::with_capacity(n / 2 + 8);
+    let mut alive: Vec<bool> = Vec::with_capacity(n / 2 + 8);
+    let mut tri_face = vec![NONE; n];
+    for t in 0..n {
+        if tri_face[t] != NONE {
+            continue;
+        }
+        let m = mate[t];
+        if m as usize >= n {
+            return Err(format!("triangle {t} is unmatched"));
+        }
+        if let Some(k) = (0..3).find(|&k| topo.nbr[3 * t + k] == m) {
+            tri_face[t] = faces.len() as u32;
+            tri_face[m as usize] = faces.len() as u32;
+            faces.push(merged_quad(topo, t, k).to_vec());
+            source.push(t as u32);
+            alive.push(true);
+        }
+    }
+    // the used extra edges: their two triangles stay separate faces for now
+    let mut used: Vec<usize> = Vec::new();
+    for (i, fan) in graph.extra_fans.iter().enumerate() {
+        let (a, b) = (fan.tris[0], fan.tris[fan.tris.len() - 1]);
+        if mate[a as usize] == b && tri_face[a as usize] == NONE {
+            used.push(i);
+            for t in [a, b] {
+                tri_face[t as usize] = faces.len() as u32;
+                faces.push(topo.tris[t as usize].to_vec());
+                source.push(t);
+                alive.push(true);
+            }
+        }
+    }
+    if let Some(t) = tri_face.iter().position(|&f| f == NONE) {
+        return Err(format!(
+            "triangle {t} is matched to {} through no graph edge",
+            mate[t]
+        ));
+    }
+    let mut out = Faces {
+        extra_used: used.len(),
+        ..Faces::default()
+    };
+    // how many used fans each triangle belongs to: a swap must touch nothing else
+    let mut mark = vec![0u8; n];
+    for &i in &used {
+        for &t in &graph.extra_fans[i].tris {
+            mark[t as usize] = mark[t as usize].saturating_add(1);
+        }
+    }
+    for &i in &used {
+        let fan = &graph.extra_fans[i];
+        if try_swap(
+            topo, fan, mate, &mark, coords, &mut faces, &mut alive, &tri_face,
+        ) {
+            out.swaps += 1;
+        } else {
+            duplicate(topo, fan, coords, n_global, &mut faces, &tri_face, &mut out)?;
+            out.duplications += 1;
+        }
+    }
+    for (f, poly) in faces.iter().enumerate() {
+        if !alive[f] {
+            continue;
+        }
+        let [a, b, c, d] = poly[..] else {
+            return Err(format!(
+                "post-processing left a face with {} nodes (from triangle {})",
+                poly.len(),
+                source[f]
+            ));
+        };
+        out.quads.push([a, b, c, d]);
+        out.source.push(source[f]);
+    }
+    Ok(out)
+}
+
+/// Edge swap (5.3.1): fan `t1 t2 t3` at `v` with `t1–t3` matched by the extra edge and `t2`
+/// matched to `t4` across the edge opposite `v`. The hexagon `t1 ∪ t2 ∪ t4 ∪ t3` is cut by
+/// the diagonal from `v` to `t4`'s far vertex `x` into two quads (the diagonal `a1 a2` of the
+/// quad `t2 ∪ t4` is swapped to `v x`). Applied only when none of the four triangles takes
+/// part in another used extra edge's fan and the new diagonal lies inside the quad
+/// `t2 ∪ t4` (so both new quads are simple polygons, possibly non-convex, never folded);
+/// returns false (nothing changed) otherwise.
+#[allow(clippy::too_many_arguments)]
+fn try_swap(
+    topo: &SurfaceTopo,
+    fan: &super::graph::Fan,
+    mate: &[u32],
+    mark: &[u8],
+    coords: &[DVec3],
+    faces: &mut [Vec<u32>],
+    alive: &mut [bool],
+    tri_face: &[u32],
+) -> bool {
+    if fan.tris.len() != 3 || fan.tris.iter().any(|&t| mark[t as usize] != 1) {
+        return false;
+    }
+    let (t1, t2, t3) = (fan.tris[0], fan.tris[1], fan.tris[2]);
+    let t4 = mate[t2 as usize];
+    if mark[t4 as usize] != 0 || topo.tris[t4 as usize].contains(&fan.v) {
+        return false;
+    }
+    let v = fan.v;
+    let Some(x) = topo.tris[t4 as usize]
+        .iter()
+        .copied()
+        .find(|x| !topo.tris[t2 as usize].contains(x))
+    else {
+        return false;
+    };
+    let tri = |t: u32| topo.tris[t as usize].to_vec();
+    let hex = merge(&tri(t1), &tri(t2))
+        .and_then(|p| merge(&p, &tri(t4)))
+        .and_then(|p| merge(&p, &tri(t3)));
+    let Some(h) = hex else { return false };
+    if h.len() != 6 {
+        return false;
+    }
+    let Some(iv) = h.iter().position(|&p| p == v) else {
+        return false;
+    };
+    if h[(iv + 3) % 6] != x {
+        return false;
+    }
+    let at = |s: usize| h[(iv + s) % 6];
+    // the diagonal v-x must lie inside the quad (v, h2, x, h4): both halves turn like the
+    // input triangles
+    let p = |i: u32| coords[i as usize];
+    let normal: DVec3 = [t1, t2, t3, t4]
+        .iter()
+        .map(|&t| super::graph::tri_normal(coords, topo.tris[t as usize]))
+        .sum();
+    let turn = |a: u32, b: u32, c: u32| (p(b) - p(a)).cross(p(c) - p(a)).dot(normal);
+    if turn(v, at(2), x) <= 0.0 || turn(v, x, at(4)) <= 0.0 {
+        return false;
+    }
+    faces[tri_face[t1 as usize] as usize] = vec![at(0), at(1), at(2), at(3)];
+    faces[tri_face[t3 as usize] as usize] = vec![at(3), at(4), at(5), at(0)];
+    alive[tri_face[t2 as usize] as usize] = false;
+    true
+}
+
+/// Vertex duplication (5.3.2): fan `t1 … tk` at `v` with `t1–tk` matched by the extra edge.
+/// A new node `v'` is put inside the fan; every face holding a middle triangle `t2 … t(k−1)`
+/// gets `v'` instead of `v`, and `v'` is inserted into the edges `{v, a1}` of `t1` and
+/// `{v, a(k−1)}` of `tk`, which become the quads `(v, v', a1, u)` and `(v, a(k−1), v', w)`
+/// (in the orientation of the triangles). The new edge `v v'` is shared by these two quads.
+fn duplicate(
+    topo: &SurfaceTopo,
+    fan: &super::graph::Fan,
+    coords: &[DVec3],
+    n_global: u32,
+    faces: &mut [Vec<u32>],
+    tri_face: &[u32],
+    out: &mut Faces,
+) -> Result<(), String> {
+    let v = fan.v;
+    let k = fan.tris.len();
+    let vp = n_global + out.new_nodes.len() as u32;
+    let near: Vec<u32> = fan
+        .tris
+        .windows(2)
+        .map(|w| shared_other(topo, w[0], w[1], v))
+        .collect();
+    if near.contains(&NONE) {
+        return Err(format!("fan at node id {v} is not connected"));
+    }
+    let mean = near.iter().map(|&a| coords[a as usize]).sum::<DVec3>() / near.len() as f64;
+    let pos = 0.5 * (coords[v as usize] + mean);
+    // 1. middle faces: v -> v'
+    for &t in &fan.tris[1..k - 1] {
+        let f = tri_face[t as usize] as usize;
+        for p in faces[f].iter_mut() {
+            if *p == v {
+                *p = vp;
+            }
+        }
+    }
+    // 2. end faces: insert v' on the edge towards the fan
+    let ends = [
+        (fan.tris[0], fan.tris[1], near[0]),
+        (fan.tris[k - 1], fan.tris[k - 2], near[k - 2]),
+    ];
+    for (end, inner, a) in ends {
+        let fe = tri_face[end as usize] as usize;
+        let fi = tri_face[inner as usize] as usize;
+        let poly = &faces[fe];
+        let m = poly.len();
+        let Some(iv) = poly.iter().position(|&p| p == v) else {
+            return Err(format!(
+                "vertex duplication: node id {v} missing from its fan"
+            ));
+        };
+        let (prev, next) = (poly[(iv + m - 1) % m], poly[(iv + 1) % m]);
+        // the neighbour of v shared with the inner face, where v' now sits
+        let inner_poly = &faces[fi];
+        let insert_after = if next == a {
+            iv
+        } else if prev == a {
+            (iv + m - 1) % m
+        } else if inner_poly.contains(&next) && inner_poly.contains(&vp) {
+            iv
+        } else if inner_poly.contains(&prev) && inner_poly.contains(&vp) {
+            (iv + m - 1) % m
+        } else {
+            return Err(format!(
+                "vertex duplication at node id {v}: end triangle does not border the fan"
+            ));
+        };
+        faces[fe].insert(insert_after + 1, vp);
+    }
+    out.new_nodes.push(NewNode { pos, near });
+    Ok(())
+}

@@ -1,0 +1,246 @@
+//! Parity repair: odd surfaces are made even by splitting boundary segments, consistently
+//! across the surfaces sharing a curve.
+
+mod recombine_util;
+
+use blossomquad::mesh::etype;
+use blossomquad::recombine::{check_invariants, recombine, ParityMode, RecombineOptions};
+use recombine_util::*;
+
+#[test]
+fn odd_fan_gets_one_boundary_split() {
+    let mut b = Builder::new();
+    b.entity(2, 1, &[], &[]);
+    fan(&mut b, 1, [0.0, 0.0], 5);
+    let before = b.mesh;
+    let max_node = before.max_node_tag();
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 1);
+    let s = &r.parity_splits[0];
+    assert_eq!(s.new_node, max_node + 1);
+    assert_eq!(s.surfaces, vec![1]);
+    // the ring nodes are classified on (bare) curve 101: the new node joins them
+    assert_eq!(s.curve, Some(101));
+    let blk = m
+        .node_blocks
+        .iter()
+        .find(|b| b.entity_dim == 1 && b.entity_tag == 101)
+        .unwrap();
+    assert!(blk.tags.contains(&s.new_node));
+    assert_eq!(count(&m, etype::QUAD4), 3);
+    assert_eq!(count(&m, etype::TRI3), 0);
+    assert!(r.log.iter().any(|l| l.contains("parity repair")));
+    check_invariants(&before, &m).unwrap();
+}
+
+#[test]
+fn odd_square_with_lines_splits_the_line_element_too() {
+    let mut before = grid(&Grid {
+        nx: 3,
+        ny: 3,
+        ..Default::default()
+    });
+    // split one segment of curve 4 (left side): 19 triangles, 13 line elements
+    let left = line_of(&before, 4, 0);
+    split_edge(&mut before, left[0], left[1], 1, 4);
+    assert_eq!(count(&before, etype::TRI3), 19);
+    let lines_before = count(&before, etype::LINE2);
+    let max_elem = before.max_element_tag();
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 1);
+    assert_eq!(count(&m, etype::LINE2), lines_before + 1);
+    assert_eq!(count(&m, etype::QUAD4), 10);
+    // the new line element has a fresh tag above the maximum
+    let line_tags: Vec<u64> = m
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == etype::LINE2)
+        .flat_map(|b| b.tags.clone())
+        .collect();
+    assert!(line_tags.iter().any(|&t| t > max_elem));
+    check_invariants(&before, &m).unwrap();
+}
+
+#[test]
+fn two_odd_surfaces_sharing_a_curve_need_one_split() {
+    let (mut before, id) = two_squares(3);
+    let n = 3;
+    // make both odd: split an outer segment of each (curve 1 on the left, curve 3 on the right)
+    split_edge(&mut before, id[0][0], id[0][1], 1, 1);
+    split_edge(&mut before, id[2 * n][0], id[2 * n][1], 1, 3);
+    assert_eq!(count_on(&before, 1, etype::TRI3), 19);
+    assert_eq!(count_on(&before, 2, etype::TRI3), 19);
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 1, "{:?}", r.parity_splits);
+    assert_eq!(
+        r.parity_splits[0].curve,
+        Some(2),
+        "the shared curve is split"
+    );
+    assert_eq!(r.parity_splits[0].surfaces, vec![1, 2]);
+    assert_eq!(count_on(&m, 1, etype::QUAD4), 10);
+    assert_eq!(count_on(&m, 2, etype::QUAD4), 10);
+    check_invariants(&before, &m).unwrap();
+    // the split segment is carried by two line elements of curve 2 now
+    let c2 = m
+        .element_blocks
+        .iter()
+        .find(|b| b.element_type == etype::LINE2 && b.entity_tag == 2)
+        .unwrap();
+    assert_eq!(c2.len(), n + 1);
+}
+
+#[test]
+fn one_odd_surface_next_to_an_even_one_splits_its_outer_boundary() {
+    let (mut before, id) = two_squares(2);
+    split_edge(&mut before, id[0][0], id[0][1], 1, 1);
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 1);
+    assert_eq!(r.parity_splits[0].surfaces, vec![1]);
+    assert_eq!(r.parity_splits[0].curve, Some(1));
+    check_invariants(&before, &m).unwrap();
+}
+
+#[test]
+fn closed_shell_adjacent_odd_faces() {
+    // cube faces z = 0 (1) and y = 0 (3) share the cube edge y = z = 0; splitting one of its
+    // segments makes both odd; the repair must make both even again with one split
+    let mut before = cube(2);
+    let (a, b) = (
+        node_at(&before, [0.0, 0.0, 0.0]),
+        node_at(&before, [0.5, 0.0, 0.0]),
+    );
+    split_edge(&mut before, a, b, 2, 1);
+    assert_eq!(count_on(&before, 1, etype::TRI3), 9);
+    assert_eq!(count_on(&before, 3, etype::TRI3), 9);
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 1, "{:?}", r.parity_splits);
+    assert_eq!(r.parity_splits[0].surfaces, vec![1, 3]);
+    assert_eq!(r.parity_splits[0].curve, None, "no curve data in this mesh");
+    assert_eq!(count(&m, etype::TRI3), 0);
+    check_invariants(&before, &m).unwrap();
+}
+
+#[test]
+fn closed_shell_opposite_odd_faces() {
+    // faces 1 (z = 0) and 2 (z = 1) odd, not adjacent: two splits through a face between
+    let mut before = cube(2);
+    let (a, b) = (
+        node_at(&before, [0.0, 0.0, 0.0]),
+        node_at(&before, [0.5, 0.0, 0.0]),
+    );
+    split_edge(&mut before, a, b, 2, 1); // flips 1 and 3
+    let (a, b) = (
+        node_at(&before, [0.0, 0.0, 1.0]),
+        node_at(&before, [0.5, 0.0, 1.0]),
+    );
+    split_edge(&mut before, a, b, 2, 2); // flips 3 and 2
+    let odd: Vec<i32> = (1..=6)
+        .filter(|&s| count_on(&before, s, etype::TRI3) % 2 == 1)
+        .collect();
+    assert_eq!(odd, vec![1, 2]);
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 2, "{:?}", r.parity_splits);
+    assert_eq!(count(&m, etype::TRI3), 0);
+    for s in &r.surfaces {
+        assert_eq!(s.triangles_in % 2, 0);
+    }
+    check_invariants(&before, &m).unwrap();
+}
+
+#[test]
+fn all_six_cube_faces_odd() {
+    // splitting one segment on each of three disjoint cube edges makes all six faces odd
+    let mut before = cube(2);
+    for (p, q) in [
+        ([0.0, 0.0, 0.0], [0.5, 0.0, 0.0]), // z=0 / y=0
+        ([1.0, 1.0, 0.5], [1.0, 1.0, 1.0]), // x=1 / y=1
+        ([0.0, 0.5, 1.0], [0.0, 1.0, 1.0]), // x=0 / z=1
+    ] {
+        let (a, b) = (node_at(&before, p), node_at(&before, q));
+        split_edge(&mut before, a, b, 2, 1);
+    }
+    assert!((1..=6).all(|s| count_on(&before, s, etype::TRI3) % 2 == 1));
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 3, "{:?}", r.parity_splits);
+    assert_eq!(count(&m, etype::TRI3), 0);
+    check_invariants(&before, &m).unwrap();
+}
+
+#[test]
+fn parity_error_mode_names_the_curves() {
+    let (mut before, id) = two_squares(2);
+    split_edge(&mut before, id[0][0], id[0][1], 1, 1);
+    split_edge(&mut before, id[4][0], id[4][1], 1, 3);
+    let mut m = before.clone();
+    let e = recombine(
+        &mut m,
+        &RecombineOptions {
+            parity: ParityMode::Error,
+            ..Default::default()
+        },
+    )
+    .unwrap_err();
+    let msg = e.to_string();
+    assert!(
+        msg.contains("surface 1") && msg.contains("surface 2"),
+        "{msg}"
+    );
+    assert!(msg.contains("curve(s) 2"), "{msg}");
+}
+
+#[test]
+fn parity_split_interpolates_parametric_coordinates() {
+    let mut before = grid(&Grid {
+        nx: 5,
+        ny: 4,
+        ..Default::default()
+    });
+    let left = line_of(&before, 4, 1);
+    split_edge(&mut before, left[0], left[1], 1, 4);
+    // parametric blocks: u = x on curves 1 and 3, u = y on curves 2 and 4; (u, v) = (x, y)
+    let u_of = |curve: i32, c: &[f64; 3]| if curve % 2 == 1 { c[0] } else { c[1] };
+    for b in before.node_blocks.iter_mut() {
+        b.params = match b.entity_dim {
+            1 => Some(b.coords.iter().map(|c| u_of(b.entity_tag, c)).collect()),
+            2 => Some(b.coords.iter().flat_map(|c| [c[0], c[1]]).collect()),
+            _ => None,
+        };
+    }
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 1);
+    let s = &r.parity_splits[0];
+    let curve = s.curve.expect("split on a curve");
+    let blk = m
+        .node_blocks
+        .iter()
+        .find(|b| b.entity_dim == 1 && b.entity_tag == curve)
+        .unwrap();
+    for b in &m.node_blocks {
+        if let Some(p) = &b.params {
+            assert_eq!(p.len(), b.tags.len() * b.entity_dim as usize);
+        }
+    }
+    let i = blk.tags.iter().position(|&t| t == s.new_node).unwrap();
+    let both_inside = [s.segment.0, s.segment.1].iter().all(|t| {
+        before
+            .node_blocks
+            .iter()
+            .any(|b| b.entity_dim == 1 && b.entity_tag == curve && b.tags.contains(t))
+    });
+    let u = blk.params.as_ref().unwrap()[i];
+    if both_inside {
+        assert!((u - u_of(curve, &blk.coords[i])).abs() < 1e-12, "u = {u}");
+    } else {
+        assert!(m.warnings.iter().any(|w| w.contains("parametric")));
+    }
+    check_invariants(&before, &m).unwrap();
+}
