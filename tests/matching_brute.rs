@@ -50,7 +50,12 @@ fn check(n: usize, edges: &[(u32, u32, i64)]) {
     }
     // The public entry (component split) must agree too.
     match (expect, matching::solve(n, edges)) {
-        (Some(c), Ok(m)) => assert_eq!(m.cost, c),
+        (Some(c), Ok(m)) => {
+            assert_eq!(m.cost, c);
+            if let Err(e) = matching::verify(n, edges, &m) {
+                panic!("certificate failed (solve): {e} n={n} edges={edges:?}");
+            }
+        }
         (None, Err(w)) => assert!(matching::verify_witness(n, edges, &w).is_ok()),
         _ => panic!("solve disagrees with oracle: n={n} {edges:?}"),
     }

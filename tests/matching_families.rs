@@ -289,11 +289,70 @@ fn certificate_rejects_tampered_solutions() {
         matching::verify(n, &e, &bad),
         Err(CertificateError::Malformed(_))
     ));
-    // Swapping a matched pair for another perfect matching that is not optimal.
+    // A vertex dual lowered by one: the dual objective no longer equals the cost.
     let mut worse = m.clone();
     let v0 = (0..n).find(|&v| worse.mate[v] as usize > v).unwrap_or(0);
     worse.duals.vertex[v0] -= 1;
     assert!(matching::verify(n, &e, &worse).is_err());
+}
+
+/// The checker rejects tampered blossom duals and a rematched pair that is not a graph edge,
+/// on solutions that really use blossoms with positive duals (nested odd cycles).
+#[test]
+fn certificate_rejects_tampered_blossoms_and_non_edges() {
+    let mut rng = Rng(41);
+    let mut tampered = 0;
+    for depth in 1..4 {
+        let mut cost = |r: &mut Rng| r.below(1000) as i64 - 500;
+        let (n, e) = nested_triangles(depth, &mut rng, &mut cost);
+        let m = matching::solve(n, &e).expect("matching");
+        assert!(matching::verify(n, &e, &m).is_ok());
+        let Some(b) = m.duals.blossoms.iter().position(|b| b.dual > 0) else {
+            continue;
+        };
+        let mut bad = m.clone();
+        bad.duals.blossoms[b].dual = -1;
+        assert!(
+            matches!(
+                matching::verify(n, &e, &bad),
+                Err(CertificateError::NegativeBlossomDual(x)) if x as usize == b
+            ),
+            "depth {depth}"
+        );
+        let mut bad = m.clone();
+        bad.duals.blossoms[b].dual += 2 * m.duals.scale;
+        assert!(matching::verify(n, &e, &bad).is_err(), "depth {depth}");
+        tampered += 1;
+    }
+    assert!(
+        tampered >= 2,
+        "only {tampered} solutions had a blossom dual"
+    );
+    // Rematch two pairs (a, b), (c, d) into (a, c), (b, d) where (a, c) is not an edge.
+    let (n, e) = nested_triangles(2, &mut rng, &mut |r: &mut Rng| r.below(50) as i64);
+    let m = matching::solve(n, &e).expect("matching");
+    let is_edge = |u: u32, v: u32| {
+        e.iter()
+            .any(|&(x, y, _)| (x, y) == (u, v) || (x, y) == (v, u))
+    };
+    let (a, c) = (0..n as u32)
+        .flat_map(|a| (0..n as u32).map(move |c| (a, c)))
+        .find(|&(a, c)| a != c && m.mate[a as usize] != c && !is_edge(a, c))
+        .expect("a non-edge");
+    let (b, d) = (m.mate[a as usize], m.mate[c as usize]);
+    let mut bad = m.clone();
+    bad.mate[a as usize] = c;
+    bad.mate[c as usize] = a;
+    bad.mate[b as usize] = d;
+    bad.mate[d as usize] = b;
+    assert!(
+        matches!(
+            matching::verify(n, &e, &bad),
+            Err(CertificateError::NotAnEdge(..))
+        ),
+        "{:?}",
+        matching::verify(n, &e, &bad)
+    );
 }
 
 #[test]

@@ -170,7 +170,10 @@ fn duplicate_node_tags_refused_duplicate_element_tags_warned() {
 fn unknown_element_type_code() {
     let e = err(&replace_line(20, "2 1 77 1"));
     assert!(matches!(e.kind, ErrorKind::UnknownElementType(77)), "{e}");
-    assert!(e.to_string().contains("unknown element type code 77"));
+    assert_eq!(
+        e.to_string(),
+        "mesh.msh: $Elements, line 20: unknown element type code 77"
+    );
     assert_eq!(e.location, Location::Line(20));
 }
 
@@ -179,8 +182,16 @@ fn non_numeric_fields() {
     let e = err(&replace_line(14, "0 abc 0"));
     assert!(matches!(e.kind, ErrorKind::NotANumber { .. }), "{e}");
     assert_eq!(e.location, Location::Line(14));
+    assert!(
+        e.to_string().starts_with("mesh.msh: $Nodes, line 14: "),
+        "{e}"
+    );
     let e = err(&replace_line(21, "1 1 x 3"));
     assert!(matches!(e.kind, ErrorKind::NotANumber { .. }), "{e}");
+    assert!(
+        e.to_string().starts_with("mesh.msh: $Elements, line 21: "),
+        "{e}"
+    );
 }
 
 #[test]
@@ -189,6 +200,10 @@ fn nan_and_inf_coordinates() {
         let e = err(&replace_line(16, bad));
         assert!(matches!(e.kind, ErrorKind::NotFinite { .. }), "{bad}: {e}");
         assert_eq!(e.location, Location::Line(16));
+        assert!(
+            e.to_string().starts_with("mesh.msh: $Nodes, line 16: "),
+            "{e}"
+        );
     }
     // Binary NaN.
     let m = msh::read_bytes(GOOD.as_bytes(), "g").unwrap();
@@ -199,11 +214,19 @@ fn nan_and_inf_coordinates() {
     let mut data = Vec::new();
     msh::write(&m, &mut data, bin41).unwrap();
     let one = 1.0f64.to_le_bytes();
-    let at = data.windows(8).position(|w| w == one).unwrap();
+    // The first 1.0 after `$Nodes` is a node coordinate (an earlier one would be a
+    // bounding box in `$Entities`).
+    let nodes = data.windows(7).position(|w| w == b"$Nodes\n").unwrap();
+    let at = nodes + data[nodes..].windows(8).position(|w| w == one).unwrap();
     data[at..at + 8].copy_from_slice(&f64::NAN.to_le_bytes());
     let e = msh::read_bytes(&data, "b.msh").unwrap_err();
     assert!(matches!(e.kind, ErrorKind::NotFinite { .. }), "{e}");
-    assert!(matches!(e.location, Location::Byte(_)), "{e}");
+    assert_eq!(e.location, Location::Byte(at), "{e}");
+    assert!(
+        e.to_string()
+            .starts_with(&format!("b.msh: $Nodes, byte {at}: ")),
+        "{e}"
+    );
 }
 
 #[test]
@@ -223,7 +246,13 @@ fn binary_size_mismatch() {
     msh::write(&m, &mut data, variants()[1].0).unwrap();
     let at = data.windows(7).position(|w| w == b"$Nodes\n").unwrap() + 7;
     data[at + 8..at + 16].copy_from_slice(&1_000_000u64.to_le_bytes());
-    assert!(msh::read_bytes(&data, "b.msh").is_err());
+    let e = msh::read_bytes(&data, "b.msh").unwrap_err();
+    assert_eq!(e.section.as_deref(), Some("$Nodes"), "{e}");
+    assert!(
+        matches!(e.location, Location::Byte(b) if b < data.len()),
+        "{e}"
+    );
+    assert!(e.to_string().starts_with("b.msh: $Nodes, byte "), "{e}");
 }
 
 #[test]
@@ -288,8 +317,15 @@ fn corpus_broken_file_fails_clearly() {
     let e = msh::read_file(&p).unwrap_err();
     assert!(matches!(e.kind, ErrorKind::TooManyFields { .. }), "{e}");
     assert_eq!(e.section.as_deref(), Some("$Elements"));
-    assert!(matches!(e.location, Location::Line(_)));
-    assert!(e.to_string().contains("too many"), "{e}");
+    // Line 27 is `3 1 2 10 2 2 1 2`: a 2-node line with three node tags, the first
+    // element line that does not fit its type (see SOURCES.md).
+    assert_eq!(e.location, Location::Line(27), "{e}");
+    let text = e.to_string();
+    assert!(
+        text.starts_with(&format!("{}: $Elements, line 27: ", p.display())),
+        "{text}"
+    );
+    assert!(text.contains("too many"), "{text}");
 }
 
 #[test]

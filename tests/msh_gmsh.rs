@@ -1,8 +1,9 @@
 //! Gmsh agrees with our files: every corpus file written in all four variants loads in Gmsh
 //! (`gmsh OUT -0 -o CHECK.msh`, and the gmsh Python module sees the same numbers of nodes,
 //! elements per type, entities and physical groups), and meshes Gmsh writes in all four
-//! variants (binary included) read consistently. Skipped when Gmsh is not installed.
+//! variants (binary included) read consistently. Gmsh is required (see `gmsh_gate`).
 
+mod gmsh_gate;
 mod msh_common;
 
 use std::collections::{BTreeMap, BTreeSet};
@@ -11,6 +12,7 @@ use std::process::Command;
 
 use blossomquad::mesh::{Mesh, MshFormat, MshVersion};
 use blossomquad::msh;
+use gmsh_gate::require_gmsh;
 use msh_common::*;
 
 #[derive(Debug, PartialEq)]
@@ -130,8 +132,7 @@ fn expected(m: &Mesh, v41: bool) -> Seen {
 
 #[test]
 fn corpus_outputs_load_in_gmsh_with_same_counts() {
-    if !have_gmsh() {
-        eprintln!("gmsh not installed: skipped");
+    if !require_gmsh() {
         return;
     }
     let dir = tempdir();
@@ -199,8 +200,7 @@ Mesh.MeshSizeMax = 0.2;
 
 #[test]
 fn gmsh_written_meshes_read_in_all_four_variants() {
-    if !have_gmsh() {
-        eprintln!("gmsh not installed: skipped");
+    if !require_gmsh() {
         return;
     }
     let dir = tempdir();
@@ -279,8 +279,7 @@ Mesh.MeshSizeMax = 0.25;
 
 #[test]
 fn periodic_links_survive_every_variant() {
-    if !have_gmsh() {
-        eprintln!("gmsh not installed: skipped");
+    if !require_gmsh() {
         return;
     }
     let dir = tempdir();
@@ -308,8 +307,7 @@ fn periodic_links_survive_every_variant() {
 
 #[test]
 fn partitioned_meshes_are_read_and_written_unpartitioned() {
-    if !have_gmsh() {
-        eprintln!("gmsh not installed: skipped");
+    if !require_gmsh() {
         return;
     }
     let dir = tempdir();

@@ -1,6 +1,8 @@
-//! Every fixture in `geo/`, meshed by Gmsh (coarse, skipped when `gmsh` is not installed) in
+//! Every fixture in `geo/`, meshed by Gmsh (coarse; Gmsh is required, see `gmsh_gate`) in
 //! the four MSH variants (4.1 and 2.2, ASCII and binary): recombination with verification
 //! (certificates + invariants), an independent invariant check, and Gmsh loads the output.
+
+mod gmsh_gate;
 
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -10,6 +12,7 @@ use blossomquad::msh;
 use blossomquad::recombine::{
     check_invariants, recombine, ParityMode, RecombineError, RecombineOptions,
 };
+use gmsh_gate::require_gmsh;
 
 fn geo_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("geo")
@@ -42,8 +45,7 @@ const VARIANTS: [(&str, &[&str]); 4] = [
 
 #[test]
 fn every_fixture_in_every_variant() {
-    if Command::new("gmsh").arg("--version").output().is_err() {
-        eprintln!("gmsh not installed; skipping");
+    if !require_gmsh() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();
@@ -100,8 +102,7 @@ fn every_fixture_in_every_variant() {
 
 #[test]
 fn even_curves_fixture_refused_in_parity_error_mode() {
-    if Command::new("gmsh").arg("--version").output().is_err() {
-        eprintln!("gmsh not installed; skipping");
+    if !require_gmsh() {
         return;
     }
     let dir = tempfile::tempdir().unwrap();

@@ -161,14 +161,6 @@ pub fn groups_with_elements(m: &Mesh) -> BTreeSet<(i32, i32)> {
         .collect()
 }
 
-/// True when the `gmsh` executable runs.
-pub fn have_gmsh() -> bool {
-    Command::new("gmsh")
-        .arg("--version")
-        .output()
-        .is_ok_and(|o| o.status.success())
-}
-
 /// Runs gmsh with `args`; panics with its output on failure or on an `Error` line.
 pub fn gmsh(args: &[&str]) -> String {
     let out = Command::new("gmsh").args(args).output().expect("gmsh runs");
