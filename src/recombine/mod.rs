@@ -88,7 +88,10 @@
 //!      and the new diagonal from `v` to `t4`'s far vertex `x` lies inside the quad `t2 ∪ t4`:
 //!      the hexagon `t1 ∪ t2 ∪ t4 ∪ t3` is cut into two quads by `v x` (the quad `t2 ∪ t4`
 //!      has its diagonal swapped). Both are simple polygons, possibly non-convex;
-//!      optimization (section 6) is expected to improve them.
+//!      optimization (section 6) is expected to improve them. Unlike the paper, the swap is
+//!      skipped when a corner of a new quad would be (nearly) straight or zero — e.g. two
+//!      successive segments of a straight curve in one quad — since a wall node never moves
+//!      and that corner would stay; the fan then gets a vertex duplication.
 //!    - **Vertex duplication** (5.3.2) otherwise: a new node `v'` is placed halfway between
 //!      `v` and the mean of the fan's inner vertices `a_1 … a_{k−1}` (classified on the
 //!      surface, parametric coordinates averaged from those of the `a_i` when the surface

@@ -158,8 +158,10 @@ pub(crate) fn build_faces(
 /// the diagonal from `v` to `t4`'s far vertex `x` into two quads (the diagonal `a1 a2` of the
 /// quad `t2 ∪ t4` is swapped to `v x`). Applied only when none of the four triangles takes
 /// part in another used extra edge's fan and the new diagonal lies inside the quad
-/// `t2 ∪ t4` (so both new quads are simple polygons, possibly non-convex, never folded);
-/// returns false (nothing changed) otherwise.
+/// `t2 ∪ t4` (so both new quads are simple polygons, possibly non-convex, never folded)
+/// and no corner of the new quads is nearly straight or zero (corner η ≤
+/// [`FIXED_CORNER_MIN_ETA`](super::graph::FIXED_CORNER_MIN_ETA)); returns false (nothing
+/// changed, the fan then gets a vertex duplication) otherwise.
 #[allow(clippy::too_many_arguments)]
 fn try_swap(
     topo: &SurfaceTopo,
@@ -211,6 +213,22 @@ fn try_swap(
         .sum();
     let turn = |a: u32, b: u32, c: u32| (p(b) - p(a)).cross(p(c) - p(a)).dot(normal);
     if turn(v, at(2), x) <= 0.0 || turn(v, x, at(4)) <= 0.0 {
+        return false;
+    }
+    // a (nearly) straight or zero corner in a new quad would stay for good when its node is
+    // on a wall (e.g. two successive segments of a straight curve): leave those fans to the
+    // vertex duplication, which keeps every boundary corner of the input
+    let unit = normal.normalize_or_zero();
+    let hopeless = |q: [u32; 4]| {
+        (0..4).any(|k| {
+            let a = p(q[(k + 1) % 4]) - p(q[k]);
+            let b = p(q[(k + 3) % 4]) - p(q[k]);
+            let alpha = unit.dot(a.cross(b)).atan2(a.dot(b));
+            1.0 - (std::f64::consts::FRAC_PI_2 - alpha).abs() / std::f64::consts::FRAC_PI_2
+                <= super::graph::FIXED_CORNER_MIN_ETA
+        })
+    };
+    if hopeless([at(0), at(1), at(2), at(3)]) || hopeless([at(3), at(4), at(5), at(0)]) {
         return false;
     }
     faces[tri_face[t1 as usize] as usize] = vec![at(0), at(1), at(2), at(3)];
