@@ -112,7 +112,10 @@ fn main() {
     row("triangles", &tri_q.total);
     row("before", &before.total);
     row("after", &after.total);
-    println!("histogram after: {:?}", after.total.eta_histogram);
+    println!(
+        "histogram after: {:?} lh {:?}-{:?}",
+        after.total.eta_histogram, after.total.lh_min, after.total.lh_max
+    );
     if args.iter().any(|a| a == "worst") {
         let mut etas = quality::quad_etas(&mesh);
         etas.sort_by(|a, b| a.1.total_cmp(&b.1));

@@ -123,9 +123,13 @@ def quality(binary, path, size_expr, reference, timeout):
             return quality(binary, path, None, reference, timeout)
         return None
     try:
-        return json.loads(res["out"].strip().splitlines()[-1])
-    except (ValueError, IndexError):
+        total = json.loads(res["out"])["total"]
+    except (ValueError, KeyError, TypeError):
         return None
+    return {"quads": total.get("quads"), "triangles": total.get("triangles"),
+            "eta_min": total.get("eta_worst"), "eta_mean": total.get("eta_mean"),
+            "tau": total.get("tau_percent"), "d4_percent": total.get("d4_percent"),
+            "d_min": total.get("d_min"), "d_max": total.get("d_max")}
 
 
 def fmt(value, digits=3):

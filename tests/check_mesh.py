@@ -38,13 +38,27 @@ Prints one JSON line and exits 0 when every check passes, 1 on any violation,
 """
 
 import json
+
+
+def _plain(o):
+    """JSON fallback for numpy values (the gmsh module returns numpy arrays when numpy is installed)."""
+    if hasattr(o, "tolist"):
+        return o.tolist()
+    if hasattr(o, "item"):
+        return o.item()
+    return str(o)
+
+
+def _dumps(obj, **kw):
+    return json.dumps(obj, default=_plain, **kw)
+
 import math
 import sys
 
 try:
     import gmsh
 except ImportError:  # pragma: no cover - reported as a usage problem
-    print(json.dumps({"ok": False, "error": "python module gmsh not found (pip install gmsh==4.15.2)"}))
+    print(_dumps({"ok": False, "error": "python module gmsh not found (pip install gmsh==4.15.2)"}))
     sys.exit(2)
 
 TRIANGLE_TYPES = {2, 9, 20, 21, 22, 23, 24, 25}
@@ -80,6 +94,12 @@ def _dedup(elements):
     return out
 
 
+def plain(values):
+    """A list of Python numbers (the gmsh module returns numpy arrays when numpy
+    is installed, lists otherwise)."""
+    return values.tolist() if hasattr(values, "tolist") else list(values)
+
+
 def is_msh2(path):
     """True when the file's $MeshFormat says version 2.x."""
     with open(path, "rb") as f:
@@ -105,12 +125,14 @@ def load(path):
     for dim, tag in gmsh.model.getEntities():
         mesh.entities.add((dim, tag))
         tags, coords, _ = gmsh.model.mesh.getNodes(dim, tag, False, False)
+        tags, coords = plain(tags), plain(coords)
         for i, t in enumerate(tags):
             t = int(t)
             mesh.nodes[t] = (coords[3 * i], coords[3 * i + 1], coords[3 * i + 2])
             mesh.node_dim.setdefault(t, dim)
             mesh.node_dim[t] = min(mesh.node_dim[t], dim)
         types, _, node_tags = gmsh.model.mesh.getElements(dim, tag)
+        types, node_tags = plain(types), [plain(n) for n in node_tags]
         if len(types) > 0:
             mesh.with_elements.add((dim, tag))
         for etype, conn in zip(types, node_tags):
@@ -198,6 +220,7 @@ class Report:
         self.violations = []
 
     def check(self, name, ok, message=None):
+        ok = bool(ok)
         self.checks[name] = self.checks.get(name, True) and ok
         if not ok and message is not None and len(self.violations) < MAX_REPORTED:
             self.violations.append(f"{name}: {message}")
@@ -438,17 +461,17 @@ def main(argv):
     gmsh.option.setNumber("General.Terminal", 0)
     inp = load(args[0])
     if inp.errors:
-        print(json.dumps({"ok": False, "input": args[0], "error": "cannot read input", "messages": inp.errors[:5]}))
+        print(_dumps({"ok": False, "input": args[0], "error": "cannot read input", "messages": inp.errors[:5]}))
         return 2
     out = load(args[1])
     if out.errors:
-        print(json.dumps({"ok": False, "input": args[0], "output": args[1],
+        print(_dumps({"ok": False, "input": args[0], "output": args[1],
                           "checks": {"loads": False}, "violations": [f"loads: {m}" for m in out.errors[:5]]}))
         return 1
     rep, quads, tris = check(inp, out, "--allow-dropped-volumes" in flags, "--allow-triangles" in flags)
     rep.checks["loads"] = True
     ok = all(rep.checks.values())
-    print(json.dumps({
+    print(_dumps({
         "ok": ok,
         "input": args[0],
         "output": args[1],

@@ -3,6 +3,20 @@
 {"file", "nodes", "types": {type: count}, "entities": [n0, n1, n2, n3], "groups": [[dim, tag], ...],
  "error": null or message}. Used by tests/msh_gmsh.rs to compare with blossomquad's reader."""
 import json
+
+
+def _plain(o):
+    """JSON fallback for numpy values (the gmsh module returns numpy arrays when numpy is installed)."""
+    if hasattr(o, "tolist"):
+        return o.tolist()
+    if hasattr(o, "item"):
+        return o.item()
+    return str(o)
+
+
+def _dumps(obj, **kw):
+    return json.dumps(obj, default=_plain, **kw)
+
 import sys
 
 import gmsh
@@ -22,5 +36,5 @@ for path in sys.argv[1:]:
         rec["groups"] = sorted([list(g) for g in gmsh.model.getPhysicalGroups()])
     except Exception as e:  # noqa: BLE001 - report any Gmsh failure to the test
         rec["error"] = str(e)
-    print(json.dumps(rec), flush=True)
+    print(_dumps(rec), flush=True)
 gmsh.finalize()

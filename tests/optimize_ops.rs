@@ -274,3 +274,32 @@ fn missing_node_is_a_typed_error() {
     let err = optimize(&mut m, &reference, &OptimizeOptions::default()).unwrap_err();
     assert!(err.to_string().contains("777"), "{err}");
 }
+
+#[test]
+fn recombined_delaunay_square_improves_and_stays_valid() {
+    let (tris, quads) = (1u64..30)
+        .find_map(|seed| {
+            let t = synth::delaunay_square(10, 1.0, 0.3, seed);
+            synth::pair_optimal(&t).map(|q| (t, q))
+        })
+        .expect("some seed has a perfect matching");
+    let reference = synth::to_mesh(&tris);
+    let mut m = synth::to_mesh(&quads);
+    let before = stats(&m);
+    let curve = curve_nodes(&m);
+    let rep = run(&mut m, &reference, true);
+    let after = stats(&m);
+    assert!(
+        after.eta_mean.unwrap() > before.eta_mean.unwrap() + 0.05,
+        "{before:?} {after:?}"
+    );
+    assert!(
+        after.eta_worst.unwrap() >= before.eta_worst.unwrap(),
+        "{before:?} {after:?}"
+    );
+    assert_eq!(curve_nodes(&m), curve);
+    let s = &rep.surfaces[0];
+    assert_eq!(s.after.quads, after.quads);
+    assert_eq!(before.quads - after.quads, rep.quads_removed);
+    assert_valid(&m, |_| DVec3::Z);
+}

@@ -6,8 +6,8 @@
 //! two nodal sizes). With l^h ≈ |x − x_j| / h_j (eq. 1), that is the spring energy Σ (l^h)²,
 //! so nodes settle where adimensional lengths balance and gradation is kept; for a constant h
 //! it is the plain quad-centroid Laplacian. The move is tried at full length, then at 1/2 and
-//! 1/4 (a backtracking line search between the node and the target, cheaper than Gmsh's
-//! golden section and measured to reach the same quality), and accepted at the first step
+//! 1/4 (a backtracking line search between the node and the target, in place of Gmsh's
+//! golden-section search on the same segment), and accepted at the first step
 //! where the star's worst signed η (eq. 3 with the surface normal, so inverted quads score
 //! below zero) does not drop. On curved surfaces every candidate is projected back onto the
 //! reference triangulation by a local walk from the node's current triangle.
@@ -16,6 +16,10 @@
 //! colour never share a quad, the moves of one colour are computed in parallel (rayon) from
 //! the same state, then applied. Quality comparisons use a trigonometry-free key ordered
 //! like η ([`shape_key`](super::local)).
+//!
+//! [`optimize_angles`] then polishes nodes around poor quads by a pattern search on the
+//! star's mean η. Measured on a 15k-triangle Gmsh rectangle: η̄ +0.024, η_w +0.03, but τ
+//! −1 point, because η (eq. 3) sees angles only and accepts elongated rectangles.
 
 use super::local::{rotate_to, Local};
 use glam::DVec3;

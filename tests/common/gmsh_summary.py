@@ -28,6 +28,12 @@ def sha(items):
     return h.hexdigest()[:16]
 
 
+def plain(values):
+    """A list of Python numbers (the gmsh module returns numpy arrays when numpy
+    is installed, lists otherwise)."""
+    return values.tolist() if hasattr(values, "tolist") else list(values)
+
+
 def main(argv):
     path = argv[1]
     element_tags = "--no-element-tags" not in argv
@@ -50,6 +56,7 @@ def main(argv):
     tagged = []
     for dim, tag in gmsh.model.getEntities():
         ntags, coords, _ = gmsh.model.mesh.getNodes(dim, tag, False, False)
+        ntags, coords = plain(ntags), plain(coords)
         for i, t in enumerate(ntags):
             xyz = coords[3 * i:3 * i + 3]
             if rounded:
@@ -58,6 +65,7 @@ def main(argv):
         if classification:
             lines.append(f"node-entity {dim} {tag} {len(ntags)}")
         types, etags, enodes = gmsh.model.mesh.getElements(dim, tag)
+        types, etags, enodes = plain(types), [plain(t) for t in etags], [plain(n) for n in enodes]
         if classification or len(types) > 0:
             lines.append(f"entity {dim} {tag}")
         for etype, et, en in zip(types, etags, enodes):
