@@ -289,6 +289,30 @@ fn certificate_rejects_tampered_solutions() {
         matching::verify(n, &e, &bad),
         Err(CertificateError::Malformed(_))
     ));
+    // Dual infeasibility alone: move a large amount of dual from one end of a matched pair
+    // to the other. Matched slacks and the dual objective are unchanged, but the other edges
+    // at the raised end now have negative slack.
+    let mut bad = m.clone();
+    let u = (0..n)
+        .find(|&u| {
+            e.iter()
+                .filter(|&&(a, b, _)| a as usize == u || b as usize == u)
+                .count()
+                >= 2
+        })
+        .expect("a vertex of degree 2");
+    let v = bad.mate[u] as usize;
+    let shift = 1_000_000 * bad.duals.scale;
+    bad.duals.vertex[u] += shift;
+    bad.duals.vertex[v] -= shift;
+    assert!(
+        matches!(
+            matching::verify(n, &e, &bad),
+            Err(CertificateError::NegativeSlack { .. })
+        ),
+        "{:?}",
+        matching::verify(n, &e, &bad)
+    );
     // A vertex dual lowered by one: the dual objective no longer equals the cost.
     let mut worse = m.clone();
     let v0 = (0..n).find(|&v| worse.mate[v] as usize > v).unwrap_or(0);

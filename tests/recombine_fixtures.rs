@@ -18,6 +18,8 @@ fn geo_dir() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("geo")
 }
 
+/// Runs `gmsh INPUT ARGS -o OUT`; true when it exits 0 and prints no `Error` line (the
+/// Gmsh CLI exits 0 even when it cannot load its input).
 fn gmsh(args: &[&str], input: &Path, out: &Path) -> bool {
     Command::new("gmsh")
         .arg(input)
@@ -25,7 +27,30 @@ fn gmsh(args: &[&str], input: &Path, out: &Path) -> bool {
         .arg("-o")
         .arg(out)
         .output()
-        .is_ok_and(|o| o.status.success())
+        .is_ok_and(|o| {
+            o.status.success()
+                && !String::from_utf8_lossy(&o.stdout).contains("Error")
+                && !String::from_utf8_lossy(&o.stderr).contains("Error")
+        })
+}
+
+/// Physical groups as sorted (dim, tag, name).
+fn groups(m: &blossomquad::mesh::Mesh) -> Vec<(i32, i32, String)> {
+    let mut g: Vec<_> = m
+        .physical_names
+        .iter()
+        .map(|p| (p.dim, p.tag, p.name.clone()))
+        .collect();
+    g.sort();
+    g
+}
+
+fn quads(m: &blossomquad::mesh::Mesh) -> usize {
+    m.element_blocks
+        .iter()
+        .filter(|b| b.element_type == etype::QUAD4)
+        .map(|b| b.len())
+        .sum()
 }
 
 /// (fixture, size parameter giving a coarse mesh)
@@ -81,6 +106,13 @@ fn every_fixture_in_every_variant() {
             assert!(
                 gmsh(&["-0"], &out, &reload),
                 "{name} {tag}: gmsh rejects the output"
+            );
+            let back = msh::read_file(&reload).unwrap_or_else(|e| panic!("{name} {tag}: {e}"));
+            assert_eq!(quads(&back), quads(&m), "{name} {tag}: quads after Gmsh");
+            assert_eq!(
+                groups(&back),
+                groups(&m),
+                "{name} {tag}: physical groups after Gmsh"
             );
             eprintln!(
                 "{name} {tag}: {} surfaces, {} triangles -> {} quads, {} parity splits, {} extra edges used",

@@ -115,6 +115,11 @@ fn plate_with_hole_all_variants() {
         }
     }
     eprintln!("{odd_seen} of 20 plate meshes needed a parity repair");
+    // Both paths must be exercised (15 of 20 with Gmsh 4.15.2).
+    assert!(
+        (1..20).contains(&odd_seen),
+        "{odd_seen} of 20 plate meshes repaired: the sizes no longer cover both parities"
+    );
 }
 
 #[test]
