@@ -52,6 +52,7 @@ def _plain(o):
 def _dumps(obj, **kw):
     return json.dumps(obj, default=_plain, **kw)
 
+
 import math
 import sys
 

@@ -2,24 +2,11 @@
 """Print, for each MSH file given, what Gmsh sees in it, as one JSON object per line:
 {"file", "nodes", "types": {type: count}, "entities": [n0, n1, n2, n3], "groups": [[dim, tag], ...],
  "error": null or message}. Used by tests/msh_gmsh.rs to compare with blossomquad's reader."""
-import json
-
-
-def _plain(o):
-    """JSON fallback for numpy values (the gmsh module returns numpy arrays when numpy is installed)."""
-    if hasattr(o, "tolist"):
-        return o.tolist()
-    if hasattr(o, "item"):
-        return o.item()
-    return str(o)
-
-
-def _dumps(obj, **kw):
-    return json.dumps(obj, default=_plain, **kw)
-
 import sys
 
 import gmsh
+
+from check_mesh import _dumps  # numpy-safe JSON, shared with the checker
 
 gmsh.initialize(interruptible=False)
 gmsh.option.setNumber("General.Terminal", 0)
