@@ -12,20 +12,27 @@ use std::f64::consts::FRAC_PI_2;
 /// (non-convex quad) or a folded corner gives an angle ≤ 0. Degenerate edges give 0. Only
 /// the direction of `normal` matters; a zero normal gives all angles 0.
 pub fn signed_angles(p: &[DVec3; 4], normal: DVec3) -> [f64; 4] {
-    let mut out = [0.0; 4];
     let normal = normal.normalize_or_zero();
-    for k in 0..4 {
-        let a = p[(k + 1) % 4] - p[k];
-        let b = p[(k + 3) % 4] - p[k];
-        let s = normal.dot(a.cross(b));
-        let c = a.dot(b);
-        out[k] = if s == 0.0 && c == 0.0 {
-            0.0
-        } else {
-            s.atan2(c)
-        };
+    [0, 1, 2, 3].map(|k| signed_angle(p, normal, k))
+}
+
+/// The signed interior angle at corner `k` (see [`signed_angles`]); `unit_normal` must be
+/// of unit length (or zero).
+pub fn signed_angle(p: &[DVec3; 4], unit_normal: DVec3, k: usize) -> f64 {
+    let a = p[(k + 1) % 4] - p[k];
+    let b = p[(k + 3) % 4] - p[k];
+    let s = unit_normal.dot(a.cross(b));
+    let c = a.dot(b);
+    if s == 0.0 && c == 0.0 {
+        0.0
+    } else {
+        s.atan2(c)
     }
-    out
+}
+
+/// Quality of one corner alone: 1 − (2/π)·|π/2 − α| (the term of eq. 3 for angle α).
+pub fn corner_eta(alpha: f64) -> f64 {
+    1.0 - (FRAC_PI_2 - alpha).abs() / FRAC_PI_2
 }
 
 /// Signed quad quality: 1 − (2/π)·max_k |π/2 − α_k| with the signed angles of

@@ -5,6 +5,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use super::topology::{SurfaceTopo, NONE};
+use crate::quality::eta::{corner_eta, signed_angle};
 
 /// Integer cost of one unit of `1 − η`: a graph edge costs `round(COST_SCALE · (1 − η_s))`
 /// with η_s the signed quality ([`crate::quality::eta_signed`]), so a perfect square costs 0, a quad with a
@@ -80,32 +81,22 @@ pub(crate) fn edge_cost(
     let eta = eta_signed_fast(&pts, normal);
     let eta = if eta.is_finite() { eta } else { -1.0 };
     let cost = (COST_SCALE as f64 * (1.0 - eta)).round() as i64;
-    if fixed_corner_hopeless(&quad, &pts, normal, wall_nodes) {
+    if has_hopeless_corner(&pts, normal, |k| wall_nodes.binary_search(&quad[k]).is_ok()) {
         return HOPELESS_COST;
     }
     cost
 }
 
-/// True when a corner of the quad at a wall node has corner quality ≤
-/// [`FIXED_CORNER_MIN_ETA`].
-fn fixed_corner_hopeless(
-    quad: &[u32; 4],
+/// True when a corner `k` of the quad with `on_wall(k)` has corner quality ≤
+/// [`FIXED_CORNER_MIN_ETA`]. `normal` need not be of unit length. The wall test comes first,
+/// so corners off the walls cost no `atan2`.
+pub(crate) fn has_hopeless_corner(
     pts: &[DVec3; 4],
     normal: DVec3,
-    wall_nodes: &[u32],
+    on_wall: impl Fn(usize) -> bool,
 ) -> bool {
-    let normal = normal.normalize_or_zero();
-    (0..4).any(|k| {
-        if wall_nodes.binary_search(&quad[k]).is_err() {
-            return false;
-        }
-        let a = pts[(k + 1) % 4] - pts[k];
-        let b = pts[(k + 3) % 4] - pts[k];
-        let alpha = normal.dot(a.cross(b)).atan2(a.dot(b));
-        let corner_eta =
-            1.0 - (std::f64::consts::FRAC_PI_2 - alpha).abs() / std::f64::consts::FRAC_PI_2;
-        corner_eta <= FIXED_CORNER_MIN_ETA
-    })
+    let unit = normal.normalize_or_zero();
+    (0..4).any(|k| on_wall(k) && corner_eta(signed_angle(pts, unit, k)) <= FIXED_CORNER_MIN_ETA)
 }
 
 /// Sorted, deduplicated nodes that lie on a wall edge of the surface (an edge with no

@@ -218,16 +218,7 @@ fn try_swap(
     // a (nearly) straight or zero corner in a new quad would stay for good when its node is
     // on a wall (e.g. two successive segments of a straight curve): leave those fans to the
     // vertex duplication, which keeps every boundary corner of the input
-    let unit = normal.normalize_or_zero();
-    let hopeless = |q: [u32; 4]| {
-        (0..4).any(|k| {
-            let a = p(q[(k + 1) % 4]) - p(q[k]);
-            let b = p(q[(k + 3) % 4]) - p(q[k]);
-            let alpha = unit.dot(a.cross(b)).atan2(a.dot(b));
-            1.0 - (std::f64::consts::FRAC_PI_2 - alpha).abs() / std::f64::consts::FRAC_PI_2
-                <= super::graph::FIXED_CORNER_MIN_ETA
-        })
-    };
+    let hopeless = |q: [u32; 4]| super::graph::has_hopeless_corner(&q.map(p), normal, |_| true);
     if hopeless([at(0), at(1), at(2), at(3)]) || hopeless([at(3), at(4), at(5), at(0)]) {
         return false;
     }
