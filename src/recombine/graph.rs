@@ -11,25 +11,51 @@ use crate::quality::eta::{corner_eta, signed_angle};
 /// with η_s the signed quality ([`crate::quality::eta_signed`]), so a perfect square costs 0, a quad with a
 /// zero angle `COST_SCALE`, and non-convex or folded quads up to `2 · COST_SCALE`: always more
 /// than any valid quad. 10⁴ resolves η to 10⁻⁴, far below any meaningful quality difference,
-/// and keeps extra-edge costs (below) within the solver's cost range for 10⁷ triangles.
+/// and keeps the costs below within the solver's cost range.
 pub const COST_SCALE: i64 = 10_000;
 
 /// Cost of a quad that optimization can never make valid: a (nearly) straight or zero corner
 /// at a wall node (see [`edge_cost`]). Ten times the cost of a degenerate quad, so the
-/// matching rearranges up to about twenty ordinary quads to avoid one of these.
+/// matching rearranges up to about twenty ordinary quads to avoid one of these. (At a
+/// parity-split node the cost is higher still: [`split_halves_cost`].)
 pub const HOPELESS_COST: i64 = 10 * COST_SCALE;
 
-/// Largest cost of a real graph edge.
+/// Largest cost of a real graph edge other than the two halves of a parity-split triangle.
 pub const MAX_REAL_COST: i64 = HOPELESS_COST;
 
 /// Cost of an extra edge in a graph of `n` triangles: `MAX_REAL_COST · (n/2 + 1) + 1`, capped
-/// at 2³⁹ (reached beyond 10⁷ triangles). Any perfect matching with fewer extra edges is then cheaper than every matching
-/// with more (a perfect matching has `n/2` edges, each costing at most `MAX_REAL_COST`), so
-/// the optimum uses the fewest extra edges possible, and none when the original graph has a
-/// perfect matching (the paper's "very high value", made exact).
+/// at 2³⁸ (reached beyond 5·10⁶ triangles). Any perfect matching with fewer extra edges
+/// (and no more merged split halves, see [`split_halves_cost`]) is then cheaper than every
+/// matching with more (a perfect matching has `n/2` edges, each other one costing at most
+/// `MAX_REAL_COST`), so the optimum uses the fewest extra edges possible, and none when the
+/// original graph has a perfect matching (the paper's "very high value", made exact).
 pub fn extra_edge_cost(n: usize) -> i64 {
     let c = (MAX_REAL_COST as i128) * (n as i128 / 2 + 1) + 1;
-    c.min(1i128 << 39) as i64
+    c.min(1i128 << 38) as i64
+}
+
+/// Cost of an extra edge whose fan has no valid vertex duplication (every candidate position
+/// of the new vertex folds a face: slivers along a nearly straight boundary), `7/2` of an
+/// ordinary extra edge, more than merged split halves ([`split_halves_cost`]), at most
+/// 3.5 · 2³⁸ < 2⁴⁰. Such an edge is still there for graphs that need it.
+pub fn bad_extra_edge_cost(n: usize) -> i64 {
+    let e = extra_edge_cost(n);
+    3 * e + e / 2
+}
+
+/// Cost, in a graph of `n` triangles, of merging back the two halves of a triangle split by
+/// a parity repair: a "quad" with a 180° corner at the split node, which lies on a wall and
+/// never moves. It is `5/2` of an extra edge ([`extra_edge_cost`]), at most
+/// 2.5 · 2³⁸ < 2⁴⁰ (the solver's cost limit): an extra edge ends in an edge swap or a vertex
+/// duplication (section 5.3) whose quads optimization repairs, while this quad stays
+/// invalid for good, so the matching takes up to two more extra edges to avoid it. (This
+/// happens when the split falls in a rigid strip of a surface that needs extra edges anyway,
+/// e.g. a boundary row of a `gmsh -2` mesh with even curves.) Other hopeless quads keep
+/// [`HOPELESS_COST`]: on slivers along a nearly straight boundary a vertex duplication may
+/// have no valid position, so trading them for extra edges is not always a gain.
+pub fn split_halves_cost(n: usize) -> i64 {
+    let e = extra_edge_cost(n);
+    2 * e + e / 2
 }
 
 /// The quad formed by triangle `t` and its neighbour across local edge `k`, oriented like
@@ -65,12 +91,16 @@ pub const FIXED_CORNER_MIN_ETA: f64 = 0.1;
 /// whose corner at a wall node is (nearly) straight or (nearly) zero — typically the two
 /// halves of a triangle split by a parity repair, merged back into a "quad" with a 180°
 /// angle — can never become valid, so it costs [`HOPELESS_COST`], far more than a folded
-/// quad, and the matching takes it only when avoiding it would cost even more. `wall_nodes` is the
-/// sorted list of the surface's wall nodes.
+/// quad, and the matching takes it only when avoiding it would cost even more; when the
+/// straight corner is at a parity-split node (`split_nodes`, sorted) it costs `split_cost`
+/// ([`split_halves_cost`]). `wall_nodes` is the sorted list of the surface's wall nodes.
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn edge_cost(
     topo: &SurfaceTopo,
     coords: &[DVec3],
     wall_nodes: &[u32],
+    split_nodes: &[u32],
+    split_cost: i64,
     t: usize,
     k: usize,
 ) -> i64 {
@@ -82,7 +112,11 @@ pub(crate) fn edge_cost(
     let eta = if eta.is_finite() { eta } else { -1.0 };
     let cost = (COST_SCALE as f64 * (1.0 - eta)).round() as i64;
     if has_hopeless_corner(&pts, normal, |k| wall_nodes.binary_search(&quad[k]).is_ok()) {
-        return HOPELESS_COST;
+        let at_split = !split_nodes.is_empty()
+            && has_hopeless_corner(&pts, normal, |k| {
+                split_nodes.binary_search(&quad[k]).is_ok()
+            });
+        return if at_split { split_cost } else { HOPELESS_COST };
     }
     cost
 }
@@ -206,18 +240,30 @@ pub(crate) struct Graph {
 /// Builds the graph: one edge per graph edge with its cost (eq. 4), plus one extra edge per
 /// fan of three or more triangles whose end triangles are not already adjacent (section
 /// 5.3; a fan ends at walls: the surface boundary, curves, or orientation changes).
-pub(crate) fn build(topo: &SurfaceTopo, coords: &[DVec3], with_extra: bool) -> Graph {
+/// `split_nodes` (sorted global ids) are the nodes made by parity repair.
+pub(crate) fn build(
+    topo: &SurfaceTopo,
+    coords: &[DVec3],
+    split_nodes: &[u32],
+    with_extra: bool,
+) -> Graph {
     let n = topo.len();
     let walls = wall_nodes(topo);
     let walls = &walls;
+    let split_cost = split_halves_cost(n);
     let mut edges: Vec<(u32, u32, i64)> = (0..n)
         .into_par_iter()
         .with_min_len(4096)
         .flat_map_iter(|t| {
             (0..3).filter_map(move |k| {
                 let u = topo.nbr[3 * t + k];
-                (u != NONE && (t as u32) < u)
-                    .then(|| (t as u32, u, edge_cost(topo, coords, walls, t, k)))
+                (u != NONE && (t as u32) < u).then(|| {
+                    (
+                        t as u32,
+                        u,
+                        edge_cost(topo, coords, walls, split_nodes, split_cost, t, k),
+                    )
+                })
             })
         })
         .collect();
@@ -236,8 +282,18 @@ pub(crate) fn build(topo: &SurfaceTopo, coords: &[DVec3], with_extra: bool) -> G
         // one extra edge per pair of end triangles (stable: the first fan found is kept)
         ends.sort_by_key(|e| e.0);
         ends.dedup_by_key(|e| e.0);
-        for ((a, b), fan) in ends {
-            edges.push((a, b, cost));
+        let costs: Vec<i64> = ends
+            .par_iter()
+            .map(|(_, fan)| {
+                if super::post::duplication_margin(topo, coords, fan) > 0.0 {
+                    cost
+                } else {
+                    bad_extra_edge_cost(n)
+                }
+            })
+            .collect();
+        for (((a, b), fan), c) in ends.into_iter().zip(costs) {
+            edges.push((a, b, c));
             extra_fans.push(fan);
         }
     }

@@ -64,18 +64,23 @@
 //! 4. **Graph** (section 4.2). Cost of a graph edge = `1 − η_s` of the quad formed by its two
 //!    triangles (eq. 4), η_s the signed quality of [`crate::quality::eta_signed`] with angles
 //!    measured in 3D about the sum of the two triangles' normals, so a non-convex or folded
-//!    quad (η_s ≤ 0) costs more than any valid one. A quad with a (nearly) straight or zero
-//!    corner at a wall node — which optimization can never move — costs as much as a folded
-//!    quad ([`FIXED_CORNER_MIN_ETA`]). Integer costs: `round(10⁴ · (1 − η_s))`
-//!    ∈ [0, 2·10⁴] ([`COST_SCALE`]).
+//!    quad (η_s ≤ 0) costs more than any valid one. Integer costs: `round(10⁴ · (1 − η_s))`
+//!    ∈ [0, 2·10⁴] ([`COST_SCALE`]). A *hopeless* quad, with a (nearly) straight or zero
+//!    corner at a wall node ([`FIXED_CORNER_MIN_ETA`]) — which optimization can never move —
+//!    costs [`HOPELESS_COST`] = 10⁵; the two halves of a parity-split triangle (a 180° corner
+//!    at the split node) cost 5/2 of an extra edge ([`split_halves_cost`]): the matching
+//!    takes up to two more extra edges (whose quads optimization repairs) to avoid them.
 //! 5. **Extra edges** (section 5.3). Around every vertex, the triangles between two walls
 //!    form a *fan* `t1 … tk` (each sharing a graph edge `{v, a_i}` with the next). The paper
 //!    joins the triangles of two successive boundary edges; here every fan with k ≥ 3 whose
 //!    ends are not already adjacent gets an extra edge `t1–tk` (walls from curves and
 //!    orientation changes count as boundary, so post-processing never crosses a curve). Its
 //!    cost, `10⁵ · (n/2 + 1) + 1` ([`extra_edge_cost`]), exceeds the cost of any
-//!    perfect matching's real edges, so the optimum uses the fewest extra edges possible —
-//!    none when the original graph has a perfect matching.
+//!    perfect matching's other edges, so the optimum uses the fewest extra edges possible
+//!    (counting merged split halves as 5/2) — none when the original graph has a perfect
+//!    matching that keeps split halves apart. A fan where no position of a duplicated
+//!    vertex leaves its triangles unfolded prices its extra edge at 7/2
+//!    ([`bad_extra_edge_cost`]).
 //! 6. **Matching.** [`crate::matching::solve`]; with [`RecombineOptions::verify`] its
 //!    optimality certificate is checked ([`crate::matching::verify`]). No perfect matching
 //!    even with extra edges → [`RecombineError::NoPerfectMatching`] naming the surface and the
@@ -124,7 +129,10 @@ use rayon::prelude::*;
 use crate::mesh::{element_dim, etype, ElementBlock, Mesh};
 use topology::{CurveInfo, NodeTable, SurfaceTopo};
 
-pub use graph::{extra_edge_cost, COST_SCALE, FIXED_CORNER_MIN_ETA, HOPELESS_COST, MAX_REAL_COST};
+pub use graph::{
+    bad_extra_edge_cost, extra_edge_cost, split_halves_cost, COST_SCALE, FIXED_CORNER_MIN_ETA,
+    HOPELESS_COST, MAX_REAL_COST,
+};
 pub use invariants::check_invariants;
 pub use parity::OddRegion;
 
@@ -377,9 +385,16 @@ pub fn recombine(
         let staged = parity_stage(mesh, opts, &mut report).and_then(|(nodes, work)| {
             let coords = &nodes.coords;
             let n_global = coords.len() as u32;
+            let mut split_nodes: Vec<u32> = report
+                .parity_splits
+                .iter()
+                .filter_map(|s| nodes.id(s.new_node))
+                .collect();
+            split_nodes.sort_unstable();
+            let split_nodes = &split_nodes;
             let results: Result<Vec<SurfaceResult>, RecombineError> = work
                 .par_iter()
-                .map(|w| match_surface(w, coords, n_global, opts))
+                .map(|w| match_surface(w, coords, split_nodes, n_global, opts))
                 .collect();
             results.map(|r| (nodes, work, r))
         });
@@ -732,11 +747,12 @@ fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
 fn match_surface(
     w: &SurfaceWork,
     coords: &[glam::DVec3],
+    split_nodes: &[u32],
     n_global: u32,
     opts: &RecombineOptions,
 ) -> Result<SurfaceResult, RecombineError> {
     let t0 = Instant::now();
-    let g = graph::build(&w.topo, coords, opts.extra_edges);
+    let g = graph::build(&w.topo, coords, split_nodes, opts.extra_edges);
     let time_graph = w.time + t0.elapsed();
     let t1 = Instant::now();
     let n = w.topo.len();

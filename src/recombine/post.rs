@@ -4,7 +4,7 @@
 
 use glam::DVec3;
 
-use super::graph::{merged_quad, Graph};
+use super::graph::{merged_quad, Fan, Graph};
 use super::topology::{SurfaceTopo, NONE};
 
 /// A node created by vertex duplication.
@@ -254,7 +254,6 @@ fn duplicate(
         return Err(format!("fan at node id {v} is not connected"));
     }
     let mean = near.iter().map(|&a| coords[a as usize]).sum::<DVec3>() / near.len() as f64;
-    let pos = 0.5 * (coords[v as usize] + mean);
     // 1. middle faces: v -> v'
     for &t in &fan.tris[1..k - 1] {
         let f = tri_face[t as usize] as usize;
@@ -297,6 +296,127 @@ fn duplicate(
         };
         faces[fe].insert(insert_after + 1, vp);
     }
+    let touched: Vec<usize> = fan
+        .tris
+        .iter()
+        .map(|&t| tri_face[t as usize] as usize)
+        .collect();
+    let normal: DVec3 = fan
+        .tris
+        .iter()
+        .map(|&t| super::graph::tri_normal(coords, topo.tris[t as usize]))
+        .sum();
+    let earlier = &out.new_nodes;
+    let at = |i: u32, cand: DVec3| match i.checked_sub(n_global) {
+        _ if i == vp => cand,
+        None => coords[i as usize],
+        Some(k) => earlier.get(k as usize).map_or(cand, |nn| nn.pos),
+    };
+    let (pos, _) = place_duplicate(coords[v as usize], mean, |cand| {
+        touched
+            .iter()
+            .map(|&f| {
+                let pts: Vec<DVec3> = faces[f].iter().map(|&i| at(i, cand)).collect();
+                unfolded_margin(&pts, normal)
+            })
+            .fold(f64::INFINITY, f64::min)
+    });
     out.new_nodes.push(NewNode { pos, near });
     Ok(())
+}
+
+/// Position of a duplicated vertex `v'` on the segment from `v` to the mean of the fan's
+/// inner neighbours, with its margin: half way when that leaves every face around it
+/// unfolded (`margin` > 0), else the candidate (1/2, 1/3, 2/3, 1/5, 4/5 of the way) with the
+/// largest margin — near a nearly straight boundary the midpoint can fall across an end
+/// face's edge, and along slivers no candidate may be valid (margin ≤ 0).
+fn place_duplicate(v: DVec3, mean: DVec3, margin: impl Fn(DVec3) -> f64) -> (DVec3, f64) {
+    let mut best = (0.5 * (v + mean), f64::NEG_INFINITY);
+    for t in [0.5, 1.0 / 3.0, 2.0 / 3.0, 0.2, 0.8] {
+        let cand = v + t * (mean - v);
+        let m = margin(cand);
+        if m > 0.0 {
+            return (cand, m);
+        }
+        if m > best.1 {
+            best = (cand, m);
+        }
+    }
+    best
+}
+
+/// Whether a vertex duplication of `fan` can leave its faces unfolded, judged on the
+/// triangles alone (before the matching): the margin ([`place_duplicate`]) of the end
+/// triangles with `v'` inserted and the middle triangles with `v` replaced by `v'`. Used to
+/// price the fan's extra edge ([`super::graph::build`]).
+pub(crate) fn duplication_margin(topo: &SurfaceTopo, coords: &[DVec3], fan: &Fan) -> f64 {
+    const VP: u32 = u32::MAX;
+    let v = fan.v;
+    let k = fan.tris.len();
+    let near: Vec<u32> = fan
+        .tris
+        .windows(2)
+        .map(|w| shared_other(topo, w[0], w[1], v))
+        .collect();
+    if k < 2 || near.contains(&NONE) {
+        return f64::NEG_INFINITY;
+    }
+    let mean = near.iter().map(|&a| coords[a as usize]).sum::<DVec3>() / near.len() as f64;
+    let normal: DVec3 = fan
+        .tris
+        .iter()
+        .map(|&t| super::graph::tri_normal(coords, topo.tris[t as usize]))
+        .sum();
+    let mut polys: Vec<Vec<u32>> = Vec::with_capacity(k);
+    for (end, a) in [(fan.tris[0], near[0]), (fan.tris[k - 1], near[k - 2])] {
+        let tri = topo.tris[end as usize];
+        let Some(iv) = tri.iter().position(|&p| p == v) else {
+            return f64::NEG_INFINITY;
+        };
+        let mut poly = tri.to_vec();
+        if tri[(iv + 1) % 3] == a {
+            poly.insert(iv + 1, VP);
+        } else {
+            poly.insert(iv, VP);
+        }
+        polys.push(poly);
+    }
+    for &t in &fan.tris[1..k - 1] {
+        polys.push(
+            topo.tris[t as usize]
+                .iter()
+                .map(|&p| if p == v { VP } else { p })
+                .collect(),
+        );
+    }
+    place_duplicate(coords[v as usize], mean, |cand| {
+        polys
+            .iter()
+            .map(|poly| {
+                let pts: Vec<DVec3> = poly
+                    .iter()
+                    .map(|&i| if i == VP { cand } else { coords[i as usize] })
+                    .collect();
+                unfolded_margin(&pts, normal)
+            })
+            .fold(f64::INFINITY, f64::min)
+    })
+    .1
+}
+
+/// How far polygon `pts` is from folded, seen along `normal`: for a quad, the larger over its
+/// two diagonals of the smaller signed area of the two triangles the diagonal cuts it into
+/// (positive iff the quad is a simple polygon oriented like `normal`); for a triangle its
+/// signed area; other polygons count as unfolded.
+fn unfolded_margin(pts: &[DVec3], normal: DVec3) -> f64 {
+    let area = |a: DVec3, b: DVec3, c: DVec3| (b - a).cross(c - a).dot(normal);
+    match pts {
+        [a, b, c] => area(*a, *b, *c),
+        [a, b, c, d] => {
+            let d02 = area(*a, *b, *c).min(area(*a, *c, *d));
+            let d13 = area(*b, *c, *d).min(area(*b, *d, *a));
+            d02.max(d13)
+        }
+        _ => f64::INFINITY,
+    }
 }
