@@ -304,7 +304,12 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         "time: read {t_read:.3} s, recombine {t_recombine:.3} s, optimize {t_opt:.3} s, write {t_write:.3} s"
     ));
     let sum = |f: fn(&recombine::SurfaceReport) -> std::time::Duration| {
-        report.surfaces.iter().map(f).sum::<std::time::Duration>().as_secs_f64()
+        report
+            .surfaces
+            .iter()
+            .map(f)
+            .sum::<std::time::Duration>()
+            .as_secs_f64()
     };
     log.say(format!(
         "time in recombine, summed over surfaces: topology and graph {:.3} s, matching {:.3} s, quads {:.3} s",

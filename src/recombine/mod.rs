@@ -754,6 +754,9 @@ fn match_surface(
     let t0 = Instant::now();
     let g = graph::build(&w.topo, coords, split_nodes, opts.extra_edges);
     let time_graph = w.time + t0.elapsed();
+    if let Some(dir) = std::env::var_os("BLOSSOMQUAD_DUMP_GRAPHS") {
+        dump_graph(std::path::Path::new(&dir), w.tag, w.topo.len(), &g.edges);
+    }
     let t1 = Instant::now();
     let n = w.topo.len();
     let m = crate::matching::solve(n, &g.edges).map_err(|e| RecombineError::NoPerfectMatching {
@@ -793,6 +796,26 @@ fn match_surface(
         time_post: t2.elapsed(),
     };
     Ok(SurfaceResult { faces, report })
+}
+
+/// Writes a surface's matching graph as `DIR/surface-TAG.txt` in the format of
+/// `examples/solve_matching` (first line `n m`, then `u v cost`), for benchmarking the solver
+/// on real meshes (`BLOSSOMQUAD_DUMP_GRAPHS=DIR`). A failure is reported on stderr and
+/// otherwise ignored: this is a developer aid, not part of the output.
+fn dump_graph(dir: &std::path::Path, tag: i32, n: usize, edges: &[(u32, u32, i64)]) {
+    use std::io::Write;
+    let path = dir.join(format!("surface-{tag}.txt"));
+    let write = || -> std::io::Result<()> {
+        let mut f = std::io::BufWriter::new(std::fs::File::create(&path)?);
+        writeln!(f, "{n} {}", edges.len())?;
+        for (u, v, c) in edges {
+            writeln!(f, "{u} {v} {c}")?;
+        }
+        f.flush()
+    };
+    if let Err(e) = write() {
+        eprintln!("warning: cannot write {}: {e}", path.display());
+    }
 }
 
 /// Step 8: new nodes, then each surface's triangle blocks replaced by quads.
