@@ -8,7 +8,8 @@
 //!    `y_v` = cheapest cost at `v` (costs are doubled), each vertex raises its dual to its
 //!    smallest slack and takes a tight edge to an exposed neighbour, short tight augmenting
 //!    paths are flipped; then the fractional phase solves the LP without odd-set constraints
-//!    with the same tree machinery (see the `fractional` module), which leaves one exposed
+//!    with the same tree machinery (see the `fractional` module: single-tree local searches,
+//!    then the rest of the trees grown together), which leaves one exposed
 //!    vertex per odd cycle of half-edges (e.g. 134 of 10^6 on the lattice family).
 //! 2. **Forest**: every exposed vertex roots an alternating tree; all trees grow together
 //!    under one global dual change `ε`. Dual changes are lazy: a tree node stores its dual and
