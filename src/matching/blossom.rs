@@ -48,6 +48,9 @@ const MINUS: u8 = 2;
 const DEAD: u8 = 3;
 /// Heap ids with this bit set are "expand blossom" events, the others are edge ids.
 const EXPAND: u32 = 1 << 31;
+/// Grow steps a single-tree search of the main phase may take before it is left to the
+/// forest grown together.
+const MAIN_LOCAL_GROWS: usize = 256;
 
 /// One edge: endpoints and cost (scaled).
 #[derive(Clone, Copy, Debug)]
@@ -266,9 +269,115 @@ impl Solver {
 
     /// Grows a tree from every exposed vertex (after an init) and returns the result.
     pub fn solve_rest(&mut self) -> Result<Matching, NoPerfectMatching> {
+        self.solve_rest_with(MAIN_LOCAL_GROWS)
+    }
+
+    /// [`Solver::solve_rest`] with a given grow budget for the single-tree searches (0 leaves
+    /// nearly everything to the forest grown together); tests use it to exercise both.
+    pub fn solve_rest_with(&mut self, budget: usize) -> Result<Matching, NoPerfectMatching> {
         self.stats.exposed_after_init = self.mate.iter().filter(|&&m| m == NONE).count();
+        self.run_local(budget)?;
         self.run_forest()?;
         Ok(self.result())
+    }
+
+    /// Single-tree searches from each exposed vertex in (locality) order, the other exposed
+    /// vertices being plain targets with fixed duals (vertex duals are free in the
+    /// perfect-matching LP, so one tree may move alone). A search that needs more than
+    /// `budget` grow steps is abandoned, its dual changes and blossoms kept, and its root left
+    /// to [`Solver::run_forest`].
+    fn run_local(&mut self, budget: usize) -> Result<(), NoPerfectMatching> {
+        self.tree_lists = vec![Vec::new()];
+        for r in 0..self.n as u32 {
+            if self.mate[r as usize] != NONE {
+                continue;
+            }
+            let root = self.top_of(r);
+            if self.mate[self.nd[root as usize].base as usize] != NONE {
+                continue; // r is inside a blossom whose base is matched
+            }
+            self.eps = 0;
+            self.heap.clear();
+            let nd = &mut self.nd[root as usize];
+            nd.tree = 0;
+            nd.label = PLUS;
+            nd.join = 0;
+            self.tree_lists[0].push(root);
+            self.push_edges_of(root);
+            self.local_search(budget)?;
+            self.dissolve(0);
+            self.freed.clear();
+        }
+        self.tree_lists.clear();
+        Ok(())
+    }
+
+    /// Grows the single tree 0 until it augments, or gives up after `budget` grow steps.
+    /// Err when it gets stuck (no perfect matching).
+    fn local_search(&mut self, budget: usize) -> Result<(), NoPerfectMatching> {
+        let mut grows = 0;
+        loop {
+            let Some((key, id)) = self.heap.pop() else {
+                return Err(self.stuck_witness());
+            };
+            let Some(e) = self.next_event(key, id) else {
+                continue;
+            };
+            let (u, v) = (self.ed[e].u, self.ed[e].v);
+            let (tu, tv) = (self.top_of(u), self.top_of(v));
+            let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
+            if pu && pv {
+                self.shrink(u, v);
+                continue;
+            }
+            let (x, w, tw) = if pu { (u, v, tv) } else { (v, u, tu) };
+            if self.mate[self.nd[tw as usize].base as usize] == NONE {
+                // Another exposed node (not growing now): augment into it.
+                self.stats.augments += 1;
+                self.augment_path(x, w);
+                self.rebase(tw, w);
+                self.mate[w as usize] = x;
+                return Ok(());
+            }
+            if grows == budget {
+                return Ok(());
+            }
+            grows += 1;
+            self.grow(x, w);
+        }
+    }
+
+    /// Handles a popped heap entry common to both growth modes: expands a `−` blossom whose
+    /// dual reached zero, re-pushes an edge whose event time moved, drops stale entries.
+    /// Returns the edge id when an edge event happens now (`ε` advanced to it).
+    fn next_event(&mut self, key: u64, id: u32) -> Option<usize> {
+        self.stats.pops += 1;
+        if id & EXPAND != 0 {
+            let b = id & !EXPAND;
+            let bi = b as usize;
+            if self.nd[bi].label == DEAD
+                || self.nd[bi].parent != NONE
+                || !self.in_tree(b, MINUS)
+                || (((self.nd[bi].join + self.nd[bi].y) << 1) | 1) as u64 != key
+            {
+                return None;
+            }
+            self.eps = (key >> 1) as i64;
+            self.expand(b);
+            return None;
+        }
+        let e = id as usize;
+        let key = key as i64;
+        let k2 = self.edge_key(e)?;
+        debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
+        if k2 >> 1 > key >> 1 {
+            // Keys were rescaled or the situation changed since the push.
+            self.heap.push(k2 as u64, id);
+            return None;
+        }
+        debug_assert!(key >> 1 >= self.eps);
+        self.eps = key >> 1;
+        Some(e)
     }
 
     fn min_incident_half(&self, v: usize) -> i64 {
@@ -567,32 +676,9 @@ impl Solver {
             let Some((key, id)) = self.heap.pop() else {
                 return Err(self.stuck_witness());
             };
-            self.stats.pops += 1;
-            if id & EXPAND != 0 {
-                let b = id & !EXPAND;
-                let bi = b as usize;
-                if self.nd[bi].label == DEAD
-                    || self.nd[bi].parent != NONE
-                    || !self.in_tree(b, MINUS)
-                    || (((self.nd[bi].join + self.nd[bi].y) << 1) | 1) as u64 != key
-                {
-                    continue;
-                }
-                self.eps = (key >> 1) as i64;
-                self.expand(b);
+            let Some(e) = self.next_event(key, id) else {
                 continue;
-            }
-            let e = id as usize;
-            let key = key as i64;
-            let Some(k2) = self.edge_key(e) else { continue };
-            debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
-            if k2 >> 1 > key >> 1 {
-                // Keys were rescaled or the situation changed since the push.
-                self.heap.push(k2 as u64, id);
-                continue;
-            }
-            debug_assert!(key >> 1 >= self.eps);
-            self.eps = key >> 1;
+            };
             let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (tu, tv) = (self.top_of(u), self.top_of(v));
             let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
