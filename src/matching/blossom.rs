@@ -503,8 +503,17 @@ impl Solver {
 
     /// Top-level node containing vertex `x`, and the sum of the duals of the nodes
     /// containing `x` below it (its own dual included when it is not top-level).
-    #[inline]
+    #[inline(always)]
     fn find(&self, x: u32) -> (u32, i64) {
+        if self.nd[x as usize].parent == NONE {
+            return (x, 0);
+        }
+        self.find_inner(x)
+    }
+
+    /// [`Solver::find`] for a vertex inside a blossom (shortcut walk, path compression).
+    #[inline(never)]
+    fn find_inner(&self, x: u32) -> (u32, i64) {
         let mut node = x;
         let mut s = 0i64;
         loop {
