@@ -11,26 +11,37 @@
 //!    with the same tree machinery (see the `fractional` module: single-tree local searches,
 //!    then the rest of the trees grown together), which leaves one exposed
 //!    vertex per odd cycle of half-edges (e.g. 134 of 10^6 on the lattice family).
-//! 2. **Forest**: every exposed vertex roots an alternating tree; all trees grow together
-//!    under one global dual change `ε`. Dual changes are lazy: a tree node stores its dual and
+//! 2. **Single-tree searches** ([`Solver::solve_rest_with`]): from each exposed vertex in
+//!    (locality) order, one alternating tree grows alone with its own dual change until it
+//!    reaches another exposed node (augment) — vertex duals are free in the perfect-matching
+//!    LP, so the other exposed vertices may keep theirs. Consecutive searches touch nearby
+//!    memory. A search that needs more than a budget of grow steps (256) is abandoned; its
+//!    dual changes and blossoms are kept (they are feasible), its root goes to step 3. (An
+//!    unbounded single tree can wander very far on mesh graphs: 50x slower.)
+//! 3. **Forest**: every remaining exposed vertex roots an alternating tree; all trees grow
+//!    together under one global dual change `ε`, so that far-apart trees meet half-way.
+//!    Dual changes are lazy (in both modes): a tree node stores its dual and
 //!    the `ε` at which it joined, and its current dual is corrected by `+(ε − join)` for `+`
 //!    nodes and `−(ε − join)` for `−` nodes, so a dual change costs O(1). Events live in one
 //!    monotone radix heap ([`super::radix`]) keyed by the `ε` at which they happen:
 //!    - `+` node to a free node (slack `s`): at `ε + s` → *grow*;
 //!    - `+` to `+` (slack `s`): at `ε + s/2` → *shrink* into a blossom (same tree) or
 //!      *augment* (different trees);
+//!    - `+` node to an exposed node outside the trees (single-tree mode): at `ε + s` →
+//!      *augment*;
 //!    - `−` blossom with dual `y`: at `ε + y` → *expand*.
 //!
 //!    Among equal times, tree-ending events come first. Entries are validated when popped
 //!    (lazy deletion) and re-pushed with the right key when the situation changed.
-//! 3. After an augmentation only the two trees involved are dissolved (their duals committed);
+//! 4. After an augmentation only the two trees involved are dissolved (their duals committed);
 //!    blossoms persist until their dual drops to zero while `−` (Blossom V). The enclosing
 //!    top-level blossom of a vertex is found through path-compressed shortcuts that stay exact
 //!    because the duals of non-top blossoms are frozen, so forming a blossom never relabels
 //!    its vertices.
 //!
-//! If the heap runs dry while trees remain, `ε` is unbounded: the `−` vertices of the trees
-//! form a Tutte set whose removal isolates the more numerous `+` nodes (each an odd set).
+//! If the heap runs dry while trees remain (in either mode), `ε` is unbounded: the `−`
+//! vertices of the trees form a Tutte set whose removal isolates the more numerous `+` nodes
+//! (each an odd set).
 //!
 //! Half-integral steps: costs are doubled, and when a `+`↔`+` slack is odd every cost, dual
 //! and key is doubled again (`scale` records the factor; in practice it happens once), so all
