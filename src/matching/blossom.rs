@@ -307,20 +307,36 @@ impl Solver {
             if self.mate[self.nd[root as usize].base as usize] != NONE {
                 continue; // r is inside a blossom whose base is matched
             }
-            self.eps = 0;
-            self.heap.clear();
-            let nd = &mut self.nd[root as usize];
-            nd.tree = 0;
-            nd.label = PLUS;
-            nd.join = 0;
-            self.tree_lists[0].push(root);
-            self.push_edges_of(root);
+            self.start_single_tree(root);
             self.local_search(budget)?;
-            self.dissolve(0);
-            self.freed.clear();
+            self.end_single_tree();
         }
         self.tree_lists.clear();
         Ok(())
+    }
+
+    /// Makes top-level node `root` the `+` root of tree `t` (at `ε = 0`); its edges are not
+    /// pushed.
+    fn make_root(&mut self, root: u32, t: u32) {
+        let nd = &mut self.nd[root as usize];
+        nd.tree = t;
+        nd.label = PLUS;
+        nd.join = 0;
+        self.tree_lists[t as usize].push(root);
+    }
+
+    /// Starts a single-tree search from top-level node `root`: an empty heap, `ε = 0`, tree 0.
+    fn start_single_tree(&mut self, root: u32) {
+        self.eps = 0;
+        self.heap.clear();
+        self.make_root(root, 0);
+        self.push_edges_of(root);
+    }
+
+    /// Ends a single-tree search: tree 0 is dissolved (its duals committed).
+    fn end_single_tree(&mut self) {
+        self.dissolve(0);
+        self.freed.clear();
     }
 
     /// Grows the single tree 0 until it augments, or gives up after `budget` grow steps.
@@ -328,11 +344,8 @@ impl Solver {
     fn local_search(&mut self, budget: usize) -> Result<(), NoPerfectMatching> {
         let mut grows = 0;
         loop {
-            let Some((key, id)) = self.heap.pop() else {
+            let Some(e) = self.pop_edge_event() else {
                 return Err(self.stuck_witness());
-            };
-            let Some(e) = self.next_event(key, id) else {
-                continue;
             };
             let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (tu, tv) = (self.top_of(u), self.top_of(v));
@@ -355,6 +368,17 @@ impl Solver {
             }
             grows += 1;
             self.grow(x, w);
+        }
+    }
+
+    /// Pops heap entries until an edge event happens now (see [`Solver::next_event`]) and
+    /// returns its edge id; None when the heap runs dry.
+    fn pop_edge_event(&mut self) -> Option<usize> {
+        loop {
+            let (key, id) = self.heap.pop()?;
+            if let Some(e) = self.next_event(key, id) {
+                return Some(e);
+            }
         }
     }
 
@@ -683,21 +707,14 @@ impl Solver {
         let mut alive = roots.len();
         self.tree_lists = vec![Vec::new(); roots.len()];
         for (t, &r) in roots.iter().enumerate() {
-            let root = self.top_of(r);
-            self.nd[root as usize].tree = t as u32;
-            self.nd[root as usize].label = PLUS;
-            self.nd[root as usize].join = 0;
-            self.tree_lists[t].push(root);
+            self.make_root(self.top_of(r), t as u32);
         }
         for &r in &roots {
             self.push_edges_of(self.top_of(r));
         }
         while alive > 0 {
-            let Some((key, id)) = self.heap.pop() else {
+            let Some(e) = self.pop_edge_event() else {
                 return Err(self.stuck_witness());
-            };
-            let Some(e) = self.next_event(key, id) else {
-                continue;
             };
             let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (tu, tv) = (self.top_of(u), self.top_of(v));
@@ -795,6 +812,22 @@ impl Solver {
         }
     }
 
+    /// The tree path from `+` node `p` up to its `+` ancestor `top` (excluded): each node with
+    /// the edge `(vertex in it, vertex in the next node up)`.
+    fn tree_path_to(&self, mut p: u32, top: u32) -> Vec<(u32, (u32, u32))> {
+        let mut path = Vec::new();
+        while p != top {
+            let base = self.nd[p as usize].base;
+            let m = self.mate[base as usize];
+            let tm = self.top_of(m);
+            path.push((p, (base, m)));
+            let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
+            path.push((tm, (ms, mp)));
+            p = self.top_of(mp);
+        }
+        path
+    }
+
     /// Forms a blossom from tight `+`–`+` edge `(u, v)`.
     fn shrink(&mut self, u: u32, v: u32) {
         self.stats.shrinks += 1;
@@ -802,26 +835,8 @@ impl Solver {
         let t = self.nd[tu as usize].tree;
         let lca = self.lowest_common_plus(tu, tv);
         // Cycle: lca, (down to tu), tu, tv, (up to lca).
-        let mut path_u: Vec<(u32, (u32, u32))> = Vec::new(); // (node, edge to next node up)
-        let mut p = tu;
-        while p != lca {
-            let m = self.mate[self.nd[p as usize].base as usize];
-            let tm = self.top_of(m);
-            path_u.push((p, (self.nd[p as usize].base, m)));
-            let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
-            path_u.push((tm, (ms, mp)));
-            p = self.top_of(mp);
-        }
-        let mut path_v: Vec<(u32, (u32, u32))> = Vec::new();
-        let mut p = tv;
-        while p != lca {
-            let m = self.mate[self.nd[p as usize].base as usize];
-            let tm = self.top_of(m);
-            path_v.push((p, (self.nd[p as usize].base, m)));
-            let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
-            path_v.push((tm, (ms, mp)));
-            p = self.top_of(mp);
-        }
+        let path_u = self.tree_path_to(tu, lca);
+        let path_v = self.tree_path_to(tv, lca);
         let b = self.new_blossom_id();
         let bi = b as usize - self.n;
         let mut ch = std::mem::take(&mut self.children[bi]);
@@ -840,7 +855,6 @@ impl Solver {
             ch.push(node);
             cy.push((a_in, b_up));
         }
-        let _ = path_u;
         debug_assert_eq!(ch.len(), cy.len());
         debug_assert!(ch.len() % 2 == 1);
         // Commit children duals, update top/inner.

@@ -17,7 +17,7 @@
 //! kept). A *global* pass then grows the remaining trees together, so that they can meet
 //! half-way (on near-bipartite lattice meshes the last exposed vertices are far apart).
 
-use super::{Solver, EXPAND, MINUS, NONE, PLUS};
+use super::{Solver, MINUS, NONE, PLUS};
 
 /// Grow steps a local search may take before it is left to the global pass.
 const LOCAL_GROWS: usize = 64;
@@ -67,17 +67,9 @@ impl Solver {
             if self.mate[r as usize] != NONE || cy.id[r as usize] != NONE {
                 continue;
             }
-            self.eps = 0;
-            self.heap.clear();
-            let nd = &mut self.nd[r as usize];
-            nd.tree = 0;
-            nd.label = PLUS;
-            nd.join = 0;
-            self.tree_lists[0].push(r);
-            self.push_edges_of(r);
+            self.start_single_tree(r);
             self.fractional_search(cy, budget);
-            self.dissolve(0);
-            self.freed.clear();
+            self.end_single_tree();
         }
     }
 
@@ -85,10 +77,7 @@ impl Solver {
     /// up `budget` grow steps.
     fn fractional_search(&mut self, cy: &mut Cycles, budget: usize) {
         let mut grows = 0;
-        while let Some((key, id)) = self.heap.pop() {
-            let Some(e) = self.fresh_event(key, id) else {
-                continue;
-            };
+        while let Some(e) = self.pop_edge_event() {
             let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
             if pu && pv {
@@ -112,24 +101,6 @@ impl Solver {
             grows += 1;
             self.grow(x, w);
         }
-    }
-
-    /// Validates a popped heap entry of this phase: the edge id if the event happens now
-    /// (`ε` is advanced to it), None if it is stale (re-pushed when its time moved).
-    fn fresh_event(&mut self, key: u64, id: u32) -> Option<usize> {
-        if id & EXPAND != 0 {
-            return None; // no blossoms in this phase
-        }
-        let e = id as usize;
-        let key = key as i64;
-        let k2 = self.edge_key(e)?;
-        debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
-        if k2 >> 1 > key >> 1 {
-            self.heap.push(k2 as u64, id);
-            return None;
-        }
-        self.eps = key >> 1;
-        Some(e)
     }
 
     /// Tight `+`–`+` edge `(u, v)` inside one tree: the cycle becomes half-matched.
@@ -166,22 +137,15 @@ impl Solver {
             .collect();
         self.tree_lists = vec![Vec::new(); roots.len()];
         for (t, &r) in roots.iter().enumerate() {
-            let nd = &mut self.nd[r as usize];
-            nd.tree = t as u32;
-            nd.label = PLUS;
-            nd.join = 0;
-            self.tree_lists[t].push(r);
+            self.make_root(r, t as u32);
         }
         for &r in &roots {
             self.push_edges_of(r);
         }
         let mut alive = roots.len();
         while alive > 0 {
-            let Some((key, id)) = self.heap.pop() else {
+            let Some(e) = self.pop_edge_event() else {
                 break; // some tree is stuck: leave it to the main phase
-            };
-            let Some(e) = self.fresh_event(key, id) else {
-                continue;
             };
             let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
