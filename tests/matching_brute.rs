@@ -21,15 +21,25 @@ fn random_graph(rng: &mut Rng, n: usize, p_percent: u64, cost_range: i64) -> Vec
 /// Solves with both entry points and checks them against the oracle and the certificate.
 fn check(n: usize, edges: &[(u32, u32, i64)]) {
     let expect = brute_force_min_cost(n, edges);
-    // Three starts: fractional (default), none, greedy only.
-    for start in 0..3 {
+    // Seven starts: fractional (default), none, greedy only, fractional with local-search
+    // budgets 0 and 1 (work left to the global pass), main phase with single-tree budgets 0
+    // and 1 (work left to the forest grown together).
+    for start in 0..7 {
         let mut s = Solver::new(n, edges);
         let res = match start {
             0 => s.run(),
             1 => s.run_plain(),
-            _ => {
+            2 => {
                 s.init_greedy();
                 s.solve_rest()
+            }
+            3 | 4 => {
+                s.init_fractional_with(start - 3);
+                s.solve_rest()
+            }
+            _ => {
+                s.init_fractional();
+                s.solve_rest_with(start - 5)
             }
         };
         match (expect, res) {

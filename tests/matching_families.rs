@@ -16,16 +16,36 @@ mod gen_matching_graph;
 mod matching_common;
 use matching_common::Rng;
 
-/// Solves from the plain start (no jump start) and from the greedy start only: other dual
-/// trajectories than [`matching::solve`]'s; checks both certificates, returns both costs.
-fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 2] {
+/// Solves from the plain start (no jump start), from the greedy start only, from the
+/// fractional start with local-search budgets 0 and 2 (nearly all work, or the abandoned
+/// searches, left to the global pass), and with main-phase single-tree budgets 0 and 3:
+/// other dual trajectories than [`matching::solve`]'s; checks every certificate, returns the
+/// costs.
+fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 6] {
     let plain = Solver::new(n, edges).run_plain().expect("plain start");
     assert!(matching::verify(n, edges, &plain).is_ok());
-    let mut s = Solver::new(n, edges);
-    s.init_greedy();
-    let greedy = s.solve_rest().expect("greedy start");
-    assert!(matching::verify(n, edges, &greedy).is_ok());
-    [plain.cost, greedy.cost]
+    let mut costs = [plain.cost; 6];
+    let starts = [
+        (None, 256),
+        (Some(0), 256),
+        (Some(2), 256),
+        (Some(64), 0),
+        (Some(64), 3),
+    ];
+    for (i, (frac, main)) in starts.into_iter().enumerate() {
+        let mut s = Solver::new(n, edges);
+        match frac {
+            None => s.init_greedy(),
+            Some(budget) => s.init_fractional_with(budget),
+        }
+        let m = s.solve_rest_with(main).expect("perfect matching");
+        assert!(
+            matching::verify(n, edges, &m).is_ok(),
+            "start {frac:?} {main}"
+        );
+        costs[i + 1] = m.cost;
+    }
+    costs
 }
 
 /// Solves, checks the certificate, and returns the cost.
@@ -198,7 +218,7 @@ fn nested_blossoms_agree_across_starts_and_with_brute_force() {
             let got = solve_verified(n, &e);
             assert_eq!(
                 other_starts(n, &e),
-                [got; 2],
+                [got; 6],
                 "depth {depth} variant {variant}"
             );
             if n <= 20 {
@@ -256,7 +276,7 @@ fn mid_size_random_graphs_agree_across_starts() {
             e.push((u, v, c));
         }
         let got = solve_verified(n, &e);
-        assert_eq!(other_starts(n, &e), [got; 2], "iteration {it}");
+        assert_eq!(other_starts(n, &e), [got; 6], "iteration {it}");
     }
 }
 
@@ -488,7 +508,7 @@ fn mesh_graph_costs_are_quad_badness() {
     let small = e.iter().filter(|&&(_, _, c)| c < 300).count();
     assert!(small > e.len() / 4, "{small} of {}", e.len());
     let got = solve_verified(n, &e);
-    assert_eq!(other_starts(n, &e), [got; 2]);
+    assert_eq!(other_starts(n, &e), [got; 6]);
 }
 
 #[test]
@@ -497,13 +517,13 @@ fn certificate_on_mesh_graph_1e5() {
     let (n, e) = mesh_graph(250, 200, &mut rng);
     assert_eq!(n, 100_000);
     let got = solve_verified(n, &e);
-    assert_eq!(other_starts(n, &e), [got; 2]);
+    assert_eq!(other_starts(n, &e), [got; 6]);
     // Delaunay meshes of the benchmark: near-ties (lattice) and poor quads (random).
     for kind in ["lattice", "random"] {
         let (n, e) = gen_matching_graph::delaunay_graph(kind, 100_000, 7).expect("mesh");
         assert!(n > 90_000 && n % 2 == 0);
         let got = solve_verified(n, &e);
-        assert_eq!(other_starts(n, &e)[1], got);
+        assert_eq!(other_starts(n, &e), [got; 6]);
     }
 }
 

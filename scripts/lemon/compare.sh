@@ -1,6 +1,7 @@
 #!/bin/sh
 # Runs blossomquad's solver and LEMON on the same graph files, one after the other, and prints
-# a table: solver time (s), peak RSS (MB), cost agreement, LEMON/blossomquad ratio.
+# a table: solver wall time (s), our solver CPU time (s; steadier on a shared machine), peak
+# RSS (MB), cost agreement, LEMON/blossomquad ratio (wall times).
 # Usage: scripts/lemon/compare.sh graph1.txt [graph2.txt ...]
 # Env: SOLVE (path to the solve_matching example binary), LEMON (path to lemon_matching);
 # defaults build both (cargo build --release --example solve_matching, scripts/lemon/build.sh).
@@ -17,16 +18,16 @@ if [ -z "${LEMON:-}" ]; then
 fi
 field() { sed -n "s/.*$1=\([^ ]*\).*/\1/p" | head -n1; }
 rss() { sed -n 's/.*Maximum resident set size (kbytes): \([0-9]*\).*/\1/p' | head -n1; }
-printf '%-28s %9s %9s %8s %9s %8s %7s %s\n' file n ours_s ours_MB lemon_s lemon_MB ratio same_cost
+printf '%-28s %9s %9s %8s %8s %9s %8s %7s %s\n' file n ours_s ours_cpu ours_MB lemon_s lemon_MB ratio same_cost
 for f in "$@"; do
   o=$(/usr/bin/time -v "$SOLVE" "$f" 2>&1 || true)
   l=$(/usr/bin/time -v "$LEMON" "$f" 2>&1 || true)
   n=$(echo "$o" | field n)
-  ot=$(echo "$o" | field time_s); oc=$(echo "$o" | field cost); om=$(echo "$o" | rss)
+  ot=$(echo "$o" | field time_s); ocpu=$(echo "$o" | field cpu_s); oc=$(echo "$o" | field cost); om=$(echo "$o" | rss)
   lt=$(echo "$l" | field time_s); lc=$(echo "$l" | field cost); lm=$(echo "$l" | rss)
   ver=$(echo "$o" | field verified)
   ratio=$(awk -v a="$lt" -v b="$ot" 'BEGIN { if (b > 0) printf "%.1f", a / b; else print "-" }')
   same=no; [ "$oc" = "$lc" ] && same=yes
-  printf '%-28s %9s %9s %8d %9s %8d %7s %s (verified=%s)\n' "$(basename "$f")" "$n" "$ot" \
-    $((om / 1024)) "$lt" $((lm / 1024)) "$ratio" "$same" "$ver"
+  printf '%-28s %9s %9s %8s %8d %9s %8d %7s %s (verified=%s)\n' "$(basename "$f")" "$n" "$ot" \
+    "$ocpu" $((om / 1024)) "$lt" $((lm / 1024)) "$ratio" "$same" "$ver"
 done

@@ -8,28 +8,40 @@
 //!    `y_v` = cheapest cost at `v` (costs are doubled), each vertex raises its dual to its
 //!    smallest slack and takes a tight edge to an exposed neighbour, short tight augmenting
 //!    paths are flipped; then the fractional phase solves the LP without odd-set constraints
-//!    with the same tree machinery (see the `fractional` module), which leaves one exposed
+//!    with the same tree machinery (see the `fractional` module: single-tree local searches,
+//!    then the rest of the trees grown together), which leaves one exposed
 //!    vertex per odd cycle of half-edges (e.g. 134 of 10^6 on the lattice family).
-//! 2. **Forest**: every exposed vertex roots an alternating tree; all trees grow together
-//!    under one global dual change `ε`. Dual changes are lazy: a tree node stores its dual and
+//! 2. **Single-tree searches** ([`Solver::solve_rest_with`]): from each exposed vertex in
+//!    (locality) order, one alternating tree grows alone with its own dual change until it
+//!    reaches another exposed node (augment) — vertex duals are free in the perfect-matching
+//!    LP, so the other exposed vertices may keep theirs. Consecutive searches touch nearby
+//!    memory. A search that needs more than a budget of grow steps (256) is abandoned; its
+//!    dual changes and blossoms are kept (they are feasible), its root goes to step 3. (An
+//!    unbounded single tree can wander very far on mesh graphs: 50x slower.)
+//! 3. **Forest**: every remaining exposed vertex roots an alternating tree; all trees grow
+//!    together under one global dual change `ε`, so that far-apart trees meet half-way.
+//!    Dual changes are lazy (in both modes): a tree node stores its dual and
 //!    the `ε` at which it joined, and its current dual is corrected by `+(ε − join)` for `+`
 //!    nodes and `−(ε − join)` for `−` nodes, so a dual change costs O(1). Events live in one
 //!    monotone radix heap ([`super::radix`]) keyed by the `ε` at which they happen:
 //!    - `+` node to a free node (slack `s`): at `ε + s` → *grow*;
 //!    - `+` to `+` (slack `s`): at `ε + s/2` → *shrink* into a blossom (same tree) or
 //!      *augment* (different trees);
+//!    - `+` node to an exposed node outside the trees (single-tree mode): at `ε + s` →
+//!      *augment*;
 //!    - `−` blossom with dual `y`: at `ε + y` → *expand*.
 //!
 //!    Among equal times, tree-ending events come first. Entries are validated when popped
 //!    (lazy deletion) and re-pushed with the right key when the situation changed.
-//! 3. After an augmentation only the two trees involved are dissolved (their duals committed);
+//! 4. After an augmentation only the two trees involved are dissolved (their duals committed);
 //!    blossoms persist until their dual drops to zero while `−` (Blossom V). The enclosing
 //!    top-level blossom of a vertex is found through path-compressed shortcuts that stay exact
 //!    because the duals of non-top blossoms are frozen, so forming a blossom never relabels
 //!    its vertices.
 //!
-//! If the heap runs dry while trees remain, `ε` is unbounded: the `−` vertices of the trees
-//! form a Tutte set whose removal isolates the more numerous `+` nodes (each an odd set).
+//! If the heap runs dry while trees remain (in either mode), `ε` is unbounded: the `−`
+//! vertices of the trees form a Tutte set whose removal isolates the more numerous `+` nodes
+//! (each an odd set).
 //!
 //! Half-integral steps: costs are doubled, and when a `+`↔`+` slack is odd every cost, dual
 //! and key is doubled again (`scale` records the factor; in practice it happens once), so all
@@ -47,6 +59,9 @@ const MINUS: u8 = 2;
 const DEAD: u8 = 3;
 /// Heap ids with this bit set are "expand blossom" events, the others are edge ids.
 const EXPAND: u32 = 1 << 31;
+/// Grow steps a single-tree search of the main phase may take before it is left to the
+/// forest grown together.
+const MAIN_LOCAL_GROWS: usize = 256;
 
 /// One edge: endpoints and cost (scaled).
 #[derive(Clone, Copy, Debug)]
@@ -265,9 +280,139 @@ impl Solver {
 
     /// Grows a tree from every exposed vertex (after an init) and returns the result.
     pub fn solve_rest(&mut self) -> Result<Matching, NoPerfectMatching> {
+        self.solve_rest_with(MAIN_LOCAL_GROWS)
+    }
+
+    /// [`Solver::solve_rest`] with a given grow budget for the single-tree searches (0 leaves
+    /// nearly everything to the forest grown together); tests use it to exercise both.
+    pub fn solve_rest_with(&mut self, budget: usize) -> Result<Matching, NoPerfectMatching> {
         self.stats.exposed_after_init = self.mate.iter().filter(|&&m| m == NONE).count();
+        self.run_local(budget)?;
         self.run_forest()?;
         Ok(self.result())
+    }
+
+    /// Single-tree searches from each exposed vertex in (locality) order, the other exposed
+    /// vertices being plain targets with fixed duals (vertex duals are free in the
+    /// perfect-matching LP, so one tree may move alone). A search that needs more than
+    /// `budget` grow steps is abandoned, its dual changes and blossoms kept, and its root left
+    /// to [`Solver::run_forest`].
+    fn run_local(&mut self, budget: usize) -> Result<(), NoPerfectMatching> {
+        self.tree_lists = vec![Vec::new()];
+        for r in 0..self.n as u32 {
+            if self.mate[r as usize] != NONE {
+                continue;
+            }
+            let root = self.top_of(r);
+            if self.mate[self.nd[root as usize].base as usize] != NONE {
+                continue; // r is inside a blossom whose base is matched
+            }
+            self.start_single_tree(root);
+            self.local_search(budget)?;
+            self.end_single_tree();
+        }
+        self.tree_lists.clear();
+        Ok(())
+    }
+
+    /// Makes top-level node `root` the `+` root of tree `t` (at `ε = 0`); its edges are not
+    /// pushed.
+    fn make_root(&mut self, root: u32, t: u32) {
+        let nd = &mut self.nd[root as usize];
+        nd.tree = t;
+        nd.label = PLUS;
+        nd.join = 0;
+        self.tree_lists[t as usize].push(root);
+    }
+
+    /// Starts a single-tree search from top-level node `root`: an empty heap, `ε = 0`, tree 0.
+    fn start_single_tree(&mut self, root: u32) {
+        self.eps = 0;
+        self.heap.clear();
+        self.make_root(root, 0);
+        self.push_edges_of(root);
+    }
+
+    /// Ends a single-tree search: tree 0 is dissolved (its duals committed).
+    fn end_single_tree(&mut self) {
+        self.dissolve(0);
+        self.freed.clear();
+    }
+
+    /// Grows the single tree 0 until it augments, or gives up after `budget` grow steps.
+    /// Err when it gets stuck (no perfect matching).
+    fn local_search(&mut self, budget: usize) -> Result<(), NoPerfectMatching> {
+        let mut grows = 0;
+        loop {
+            let Some(e) = self.pop_edge_event() else {
+                return Err(self.stuck_witness());
+            };
+            let (u, v) = (self.ed[e].u, self.ed[e].v);
+            let (tu, tv) = (self.top_of(u), self.top_of(v));
+            let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
+            if pu && pv {
+                self.shrink(u, v);
+                continue;
+            }
+            let (x, w, tw) = if pu { (u, v, tv) } else { (v, u, tu) };
+            if self.mate[self.nd[tw as usize].base as usize] == NONE {
+                // Another exposed node (not growing now): augment into it.
+                self.stats.augments += 1;
+                self.augment_path(x, w);
+                self.rebase(tw, w);
+                self.mate[w as usize] = x;
+                return Ok(());
+            }
+            if grows == budget {
+                return Ok(());
+            }
+            grows += 1;
+            self.grow(x, w);
+        }
+    }
+
+    /// Pops heap entries until an edge event happens now (see [`Solver::next_event`]) and
+    /// returns its edge id; None when the heap runs dry.
+    fn pop_edge_event(&mut self) -> Option<usize> {
+        loop {
+            let (key, id) = self.heap.pop()?;
+            if let Some(e) = self.next_event(key, id) {
+                return Some(e);
+            }
+        }
+    }
+
+    /// Handles a popped heap entry common to both growth modes: expands a `−` blossom whose
+    /// dual reached zero, re-pushes an edge whose event time moved, drops stale entries.
+    /// Returns the edge id when an edge event happens now (`ε` advanced to it).
+    fn next_event(&mut self, key: u64, id: u32) -> Option<usize> {
+        self.stats.pops += 1;
+        if id & EXPAND != 0 {
+            let b = id & !EXPAND;
+            let bi = b as usize;
+            if self.nd[bi].label == DEAD
+                || self.nd[bi].parent != NONE
+                || !self.in_tree(b, MINUS)
+                || (((self.nd[bi].join + self.nd[bi].y) << 1) | 1) as u64 != key
+            {
+                return None;
+            }
+            self.eps = (key >> 1) as i64;
+            self.expand(b);
+            return None;
+        }
+        let e = id as usize;
+        let key = key as i64;
+        let k2 = self.edge_key(e)?;
+        debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
+        if k2 >> 1 > key >> 1 {
+            // Keys were rescaled or the situation changed since the push.
+            self.heap.push(k2 as u64, id);
+            return None;
+        }
+        debug_assert!(key >> 1 >= self.eps);
+        self.eps = key >> 1;
+        Some(e)
     }
 
     fn min_incident_half(&self, v: usize) -> i64 {
@@ -393,8 +538,17 @@ impl Solver {
 
     /// Top-level node containing vertex `x`, and the sum of the duals of the nodes
     /// containing `x` below it (its own dual included when it is not top-level).
-    #[inline]
+    #[inline(always)]
     fn find(&self, x: u32) -> (u32, i64) {
+        if self.nd[x as usize].parent == NONE {
+            return (x, 0);
+        }
+        self.find_inner(x)
+    }
+
+    /// [`Solver::find`] for a vertex inside a blossom (shortcut walk, path compression).
+    #[inline(never)]
+    fn find_inner(&self, x: u32) -> (u32, i64) {
         let mut node = x;
         let mut s = 0i64;
         loop {
@@ -553,45 +707,15 @@ impl Solver {
         let mut alive = roots.len();
         self.tree_lists = vec![Vec::new(); roots.len()];
         for (t, &r) in roots.iter().enumerate() {
-            let root = self.top_of(r);
-            self.nd[root as usize].tree = t as u32;
-            self.nd[root as usize].label = PLUS;
-            self.nd[root as usize].join = 0;
-            self.tree_lists[t].push(root);
+            self.make_root(self.top_of(r), t as u32);
         }
         for &r in &roots {
             self.push_edges_of(self.top_of(r));
         }
         while alive > 0 {
-            let Some((key, id)) = self.heap.pop() else {
+            let Some(e) = self.pop_edge_event() else {
                 return Err(self.stuck_witness());
             };
-            self.stats.pops += 1;
-            if id & EXPAND != 0 {
-                let b = id & !EXPAND;
-                let bi = b as usize;
-                if self.nd[bi].label == DEAD
-                    || self.nd[bi].parent != NONE
-                    || !self.in_tree(b, MINUS)
-                    || (((self.nd[bi].join + self.nd[bi].y) << 1) | 1) as u64 != key
-                {
-                    continue;
-                }
-                self.eps = (key >> 1) as i64;
-                self.expand(b);
-                continue;
-            }
-            let e = id as usize;
-            let key = key as i64;
-            let Some(k2) = self.edge_key(e) else { continue };
-            debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
-            if k2 >> 1 > key >> 1 {
-                // Keys were rescaled or the situation changed since the push.
-                self.heap.push(k2 as u64, id);
-                continue;
-            }
-            debug_assert!(key >> 1 >= self.eps);
-            self.eps = key >> 1;
             let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (tu, tv) = (self.top_of(u), self.top_of(v));
             let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
@@ -688,6 +812,22 @@ impl Solver {
         }
     }
 
+    /// The tree path from `+` node `p` up to its `+` ancestor `top` (excluded): each node with
+    /// the edge `(vertex in it, vertex in the next node up)`.
+    fn tree_path_to(&self, mut p: u32, top: u32) -> Vec<(u32, (u32, u32))> {
+        let mut path = Vec::new();
+        while p != top {
+            let base = self.nd[p as usize].base;
+            let m = self.mate[base as usize];
+            let tm = self.top_of(m);
+            path.push((p, (base, m)));
+            let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
+            path.push((tm, (ms, mp)));
+            p = self.top_of(mp);
+        }
+        path
+    }
+
     /// Forms a blossom from tight `+`–`+` edge `(u, v)`.
     fn shrink(&mut self, u: u32, v: u32) {
         self.stats.shrinks += 1;
@@ -695,26 +835,8 @@ impl Solver {
         let t = self.nd[tu as usize].tree;
         let lca = self.lowest_common_plus(tu, tv);
         // Cycle: lca, (down to tu), tu, tv, (up to lca).
-        let mut path_u: Vec<(u32, (u32, u32))> = Vec::new(); // (node, edge to next node up)
-        let mut p = tu;
-        while p != lca {
-            let m = self.mate[self.nd[p as usize].base as usize];
-            let tm = self.top_of(m);
-            path_u.push((p, (self.nd[p as usize].base, m)));
-            let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
-            path_u.push((tm, (ms, mp)));
-            p = self.top_of(mp);
-        }
-        let mut path_v: Vec<(u32, (u32, u32))> = Vec::new();
-        let mut p = tv;
-        while p != lca {
-            let m = self.mate[self.nd[p as usize].base as usize];
-            let tm = self.top_of(m);
-            path_v.push((p, (self.nd[p as usize].base, m)));
-            let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
-            path_v.push((tm, (ms, mp)));
-            p = self.top_of(mp);
-        }
+        let path_u = self.tree_path_to(tu, lca);
+        let path_v = self.tree_path_to(tv, lca);
         let b = self.new_blossom_id();
         let bi = b as usize - self.n;
         let mut ch = std::mem::take(&mut self.children[bi]);
@@ -733,7 +855,6 @@ impl Solver {
             ch.push(node);
             cy.push((a_in, b_up));
         }
-        let _ = path_u;
         debug_assert_eq!(ch.len(), cy.len());
         debug_assert!(ch.len() % 2 == 1);
         // Commit children duals, update top/inner.

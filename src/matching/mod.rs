@@ -14,7 +14,9 @@
 //! # Algorithm (see [`blossom`])
 //! Edmonds' primal-dual algorithm with odd-set (blossom) duals (Edmonds 1965), with ideas from
 //! Kolmogorov's Blossom V (Math. Prog. Comp. 2009) and Galil-Micali-Gabow (1986): a greedy
-//! and then fractional-matching jump start, then one alternating tree per remaining exposed
+//! and then fractional-matching jump start (single-tree local searches, then a forest), then
+//! single-tree searches from the remaining exposed vertices (each tree with its own dual
+//! change, abandoned past a budget) and finally one alternating tree per still-exposed
 //! vertex, all grown together with lazy O(1) dual changes; one monotone radix heap of events
 //! (`+`→free edges, `+`↔`+` edges, `−` blossoms with zero dual) instead of rescans; persistent
 //! blossoms expanded only when their dual drops to zero; blossom membership through

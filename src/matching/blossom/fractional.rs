@@ -9,61 +9,150 @@
 //! matched along its (tight) edges. At the end each remaining cycle leaves one vertex exposed.
 //! Duals stay feasible and every matched edge tight, so the main phase starts from there with
 //! near-optimal duals and few exposed vertices.
+//!
+//! Two passes: a *local* one grows one tree at a time from each exposed vertex in (locality)
+//! order, with the other exposed vertices as plain targets (their duals fixed, which is valid
+//! since vertex duals are free in the perfect-matching LP), so consecutive searches touch
+//! nearby memory; a search that needs too many grow steps is abandoned (its dual changes are
+//! kept). A *global* pass then grows the remaining trees together, so that they can meet
+//! half-way (on near-bipartite lattice meshes the last exposed vertices are far apart).
 
-use super::{Solver, EXPAND, MINUS, NONE, PLUS};
+use super::{Solver, MINUS, NONE, PLUS};
+
+/// Grow steps a local search may take before it is left to the global pass.
+const LOCAL_GROWS: usize = 64;
+
+/// Half-matched odd cycles: `id[v]` is the cycle of vertex `v` (or NONE), `list[c]` the
+/// vertices of cycle `c` in order (emptied when the cycle is resolved).
+struct Cycles {
+    id: Vec<u32>,
+    list: Vec<Vec<u32>>,
+}
 
 impl Solver {
     /// Greedy start followed by the fractional phase (the default start of [`Solver::run`]).
     pub fn init_fractional(&mut self) {
+        self.init_fractional_with(LOCAL_GROWS);
+    }
+
+    /// [`Solver::init_fractional`] with a given grow budget for the local searches (0 leaves
+    /// nearly everything to the global pass); tests use it to exercise both passes.
+    pub fn init_fractional_with(&mut self, budget: usize) {
         self.init_greedy();
-        let n = self.n;
-        let mut cyc_id = vec![NONE; n];
-        let mut cycles: Vec<Vec<u32>> = Vec::new();
+        let mut cy = Cycles {
+            id: vec![NONE; self.n],
+            list: Vec::new(),
+        };
+        self.fractional_local(&mut cy, budget);
+        self.fractional_global(&mut cy);
+        for cycle in &cy.list {
+            if let Some(&first) = cycle.first() {
+                Self::match_cycle_except(&mut self.mate, cycle, first);
+            }
+        }
+        self.stats.cycles = cy.list.iter().filter(|c| !c.is_empty()).count();
+        self.tree_lists.clear();
+        self.heap.clear();
+        self.eps = 0;
+    }
+
+    /// Local pass: one tree at a time, roots in (locality) order. The other exposed vertices
+    /// keep their duals, so each search is a Dijkstra-like growth around its root that
+    /// touches only nearby memory. A search that needs more than `budget` grow steps is
+    /// abandoned: its dual changes are kept (they are feasible) and its root stays exposed
+    /// for the global pass.
+    fn fractional_local(&mut self, cy: &mut Cycles, budget: usize) {
+        self.tree_lists = vec![Vec::new()];
+        for r in 0..self.n as u32 {
+            if self.mate[r as usize] != NONE || cy.id[r as usize] != NONE {
+                continue;
+            }
+            self.start_single_tree(r);
+            self.fractional_search(cy, budget);
+            self.end_single_tree();
+        }
+    }
+
+    /// Grows the single tree 0 until it ends (augmentation, odd cycle), gets stuck or uses
+    /// up `budget` grow steps.
+    fn fractional_search(&mut self, cy: &mut Cycles, budget: usize) {
+        let mut grows = 0;
+        while let Some(e) = self.pop_edge_event() {
+            let (u, v) = (self.ed[e].u, self.ed[e].v);
+            let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
+            if pu && pv {
+                self.close_cycle(cy, u, v);
+                return;
+            }
+            let (x, w) = if pu { (u, v) } else { (v, u) };
+            if cy.id[w as usize] != NONE {
+                self.augment_into_cycle(cy, x, w);
+                return;
+            }
+            if self.mate[w as usize] == NONE {
+                // Another exposed vertex (not growing now): augment into it.
+                self.augment_path(x, w);
+                self.mate[w as usize] = x;
+                return;
+            }
+            if grows == budget {
+                return;
+            }
+            grows += 1;
+            self.grow(x, w);
+        }
+    }
+
+    /// Tight `+`–`+` edge `(u, v)` inside one tree: the cycle becomes half-matched.
+    fn close_cycle(&mut self, cy: &mut Cycles, u: u32, v: u32) {
+        let cycle = self.odd_cycle(u, v);
+        let c = cy.list.len() as u32;
+        for &x in &cycle {
+            cy.id[x as usize] = c;
+            self.mate[x as usize] = NONE;
+        }
+        cy.list.push(cycle);
+    }
+
+    /// Tight edge from `+` vertex `x` to `w` on a half-matched cycle: augments into `w` and
+    /// matches the rest of the cycle along its edges.
+    fn augment_into_cycle(&mut self, cy: &mut Cycles, x: u32, w: u32) {
+        let c = cy.id[w as usize];
+        self.augment_path(x, w);
+        self.mate[w as usize] = x;
+        let cycle = std::mem::take(&mut cy.list[c as usize]);
+        Self::match_cycle_except(&mut self.mate, &cycle, w);
+        for &y in &cycle {
+            cy.id[y as usize] = NONE;
+        }
+    }
+
+    /// Global pass: a tree from every remaining exposed vertex, all grown together under one
+    /// dual change `ε` (the trees meet half-way, which the local pass cannot do).
+    fn fractional_global(&mut self, cy: &mut Cycles) {
         self.eps = 0;
         self.heap.clear();
-        let roots: Vec<u32> = (0..n as u32)
-            .filter(|&v| self.mate[v as usize] == NONE)
+        let roots: Vec<u32> = (0..self.n as u32)
+            .filter(|&v| self.mate[v as usize] == NONE && cy.id[v as usize] == NONE)
             .collect();
         self.tree_lists = vec![Vec::new(); roots.len()];
         for (t, &r) in roots.iter().enumerate() {
-            let nd = &mut self.nd[r as usize];
-            nd.tree = t as u32;
-            nd.label = PLUS;
-            nd.join = 0;
-            self.tree_lists[t].push(r);
+            self.make_root(r, t as u32);
         }
         for &r in &roots {
             self.push_edges_of(r);
         }
         let mut alive = roots.len();
         while alive > 0 {
-            let Some((key, id)) = self.heap.pop() else {
+            let Some(e) = self.pop_edge_event() else {
                 break; // some tree is stuck: leave it to the main phase
             };
-            if id & EXPAND != 0 {
-                continue; // no blossoms in this phase
-            }
-            let e = id as usize;
-            let key = key as i64;
-            let Some(k2) = self.edge_key(e) else { continue };
-            debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
-            if k2 >> 1 > key >> 1 {
-                self.heap.push(k2 as u64, id);
-                continue;
-            }
-            self.eps = key >> 1;
             let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
             if pu && pv {
                 let (ta, tb) = (self.nd[u as usize].tree, self.nd[v as usize].tree);
                 if ta == tb {
-                    let cycle = self.odd_cycle(u, v);
-                    let c = cycles.len() as u32;
-                    for &x in &cycle {
-                        cyc_id[x as usize] = c;
-                        self.mate[x as usize] = NONE;
-                    }
-                    cycles.push(cycle);
+                    self.close_cycle(cy, u, v);
                     self.dissolve(ta);
                     alive -= 1;
                 } else {
@@ -75,16 +164,9 @@ impl Solver {
                 }
             } else {
                 let (x, w) = if pu { (u, v) } else { (v, u) };
-                let c = cyc_id[w as usize];
-                if c != NONE {
+                if cy.id[w as usize] != NONE {
                     let ta = self.nd[x as usize].tree;
-                    self.augment_path(x, w);
-                    self.mate[w as usize] = x;
-                    let cycle = std::mem::take(&mut cycles[c as usize]);
-                    Self::match_cycle_except(&mut self.mate, &cycle, w);
-                    for &y in &cycle {
-                        cyc_id[y as usize] = NONE;
-                    }
+                    self.augment_into_cycle(cy, x, w);
                     self.dissolve(ta);
                     alive -= 1;
                 } else {
@@ -98,15 +180,6 @@ impl Solver {
             self.dissolve(t as u32);
         }
         self.freed.clear();
-        for cycle in &cycles {
-            if let Some(&first) = cycle.first() {
-                Self::match_cycle_except(&mut self.mate, cycle, first);
-            }
-        }
-        self.stats.cycles = cycles.iter().filter(|c| !c.is_empty()).count();
-        self.tree_lists.clear();
-        self.heap.clear();
-        self.eps = 0;
     }
 
     /// Matches the odd cycle `cycle` (consecutive vertices joined by tight edges) minus vertex
