@@ -174,6 +174,117 @@ impl Local {
     }
 }
 
+/// Most quads a [`StarEval`] holds; larger stars use [`Local::key_with`].
+pub(crate) const STAR_MAX: usize = 12;
+
+/// Node `v`'s star frozen for evaluating many trial positions of `v` (every other node stays
+/// put): per quad the three other corners (in the quad's order after `v`), the reference
+/// normal, and the cotangent term of the corner opposite `v`, which does not depend on `v`.
+/// Gives the same keys as [`Local::key_with`] with a quarter fewer corners and no gathers;
+/// stars it cannot hold (see [`StarEval::new`]) are evaluated through [`Local::key_with`].
+pub(crate) struct StarEval<'a> {
+    l: &'a Local,
+    v: u32,
+    fast: bool,
+    len: usize,
+    pts: [[DVec3; 3]; STAR_MAX],
+    nrm: [DVec3; STAR_MAX],
+    /// |a·b| / (n·(a×b)) at the opposite corner, or −1 when that corner is not valid.
+    opp: [f64; STAR_MAX],
+}
+
+impl<'a> StarEval<'a> {
+    /// The star of `v`; the slow path when it has more than [`STAR_MAX`] quads or `v`
+    /// appears twice in one of them. Needs current quad normals.
+    pub fn new(l: &'a Local, v: u32) -> Self {
+        let star = l.star(v);
+        let mut e = StarEval {
+            l,
+            v,
+            fast: false,
+            len: star.len(),
+            pts: [[DVec3::ZERO; 3]; STAR_MAX],
+            nrm: [DVec3::ZERO; STAR_MAX],
+            opp: [0.0; STAR_MAX],
+        };
+        if star.len() > STAR_MAX {
+            return e;
+        }
+        for (i, &q) in star.iter().enumerate() {
+            let Some(r) = rotate_to(&l.quads[q as usize], v) else {
+                return e;
+            };
+            if r[1..].contains(&v) {
+                return e;
+            }
+            let [b, c, d] = [r[1], r[2], r[3]].map(|w| l.pos[w as usize]);
+            let n = l.qn[q as usize];
+            let (x, y) = (d - c, b - c);
+            let s = n.dot(x.cross(y));
+            e.pts[i] = [b, c, d];
+            e.nrm[i] = n;
+            e.opp[i] = if s > 0.0 { x.dot(y).abs() / s } else { -1.0 };
+        }
+        e.fast = true;
+        e
+    }
+
+    /// [`shape_key`] of star quad `i` with `v` at `p`.
+    #[inline]
+    pub fn key(&self, i: usize, p: DVec3) -> f64 {
+        if !self.fast {
+            return self.l.key_with(self.l.star(self.v)[i], self.v, p);
+        }
+        let [b, c, d] = self.pts[i];
+        let n = self.nrm[i];
+        let mut worst = self.opp[i];
+        if worst >= 0.0 {
+            // corners at v, b, d (same edge vectors as `shape_key` on [v, b, c, d])
+            for (a, e) in [(b - p, d - p), (c - b, p - b), (p - d, c - d)] {
+                let s = n.dot(a.cross(e));
+                if s <= 0.0 {
+                    worst = -1.0;
+                    break;
+                }
+                worst = worst.max(a.dot(e).abs() / s);
+            }
+        }
+        if worst < 0.0 {
+            return shape_key(&[p, b, c, d], n);
+        }
+        1.0 / (1.0 + worst)
+    }
+
+    /// The star's worst key with `v` at `p`.
+    pub fn min_key(&self, p: DVec3) -> f64 {
+        (0..self.len)
+            .map(|i| self.key(i, p))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// True when no quad of the star has a key below `floor` with `v` at `p` (stops at the
+    /// first that does).
+    pub fn all_at_least(&self, p: DVec3, floor: f64) -> bool {
+        (0..self.len).all(|i| self.key(i, p) >= floor)
+    }
+
+    /// (worst, sum) of the star's keys with `v` at `p`; `None` as soon as one key is below
+    /// `floor`.
+    pub fn min_sum_above(&self, p: DVec3, floor: f64) -> Option<(f64, f64)> {
+        let mut min = f64::INFINITY;
+        let mut sum = 0.0;
+        for i in 0..self.len {
+            let k = self.key(i, p);
+            if k < floor {
+                return None;
+            }
+            min = min.min(k);
+            sum += k;
+        }
+        Some((min, sum))
+    }
+}
+
 /// A key ordered like the signed quality η (eq. 3) of the quad `p` about the unit normal
 /// `n`, without trigonometry: for a valid quad (every corner turning positively) it is
 /// 1 / (1 + max_k |cot α_k|) in (0, 1] (1 for a rectangle); for an invalid one it is

@@ -148,7 +148,19 @@ pub fn optimize(
     reference: &Mesh,
     opts: &OptimizeOptions,
 ) -> Result<OptimizeReport, OptimizeError> {
+    let trace = std::env::var_os("BQ_TRACE").is_some();
+    let t0 = std::time::Instant::now();
+    let tr = |what: &str| {
+        if trace {
+            eprintln!(
+                "[{:8.3} cpu {:7.2}] optimize: {what}",
+                t0.elapsed().as_secs_f64(),
+                cpu_seconds()
+            );
+        }
+    };
     let flat = FlatNodes::new(mesh);
+    tr("flat");
     let mut surfaces: Vec<i32> = mesh
         .element_blocks
         .iter()
@@ -162,6 +174,7 @@ pub fn optimize(
     for (si, &s) in surfaces.iter().enumerate() {
         locals.push(extract(mesh, &flat, &owner, si as u32, s)?);
     }
+    tr("extract");
     let total = locals.len() * (1 + opts.max_rounds);
     let done = AtomicUsize::new(0);
     let tick = |n: usize| {
@@ -174,10 +187,12 @@ pub fn optimize(
         .into_par_iter()
         .map(|mut l| {
             attach_reference(&mut l, reference);
+            tr("attach");
             let rep = run_surface(&mut l, opts, &tick);
             (l, rep)
         })
         .collect();
+    tr("surfaces");
     let mut report = OptimizeReport::default();
     for (l, rep) in results {
         write_back(mesh, &flat, &l, &mut report);
@@ -191,6 +206,7 @@ pub fn optimize(
     {
         mesh.invalidate_element_data();
     }
+    tr("write back");
     if report.nodes_removed > 0 {
         let before = mesh.data_sections.len();
         mesh.data_sections.retain(|d| d.kind != DataKind::Node);
@@ -214,8 +230,9 @@ fn run_surface(
             l.build_adjacency();
             let s = l.stats();
             eprintln!(
-                "[{:8.3}] {what:<12} eta_w {:.4} eta_m {:.4} d4 {:.2} quads {}",
+                "[{:8.3} cpu {:7.2}] {what:<12} eta_w {:.4} eta_m {:.4} d4 {:.2} quads {}",
                 t0.elapsed().as_secs_f64(),
+                cpu_seconds(),
                 s.eta_worst,
                 s.eta_mean,
                 s.d4_percent,
@@ -235,13 +252,24 @@ fn run_surface(
     let mut ticks = 1;
     if opts.topology {
         for _ in 0..opts.max_rounds {
+            // speed: after a pass, smooth only around what it changed (see `near_changes`)
+            let snapshot = (l.quads.clone(), l.alive.clone(), l.pos.clone());
             let changed = topo::pass(l, &mut ops);
             tr(l, &format!("topo {changed}"));
             if changed == 0 {
                 break;
             }
             l.build_adjacency();
-            ops.smoothing_moves += smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight);
+            let rings = std::env::var("BQ_RINGS")
+                .ok()
+                .and_then(|x| x.parse().ok())
+                .unwrap_or(usize::MAX);
+            ops.smoothing_moves += if rings == usize::MAX {
+                smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight)
+            } else {
+                let active = near_changes(l, &snapshot, rings);
+                smooth::smooth_near(l, opts.smooth_iterations, opts.diagonal_weight, active)
+            };
             tr(l, "smooth");
             tick(1);
             ticks += 1;
@@ -259,6 +287,56 @@ fn run_surface(
         after,
         operations: ops,
     }
+}
+
+/// Nodes within `rings` quad rings of what a topological pass changed, given the quads,
+/// liveness and positions before it: nodes of quads that were rewritten, created or removed,
+/// and nodes that moved. Needs a current adjacency.
+fn near_changes(
+    l: &Local,
+    (quads, alive, pos): &(Vec<[u32; 4]>, Vec<bool>, Vec<DVec3>),
+    rings: usize,
+) -> Vec<bool> {
+    let n = l.pos.len();
+    let mut mark = vec![false; n];
+    for (q, quad) in l.quads.iter().enumerate() {
+        let same = quads.get(q) == Some(quad) && alive.get(q) == Some(&l.alive[q]);
+        if !same {
+            for &v in quad.iter().chain(quads.get(q).into_iter().flatten()) {
+                mark[v as usize] = true;
+            }
+        }
+    }
+    for v in 0..n {
+        if pos.get(v) != Some(&l.pos[v]) {
+            mark[v] = true;
+        }
+    }
+    let mut frontier: Vec<u32> = (0..n as u32).filter(|&v| mark[v as usize]).collect();
+    for _ in 0..rings {
+        let mut next = Vec::new();
+        for &v in &frontier {
+            for &q in l.star(v) {
+                for &w in &l.quads[q as usize] {
+                    if !mark[w as usize] {
+                        mark[w as usize] = true;
+                        next.push(w);
+                    }
+                }
+            }
+        }
+        frontier = next;
+    }
+    mark
+}
+
+/// TEMPORARY (development trace): user+system CPU seconds of the process.
+fn cpu_seconds() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let rest = s.rsplit(')').next().unwrap_or("");
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let t = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
+    (t(11) + t(12)) / 100.0
 }
 
 const UNSET: u32 = u32::MAX;

@@ -21,7 +21,7 @@
 //! star's mean η. Measured on a 15k-triangle Gmsh rectangle: η̄ +0.024, η_w +0.03, but τ
 //! −1 point, because η (eq. 3) sees angles only and accepts elongated rectangles.
 
-use super::local::{rotate_to, Local};
+use super::local::{rotate_to, Local, StarEval};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -77,7 +77,7 @@ fn sweep(
             .collect();
         for (v, p, t) in found {
             let vi = v as usize;
-            if p.distance(l.pos[vi]) > 1e-4 * l.h[vi] {
+            if p.distance(l.pos[vi]) > tol() * l.h[vi] {
                 for &q in l.star(v) {
                     for &w in &l.quads[q as usize] {
                         next[w as usize] = true;
@@ -92,16 +92,33 @@ fn sweep(
     moves
 }
 
+fn tol() -> f64 {
+    std::env::var("BQ_TOL")
+        .ok()
+        .and_then(|x| x.parse().ok())
+        .unwrap_or(1e-4)
+}
+
 /// Sweeps `propose` over the free nodes up to `sweeps` times, each sweep only over the nodes
-/// near a significant move of the previous one.
-fn sweeps(l: &mut Local, sweeps: usize, propose: &Propose) -> usize {
+/// near a significant move of the previous one; the first sweep over the nodes flagged in
+/// `active` (all nodes when `None`).
+fn sweeps(l: &mut Local, sweeps: usize, propose: &Propose, active: Option<Vec<bool>>) -> usize {
     l.refresh_quad_normals();
     let groups = colour_free_nodes(l);
-    let mut active = vec![true; l.pos.len()];
+    let mut active = active.unwrap_or_else(|| vec![true; l.pos.len()]);
     let mut next = vec![false; l.pos.len()];
     let mut moves = 0;
     for _ in 0..sweeps {
-        moves += sweep(l, &groups, &active, &mut next, propose);
+        let m = sweep(l, &groups, &active, &mut next, propose);
+        if std::env::var_os("BQ_TRACE").is_some() {
+            eprintln!(
+                "   sweep: active {} moves {} next {}",
+                active.iter().filter(|&&a| a).count(),
+                m,
+                next.iter().filter(|&&a| a).count()
+            );
+        }
+        moves += m;
         if !next.iter().any(|&a| a) {
             break;
         }
@@ -109,14 +126,6 @@ fn sweeps(l: &mut Local, sweeps: usize, propose: &Propose) -> usize {
         next.fill(false);
     }
     moves
-}
-
-/// Worst shape key of the quads around `v` with `v` at `p`.
-fn star_key(l: &Local, v: u32, p: DVec3) -> f64 {
-    l.star(v)
-        .iter()
-        .map(|&q| l.key_with(q, v, p))
-        .fold(f64::INFINITY, f64::min)
 }
 
 /// Size-weighted centroid move with backtracking (see the module docs).
@@ -143,10 +152,11 @@ fn propose_centroid(l: &Local, v: u32, diag: f64) -> Option<(DVec3, u32)> {
     if step.length_squared() <= (1e-9 * hv) * (1e-9 * hv) {
         return None;
     }
-    let old = star_key(l, v, x0);
+    let star = StarEval::new(l, v);
+    let old = star.min_key(x0);
     for t in [1.0, 0.5, 0.25] {
         let (cand, tri) = l.project(v, x0 + step * t);
-        if star_key(l, v, cand) >= old {
+        if star.all_at_least(cand, old) {
             return Some((cand, tri));
         }
     }
@@ -157,7 +167,13 @@ fn propose_centroid(l: &Local, v: u32, diag: f64) -> Option<(DVec3, u32)> {
 /// first, only near nodes that moved by more than 1e-4 h); returns the number of accepted
 /// moves. `diag` is the weight of the opposite corners relative to edge neighbours.
 pub(crate) fn smooth(l: &mut Local, iterations: usize, diag: f64) -> usize {
-    sweeps(l, iterations, &|l, v| propose_centroid(l, v, diag))
+    sweeps(l, iterations, &|l, v| propose_centroid(l, v, diag), None)
+}
+
+/// [`smooth`] starting from the nodes flagged in `active` only (e.g. around the elements a
+/// topological pass changed).
+pub(crate) fn smooth_near(l: &mut Local, iterations: usize, diag: f64, active: Vec<bool>) -> usize {
+    sweeps(l, iterations, &|l, v| propose_centroid(l, v, diag), Some(active))
 }
 
 /// Pattern search on the star's mean shape key, the worst kept (see [`optimize_angles`]).
@@ -165,17 +181,8 @@ pub(crate) fn smooth(l: &mut Local, iterations: usize, diag: f64) -> usize {
 fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
     let vi = v as usize;
     let x0 = l.pos[vi];
-    let eval = |p: DVec3| {
-        let mut min = f64::INFINITY;
-        let mut sum = 0.0;
-        for &q in l.star(v) {
-            let k = l.key_with(q, v, p);
-            min = min.min(k);
-            sum += k;
-        }
-        (min, sum)
-    };
-    let (min0, mut best_sum) = eval(x0);
+    let star = StarEval::new(l, v);
+    let (min0, mut best_sum) = star.min_sum_above(x0, f64::NEG_INFINITY)?;
     if min0 >= 0.7 {
         return None;
     }
@@ -199,8 +206,10 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
         let base = best.map_or(x0, |b| b.0);
         for d in dirs {
             let (p, tri) = l.project(v, base + d * (s * h));
-            let (mn, sum) = eval(p);
-            if mn >= min0 && sum > best_sum + 1e-12 {
+            let Some((_, sum)) = star.min_sum_above(p, min0) else {
+                continue;
+            };
+            if sum > best_sum + 1e-12 {
                 best_sum = sum;
                 best = Some((p, tri));
             }
@@ -214,5 +223,5 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
 /// axes and their diagonals) and keeps the one that most raises the mean shape key of its
 /// star without lowering its worst. Returns the number of accepted moves.
 pub(crate) fn optimize_angles(l: &mut Local, n: usize) -> usize {
-    sweeps(l, n, &propose_pattern)
+    sweeps(l, n, &propose_pattern, None)
 }
