@@ -263,7 +263,7 @@ fn run_surface(
             let rings = std::env::var("BQ_RINGS")
                 .ok()
                 .and_then(|x| x.parse().ok())
-                .unwrap_or(usize::MAX);
+                .unwrap_or(RESMOOTH_RINGS);
             ops.smoothing_moves += if rings == usize::MAX {
                 smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight)
             } else {
@@ -275,6 +275,12 @@ fn run_surface(
             ticks += 1;
         }
     }
+    // quality: lift the worst quads (max-min) first; the pattern search after it keeps
+    // every star's worst key, so η_w stays
+    if std::env::var_os("BQ_NOPOLISH").is_none() {
+        ops.smoothing_moves += smooth::polish_worst(l, 4);
+    }
+    tr(l, "polish");
     if opts.angle_sweeps > 0 {
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
     }
@@ -288,6 +294,11 @@ fn run_surface(
         operations: ops,
     }
 }
+
+/// After a topological pass, smoothing starts from the nodes within this many quad rings of
+/// the changes (measured on 1.6e5 and 1e6-triangle rectangles: η̄ within 0.001 of smoothing
+/// every node, at a fraction of the work).
+const RESMOOTH_RINGS: usize = 2;
 
 /// Nodes within `rings` quad rings of what a topological pass changed, given the quads,
 /// liveness and positions before it: nodes of quads that were rewritten, created or removed,
