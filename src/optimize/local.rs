@@ -54,30 +54,8 @@ pub(crate) struct Local {
 impl Local {
     /// Rebuilds the node → alive quads CSR.
     pub fn build_adjacency(&mut self) {
-        let n = self.pos.len();
-        let mut start = vec![0u32; n + 1];
-        for (q, quad) in self.quads.iter().enumerate() {
-            if self.alive[q] {
-                for &v in quad {
-                    start[v as usize + 1] += 1;
-                }
-            }
-        }
-        for i in 0..n {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut adj = vec![0u32; start[n] as usize];
-        for (q, quad) in self.quads.iter().enumerate() {
-            if self.alive[q] {
-                for &v in quad {
-                    adj[fill[v as usize] as usize] = q as u32;
-                    fill[v as usize] += 1;
-                }
-            }
-        }
-        self.start = start;
-        self.adj = adj;
+        let alive = &self.alive;
+        (self.start, self.adj) = csr(self.pos.len(), &self.quads, |q| alive[q]);
     }
 
     /// Recomputes the unit reference normal of every quad from its nodes' normals.
@@ -172,6 +150,33 @@ impl Local {
             },
         }
     }
+}
+
+/// Node → quads CSR over `n` nodes of the quads `q` with `keep(q)`: the quads around `v` are
+/// `adj[start[v]..start[v + 1]]`; returns `(start, adj)`.
+pub(crate) fn csr(n: usize, quads: &[[u32; 4]], keep: impl Fn(usize) -> bool) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; n + 1];
+    for (q, quad) in quads.iter().enumerate() {
+        if keep(q) {
+            for &v in quad {
+                start[v as usize + 1] += 1;
+            }
+        }
+    }
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut adj = vec![0u32; start[n] as usize];
+    for (q, quad) in quads.iter().enumerate() {
+        if keep(q) {
+            for &v in quad {
+                adj[fill[v as usize] as usize] = q as u32;
+                fill[v as usize] += 1;
+            }
+        }
+    }
+    (start, adj)
 }
 
 /// Most quads a [`StarEval`] holds; larger stars use [`Local::key_with`].
