@@ -49,6 +49,9 @@ pub(crate) struct Local {
     pub adj: Vec<u32>,
     /// Unit reference normal per quad (see [`Local::refresh_quad_normals`]).
     pub qn: Vec<DVec3>,
+    /// Per quad: a corner whose three nodes are fixed does not turn positively, so no move
+    /// can make the quad valid (see [`Local::refresh_quad_normals`]).
+    pub hopeless: Vec<bool>,
 }
 
 impl Local {
@@ -58,10 +61,29 @@ impl Local {
         (self.start, self.adj) = csr(self.pos.len(), &self.quads, |q| alive[q]);
     }
 
-    /// Recomputes the unit reference normal of every quad from its nodes' normals.
+    /// Recomputes the unit reference normal of every quad from its nodes' normals, and
+    /// which quads are hopeless for smoothing: those with a fixed corner (the node and both
+    /// its quad neighbours fixed) that is straight, reflex or folded. Smoothing leaves such
+    /// quads out of its centroids and acceptance tests (otherwise their constant negative
+    /// key would let a node's other quads degrade down to it).
     pub fn refresh_quad_normals(&mut self) {
         self.qn = (0..self.quads.len() as u32)
             .map(|q| self.quad_normal(q).normalize_or_zero())
+            .collect();
+        self.hopeless = (0..self.quads.len())
+            .map(|q| {
+                let quad = &self.quads[q];
+                self.alive[q]
+                    && (0..4).any(|k| {
+                        let [a, b, c] = [quad[(k + 3) & 3], quad[k], quad[(k + 1) & 3]];
+                        if !(self.fixed[a as usize] && self.fixed[b as usize] && self.fixed[c as usize]) {
+                            return false;
+                        }
+                        let pb = self.pos[b as usize];
+                        let (x, y) = (self.pos[c as usize] - pb, self.pos[a as usize] - pb);
+                        self.qn[q].dot(x.cross(y)) <= 0.0
+                    })
+            })
             .collect();
     }
 
@@ -199,8 +221,9 @@ pub(crate) struct StarEval<'a> {
 }
 
 impl<'a> StarEval<'a> {
-    /// The star of `v`; the slow path when it has more than [`STAR_MAX`] quads or `v`
-    /// appears twice in one of them. Needs current quad normals.
+    /// The star of `v` without its hopeless quads; the slow path (every quad) when it has
+    /// more than [`STAR_MAX`] quads or `v` appears twice in one of them. Needs current quad
+    /// normals.
     pub fn new(l: &'a Local, v: u32) -> Self {
         let star = l.star(v);
         let mut e = StarEval {
@@ -215,7 +238,11 @@ impl<'a> StarEval<'a> {
         if star.len() > STAR_MAX {
             return e;
         }
-        for (i, &q) in star.iter().enumerate() {
+        let mut i = 0;
+        for &q in star {
+            if l.hopeless.get(q as usize) == Some(&true) {
+                continue;
+            }
             let Some(r) = rotate_to(&l.quads[q as usize], v) else {
                 return e;
             };
@@ -229,7 +256,9 @@ impl<'a> StarEval<'a> {
             e.pts[i] = [b, c, d];
             e.nrm[i] = n;
             e.opp[i] = if s > 0.0 { x.dot(y).abs() / s } else { -1.0 };
+            i += 1;
         }
+        e.len = i;
         e.fast = true;
         e
     }

@@ -532,6 +532,7 @@ fn extract(
         start,
         adj,
         qn: Vec::new(),
+        hopeless: Vec::new(),
     })
 }
 

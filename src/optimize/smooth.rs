@@ -141,6 +141,9 @@ fn propose_centroid(l: &Local, v: u32, diag: f64) -> Option<(DVec3, u32)> {
     let mut acc = DVec3::ZERO;
     let mut wsum = 0.0;
     for &q in l.star(v) {
+        if l.hopeless[q as usize] {
+            continue;
+        }
         let r = rotate_to(&l.quads[q as usize], v)?;
         for (k, w0) in [(1usize, 1.0), (2, diag), (3, 1.0)] {
             let j = r[k] as usize;
