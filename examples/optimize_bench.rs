@@ -35,7 +35,10 @@ fn main() {
         }
     }
     if let Some(q) = args.iter().find_map(|a| a.strip_prefix("quads=")) {
-        let r = args.iter().find_map(|a| a.strip_prefix("ref=")).unwrap_or(q);
+        let r = args
+            .iter()
+            .find_map(|a| a.strip_prefix("ref="))
+            .unwrap_or(q);
         let reps: usize = args
             .iter()
             .find_map(|a| a.strip_prefix("reps="))

@@ -6,9 +6,10 @@
 //! it. Fixed nodes (on curves, points, the boundary, or used by any element that is not a
 //! quad of this surface) never move and are never removed.
 
-use crate::quality::eta::{eta, eta_signed_fast};
+use crate::quality::eta::eta_signed_fast;
 use crate::quality::locate::TriSurface;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Sentinel for "none".
 pub(crate) const NONE: u32 = u32::MAX;
@@ -76,7 +77,10 @@ impl Local {
                 self.alive[q]
                     && (0..4).any(|k| {
                         let [a, b, c] = [quad[(k + 3) & 3], quad[k], quad[(k + 1) & 3]];
-                        if !(self.fixed[a as usize] && self.fixed[b as usize] && self.fixed[c as usize]) {
+                        if !(self.fixed[a as usize]
+                            && self.fixed[b as usize]
+                            && self.fixed[c as usize])
+                        {
                             return false;
                         }
                         let pb = self.pos[b as usize];
@@ -137,18 +141,22 @@ impl Local {
     /// Unsigned quality statistics: (η_w, η̄, quads, d4 %, interior vertices), with degrees
     /// over free nodes (interior by construction). Needs a current adjacency.
     pub fn stats(&self) -> Stats {
-        let mut n = 0usize;
-        let mut sum = 0.0;
-        let mut worst = f64::INFINITY;
-        for (q, quad) in self.quads.iter().enumerate() {
-            if !self.alive[q] {
-                continue;
-            }
-            let e = eta(&quad.map(|v| self.pos[v as usize]));
-            n += 1;
-            sum += e;
-            worst = worst.min(e);
-        }
+        // η (eq. 3) about each quad's own (Newell) normal, with one atan per quad
+        let (n, sum, worst) = self
+            .quads
+            .par_iter()
+            .zip(self.alive.par_iter())
+            .with_min_len(4096)
+            .filter(|(_, &alive)| alive)
+            .map(|(quad, _)| {
+                let p = quad.map(|v| self.pos[v as usize]);
+                let e = eta_signed_fast(&p, (p[2] - p[0]).cross(p[3] - p[1])).max(0.0);
+                (1usize, e, e)
+            })
+            .reduce(
+                || (0, 0.0, f64::INFINITY),
+                |a, b| (a.0 + b.0, a.1 + b.1, a.2.min(b.2)),
+            );
         let mut interior = 0usize;
         let mut d4 = 0usize;
         for v in 0..self.pos.len() as u32 {
@@ -176,7 +184,11 @@ impl Local {
 
 /// Node → quads CSR over `n` nodes of the quads `q` with `keep(q)`: the quads around `v` are
 /// `adj[start[v]..start[v + 1]]`; returns `(start, adj)`.
-pub(crate) fn csr(n: usize, quads: &[[u32; 4]], keep: impl Fn(usize) -> bool) -> (Vec<u32>, Vec<u32>) {
+pub(crate) fn csr(
+    n: usize,
+    quads: &[[u32; 4]],
+    keep: impl Fn(usize) -> bool,
+) -> (Vec<u32>, Vec<u32>) {
     let mut start = vec![0u32; n + 1];
     for (q, quad) in quads.iter().enumerate() {
         if keep(q) {

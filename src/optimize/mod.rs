@@ -45,7 +45,8 @@ pub struct OptimizeOptions<'a> {
     /// Weight of a quad's opposite corner relative to an edge neighbour in the smoothing
     /// centroid.
     pub diagonal_weight: f64,
-    /// Final quality-maximizing sweeps (pattern search on the star's mean η, worst η kept).
+    /// Final quality-maximizing sweeps (pattern search on the star's mean η, worst η kept),
+    /// preceded by a max-min polish of the quads with η < 0.6; 0 disables both.
     pub angle_sweeps: usize,
     /// Called with (steps done, total steps) as surfaces progress, from any thread.
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
@@ -148,19 +149,7 @@ pub fn optimize(
     reference: &Mesh,
     opts: &OptimizeOptions,
 ) -> Result<OptimizeReport, OptimizeError> {
-    let trace = std::env::var_os("BQ_TRACE").is_some();
-    let t0 = std::time::Instant::now();
-    let tr = |what: &str| {
-        if trace {
-            eprintln!(
-                "[{:8.3} cpu {:7.2}] optimize: {what}",
-                t0.elapsed().as_secs_f64(),
-                cpu_seconds()
-            );
-        }
-    };
     let flat = FlatNodes::new(mesh);
-    tr("flat");
     let mut surfaces: Vec<i32> = mesh
         .element_blocks
         .iter()
@@ -175,7 +164,6 @@ pub fn optimize(
     for (si, &s) in surfaces.iter().enumerate() {
         locals.push(extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?);
     }
-    tr("extract");
     let total = locals.len() * (1 + opts.max_rounds);
     let done = AtomicUsize::new(0);
     let tick = |n: usize| {
@@ -189,12 +177,10 @@ pub fn optimize(
         .into_par_iter()
         .map(|mut l| {
             attach_reference(&mut l, &refnodes);
-            tr("attach");
             let rep = run_surface(&mut l, opts, &tick);
             (l, rep)
         })
         .collect();
-    tr("surfaces");
     let mut report = OptimizeReport::default();
     for (l, rep) in results {
         write_back(mesh, &flat, &l, &mut report);
@@ -208,7 +194,6 @@ pub fn optimize(
     {
         mesh.invalidate_element_data();
     }
-    tr("write back");
     if report.nodes_removed > 0 {
         let before = mesh.data_sections.len();
         mesh.data_sections.retain(|d| d.kind != DataKind::Node);
@@ -225,31 +210,12 @@ fn run_surface(
     opts: &OptimizeOptions,
     tick: &(dyn Fn(usize) + Sync),
 ) -> SurfaceOptimizeReport {
-    let trace = std::env::var_os("BQ_TRACE").is_some();
-    let t0 = std::time::Instant::now();
-    let tr = |l: &mut Local, what: &str| {
-        if trace {
-            l.build_adjacency();
-            let s = l.stats();
-            eprintln!(
-                "[{:8.3} cpu {:7.2}] {what:<12} eta_w {:.4} eta_m {:.4} d4 {:.2} quads {}",
-                t0.elapsed().as_secs_f64(),
-                cpu_seconds(),
-                s.eta_worst,
-                s.eta_mean,
-                s.d4_percent,
-                s.quads
-            );
-        }
-    };
     l.build_adjacency();
     let before = l.stats();
-    tr(l, "start");
     let mut ops = OperationCounts {
         smoothing_moves: smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
         ..Default::default()
     };
-    tr(l, "smooth");
     tick(1);
     let mut ticks = 1;
     if opts.topology {
@@ -257,36 +223,26 @@ fn run_surface(
             // speed: after a pass, smooth only around what it changed (see `near_changes`)
             let snapshot = (l.quads.clone(), l.alive.clone(), l.pos.clone());
             let changed = topo::pass(l, &mut ops);
-            tr(l, &format!("topo {changed}"));
             if changed == 0 {
                 break;
             }
             l.build_adjacency();
-            let rings = std::env::var("BQ_RINGS")
-                .ok()
-                .and_then(|x| x.parse().ok())
-                .unwrap_or(RESMOOTH_RINGS);
-            ops.smoothing_moves += if rings == usize::MAX || l.quads.len() < RESMOOTH_ALL_BELOW {
+            ops.smoothing_moves += if l.quads.len() < RESMOOTH_ALL_BELOW {
                 smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight)
             } else {
-                let active = near_changes(l, &snapshot, rings);
+                let active = near_changes(l, &snapshot, RESMOOTH_RINGS);
                 smooth::smooth_near(l, opts.smooth_iterations, opts.diagonal_weight, active)
             };
-            tr(l, "smooth");
             tick(1);
             ticks += 1;
         }
     }
     // quality: lift the worst quads (max-min) first; the pattern search after it keeps
     // every star's worst key, so η_w stays
-    if std::env::var_os("BQ_NOPOLISH").is_none() {
-        ops.smoothing_moves += smooth::polish_worst(l, 4);
-    }
-    tr(l, "polish");
     if opts.angle_sweeps > 0 {
+        ops.smoothing_moves += smooth::polish_worst(l, 4);
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
     }
-    tr(l, "angles");
     tick(1 + opts.max_rounds - ticks);
     let after = l.stats();
     SurfaceOptimizeReport {
@@ -325,9 +281,9 @@ fn near_changes(
             }
         }
     }
-    for v in 0..n {
+    for (v, m) in mark.iter_mut().enumerate() {
         if pos.get(v) != Some(&l.pos[v]) {
-            mark[v] = true;
+            *m = true;
         }
     }
     let mut frontier: Vec<u32> = (0..n as u32).filter(|&v| mark[v as usize]).collect();
@@ -346,15 +302,6 @@ fn near_changes(
         frontier = next;
     }
     mark
-}
-
-/// TEMPORARY (development trace): user+system CPU seconds of the process.
-fn cpu_seconds() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let rest = s.rsplit(')').next().unwrap_or("");
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let t = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
-    (t(11) + t(12)) / 100.0
 }
 
 const UNSET: u32 = u32::MAX;
@@ -612,7 +559,10 @@ impl<'a> RefNodes<'a> {
         let r = self.index.get(tag)?;
         let b = &self.mesh.node_blocks[r.block as usize];
         let c = DVec3::from_array(b.coords[r.index as usize]);
-        Some(((self.offsets[r.block as usize] + r.index as usize) as u32, c))
+        Some((
+            (self.offsets[r.block as usize] + r.index as usize) as u32,
+            c,
+        ))
     }
 }
 
@@ -662,7 +612,10 @@ fn attach_reference(l: &mut Local, reference: &RefNodes) {
     }
     let compact = |id: u32| {
         if dense {
-            compact_dense.get(id as usize).copied().filter(|&c| c != NONE)
+            compact_dense
+                .get(id as usize)
+                .copied()
+                .filter(|&c| c != NONE)
         } else {
             compact_sparse.get(&id).copied()
         }

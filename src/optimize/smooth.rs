@@ -77,7 +77,7 @@ fn sweep(
             .collect();
         for (v, p, t) in found {
             let vi = v as usize;
-            if p.distance(l.pos[vi]) > tol() * l.h[vi] {
+            if p.distance(l.pos[vi]) > MOVE_TOL * l.h[vi] {
                 for &q in l.star(v) {
                     for &w in &l.quads[q as usize] {
                         next[w as usize] = true;
@@ -97,13 +97,6 @@ fn sweep(
 /// the work of later sweeps.
 const MOVE_TOL: f64 = 1e-3;
 
-fn tol() -> f64 {
-    std::env::var("BQ_TOL")
-        .ok()
-        .and_then(|x| x.parse().ok())
-        .unwrap_or(MOVE_TOL)
-}
-
 /// Sweeps `propose` over the free nodes up to `sweeps` times, each sweep only over the nodes
 /// near a significant move of the previous one; the first sweep over the nodes flagged in
 /// `active` (all nodes when `None`).
@@ -114,16 +107,7 @@ fn sweeps(l: &mut Local, sweeps: usize, propose: &Propose, active: Option<Vec<bo
     let mut next = vec![false; l.pos.len()];
     let mut moves = 0;
     for _ in 0..sweeps {
-        let m = sweep(l, &groups, &active, &mut next, propose);
-        if std::env::var_os("BQ_TRACE").is_some() {
-            eprintln!(
-                "   sweep: active {} moves {} next {}",
-                active.iter().filter(|&&a| a).count(),
-                m,
-                next.iter().filter(|&&a| a).count()
-            );
-        }
-        moves += m;
+        moves += sweep(l, &groups, &active, &mut next, propose);
         if !next.iter().any(|&a| a) {
             break;
         }
@@ -181,7 +165,12 @@ pub(crate) fn smooth(l: &mut Local, iterations: usize, diag: f64) -> usize {
 /// [`smooth`] starting from the nodes flagged in `active` only (e.g. around the elements a
 /// topological pass changed).
 pub(crate) fn smooth_near(l: &mut Local, iterations: usize, diag: f64, active: Vec<bool>) -> usize {
-    sweeps(l, iterations, &|l, v| propose_centroid(l, v, diag), Some(active))
+    sweeps(
+        l,
+        iterations,
+        &|l, v| propose_centroid(l, v, diag),
+        Some(active),
+    )
 }
 
 /// Pattern search on the star's mean shape key, the worst kept (see [`optimize_angles`]).
