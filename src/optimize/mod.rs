@@ -8,6 +8,14 @@
 //! smoothed in 3D and projected back onto the *reference triangulation* (the triangle mesh
 //! before recombination), so no CAD kernel is needed; planar surfaces move in their plane.
 //!
+//! Schedule per surface (`run_surface`): 5 smoothing sweeps; up to 4 rounds of (topology
+//! pass, 5 sweeps starting from the nodes within 2 quad rings of what the pass changed, or
+//! from every node on surfaces under 20k quads); a max-min polish of the quads with η < 0.6;
+//! 2 pattern-search sweeps. For speed the quads are numbered in Morton order of their
+//! centroids and the nodes by first use (memory locality), and planar surfaces build no
+//! spatial index. Measured on a 1e6-triangle rectangle (2 cores, shared machine): CPU time
+//! about 3x lower than the schedule that re-smoothed every node in every round.
+//!
 //! **Invariant:** nodes classified on points and curves, nodes on the boundary of a
 //! surface's quads and nodes used by any element that is not a quad of the surface being
 //! optimized never move and are never removed. Quads keep their orientation and the mesh
@@ -205,6 +213,7 @@ pub fn optimize(
     Ok(report)
 }
 
+/// Optimizes one surface (see the module docs for the schedule).
 fn run_surface(
     l: &mut Local,
     opts: &OptimizeOptions,
