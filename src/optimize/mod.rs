@@ -414,32 +414,39 @@ fn extract(
     let pos: Vec<DVec3> = global.iter().map(|&g| flat.coords[g as usize]).collect();
     let mut fixed: Vec<bool> = global.iter().map(|&g| owner[g as usize] != sid).collect();
     let (start, adj) = csr(n, &quads, |_| true);
-    // boundary of the quad set (edges not shared by exactly two quads), and degenerate quads
-    let mut around: Vec<u32> = Vec::new();
-    for v in 0..n {
-        around.clear();
-        for &q in &adj[start[v] as usize..start[v + 1] as usize] {
-            let quad = &quads[q as usize];
-            for k in 0..4 {
-                if quad[k] == v as u32 {
-                    around.push(quad[(k + 1) % 4]);
-                    around.push(quad[(k + 3) % 4]);
+    // boundary of the quad set (edges not shared by exactly two quads), and degenerate quads;
+    // an edge's count is the same seen from both ends, so each node only marks itself
+    let on_boundary: Vec<bool> = (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map_init(Vec::new, |around: &mut Vec<u32>, v| {
+            around.clear();
+            for &q in &adj[start[v] as usize..start[v + 1] as usize] {
+                let quad = &quads[q as usize];
+                for k in 0..4 {
+                    if quad[k] == v as u32 {
+                        around.push(quad[(k + 1) % 4]);
+                        around.push(quad[(k + 3) % 4]);
+                    }
                 }
             }
-        }
-        around.sort_unstable();
-        let mut i = 0;
-        while i < around.len() {
-            let mut j = i + 1;
-            while j < around.len() && around[j] == around[i] {
-                j += 1;
+            around.sort_unstable();
+            let mut i = 0;
+            while i < around.len() {
+                let mut j = i + 1;
+                while j < around.len() && around[j] == around[i] {
+                    j += 1;
+                }
+                if j - i != 2 || around[i] == v as u32 {
+                    return true;
+                }
+                i = j;
             }
-            if j - i != 2 || around[i] == v as u32 {
-                fixed[v] = true;
-                fixed[around[i] as usize] = true;
-            }
-            i = j;
-        }
+            false
+        })
+        .collect();
+    for (f, b) in fixed.iter_mut().zip(on_boundary) {
+        *f |= b;
     }
     for q in &quads {
         let mut sorted = *q;
@@ -563,6 +570,12 @@ impl<'a> RefNodes<'a> {
         }
     }
 
+    /// Position of the node with flat index `id`.
+    fn position(&self, id: u32) -> DVec3 {
+        let b = self.offsets.partition_point(|&o| o <= id as usize) - 1;
+        DVec3::from_array(self.mesh.node_blocks[b].coords[id as usize - self.offsets[b]])
+    }
+
     /// Flat index and position of node `tag`.
     fn get(&self, tag: u64) -> Option<(u32, DVec3)> {
         let r = self.index.get(tag)?;
@@ -594,17 +607,20 @@ fn attach_reference(l: &mut Local, reference: &RefNodes) {
         if b.entity_dim != 2 || b.entity_tag != l.surface || b.element_type != etype::TRI3 {
             continue;
         }
-        for e in 0..b.len() {
-            let el = b.element(e);
-            let (Some(x), Some(y), Some(z)) = (
-                reference.get(el[0]),
-                reference.get(el[1]),
-                reference.get(el[2]),
-            ) else {
+        let ids: Vec<[u32; 3]> = (0..b.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|e| {
+                let el = b.element(e);
+                [el[0], el[1], el[2]].map(|t| reference.get(t).map_or(NONE, |(id, _)| id))
+            })
+            .collect();
+        for t3 in ids {
+            if t3.contains(&NONE) {
                 continue;
-            };
+            }
             let mut t = [0u32; 3];
-            for (k, &(id, p)) in [x, y, z].iter().enumerate() {
+            for (k, &id) in t3.iter().enumerate() {
                 let slot = if dense {
                     &mut compact_dense[id as usize]
                 } else {
@@ -612,7 +628,7 @@ fn attach_reference(l: &mut Local, reference: &RefNodes) {
                 };
                 if *slot == NONE {
                     *slot = pts.len() as u32;
-                    pts.push(p);
+                    pts.push(reference.position(id));
                 }
                 t[k] = *slot;
             }
@@ -657,17 +673,24 @@ fn attach_reference(l: &mut Local, reference: &RefNodes) {
                 incident[v as usize] = t as u32;
             }
         }
-        for v in 0..l.pos.len() {
-            let hit = reference
-                .get(l.tags[v])
-                .and_then(|(id, p)| compact(id).filter(|_| p == l.pos[v]));
+        let found: Vec<Option<u32>> = (0..l.pos.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|v| {
+                reference
+                    .get(l.tags[v])
+                    .and_then(|(id, p)| compact(id).filter(|_| p == l.pos[v]))
+                    .filter(|&i| incident[i as usize] != NONE)
+            })
+            .collect();
+        for (v, hit) in found.into_iter().enumerate() {
             match hit {
-                Some(i) if incident[i as usize] != NONE => {
+                Some(i) => {
                     l.tri[v] = incident[i as usize];
                     let h = nodal[i as usize];
                     l.h[v] = if h > 0.0 { h } else { 1.0 };
                 }
-                _ => unmatched.push(v),
+                None => unmatched.push(v),
             }
         }
     }
