@@ -3,6 +3,10 @@
 //!
 //! `cargo run --release --example optimize_bench -- [N] [sphere] [smooth=K] [notopo]`
 //! (N nodes per side, default 100: about 2·N² triangles).
+//!
+//! `... -- quads=Q.msh ref=T.msh [reps=R]`: optimizes the quads of Q.msh (e.g. written by
+//! `blossomquad T.msh -o Q.msh --no-optimize`) against the triangles T.msh, best of R runs,
+//! and prints time, η_w, η̄, d4 and τ (size field from T.msh).
 
 use blossomquad::optimize::{self, synth, OptimizeOptions};
 use blossomquad::quality::{self, ReferenceSize, SizeField};
@@ -29,6 +33,19 @@ fn main() {
         if a == "notopo" {
             opts.topology = false;
         }
+    }
+    if let Some(q) = args.iter().find_map(|a| a.strip_prefix("quads=")) {
+        let r = args
+            .iter()
+            .find_map(|a| a.strip_prefix("ref="))
+            .unwrap_or(q);
+        let reps: usize = args
+            .iter()
+            .find_map(|a| a.strip_prefix("reps="))
+            .and_then(|k| k.parse().ok())
+            .unwrap_or(1);
+        files_mode(q, r, reps, &opts);
+        return;
     }
     let t0 = Instant::now();
     let from_file = args
@@ -144,6 +161,48 @@ fn main() {
             println!("worst {tag}: {e:.3} {}", pts.join(" "));
         }
     }
+}
+
+/// Optimizes the quads of `quads` against the triangles of `reference` (best of `reps`).
+fn files_mode(quads: &str, reference: &str, reps: usize, opts: &OptimizeOptions) {
+    let read = |p: &str| blossomquad::msh::read_file(std::path::Path::new(p)).expect("read");
+    let tri_mesh = read(reference);
+    let input = read(quads);
+    let mut best = f64::INFINITY;
+    let mut best_cpu = f64::INFINITY;
+    let mut mesh = input.clone();
+    for _ in 0..reps.max(1) {
+        mesh = input.clone();
+        let (t, c) = (Instant::now(), cpu_seconds());
+        optimize::optimize(&mut mesh, &tri_mesh, opts).expect("optimize");
+        best = best.min(t.elapsed().as_secs_f64());
+        best_cpu = best_cpu.min(cpu_seconds() - c);
+    }
+    optimize::check::check_surface_mesh(&mesh).expect("invariants");
+    let size = SizeField::Reference(ReferenceSize::from_mesh(&tri_mesh).expect("reference"));
+    let q = quality::report(&mesh, &size).expect("quality").total;
+    println!(
+        "{quads}: optimize {best:.3} s, CPU {best_cpu:.2} s (best of {reps}) quads {} eta_w {:.4} eta_m {:.4} d4 {:.2}% tau {:.2}",
+        q.quads,
+        q.eta_worst.unwrap_or(f64::NAN),
+        q.eta_mean.unwrap_or(f64::NAN),
+        q.d4_percent.unwrap_or(f64::NAN),
+        q.tau_percent.unwrap_or(f64::NAN)
+    );
+}
+
+/// User + system CPU seconds of this process, all threads (Linux `/proc/self/stat`; 0 when
+/// unavailable).
+fn cpu_seconds() -> f64 {
+    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
+    let f: Vec<&str> = s
+        .rsplit(')')
+        .next()
+        .unwrap_or("")
+        .split_whitespace()
+        .collect();
+    let ticks = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
+    (ticks(11) + ticks(12)) / 100.0
 }
 
 /// All 3-node triangles of a mesh as a soup over its nodes.

@@ -8,6 +8,14 @@
 //! smoothed in 3D and projected back onto the *reference triangulation* (the triangle mesh
 //! before recombination), so no CAD kernel is needed; planar surfaces move in their plane.
 //!
+//! Schedule per surface (`run_surface`): 5 smoothing sweeps; up to 4 rounds of (topology
+//! pass, 5 sweeps starting from the nodes within 2 quad rings of what the pass changed, or
+//! from every node on surfaces under 20k quads); a max-min polish of the quads with η < 0.6;
+//! 2 pattern-search sweeps. For speed the quads are numbered in Morton order of their
+//! centroids and the nodes by first use (memory locality), and planar surfaces build no
+//! spatial index. Measured on a 1e6-triangle rectangle (2 cores, shared machine): CPU time
+//! about 3x lower than the schedule that re-smoothed every node in every round.
+//!
 //! **Invariant:** nodes classified on points and curves, nodes on the boundary of a
 //! surface's quads and nodes used by any element that is not a quad of the surface being
 //! optimized never move and are never removed. Quads keep their orientation and the mesh
@@ -28,7 +36,7 @@ use crate::quality::locate::TriSurface;
 use crate::quality::size::mean_incident_edge_length;
 use crate::quality::FlatNodes;
 use glam::DVec3;
-use local::{Local, NONE};
+use local::{csr, Local, NONE};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -45,7 +53,8 @@ pub struct OptimizeOptions<'a> {
     /// Weight of a quad's opposite corner relative to an edge neighbour in the smoothing
     /// centroid.
     pub diagonal_weight: f64,
-    /// Final quality-maximizing sweeps (pattern search on the star's mean η, worst η kept).
+    /// Final quality-maximizing sweeps (pattern search on the star's mean η, worst η kept),
+    /// preceded by a max-min polish of the quads with η < 0.6; 0 disables both.
     pub angle_sweeps: usize,
     /// Called with (steps done, total steps) as surfaces progress, from any thread.
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
@@ -159,8 +168,9 @@ pub fn optimize(
     surfaces.dedup();
     let owner = node_owners(mesh, &flat, &surfaces)?;
     let mut locals = Vec::with_capacity(surfaces.len());
+    let mut scratch = vec![NONE; flat.coords.len()];
     for (si, &s) in surfaces.iter().enumerate() {
-        locals.push(extract(mesh, &flat, &owner, si as u32, s)?);
+        locals.push(extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?);
     }
     let total = locals.len() * (1 + opts.max_rounds);
     let done = AtomicUsize::new(0);
@@ -170,10 +180,11 @@ pub fn optimize(
             p(d.min(total), total);
         }
     };
+    let refnodes = RefNodes::new(reference);
     let results: Vec<(Local, SurfaceOptimizeReport)> = locals
         .into_par_iter()
         .map(|mut l| {
-            attach_reference(&mut l, reference);
+            attach_reference(&mut l, &refnodes);
             let rep = run_surface(&mut l, opts, &tick);
             (l, rep)
         })
@@ -202,6 +213,7 @@ pub fn optimize(
     Ok(report)
 }
 
+/// Optimizes one surface (see the module docs for the schedule).
 fn run_surface(
     l: &mut Local,
     opts: &OptimizeOptions,
@@ -217,17 +229,27 @@ fn run_surface(
     let mut ticks = 1;
     if opts.topology {
         for _ in 0..opts.max_rounds {
+            // speed: after a pass, smooth only around what it changed (see `near_changes`)
+            let snapshot = (l.quads.clone(), l.alive.clone(), l.pos.clone());
             let changed = topo::pass(l, &mut ops);
             if changed == 0 {
                 break;
             }
             l.build_adjacency();
-            ops.smoothing_moves += smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight);
+            ops.smoothing_moves += if l.quads.len() < RESMOOTH_ALL_BELOW {
+                smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight)
+            } else {
+                let active = near_changes(l, &snapshot, RESMOOTH_RINGS);
+                smooth::smooth_near(l, opts.smooth_iterations, opts.diagonal_weight, active)
+            };
             tick(1);
             ticks += 1;
         }
     }
+    // quality: lift the worst quads (max-min) first; the pattern search after it keeps
+    // every star's worst key, so η_w stays
     if opts.angle_sweeps > 0 {
+        ops.smoothing_moves += smooth::polish_worst(l, 4);
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
     }
     tick(1 + opts.max_rounds - ticks);
@@ -238,6 +260,57 @@ fn run_surface(
         after,
         operations: ops,
     }
+}
+
+/// After a topological pass, smoothing starts from the nodes within this many quad rings of
+/// the changes (measured on 1.6e5 and 1e6-triangle rectangles: η̄ within 0.001 of smoothing
+/// every node, at a fraction of the work).
+const RESMOOTH_RINGS: usize = 2;
+
+/// Surfaces with fewer quads re-smooth every node after each topological pass: cheap there,
+/// and measured on the 1e5-triangle cad_solid fixture (14 curved surfaces of 500 to 5,000
+/// quads) local re-smoothing alone loses 0.008 of η̄ (0.840 -> 0.831).
+const RESMOOTH_ALL_BELOW: usize = 20_000;
+
+/// Nodes within `rings` quad rings of what a topological pass changed, given the quads,
+/// liveness and positions before it: nodes of quads that were rewritten, created or removed,
+/// and nodes that moved. Needs a current adjacency.
+fn near_changes(
+    l: &Local,
+    (quads, alive, pos): &(Vec<[u32; 4]>, Vec<bool>, Vec<DVec3>),
+    rings: usize,
+) -> Vec<bool> {
+    let n = l.pos.len();
+    let mut mark = vec![false; n];
+    for (q, quad) in l.quads.iter().enumerate() {
+        let same = quads.get(q) == Some(quad) && alive.get(q) == Some(&l.alive[q]);
+        if !same {
+            for &v in quad.iter().chain(quads.get(q).into_iter().flatten()) {
+                mark[v as usize] = true;
+            }
+        }
+    }
+    for (v, m) in mark.iter_mut().enumerate() {
+        if pos.get(v) != Some(&l.pos[v]) {
+            *m = true;
+        }
+    }
+    let mut frontier: Vec<u32> = (0..n as u32).filter(|&v| mark[v as usize]).collect();
+    for _ in 0..rings {
+        let mut next = Vec::new();
+        for &v in &frontier {
+            for &q in l.star(v) {
+                for &w in &l.quads[q as usize] {
+                    if !mark[w as usize] {
+                        mark[w as usize] = true;
+                        next.push(w);
+                    }
+                }
+            }
+        }
+        frontier = next;
+    }
+    mark
 }
 
 const UNSET: u32 = u32::MAX;
@@ -281,20 +354,17 @@ fn node_owners(mesh: &Mesh, flat: &FlatNodes, surfaces: &[i32]) -> Result<Vec<u3
     Ok(owner)
 }
 
-/// Copies surface `s`'s quads into a [`Local`].
+/// Copies surface `s`'s quads into a [`Local`] (with its adjacency built). `scratch` has one
+/// entry per flat node, all [`NONE`], and is left so.
 fn extract(
     mesh: &Mesh,
     flat: &FlatNodes,
     owner: &[u32],
-    sid: u32,
-    s: i32,
+    (sid, s): (u32, i32),
+    scratch: &mut [u32],
 ) -> Result<Local, OptimizeError> {
-    let mut local_of: Vec<u32> = Vec::new();
-    let mut global = Vec::new();
     let mut quads = Vec::new();
     let mut origin = Vec::new();
-    // map flat -> local lazily through a sorted list to avoid a full-size array per surface
-    let mut used: Vec<(u32, u64)> = Vec::new();
     for (bi, b) in mesh.element_blocks.iter().enumerate() {
         if b.entity_dim != 2 || b.entity_tag != s || b.element_type != etype::QUAD4 {
             continue;
@@ -307,29 +377,78 @@ fn extract(
                     element: b.tags[e],
                     node: t,
                 })?;
-                used.push((q[k], t));
             }
             quads.push(q);
             origin.push((bi as u32, e as u32));
         }
     }
-    used.sort_unstable();
-    used.dedup();
-    local_of.extend(used.iter().map(|u| u.0));
-    global.extend(used.iter().map(|u| u.0));
-    let node_tags: Vec<u64> = used.iter().map(|u| u.1).collect();
-    let lid = |g: u32| local_of.binary_search(&g).map_or(0, |i| i as u32);
-    let quads: Vec<[u32; 4]> = quads.iter().map(|q| q.map(lid)).collect();
+    // Memory locality (measured: 2-3x faster sweeps at 1e6 triangles): quads in Morton order
+    // of their centroids, nodes numbered by first use in that order.
+    let order = morton_order(&quads, &flat.coords);
+    let origin: Vec<(u32, u32)> = order.iter().map(|&q| origin[q as usize]).collect();
+    let mut global: Vec<u32> = Vec::new();
+    let quads: Vec<[u32; 4]> = order
+        .iter()
+        .map(|&q| {
+            quads[q as usize].map(|g| {
+                let slot = &mut scratch[g as usize];
+                if *slot == NONE {
+                    *slot = global.len() as u32;
+                    global.push(g);
+                }
+                *slot
+            })
+        })
+        .collect();
+    for &g in &global {
+        scratch[g as usize] = NONE;
+    }
+    let node_tags: Vec<u64> = global
+        .iter()
+        .map(|&g| {
+            let b = flat.offsets.partition_point(|&o| o <= g as usize) - 1;
+            mesh.node_blocks[b].tags[g as usize - flat.offsets[b]]
+        })
+        .collect();
     let n = global.len();
     let pos: Vec<DVec3> = global.iter().map(|&g| flat.coords[g as usize]).collect();
     let mut fixed: Vec<bool> = global.iter().map(|&g| owner[g as usize] != sid).collect();
-    // boundary of the quad set (edges not shared by exactly two quads), and degenerate quads
-    let mut edges: Vec<(u32, u32)> = Vec::with_capacity(quads.len() * 4);
+    let (start, adj) = csr(n, &quads, |_| true);
+    // boundary of the quad set (edges not shared by exactly two quads), and degenerate quads;
+    // an edge's count is the same seen from both ends, so each node only marks itself
+    let on_boundary: Vec<bool> = (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .map_init(Vec::new, |around: &mut Vec<u32>, v| {
+            around.clear();
+            for &q in &adj[start[v] as usize..start[v + 1] as usize] {
+                let quad = &quads[q as usize];
+                for k in 0..4 {
+                    if quad[k] == v as u32 {
+                        around.push(quad[(k + 1) % 4]);
+                        around.push(quad[(k + 3) % 4]);
+                    }
+                }
+            }
+            around.sort_unstable();
+            let mut i = 0;
+            while i < around.len() {
+                let mut j = i + 1;
+                while j < around.len() && around[j] == around[i] {
+                    j += 1;
+                }
+                if j - i != 2 || around[i] == v as u32 {
+                    return true;
+                }
+                i = j;
+            }
+            false
+        })
+        .collect();
+    for (f, b) in fixed.iter_mut().zip(on_boundary) {
+        *f |= b;
+    }
     for q in &quads {
-        for k in 0..4 {
-            let (a, b) = (q[k], q[(k + 1) % 4]);
-            edges.push((a.min(b), a.max(b)));
-        }
         let mut sorted = *q;
         sorted.sort_unstable();
         if sorted.windows(2).any(|w| w[0] == w[1]) {
@@ -337,19 +456,6 @@ fn extract(
                 fixed[v as usize] = true;
             }
         }
-    }
-    edges.sort_unstable();
-    let mut i = 0;
-    while i < edges.len() {
-        let mut j = i + 1;
-        while j < edges.len() && edges[j] == edges[i] {
-            j += 1;
-        }
-        if j - i != 2 {
-            fixed[edges[i].0 as usize] = true;
-            fixed[edges[i].1 as usize] = true;
-        }
-        i = j;
     }
     // normals: sum of incident quad (Newell) normals; a plane if every node is on it
     let mut nrm = vec![DVec3::ZERO; n];
@@ -391,87 +497,226 @@ fn extract(
         origin,
         planar,
         reference: None,
-        start: Vec::new(),
-        adj: Vec::new(),
+        start,
+        adj,
         qn: Vec::new(),
+        hopeless: Vec::new(),
     })
+}
+
+/// Quad indices sorted by the Morton (Z-order) code of their centroids (flat node indices in
+/// `quads`), for memory locality of the sweeps.
+fn morton_order(quads: &[[u32; 4]], coords: &[DVec3]) -> Vec<u32> {
+    let centroid = |q: &[u32; 4]| q.iter().map(|&v| coords[v as usize]).sum::<DVec3>() * 0.25;
+    let (lo, hi) = quads.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), q| {
+            let c = centroid(q);
+            (lo.min(c), hi.max(c))
+        },
+    );
+    let ext = (hi - lo).max_element();
+    let scale = if ext > 0.0 && ext.is_finite() {
+        ((1u64 << 21) - 1) as f64 / ext
+    } else {
+        0.0
+    };
+    // spreads the low 21 bits of x to every third bit
+    let spread = |x: u64| {
+        let mut x = x & 0x1f_ffff;
+        x = (x | x << 32) & 0x1f_0000_0000_ffff;
+        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        x = (x | x << 2) & 0x1249_2492_4924_9249;
+        x
+    };
+    let mut keyed: Vec<(u64, u32)> = quads
+        .iter()
+        .enumerate()
+        .map(|(i, q)| {
+            let c = (centroid(q) - lo) * scale;
+            let k = |x: f64| if x.is_finite() { x.max(0.0) as u64 } else { 0 };
+            let code = spread(k(c.x)) | spread(k(c.y)) << 1 | spread(k(c.z)) << 2;
+            (code, i as u32)
+        })
+        .collect();
+    keyed.sort_unstable();
+    keyed.into_iter().map(|(_, i)| i).collect()
+}
+
+/// The reference mesh's nodes, indexed once for every surface.
+struct RefNodes<'a> {
+    mesh: &'a Mesh,
+    index: crate::mesh::NodeIndex,
+    /// First flat index of each node block.
+    offsets: Vec<usize>,
+    total: usize,
+}
+
+impl<'a> RefNodes<'a> {
+    fn new(mesh: &'a Mesh) -> Self {
+        let mut offsets = Vec::with_capacity(mesh.node_blocks.len());
+        let mut total = 0;
+        for b in &mesh.node_blocks {
+            offsets.push(total);
+            total += b.tags.len();
+        }
+        RefNodes {
+            mesh,
+            index: mesh.node_index(),
+            offsets,
+            total,
+        }
+    }
+
+    /// Position of the node with flat index `id`.
+    fn position(&self, id: u32) -> DVec3 {
+        let b = self.offsets.partition_point(|&o| o <= id as usize) - 1;
+        DVec3::from_array(self.mesh.node_blocks[b].coords[id as usize - self.offsets[b]])
+    }
+
+    /// Flat index and position of node `tag`.
+    fn get(&self, tag: u64) -> Option<(u32, DVec3)> {
+        let r = self.index.get(tag)?;
+        let b = &self.mesh.node_blocks[r.block as usize];
+        let c = DVec3::from_array(b.coords[r.index as usize]);
+        Some((
+            (self.offsets[r.block as usize] + r.index as usize) as u32,
+            c,
+        ))
+    }
 }
 
 /// Builds the surface's reference triangulation (triangles of the same surface entity in
 /// `reference`, else the quads split in two), locates every node on it and sets the sizes.
-fn attach_reference(l: &mut Local, reference: &Mesh) {
-    let rindex = reference.node_index();
-    let mut tri_tags: Vec<[u64; 3]> = Vec::new();
-    for b in &reference.element_blocks {
+/// Planar surfaces need no projection: their nodes missing from the reference take the mean
+/// size of their matched neighbours and no spatial index is built.
+fn attach_reference(l: &mut Local, reference: &RefNodes) {
+    // reference triangles of the surface, on compact point indices (first use order)
+    let dense = reference.total <= 64 * l.pos.len().max(1);
+    let mut compact_dense: Vec<u32> = if dense {
+        vec![NONE; reference.total]
+    } else {
+        Vec::new()
+    };
+    let mut compact_sparse: std::collections::HashMap<u32, u32> = Default::default();
+    let mut pts: Vec<DVec3> = Vec::new();
+    let mut tris: Vec<[u32; 3]> = Vec::new();
+    for b in &reference.mesh.element_blocks {
         if b.entity_dim != 2 || b.entity_tag != l.surface || b.element_type != etype::TRI3 {
             continue;
         }
-        for e in 0..b.len() {
-            let el = b.element(e);
-            if el.iter().all(|&t| rindex.get(t).is_some()) {
-                tri_tags.push([el[0], el[1], el[2]]);
+        let ids: Vec<[u32; 3]> = (0..b.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|e| {
+                let el = b.element(e);
+                [el[0], el[1], el[2]].map(|t| reference.get(t).map_or(NONE, |(id, _)| id))
+            })
+            .collect();
+        for t3 in ids {
+            if t3.contains(&NONE) {
+                continue;
             }
+            let mut t = [0u32; 3];
+            for (k, &id) in t3.iter().enumerate() {
+                let slot = if dense {
+                    &mut compact_dense[id as usize]
+                } else {
+                    compact_sparse.entry(id).or_insert(NONE)
+                };
+                if *slot == NONE {
+                    *slot = pts.len() as u32;
+                    pts.push(reference.position(id));
+                }
+                t[k] = *slot;
+            }
+            tris.push(t);
         }
     }
-    // Compact indices for the reference nodes.
-    let mut tags: Vec<u64> = tri_tags.iter().flatten().copied().collect();
-    tags.sort_unstable();
-    tags.dedup();
-    let mut pts: Vec<DVec3> = Vec::with_capacity(tags.len());
-    let mut tris_ok = Vec::with_capacity(tri_tags.len());
-    for t in &tri_tags {
-        tris_ok.push(t.map(|x| tags.binary_search(&x).map_or(0, |i| i as u32)));
-    }
-    for &t in &tags {
-        if let Some(r) = rindex.get(t) {
-            pts.push(DVec3::from_array(
-                reference.node_blocks[r.block as usize].coords[r.index as usize],
-            ));
+    let compact = |id: u32| {
+        if dense {
+            compact_dense
+                .get(id as usize)
+                .copied()
+                .filter(|&c| c != NONE)
+        } else {
+            compact_sparse.get(&id).copied()
         }
-    }
-    let own = tris_ok.is_empty() || pts.len() != tags.len();
-    let (pts, tris_ok) = if own {
-        let mut t = Vec::with_capacity(2 * l.quads.len());
-        for q in &l.quads {
-            t.push([q[0], q[1], q[2]]);
-            t.push([q[0], q[2], q[3]]);
-        }
-        (l.pos.clone(), t)
-    } else {
-        (pts, tris_ok)
     };
-    let nodal = mean_incident_edge_length(&pts, tris_ok.iter().map(|t| &t[..]));
+    let own = tris.is_empty();
     if own {
         // quad edges are ~h; the split diagonals (√2 h) would inflate the mean: use the
         // quads' own edges instead.
         let qh = mean_incident_edge_length(&l.pos, l.quads.iter().map(|q| &q[..]));
         l.h = qh.iter().map(|&x| if x > 0.0 { x } else { 1.0 }).collect();
+        if l.planar {
+            return;
+        }
+        pts = l.pos.clone();
+        tris = Vec::with_capacity(2 * l.quads.len());
+        for q in &l.quads {
+            tris.push([q[0], q[1], q[2]]);
+            tris.push([q[0], q[2], q[3]]);
+        }
     }
+    let nodal = mean_incident_edge_length(&pts, tris.iter().map(|t| &t[..]));
     // a node of the reference (same tag, same place) is located without a search
     let mut unmatched = Vec::new();
     if own {
         unmatched.extend(0..l.pos.len());
     } else {
         let mut incident = vec![NONE; pts.len()];
-        for (t, tri) in tris_ok.iter().enumerate() {
+        for (t, tri) in tris.iter().enumerate() {
             for &v in tri {
                 incident[v as usize] = t as u32;
             }
         }
-        for v in 0..l.pos.len() {
-            match tags.binary_search(&l.tags[v]) {
-                Ok(i) if incident[i] != NONE && pts[i] == l.pos[v] => {
-                    l.tri[v] = incident[i];
-                    l.h[v] = if nodal[i] > 0.0 { nodal[i] } else { 1.0 };
+        let found: Vec<Option<u32>> = (0..l.pos.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|v| {
+                reference
+                    .get(l.tags[v])
+                    .and_then(|(id, p)| compact(id).filter(|_| p == l.pos[v]))
+                    .filter(|&i| incident[i as usize] != NONE)
+            })
+            .collect();
+        for (v, hit) in found.into_iter().enumerate() {
+            match hit {
+                Some(i) => {
+                    l.tri[v] = incident[i as usize];
+                    let h = nodal[i as usize];
+                    l.h[v] = if h > 0.0 { h } else { 1.0 };
                 }
-                _ => unmatched.push(v),
+                None => unmatched.push(v),
             }
         }
     }
-    if l.planar && !own && unmatched.is_empty() {
-        return; // sizes known, nothing to project on
+    if l.planar {
+        // nothing to project on: a missing node takes its matched neighbours' mean size
+        let mut matched = vec![true; l.pos.len()];
+        for &v in &unmatched {
+            matched[v] = false;
+        }
+        for &v in &unmatched {
+            let (mut sum, mut cnt) = (0.0, 0);
+            for &q in l.star(v as u32) {
+                for &w in &l.quads[q as usize] {
+                    if matched[w as usize] {
+                        sum += l.h[w as usize];
+                        cnt += 1;
+                    }
+                }
+            }
+            if cnt > 0 {
+                l.h[v] = sum / cnt as f64;
+            }
+        }
+        return;
     }
-    let surface = TriSurface::new(pts, tris_ok);
+    let surface = TriSurface::new(pts, tris);
     for v in unmatched {
         if let Some(hit) = surface.closest(l.pos[v]) {
             l.tri[v] = hit.tri;
@@ -482,9 +727,7 @@ fn attach_reference(l: &mut Local, reference: &Mesh) {
             }
         }
     }
-    if !l.planar {
-        l.reference = Some(surface);
-    }
+    l.reference = Some(surface);
 }
 
 /// Removes the entries at the (sorted, distinct) positions `rm` from `v`, keeping order.

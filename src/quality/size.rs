@@ -30,7 +30,7 @@ use evalexpr::{
     build_operator_tree, Context, DefaultNumericTypes, EvalexprError, EvalexprResult, Node, Value,
 };
 use glam::DVec3;
-use rayon::slice::ParallelSliceMut;
+use rayon::prelude::*;
 
 /// A compiled size expression h(x, y, z).
 ///
@@ -293,32 +293,62 @@ impl SizeField {
 
 /// Mean length of the edges incident to each point, every distinct edge counted once
 /// (an edge shared by two faces is not counted twice). Points without edges get 0.
+///
+/// O(corners): the neighbours of each point are gathered face by face (CSR) and deduplicated
+/// per point, in parallel; the sums run over increasing neighbour index.
 pub fn mean_incident_edge_length<'a>(
     points: &[DVec3],
     faces: impl Iterator<Item = &'a [u32]>,
 ) -> Vec<f64> {
-    let mut edges: Vec<(u32, u32)> = Vec::new();
-    for f in faces {
-        for k in 0..f.len() {
-            let (a, b) = (f[k], f[(k + 1) % f.len()]);
-            edges.push((a.min(b), a.max(b)));
+    let n = points.len();
+    let faces: Vec<&[u32]> = faces
+        .filter(|f| f.iter().all(|&v| (v as usize) < n))
+        .collect();
+    let mut start = vec![0usize; n + 1];
+    for f in &faces {
+        for &v in *f {
+            start[v as usize + 1] += 2;
         }
     }
-    edges.par_sort_unstable();
-    edges.dedup();
-    let mut sum = vec![0.0; points.len()];
-    let mut cnt = vec![0u32; points.len()];
-    for &(a, b) in &edges {
-        let l = points[a as usize].distance(points[b as usize]);
-        for v in [a, b] {
-            sum[v as usize] += l;
-            cnt[v as usize] += 1;
+    for i in 0..n {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut nbr = vec![0u32; start[n]];
+    for f in &faces {
+        let m = f.len();
+        for k in 0..m {
+            let v = f[k] as usize;
+            nbr[fill[v]] = f[(k + 1) % m];
+            nbr[fill[v] + 1] = f[(k + m - 1) % m];
+            fill[v] += 2;
         }
     }
-    sum.iter()
-        .zip(&cnt)
-        .map(|(&s, &c)| if c > 0 { s / c as f64 } else { 0.0 })
-        .collect()
+    let mut out = vec![0.0; n];
+    // split the CSR payload at point boundaries so each chunk sorts its own lists
+    let mut rest: &mut [u32] = &mut nbr;
+    let mut lists: Vec<(usize, &mut [u32])> = Vec::with_capacity(n);
+    for v in 0..n {
+        let (head, tail) = rest.split_at_mut(start[v + 1] - start[v]);
+        lists.push((v, head));
+        rest = tail;
+    }
+    out.par_iter_mut()
+        .zip(lists.into_par_iter())
+        .with_min_len(4096)
+        .for_each(|(h, (v, list))| {
+            list.sort_unstable();
+            let (mut sum, mut cnt) = (0.0, 0u32);
+            for (i, &w) in list.iter().enumerate() {
+                if w as usize == v || (i > 0 && list[i - 1] == w) {
+                    continue;
+                }
+                sum += points[v].distance(points[w as usize]);
+                cnt += 1;
+            }
+            *h = if cnt > 0 { sum / cnt as f64 } else { 0.0 };
+        });
+    out
 }
 
 /// ∫₀¹ dt / h(t) for h linear from `ha` to `hb` (both > 0), exactly.
