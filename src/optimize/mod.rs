@@ -14,6 +14,8 @@
 //! stays conforming; removed quads and nodes disappear from their blocks, every other tag is
 //! kept.
 
+// optquality hook: the valence cleanup (rotation sequences) called from `topo::pass`.
+mod cleanup;
 mod local;
 mod smooth;
 pub mod synth;
