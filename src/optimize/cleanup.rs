@@ -551,7 +551,7 @@ pub(crate) fn cleanup(l: &mut Local, depth: usize, max_rounds: usize) -> (usize,
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::mesh::Mesh;
     use crate::optimize::synth::{self, Soup};
@@ -559,7 +559,7 @@ mod tests {
     use crate::quality::FlatNodes;
 
     /// The single surface of `m` as a [`Local`], with its node → quads adjacency.
-    fn local_of(m: &Mesh) -> (FlatNodes, Local) {
+    pub(crate) fn local_of(m: &Mesh) -> (FlatNodes, Local) {
         let flat = FlatNodes::new(m);
         let owner = node_owners(m, &flat, &[1]).expect("owners");
         let mut l = extract(m, &flat, &owner, 0, 1).expect("extract");

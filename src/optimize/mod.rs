@@ -17,6 +17,7 @@
 // optquality hook: the valence cleanup (rotation sequences) called from `topo::pass`.
 mod cleanup;
 mod local;
+mod polish;
 mod smooth;
 pub mod synth;
 mod topo;
@@ -231,6 +232,10 @@ fn run_surface(
     }
     if opts.angle_sweeps > 0 {
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
+    }
+    // optquality hook: raise the worst quads last (polish.rs)
+    if opts.smooth_iterations > 0 {
+        ops.smoothing_moves += polish::polish_worst(l, polish::POLISH_BELOW, 3);
     }
     tick(1 + opts.max_rounds - ticks);
     let after = l.stats();

@@ -1,0 +1,176 @@
+//! Worst-quad polish: the last step of the optimization, aimed at η_w (the worst η, eq. 3).
+//!
+//! Smoothing moves a node only when its star's worst quality does not drop, towards a
+//! centroid or towards a better *mean*; nothing there *raises the worst*. Around a 3-5 pair
+//! (a valence-3 node next to a valence-5 node) the quad holding both keeps a corner near
+//! 140° beside one near 40°, and that quad sets η_w on every fixture. [`polish_worst`]
+//! takes each free corner of every quad with η below a threshold and runs a pattern search
+//! (8 tangent directions, steps from h/4 down to h/64) maximizing the worst quality of its
+//! star, the star's mean as tie-break; a move is kept only when it raises that worst.
+//! Curved surfaces: every candidate is projected on the reference triangulation.
+//!
+//! Cost: only nodes of bad quads (a few per thousand) are visited, O(n) per sweep to find
+//! them.
+
+use super::local::Local;
+use glam::DVec3;
+use std::f64::consts::FRAC_PI_2;
+
+/// Quads with η below this are polished. Measured on the four Gmsh fixtures at 10^4 and
+/// 10^5 triangles: 0.55 lifts η_w from 0.45-0.49 to 0.55 for −0.0005 of η̄ at most; 0.65
+/// gains 0.03 more η_w but costs 0.004 of η̄ and 0.3 point of τ.
+pub(crate) const POLISH_BELOW: f64 = 0.55;
+
+/// The [`shape_key`](super::local) of a quad of quality η (eq. 3).
+fn key_of_eta(eta: f64) -> f64 {
+    1.0 / (1.0 + ((1.0 - eta) * FRAC_PI_2).tan())
+}
+
+/// Worst and sum of the shape keys of the quads around `v` with `v` at `p`.
+fn star_keys(l: &Local, v: u32, p: DVec3) -> (f64, f64) {
+    let mut min = f64::INFINITY;
+    let mut sum = 0.0;
+    for &q in l.star(v) {
+        let k = l.key_with(q, v, p);
+        min = min.min(k);
+        sum += k;
+    }
+    (min, sum)
+}
+
+/// Pattern search for node `v` (see the module docs); true when it moved.
+fn polish_node(l: &mut Local, v: u32) -> bool {
+    let vi = v as usize;
+    let x0 = l.pos[vi];
+    let (mut best_min, mut best_sum) = star_keys(l, v, x0);
+    let n = l.nrm[vi];
+    let t1 = n.any_orthonormal_vector();
+    let t2 = n.cross(t1);
+    let r = std::f64::consts::FRAC_1_SQRT_2;
+    let dirs = [
+        t1,
+        -t1,
+        t2,
+        -t2,
+        (t1 + t2) * r,
+        (t1 - t2) * r,
+        (t2 - t1) * r,
+        -(t1 + t2) * r,
+    ];
+    let h = l.h[vi];
+    let mut best: Option<(DVec3, u32)> = None;
+    for s in [0.25, 0.125, 0.0625, 0.03125, 0.015625] {
+        // repeat a step size while it improves
+        for _ in 0..3 {
+            let base = best.map_or(x0, |b| b.0);
+            let mut improved = false;
+            for d in dirs {
+                let (p, tri) = l.project(v, base + d * (s * h));
+                let (mn, sum) = star_keys(l, v, p);
+                if mn > best_min + 1e-12 || (mn >= best_min && sum > best_sum + 1e-12) {
+                    best_min = mn;
+                    best_sum = sum;
+                    best = Some((p, tri));
+                    improved = true;
+                }
+            }
+            if !improved {
+                break;
+            }
+        }
+    }
+    let Some((p, tri)) = best else {
+        return false;
+    };
+    l.pos[vi] = p;
+    l.tri[vi] = tri;
+    true
+}
+
+/// Runs up to `sweeps` sweeps over the free corners of the quads with η below `below`
+/// (sequentially: few nodes); returns the number of moves. Needs a current adjacency.
+pub(crate) fn polish_worst(l: &mut Local, below: f64, sweeps: usize) -> usize {
+    l.refresh_quad_normals();
+    let kb = key_of_eta(below);
+    let mut moves = 0;
+    for _ in 0..sweeps {
+        let mut nodes: Vec<u32> = Vec::new();
+        for (q, quad) in l.quads.iter().enumerate() {
+            if !l.alive[q] {
+                continue;
+            }
+            let p = quad.map(|w| l.pos[w as usize]);
+            if super::local::shape_key(&p, l.qn[q]) < kb {
+                nodes.extend(quad.iter().filter(|&&w| !l.fixed[w as usize]));
+            }
+        }
+        nodes.sort_unstable();
+        nodes.dedup();
+        let mut moved = 0;
+        for v in nodes {
+            if polish_node(l, v) {
+                moved += 1;
+            }
+        }
+        moves += moved;
+        if moved == 0 {
+            break;
+        }
+    }
+    moves
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optimize::cleanup::tests::local_of;
+    use crate::optimize::synth;
+
+    fn worst(l: &Local) -> f64 {
+        (0..l.quads.len() as u32)
+            .map(|q| l.quality(q))
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    #[test]
+    fn polish_raises_the_worst_quad_and_keeps_fixed_nodes() {
+        for seed in [1u64, 2, 3] {
+            let mut s = synth::quad_grid(8, 8, 1.0, 1.0);
+            synth::jitter(&mut s, 0.2 / 8.0, seed);
+            // squeeze one interior node towards a neighbour: a poor but valid quad
+            let v = 4 * 9 + 4;
+            s.points[v] = s.points[v].lerp(s.points[v + 10], 0.7);
+            let m = synth::to_mesh(&s);
+            let (_, mut l) = local_of(&m);
+            let fixed: Vec<DVec3> = (0..l.pos.len())
+                .filter(|&w| l.fixed[w])
+                .map(|w| l.pos[w])
+                .collect();
+            let before = worst(&l);
+            assert!(
+                before < 0.55,
+                "seed {seed}: the fixture has no poor quad ({before})"
+            );
+            let moves = polish_worst(&mut l, 0.9, 3);
+            let after = worst(&l);
+            assert!(moves > 0);
+            assert!(
+                after > before + 0.1,
+                "seed {seed}: worst {before} -> {after}"
+            );
+            let fixed_after: Vec<DVec3> = (0..l.pos.len())
+                .filter(|&w| l.fixed[w])
+                .map(|w| l.pos[w])
+                .collect();
+            assert_eq!(fixed, fixed_after, "a fixed node moved");
+        }
+    }
+
+    #[test]
+    fn key_of_eta_inverts_key_to_eta() {
+        for eta in [0.1, 0.45, 0.5, 0.8, 0.99] {
+            let k = key_of_eta(eta);
+            assert!((super::super::local::key_to_eta(k) - eta).abs() < 1e-12);
+        }
+    }
+}
