@@ -233,8 +233,9 @@ fn run_surface(
     if opts.angle_sweeps > 0 {
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
     }
-    // optquality hook: raise the worst quads last (polish.rs)
+    // optquality hook: maximize the mean η, then raise the worst quads (polish.rs)
     if opts.smooth_iterations > 0 {
+        ops.smoothing_moves += polish::polish_mean(l, polish::MEAN_SWEEPS);
         ops.smoothing_moves += polish::polish_worst(l, polish::POLISH_BELOW, 3);
     }
     tick(1 + opts.max_rounds - ticks);

@@ -1,5 +1,11 @@
-//! Worst-quad polish: the last step of the optimization, aimed at η_w (the worst η, eq. 3).
+//! Polish: the last steps of the optimization, aimed at η̄ and η_w (eq. 3) directly.
 //!
+//! [`polish_mean`] moves every free node by a pattern search (8 tangent directions, steps
+//! h/10, h/25, h/67) to the place that maximizes the *sum of η* over its star, its worst
+//! kept. The centroid smoothing balances lengths (eq. 1), which is what τ measures, while
+//! η sees only angles: this trades a little τ for η̄.
+//!
+//! Worst quads:
 //! Smoothing moves a node only when its star's worst quality does not drop, towards a
 //! centroid or towards a better *mean*; nothing there *raises the worst*. Around a 3-5 pair
 //! (a valence-3 node next to a valence-5 node) the quad holding both keeps a corner near
@@ -20,6 +26,12 @@ use std::f64::consts::FRAC_PI_2;
 /// 10^5 triangles: 0.55 lifts η_w from 0.45-0.49 to 0.55 for −0.0005 of η̄ at most; 0.65
 /// gains 0.03 more η_w but costs 0.004 of η̄ and 0.3 point of τ.
 pub(crate) const POLISH_BELOW: f64 = 0.55;
+
+/// Sweeps of [`polish_mean`]. Measured on the Gmsh fixtures at 10^5 triangles: 2 sweeps add
+/// 0.010 to η̄ (rectangle 0.810 → 0.820, CAD block 0.846 → 0.852) for 0.5 point of τ and
+/// about 0.35 s of CPU per 10^5 quads; 3 add 0.002 more; skipping stars whose worst η is
+/// above 0.9 saves 10 % of that time but loses a third of the gain.
+pub(crate) const MEAN_SWEEPS: usize = 2;
 
 /// The [`shape_key`](super::local) of a quad of quality η (eq. 3).
 fn key_of_eta(eta: f64) -> f64 {
@@ -120,6 +132,84 @@ pub(crate) fn polish_worst(l: &mut Local, below: f64, sweeps: usize) -> usize {
     moves
 }
 
+/// Worst shape key and sum of η (eq. 3) of the quads around `v` with `v` at `p`.
+fn star_eta(l: &Local, v: u32, p: DVec3) -> (f64, f64) {
+    let mut min = f64::INFINITY;
+    let mut sum = 0.0;
+    for &q in l.star(v) {
+        let k = l.key_with(q, v, p);
+        min = min.min(k);
+        sum += super::local::key_to_eta(k);
+    }
+    (min, sum)
+}
+
+/// Pattern search maximizing the star's summed η, its worst kept: the new position and
+/// reference triangle of `v`, if better.
+fn mean_node(l: &Local, v: u32) -> Option<(DVec3, u32)> {
+    let vi = v as usize;
+    let x0 = l.pos[vi];
+    let (min0, mut best_sum) = star_eta(l, v, x0);
+    let n = l.nrm[vi];
+    let t1 = n.any_orthonormal_vector();
+    let t2 = n.cross(t1);
+    let r = std::f64::consts::FRAC_1_SQRT_2;
+    let dirs = [
+        t1,
+        -t1,
+        t2,
+        -t2,
+        (t1 + t2) * r,
+        (t1 - t2) * r,
+        (t2 - t1) * r,
+        -(t1 + t2) * r,
+    ];
+    let h = l.h[vi];
+    let mut best: Option<(DVec3, u32)> = None;
+    for s in [0.1, 0.04, 0.015] {
+        let base = best.map_or(x0, |b| b.0);
+        for d in dirs {
+            let (p, tri) = l.project(v, base + d * (s * h));
+            let (mn, sum) = star_eta(l, v, p);
+            if mn >= min0 && sum > best_sum + 1e-9 {
+                best_sum = sum;
+                best = Some((p, tri));
+            }
+        }
+    }
+    best
+}
+
+/// Up to `sweeps` sweeps of [`mean_node`] over all free nodes, Gauss-Seidel by colour (the
+/// nodes of one colour share no quad: their moves are computed in parallel).
+pub(crate) fn polish_mean(l: &mut Local, sweeps: usize) -> usize {
+    use rayon::prelude::*;
+    l.refresh_quad_normals();
+    let groups = super::smooth::colour_free_nodes(l);
+    let mut moves = 0;
+    for _ in 0..sweeps {
+        let mut moved = 0;
+        for g in &groups {
+            let lr: &Local = l;
+            let found: Vec<(u32, DVec3, u32)> = g
+                .par_iter()
+                .with_min_len(512)
+                .filter_map(|&v| mean_node(lr, v).map(|(p, t)| (v, p, t)))
+                .collect();
+            moved += found.len();
+            for (v, p, t) in found {
+                l.pos[v as usize] = p;
+                l.tri[v as usize] = t;
+            }
+        }
+        moves += moved;
+        if moved == 0 {
+            break;
+        }
+    }
+    moves
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -163,6 +253,33 @@ mod tests {
                 .map(|w| l.pos[w])
                 .collect();
             assert_eq!(fixed, fixed_after, "a fixed node moved");
+        }
+    }
+
+    #[test]
+    fn mean_polish_raises_mean_eta_and_never_lowers_a_stars_worst() {
+        for seed in [4u64, 5] {
+            let mut s = synth::quad_grid(10, 10, 1.0, 1.0);
+            synth::jitter(&mut s, 0.3 / 10.0, seed);
+            let m = synth::to_mesh(&s);
+            let (_, mut l) = local_of(&m);
+            let mean = |l: &Local| {
+                (0..l.quads.len() as u32).map(|q| l.quality(q)).sum::<f64>() / l.quads.len() as f64
+            };
+            let (m0, w0) = (mean(&l), worst(&l));
+            let fixed: Vec<DVec3> = (0..l.pos.len())
+                .filter(|&w| l.fixed[w])
+                .map(|w| l.pos[w])
+                .collect();
+            assert!(polish_mean(&mut l, 3) > 0);
+            let (m1, w1) = (mean(&l), worst(&l));
+            assert!(m1 > m0 + 0.02, "seed {seed}: mean {m0} -> {m1}");
+            assert!(w1 >= w0 - 1e-12, "seed {seed}: worst {w0} -> {w1}");
+            let fixed_after: Vec<DVec3> = (0..l.pos.len())
+                .filter(|&w| l.fixed[w])
+                .map(|w| l.pos[w])
+                .collect();
+            assert_eq!(fixed, fixed_after);
         }
     }
 
