@@ -9,21 +9,27 @@
 //! see [`ideal_valence`]); two pairs that meet cancel. A greedy single rotation therefore
 //! never removes them, but a short sequence does: [`cleanup`] looks, from every interior edge
 //! near a defect, for a sequence of at most `depth` rotations, each one on an edge of the
-//! quads the previous one created, whose total lowers E, and applies the first it finds
+//! quads the previous one created, whose total lowers E while every prefix keeps it (the
+//! intermediate steps are pure moves of a defect: allowing prefixes that raise E by 2 finds
+//! no more on the fixtures at 2.5 times the cost), and applies the first it finds
 //! (first-improvement local search, in the spirit of the quad cleanup literature: Kinney's
 //! edge swaps, the "3-5 pair" moves of Verma & Tautges). E drops by at least 1 per applied
 //! sequence, so the search ends.
 //!
 //! Besides E, a fixed node left with a corner wider than [`MAX_FIXED_CORNER`] (e.g. a
 //! boundary node on a straight wall with a single quad, a straight corner no smoothing can
-//! open) costs [`WIDE_CORNER_PENALTY`]: the search removes such corners (they set η_w) and
-//! never creates one.
+//! open), or given an extra quad with corners narrower than [`MIN_FIXED_CORNER`], costs
+//! [`WIDE_CORNER_PENALTY`]: the search removes such corners (they set η_w) and never creates
+//! one.
 //!
-//! Every intermediate and final quad must be valid (signed η above [`MIN_ETA`] at the
-//! current node positions; smoothing follows), the new edge must not join two nodes that
-//! already share a quad, and an edge between two fixed nodes (possibly an embedded curve)
-//! never rotates. Quads are rewritten from the oriented hexagon of the two quads they
-//! replace, so orientation is kept; nodes never move, appear or disappear.
+//! The quads a sequence rewrites must be valid (signed η above [`MIN_ETA`]) at the current
+//! node positions; if some are not, the free nodes of those are moved to the centroid of
+//! their new ring and every rewritten quad and every quad around a moved node must then
+//! reach [`RELOCATED_MIN_ETA`] (else the sequence is undone). The new edge must not join
+//! two nodes that already share a quad, and an edge between two fixed nodes (possibly an
+//! embedded curve) never rotates. Quads are rewritten from the oriented hexagon of the two
+//! quads they replace, so orientation is kept; fixed nodes never move, and no node or quad
+//! appears or disappears.
 //!
 //! Cost: O(1) per candidate sequence (at most (2·7)^depth of them per start edge), one sweep
 //! over the edges per round, so O(n) per round for a fixed depth.
@@ -466,8 +472,9 @@ impl<'a> Topo<'a> {
         }
     }
 
-    /// Depth-first search for a rotation sequence with total gain > 0 starting at the
-    /// candidates on the edges of `quads`; applies it and returns its length when found.
+    /// Depth-first search for a rotation sequence with total gain > 0, every prefix's total
+    /// at least `floor`, starting at the candidates on the edges of `quads`; applies it and
+    /// returns its length when found.
     fn search(&mut self, quads: [u32; 2], gain: i32, depth: usize, floor: i32) -> Option<usize> {
         for q in quads {
             if q == NONE {
@@ -535,7 +542,7 @@ pub(crate) fn cleanup(l: &mut Local, depth: usize, max_rounds: usize) -> (usize,
                 continue;
             }
             t.log.clear();
-            let found = t.search([q, NONE], 0, depth, -2);
+            let found = t.search([q, NONE], 0, depth, 0);
             if let Some(n) = found {
                 applied += 1;
                 rotations += n;
