@@ -22,7 +22,10 @@
 //! stays conforming; removed quads and nodes disappear from their blocks, every other tag is
 //! kept.
 
+// optquality hook: the valence cleanup (rotation sequences) called from `topo::pass`.
+mod cleanup;
 mod local;
+mod polish;
 mod smooth;
 pub mod synth;
 mod topo;
@@ -251,6 +254,11 @@ fn run_surface(
     if opts.angle_sweeps > 0 {
         ops.smoothing_moves += smooth::polish_worst(l, 4);
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
+    }
+    // optquality hook: maximize the mean η, then raise the worst quads (polish.rs)
+    if opts.smooth_iterations > 0 {
+        ops.smoothing_moves += polish::polish_mean(l, polish::MEAN_SWEEPS);
+        ops.smoothing_moves += polish::polish_worst(l, polish::POLISH_BELOW, 3);
     }
     tick(1 + opts.max_rounds - ticks);
     let after = l.stats();
