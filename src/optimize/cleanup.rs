@@ -569,7 +569,8 @@ pub(crate) mod tests {
     pub(crate) fn local_of(m: &Mesh) -> (FlatNodes, Local) {
         let flat = FlatNodes::new(m);
         let owner = node_owners(m, &flat, &[1]).expect("owners");
-        let mut l = extract(m, &flat, &owner, 0, 1).expect("extract");
+        let mut scratch = vec![crate::optimize::local::NONE; flat.coords.len()];
+        let mut l = extract(m, &flat, &owner, (0, 1), &mut scratch).expect("extract");
         l.build_adjacency();
         (flat, l)
     }

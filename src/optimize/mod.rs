@@ -255,10 +255,9 @@ fn run_surface(
         ops.smoothing_moves += smooth::polish_worst(l, 4);
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
     }
-    // optquality hook: maximize the mean η, then raise the worst quads (polish.rs)
+    // then maximize the mean η, the worst of every star kept (polish.rs)
     if opts.smooth_iterations > 0 {
         ops.smoothing_moves += polish::polish_mean(l, polish::MEAN_SWEEPS);
-        ops.smoothing_moves += polish::polish_worst(l, polish::POLISH_BELOW, 3);
     }
     tick(1 + opts.max_rounds - ticks);
     let after = l.stats();

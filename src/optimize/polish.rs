@@ -5,38 +5,21 @@
 //! kept. The centroid smoothing balances lengths (eq. 1), which is what τ measures, while
 //! η sees only angles: this trades a little τ for η̄.
 //!
-//! Worst quads:
-//! Smoothing moves a node only when its star's worst quality does not drop, towards a
-//! centroid or towards a better *mean*; nothing there *raises the worst*. Around a 3-5 pair
-//! (a valence-3 node next to a valence-5 node) the quad holding both keeps a corner near
-//! 140° beside one near 40°, and that quad sets η_w on every fixture. [`polish_worst`]
-//! takes each free corner of every quad with η below a threshold and runs a pattern search
-//! (8 tangent directions, steps from h/4 down to h/64) maximizing the worst quality of its
-//! star, the star's mean as tie-break; a move is kept only when it raises that worst.
-//! Curved surfaces: every candidate is projected on the reference triangulation.
+//! The worst quads are lifted before this by [`super::smooth::polish_worst`] (max-min
+//! pattern search); measured on the 1e5 fixtures, a second max-min pass here after the mean
+//! polish changed nothing, so there is none.
 //!
-//! Cost: only nodes of bad quads (a few per thousand) are visited, O(n) per sweep to find
-//! them.
+//! Cost: 2 colour-parallel sweeps over the free nodes.
 
 use super::local::Local;
+use super::smooth::{compass, tangents};
 use glam::DVec3;
-use std::f64::consts::FRAC_PI_2;
-
-/// Quads with η below this are polished. Measured on the four Gmsh fixtures at 10^4 and
-/// 10^5 triangles: 0.55 lifts η_w from 0.45-0.49 to 0.55 for −0.0005 of η̄ at most; 0.65
-/// gains 0.03 more η_w but costs 0.004 of η̄ and 0.3 point of τ.
-pub(crate) const POLISH_BELOW: f64 = 0.55;
 
 /// Sweeps of [`polish_mean`]. Measured on the Gmsh fixtures at 10^5 triangles: 2 sweeps add
 /// 0.010 to η̄ (rectangle 0.810 → 0.820, CAD block 0.846 → 0.852) for 0.5 point of τ and
 /// about 0.35 s of CPU per 10^5 quads; 3 add 0.002 more; skipping stars whose worst η is
 /// above 0.9 saves 10 % of that time but loses a third of the gain.
 pub(crate) const MEAN_SWEEPS: usize = 2;
-
-/// The [`shape_key`](super::local) of a quad of quality η (eq. 3).
-fn key_of_eta(eta: f64) -> f64 {
-    1.0 / (1.0 + ((1.0 - eta) * FRAC_PI_2).tan())
-}
 
 /// Worst shape key and the sum of the shape keys (or of η, eq. 3, with `eta_sum`) of the
 /// quads around `v` with `v` at `p`; `None` when one is inverted or flat. Stars holding an
@@ -60,104 +43,14 @@ fn star_eval(l: &Local, v: u32, p: DVec3, eta_sum: bool) -> Option<(f64, f64)> {
     Some((min, sum))
 }
 
-/// The 8 unit directions of a pattern search in the plane normal to `n`: two axes and their
-/// diagonals, both ways.
-fn tangent_directions(n: DVec3) -> [DVec3; 8] {
-    let t1 = n.any_orthonormal_vector();
-    let t2 = n.cross(t1);
-    let r = std::f64::consts::FRAC_1_SQRT_2;
-    [
-        t1,
-        -t1,
-        t2,
-        -t2,
-        (t1 + t2) * r,
-        (t1 - t2) * r,
-        (t2 - t1) * r,
-        -(t1 + t2) * r,
-    ]
-}
-
-/// Pattern search for node `v` (see the module docs); true when it moved.
-fn polish_node(l: &mut Local, v: u32) -> bool {
-    let vi = v as usize;
-    let x0 = l.pos[vi];
-    let Some((mut best_min, mut best_sum)) = star_eval(l, v, x0, false) else {
-        return false;
-    };
-    let dirs = tangent_directions(l.nrm[vi]);
-    let h = l.h[vi];
-    let mut best: Option<(DVec3, u32)> = None;
-    for s in [0.25, 0.125, 0.0625, 0.03125, 0.015625] {
-        // repeat a step size while it improves
-        for _ in 0..3 {
-            let base = best.map_or(x0, |b| b.0);
-            let mut improved = false;
-            for d in dirs {
-                let (p, tri) = l.project(v, base + d * (s * h));
-                let Some((mn, sum)) = star_eval(l, v, p, false) else {
-                    continue;
-                };
-                if mn > best_min + 1e-12 || (mn >= best_min && sum > best_sum + 1e-12) {
-                    best_min = mn;
-                    best_sum = sum;
-                    best = Some((p, tri));
-                    improved = true;
-                }
-            }
-            if !improved {
-                break;
-            }
-        }
-    }
-    let Some((p, tri)) = best else {
-        return false;
-    };
-    l.pos[vi] = p;
-    l.tri[vi] = tri;
-    true
-}
-
-/// Runs up to `sweeps` sweeps over the free corners of the quads with η below `below`
-/// (sequentially: few nodes); returns the number of moves. Needs a current adjacency.
-pub(crate) fn polish_worst(l: &mut Local, below: f64, sweeps: usize) -> usize {
-    l.refresh_quad_normals();
-    let kb = key_of_eta(below);
-    let mut moves = 0;
-    for _ in 0..sweeps {
-        let mut nodes: Vec<u32> = Vec::new();
-        for (q, quad) in l.quads.iter().enumerate() {
-            if !l.alive[q] {
-                continue;
-            }
-            let p = quad.map(|w| l.pos[w as usize]);
-            if super::local::shape_key(&p, l.qn[q]) < kb {
-                nodes.extend(quad.iter().filter(|&&w| !l.fixed[w as usize]));
-            }
-        }
-        nodes.sort_unstable();
-        nodes.dedup();
-        let mut moved = 0;
-        for v in nodes {
-            if polish_node(l, v) {
-                moved += 1;
-            }
-        }
-        moves += moved;
-        if moved == 0 {
-            break;
-        }
-    }
-    moves
-}
-
 /// Pattern search maximizing the star's summed η, its worst kept: the new position and
 /// reference triangle of `v`, if better.
 fn mean_node(l: &Local, v: u32) -> Option<(DVec3, u32)> {
     let vi = v as usize;
     let x0 = l.pos[vi];
     let (min0, mut best_sum) = star_eval(l, v, x0, true)?;
-    let dirs = tangent_directions(l.nrm[vi]);
+    let (t1, t2) = tangents(l.nrm[vi]);
+    let dirs = compass(t1, t2);
     let h = l.h[vi];
     let mut best: Option<(DVec3, u32)> = None;
     for s in [0.1, 0.04, 0.015] {
@@ -237,7 +130,8 @@ mod tests {
                 before > 0.0 && before < 0.55,
                 "seed {seed}: the fixture needs a poor valid quad ({before})"
             );
-            let moves = polish_worst(&mut l, 0.9, 3);
+            l.build_adjacency();
+            let moves = super::super::smooth::polish_worst(&mut l, 3);
             let after = worst(&l);
             assert!(moves > 0);
             assert!(
@@ -298,17 +192,8 @@ mod tests {
         let around: Vec<u32> = bad.iter().flat_map(|&q| l.quads[q]).collect();
         let before: Vec<DVec3> = around.iter().map(|&w| l.pos[w as usize]).collect();
         polish_mean(&mut l, 3);
-        polish_worst(&mut l, 0.99, 3);
         let after: Vec<DVec3> = around.iter().map(|&w| l.pos[w as usize]).collect();
         assert_eq!(before, after, "a node of an invalid quad moved");
         assert_eq!(invalid(&l), bad);
-    }
-
-    #[test]
-    fn key_of_eta_inverts_key_to_eta() {
-        for eta in [0.1, 0.45, 0.5, 0.8, 0.99] {
-            let k = key_of_eta(eta);
-            assert!((super::super::local::key_to_eta(k) - eta).abs() < 1e-12);
-        }
     }
 }

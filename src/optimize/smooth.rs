@@ -210,13 +210,13 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
 }
 
 /// Two unit tangents orthogonal to the unit normal `n` and to each other.
-fn tangents(n: DVec3) -> (DVec3, DVec3) {
+pub(crate) fn tangents(n: DVec3) -> (DVec3, DVec3) {
     let t1 = n.any_orthonormal_vector();
     (t1, n.cross(t1))
 }
 
 /// The eight compass directions of the tangent plane spanned by `t1`, `t2`.
-fn compass(t1: DVec3, t2: DVec3) -> [DVec3; 8] {
+pub(crate) fn compass(t1: DVec3, t2: DVec3) -> [DVec3; 8] {
     let r = std::f64::consts::FRAC_1_SQRT_2;
     [
         t1,
