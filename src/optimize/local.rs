@@ -301,6 +301,11 @@ impl<'a> StarEval<'a> {
         1.0 / (1.0 + worst)
     }
 
+    /// Number of quads evaluated (the star without its hopeless quads, on the fast path).
+    pub fn len(&self) -> usize {
+        self.len
+    }
+
     /// The star's worst key with `v` at `p`.
     pub fn min_key(&self, p: DVec3) -> f64 {
         (0..self.len)
