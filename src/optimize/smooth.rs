@@ -185,24 +185,41 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
     let vi = v as usize;
     let x0 = l.pos[vi];
     let star = StarEval::new(l, v);
-    let (min0, mut best_sum) = star.min_sum_above(x0, f64::NEG_INFINITY)?;
+    let (min0, best_sum) = star.min_sum_above(x0, f64::NEG_INFINITY)?;
     if min0 >= 0.7 {
         return None;
     }
+    pattern_search(l, v, &[0.15, 0.05, 0.015], best_sum, |p| {
+        star.min_sum_above(p, min0).map(|(_, sum)| sum)
+    })
+}
+
+/// Pattern search for node `v` in its tangent plane: for each step `s·h` in `steps`, the 8
+/// compass moves from the best point so far (projected on the reference surface) are
+/// scored, `None` meaning not allowed; the best score above `start` (the score of the
+/// current position) wins. Returns the best position and its reference triangle, if any.
+pub(crate) fn pattern_search(
+    l: &Local,
+    v: u32,
+    steps: &[f64],
+    start: f64,
+    score: impl Fn(DVec3) -> Option<f64>,
+) -> Option<(DVec3, u32)> {
+    let vi = v as usize;
     let (t1, t2) = tangents(l.nrm[vi]);
-    let dirs = compass(t1, t2);
     let h = l.h[vi];
+    let mut best_score = start;
     let mut best: Option<(DVec3, u32)> = None;
-    for s in [0.15, 0.05, 0.015] {
-        let base = best.map_or(x0, |b| b.0);
-        for d in dirs {
+    for &s in steps {
+        let base = best.map_or(l.pos[vi], |b| b.0);
+        for d in compass(t1, t2) {
             let (p, tri) = l.project(v, base + d * (s * h));
-            let Some((_, sum)) = star.min_sum_above(p, min0) else {
-                continue;
-            };
-            if sum > best_sum + 1e-12 {
-                best_sum = sum;
-                best = Some((p, tri));
+            match score(p) {
+                Some(x) if x > best_score + 1e-12 => {
+                    best_score = x;
+                    best = Some((p, tri));
+                }
+                _ => {}
             }
         }
     }
@@ -244,28 +261,14 @@ const POLISH_BELOW: f64 = 1.0 / (1.0 + 0.726_542_528_005_360_9);
 /// Pattern search on the star's worst shape key (max-min): moves a node of a poor quad
 /// (key below [`POLISH_BELOW`]) to the trial position that most raises its star's worst key.
 fn propose_worst(l: &Local, v: u32) -> Option<(DVec3, u32)> {
-    let vi = v as usize;
-    let x0 = l.pos[vi];
     let star = StarEval::new(l, v);
-    let mut best_min = star.min_key(x0);
-    if best_min >= POLISH_BELOW {
+    let min0 = star.min_key(l.pos[v as usize]);
+    if min0 >= POLISH_BELOW {
         return None;
     }
-    let (t1, t2) = tangents(l.nrm[vi]);
-    let h = l.h[vi];
-    let mut best: Option<(DVec3, u32)> = None;
-    for s in [0.1, 0.03, 0.01, 0.003] {
-        let base = best.map_or(x0, |b| b.0);
-        for d in compass(t1, t2) {
-            let (p, tri) = l.project(v, base + d * (s * h));
-            let mn = star.min_key(p);
-            if mn > best_min + 1e-12 {
-                best_min = mn;
-                best = Some((p, tri));
-            }
-        }
-    }
-    best
+    pattern_search(l, v, &[0.1, 0.03, 0.01, 0.003], min0, |p| {
+        Some(star.min_key(p))
+    })
 }
 
 /// Max-min polish of the worst quads: [`propose_worst`] on the nodes of quads with η below
