@@ -513,8 +513,14 @@ impl<'a> Topo<'a> {
 
 /// Runs rounds of the rotation search (sequences of at most `depth` rotations) until a round
 /// applies nothing or `max_rounds` is reached; returns the number of applied sequences and
-/// the number of rotations in them. Leaves the node → quads adjacency stale.
-pub(crate) fn cleanup(l: &mut Local, depth: usize, max_rounds: usize) -> (usize, usize) {
+/// the number of rotations in them. Leaves the node → quads adjacency stale. With `focus`,
+/// only quads with a node marked in it are searched.
+pub(crate) fn cleanup(
+    l: &mut Local,
+    depth: usize,
+    max_rounds: usize,
+    focus: Option<&[bool]>,
+) -> (usize, usize) {
     if depth == 0 {
         return (0, 0);
     }
@@ -526,8 +532,13 @@ pub(crate) fn cleanup(l: &mut Local, depth: usize, max_rounds: usize) -> (usize,
             if !t.l.alive[q as usize] {
                 continue;
             }
-            // only near a defect
             let quad = t.l.quads[q as usize];
+            if let Some(f) = focus {
+                if !quad.iter().any(|&w| f.get(w as usize) == Some(&true)) {
+                    continue;
+                }
+            }
+            // only near a defect
             let near = quad.iter().any(|&w| {
                 let d = t.val[w as usize];
                 t.energy(w, d) > 0
@@ -595,7 +606,7 @@ pub(crate) mod tests {
             .collect();
         let alive = l.alive.iter().filter(|&&a| a).count();
         let quads_before = l.quads.clone();
-        let (seqs, rots) = cleanup(&mut l, depth, 8);
+        let (seqs, rots) = cleanup(&mut l, depth, 8, None);
         assert!(rots >= seqs);
         for &(v, p) in &fixed_before {
             assert_eq!(l.pos[v as usize], p, "a fixed node moved");

@@ -231,10 +231,12 @@ fn run_surface(
     tick(1);
     let mut ticks = 1;
     if opts.topology {
+        // speed: after a pass, smooth only around what it changed (see `near_changes`), and
+        // let the next pass's valence cleanup search only there (elsewhere it found nothing)
+        let mut focus: Option<Vec<bool>> = None;
         for _ in 0..opts.max_rounds {
-            // speed: after a pass, smooth only around what it changed (see `near_changes`)
             let snapshot = (l.quads.clone(), l.alive.clone(), l.pos.clone());
-            let changed = topo::pass(l, &mut ops);
+            let changed = topo::pass(l, &mut ops, focus.as_deref());
             if changed == 0 {
                 break;
             }
@@ -243,6 +245,7 @@ fn run_surface(
                 smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight)
             } else {
                 let active = near_changes(l, &snapshot, RESMOOTH_RINGS);
+                focus = Some(active.clone());
                 smooth::smooth_near(l, opts.smooth_iterations, opts.diagonal_weight, active)
             };
             tick(1);

@@ -38,8 +38,9 @@ use glam::DVec3;
 const CLEANUP_DEPTH: usize = 2;
 
 /// One pass of the operators; returns how many were applied. Leaves the adjacency stale:
-/// the caller rebuilds it.
-pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts) -> usize {
+/// the caller rebuilds it. With `focus`, the valence cleanup searches only quads with a
+/// node in it (the region a previous pass changed; elsewhere its searches already failed).
+pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[bool]>) -> usize {
     let mut dirty = vec![false; l.pos.len()];
     let (ideal, angle) = ideal_valence(l);
     let before = ops.doublet_collapses + ops.quad_vertex_merges + ops.edge_rotations;
@@ -73,7 +74,7 @@ pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts) -> usize {
             }
         }
     }
-    let (_, rot) = super::cleanup::cleanup(l, CLEANUP_DEPTH, 1);
+    let (_, rot) = super::cleanup::cleanup(l, CLEANUP_DEPTH, 1, focus);
     ops.edge_rotations += rot;
     ops.doublet_collapses + ops.quad_vertex_merges + ops.edge_rotations - before
 }
