@@ -101,6 +101,17 @@ impl Node {
     }
 }
 
+/// A tight edge `{u, v}` popped from the heap: the top blossoms of its ends and whether
+/// each is a "+" node of a tree.
+struct Tight {
+    u: u32,
+    v: u32,
+    tu: u32,
+    tv: u32,
+    pu: bool,
+    pv: bool,
+}
+
 /// Solver state. Nodes `0..n` are vertices, nodes `n..` blossoms.
 pub struct Solver {
     n: usize,
@@ -344,12 +355,14 @@ impl Solver {
     fn local_search(&mut self, budget: usize) -> Result<(), NoPerfectMatching> {
         let mut grows = 0;
         loop {
-            let Some(e) = self.pop_edge_event() else {
-                return Err(self.stuck_witness());
-            };
-            let (u, v) = (self.ed[e].u, self.ed[e].v);
-            let (tu, tv) = (self.top_of(u), self.top_of(v));
-            let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
+            let Tight {
+                u,
+                v,
+                tu,
+                tv,
+                pu,
+                pv,
+            } = self.next_tight()?;
             if pu && pv {
                 self.shrink(u, v);
                 continue;
@@ -369,6 +382,26 @@ impl Solver {
             grows += 1;
             self.grow(x, w);
         }
+    }
+
+    /// The next edge to become tight ([`Solver::pop_edge_event`]) with its endpoints' top
+    /// blossoms and whether each is a "+" node of a tree; the Tutte witness when the heap
+    /// runs dry (no perfect matching).
+    #[inline]
+    fn next_tight(&mut self) -> Result<Tight, NoPerfectMatching> {
+        let Some(e) = self.pop_edge_event() else {
+            return Err(self.stuck_witness());
+        };
+        let (u, v) = (self.ed[e].u, self.ed[e].v);
+        let (tu, tv) = (self.top_of(u), self.top_of(v));
+        Ok(Tight {
+            u,
+            v,
+            tu,
+            tv,
+            pu: self.in_tree(tu, PLUS),
+            pv: self.in_tree(tv, PLUS),
+        })
     }
 
     /// Pops heap entries until an edge event happens now (see [`Solver::next_event`]) and
@@ -713,12 +746,14 @@ impl Solver {
             self.push_edges_of(self.top_of(r));
         }
         while alive > 0 {
-            let Some(e) = self.pop_edge_event() else {
-                return Err(self.stuck_witness());
-            };
-            let (u, v) = (self.ed[e].u, self.ed[e].v);
-            let (tu, tv) = (self.top_of(u), self.top_of(v));
-            let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
+            let Tight {
+                u,
+                v,
+                tu,
+                tv,
+                pu,
+                pv,
+            } = self.next_tight()?;
             if pu && pv {
                 let (ta, tb) = (self.nd[tu as usize].tree, self.nd[tv as usize].tree);
                 if ta == tb {
