@@ -8,7 +8,9 @@
 mod recombine_util;
 
 use blossomquad::mesh::Mesh;
-use blossomquad::recombine::{recombine, COST_SCALE, FIXED_CORNER_MIN_ETA, HOPELESS_COST};
+use blossomquad::recombine::{
+    recombine, RecombineOptions, COST_SCALE, FIXED_CORNER_MIN_ETA, HOPELESS_COST,
+};
 use recombine_util::*;
 use spade::{DelaunayTriangulation, Point2, Triangulation};
 use std::f64::consts::FRAC_PI_2;
@@ -147,4 +149,68 @@ fn recombined_quads_cost_the_brute_force_minimum() {
         checked >= 150,
         "only {checked} meshes were even with a perfect matching"
     );
+}
+
+/// The cross-field cost (eq. 7) turns quads towards the cross field, here the axes of a unit
+/// square (its walls): the share of quad edges within 15° of an axis must grow (measured:
+/// 0.369 -> 0.426 at weight 2 on random points), and the matching stays certified.
+#[test]
+fn cross_field_weight_aligns_quads_with_the_boundary() {
+    let mut rng = Rng(0xC705_5F1E);
+    let mut t: DelaunayTriangulation<Point2<f64>> = DelaunayTriangulation::new();
+    let k = 20;
+    for i in 0..k {
+        let u = i as f64 / k as f64;
+        for p in [[u, 0.0], [1.0, u], [1.0 - u, 1.0], [0.0, 1.0 - u]] {
+            let _ = t.insert(Point2::new(p[0], p[1]));
+        }
+    }
+    for _ in 0..600 {
+        let (x, y) = (0.02 + 0.96 * rng.next_f64(), 0.02 + 0.96 * rng.next_f64());
+        let _ = t.insert(Point2::new(x, y));
+    }
+    let pts: Vec<[f64; 2]> = t
+        .vertices()
+        .map(|v| [v.position().x, v.position().y])
+        .collect();
+    let tris: Vec<[usize; 3]> = t
+        .inner_faces()
+        .map(|f| f.vertices().map(|v| v.fix().index()))
+        .collect();
+    let aligned_share = |w: f64| -> f64 {
+        let mut b = Builder::new();
+        b.entity(2, 1, &[], &[]);
+        let tags: Vec<u64> = pts
+            .iter()
+            .map(|p| b.node(2, 1, [p[0], p[1], 0.0]))
+            .collect();
+        for tri in &tris {
+            b.tri(1, tri.map(|v| tags[v]));
+        }
+        let mut m = b.mesh;
+        let opts = RecombineOptions {
+            verify: true,
+            cross_field_weight: w,
+            ..Default::default()
+        };
+        recombine(&mut m, &opts).unwrap();
+        let (mut aligned, mut all) = (0usize, 0usize);
+        for (_, p, _) in quads_with_nodes(&m) {
+            for i in 0..4 {
+                let (a, c) = (p[i], p[(i + 1) % 4]);
+                let ang = (c[1] - a[1])
+                    .atan2(c[0] - a[0])
+                    .to_degrees()
+                    .rem_euclid(90.0);
+                aligned += usize::from(!(15.0..=75.0).contains(&ang));
+                all += 1;
+            }
+        }
+        aligned as f64 / all as f64
+    };
+    let (plain, crossed) = (aligned_share(0.0), aligned_share(2.0));
+    eprintln!(
+        "edges within 15 deg of an axis: {plain:.3} with eq. 4, {crossed:.3} with eq. 7 added"
+    );
+    assert!(crossed > plain + 0.03, "{plain} -> {crossed}");
 }

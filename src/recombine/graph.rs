@@ -15,7 +15,7 @@ use crate::quality::eta::{corner_eta, signed_angle};
 pub const COST_SCALE: i64 = 10_000;
 
 /// Cost of a quad that optimization can never make valid: a (nearly) straight or zero corner
-/// at a wall node (see [`edge_cost`]). Ten times the cost of a degenerate quad, so the
+/// at a wall node (see the edge cost). Ten times the cost of a degenerate quad, so the
 /// matching rearranges up to about twenty ordinary quads to avoid one of these. (At a
 /// parity-split node the cost is higher still: [`split_halves_cost`].)
 pub const HOPELESS_COST: i64 = 10 * COST_SCALE;
@@ -58,6 +58,66 @@ pub fn split_halves_cost(n: usize) -> i64 {
     2 * e + e / 2
 }
 
+/// A cross field on the triangles of a surface (paper section 4.2, eq. 7): per triangle one
+/// unit tangent `t1` (with `t2 = n × t1`), the direction of the nearest wall edge in
+/// graph steps (multi-source breadth-first search from the triangles with a wall edge),
+/// carried from triangle to triangle by projection on each one's plane. Surfaces without
+/// walls get the projection of the x axis (or y where x is normal).
+pub(crate) fn boundary_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> Vec<DVec3> {
+    let n = topo.len();
+    let mut t1 = vec![DVec3::ZERO; n];
+    let mut queue: std::collections::VecDeque<u32> = std::collections::VecDeque::new();
+    let unit_n = |t: usize| tri_normal(coords, topo.tris[t]).normalize_or_zero();
+    let project = |d: DVec3, nrm: DVec3| (d - nrm * d.dot(nrm)).normalize_or_zero();
+    for (t, dir) in t1.iter_mut().enumerate() {
+        for k in 0..3 {
+            if topo.nbr[3 * t + k] == NONE {
+                let (a, b) = (topo.tris[t][k], topo.tris[t][(k + 1) % 3]);
+                let d = project(coords[b as usize] - coords[a as usize], unit_n(t));
+                if d != DVec3::ZERO {
+                    *dir = d;
+                    queue.push_back(t as u32);
+                    break;
+                }
+            }
+        }
+    }
+    if queue.is_empty() && n > 0 {
+        let nrm = unit_n(0);
+        let d = project(DVec3::X, nrm);
+        t1[0] = if d == DVec3::ZERO {
+            project(DVec3::Y, nrm)
+        } else {
+            d
+        };
+        queue.push_back(0);
+    }
+    while let Some(t) = queue.pop_front() {
+        let t = t as usize;
+        for k in 0..3 {
+            let u = topo.nbr[3 * t + k];
+            if u == NONE || t1[u as usize] != DVec3::ZERO {
+                continue;
+            }
+            let d = project(t1[t], unit_n(u as usize));
+            t1[u as usize] = if d == DVec3::ZERO { t1[t] } else { d };
+            queue.push_back(u);
+        }
+    }
+    t1
+}
+
+/// Eq. 7: `(max(|e·t1|, |e·t2|) − √2/2) / (1 − √2/2)` for the unit direction `e` of the
+/// shared edge (the new quad's diagonal): 0 when the diagonal bisects the cross, so the
+/// quad's edges follow it, 1 when it is aligned with it.
+pub(crate) fn cross_cost(e: DVec3, t1: DVec3, normal: DVec3) -> f64 {
+    let e = e.normalize_or_zero();
+    let t2 = normal.normalize_or_zero().cross(t1);
+    let m = e.dot(t1).abs().max(e.dot(t2).abs());
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    ((m - h) / (1.0 - h)).clamp(0.0, 1.0)
+}
+
 /// The quad formed by triangle `t` and its neighbour across local edge `k`, oriented like
 /// `t`: `(p[k+1], p[k+2], p[k], s)` with `s` the neighbour's vertex opposite the edge.
 pub(crate) fn merged_quad(topo: &SurfaceTopo, t: usize, k: usize) -> [u32; 4] {
@@ -80,7 +140,7 @@ pub(crate) fn tri_normal(c: &[DVec3], t: [u32; 3]) -> DVec3 {
 }
 
 /// Corner quality below which a corner at a wall node makes a quad as bad as a folded one
-/// (see [`edge_cost`]): η of the corner alone ≤ 0.25, i.e. an angle above 157.5° or below
+/// (see the edge cost): η of the corner alone ≤ 0.25, i.e. an angle above 157.5° or below
 /// 22.5°. Measured on the cad_solid fixture at 1e4 triangles: with 0.1 (171°) the matching
 /// put three wall nodes of a curved edge into one quad with a 165° corner that no smoothing
 /// can open (η_w 0.167 after optimization); with 0.25 η_w is 0.601, and the other fixtures
@@ -244,17 +304,25 @@ pub(crate) struct Graph {
 /// Builds the graph: one edge per graph edge with its cost (eq. 4), plus one extra edge per
 /// fan of three or more triangles whose end triangles are not already adjacent (section
 /// 5.3; a fan ends at walls: the surface boundary, curves, or orientation changes).
-/// `split_nodes` (sorted global ids) are the nodes made by parity repair.
+/// `split_nodes` (sorted global ids) are the nodes made by parity repair; `cross_w` > 0
+/// adds `cross_w` times the cross-field cost (eq. 7) to every edge that is not hopeless.
 pub(crate) fn build(
     topo: &SurfaceTopo,
     coords: &[DVec3],
     split_nodes: &[u32],
+    cross_w: f64,
     with_extra: bool,
 ) -> Graph {
     let n = topo.len();
     let walls = wall_nodes(topo);
     let walls = &walls;
     let split_cost = split_halves_cost(n);
+    let field = if cross_w > 0.0 {
+        boundary_cross_field(topo, coords)
+    } else {
+        Vec::new()
+    };
+    let field = &field;
     let mut edges: Vec<(u32, u32, i64)> = (0..n)
         .into_par_iter()
         .with_min_len(4096)
@@ -262,11 +330,15 @@ pub(crate) fn build(
             (0..3).filter_map(move |k| {
                 let u = topo.nbr[3 * t + k];
                 (u != NONE && (t as u32) < u).then(|| {
-                    (
-                        t as u32,
-                        u,
-                        edge_cost(topo, coords, walls, split_nodes, split_cost, t, k),
-                    )
+                    let mut c = edge_cost(topo, coords, walls, split_nodes, split_cost, t, k);
+                    if cross_w > 0.0 && c <= 2 * COST_SCALE {
+                        let tri = topo.tris[t];
+                        let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];
+                        let nrm = tri_normal(coords, tri);
+                        c += (COST_SCALE as f64 * cross_w * cross_cost(e, field[t], nrm)).round()
+                            as i64;
+                    }
+                    (t as u32, u, c)
                 })
             })
         })
@@ -312,6 +384,22 @@ pub(crate) fn build(
 mod tests {
     use super::*;
     use crate::quality::eta_signed;
+
+    #[test]
+    fn cross_cost_is_zero_on_the_bisector_and_one_along_the_cross() {
+        let n = DVec3::new(0.0, 0.0, 2.0);
+        let t1 = DVec3::X;
+        assert!(cross_cost(DVec3::new(1.0, 1.0, 0.0), t1, n).abs() < 1e-12);
+        assert!(cross_cost(DVec3::new(-3.0, 3.0, 0.0), t1, n).abs() < 1e-12);
+        assert!((cross_cost(DVec3::new(0.0, -2.0, 0.0), t1, n) - 1.0).abs() < 1e-12);
+        assert!((cross_cost(DVec3::new(5.0, 0.0, 0.0), t1, n) - 1.0).abs() < 1e-12);
+        let mid = cross_cost(
+            DVec3::new(1.0, (std::f64::consts::PI / 8.0).tan(), 0.0),
+            t1,
+            n,
+        );
+        assert!(mid > 0.2 && mid < 0.8, "{mid}");
+    }
 
     #[test]
     fn fast_eta_matches_eta_signed() {

@@ -70,6 +70,9 @@
 //!    costs [`HOPELESS_COST`] = 10⁵; the two halves of a parity-split triangle (a 180° corner
 //!    at the split node) cost 5/2 of an extra edge ([`split_halves_cost`]): the matching
 //!    takes up to two more extra edges (whose quads optimization repairs) to avoid them.
+//!    With [`RecombineOptions::cross_field_weight`] `w` > 0, the paper's alternative cost
+//!    (eq. 7) is added to ordinary edges: `10⁴ · w · c₇`, c₇ = 0 when the shared edge (the
+//!    quad's diagonal) bisects a cross field that follows the nearest wall.
 //! 5. **Extra edges** (section 5.3). Around every vertex, the triangles between two walls
 //!    form a *fan* `t1 … tk` (each sharing a graph edge `{v, a_i}` with the next). The paper
 //!    joins the triangles of two successive boundary edges; here every fan with k ≥ 3 whose
@@ -147,7 +150,7 @@ pub enum ParityMode {
 }
 
 /// Options of [`recombine`].
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[derive(Debug, Clone, Copy, PartialEq)]
 pub struct RecombineOptions {
     /// Parity handling.
     pub parity: ParityMode,
@@ -157,6 +160,11 @@ pub struct RecombineOptions {
     pub verify: bool,
     /// Add the extra edges of section 5.3 (on by default; off only for experiments).
     pub extra_edges: bool,
+    /// Weight of the cross-field alignment cost (eq. 7) added to the quality cost (eq. 4):
+    /// a graph edge costs `10⁴ · (1 − η_s + w · c₇)`, the cross field following the
+    /// nearest wall in graph steps (a breadth-first search from the wall edges). 0 (default) is eq. 4 alone; clamped
+    /// to [0, 5]. See the README for its measured effect.
+    pub cross_field_weight: f64,
 }
 
 impl Default for RecombineOptions {
@@ -166,6 +174,7 @@ impl Default for RecombineOptions {
             drop_volumes: false,
             verify: false,
             extra_edges: true,
+            cross_field_weight: 0.0,
         }
     }
 }
@@ -752,7 +761,8 @@ fn match_surface(
     opts: &RecombineOptions,
 ) -> Result<SurfaceResult, RecombineError> {
     let t0 = Instant::now();
-    let g = graph::build(&w.topo, coords, split_nodes, opts.extra_edges);
+    let cross = opts.cross_field_weight.clamp(0.0, 5.0);
+    let g = graph::build(&w.topo, coords, split_nodes, cross, opts.extra_edges);
     let time_graph = w.time + t0.elapsed();
     if let Some(dir) = std::env::var_os("BLOSSOMQUAD_DUMP_GRAPHS") {
         dump_graph(std::path::Path::new(&dir), w.tag, w.topo.len(), &g.edges);
