@@ -78,6 +78,20 @@ fn brute_force(pts: &[[f64; 2]], wall: &[bool], tris: &[[usize; 3]]) -> Option<i
     go(&pair, &mut vec![false; n])
 }
 
+/// Surface 1 made of `tris` over the points `pts` (z = 0, no curve data), and the node tags.
+fn planar_mesh(pts: &[[f64; 2]], tris: &[[usize; 3]]) -> (Mesh, Vec<u64>) {
+    let mut b = Builder::new();
+    b.entity(2, 1, &[], &[]);
+    let tags: Vec<u64> = pts
+        .iter()
+        .map(|p| b.node(2, 1, [p[0], p[1], 0.0]))
+        .collect();
+    for tri in tris {
+        b.tri(1, tri.map(|v| tags[v]));
+    }
+    (b.mesh, tags)
+}
+
 /// Total cost of the quads of `m`, priced like [`brute_force`] does.
 fn output_cost(m: &Mesh, wall_tags: &[u64]) -> i64 {
     quads_with_nodes(m)
@@ -117,16 +131,7 @@ fn recombined_quads_cost_the_brute_force_minimum() {
         let Some(best) = brute_force(&pts, &wall, &tris) else {
             continue; // no perfect matching: extra edges, another test's business
         };
-        let mut b = Builder::new();
-        b.entity(2, 1, &[], &[]);
-        let tags: Vec<u64> = pts
-            .iter()
-            .map(|p| b.node(2, 1, [p[0], p[1], 0.0]))
-            .collect();
-        for tri in &tris {
-            b.tri(1, tri.map(|v| tags[v]));
-        }
-        let mut m = b.mesh;
+        let (mut m, tags) = planar_mesh(&pts, &tris);
         let r = recombine(&mut m, &verify_opts()).unwrap_or_else(|e| panic!("case {case}: {e}"));
         assert!(r.parity_splits.is_empty(), "case {case}");
         assert_eq!(r.surfaces[0].extra_edges_used, 0, "case {case}");
@@ -178,16 +183,7 @@ fn cross_field_weight_aligns_quads_with_the_boundary() {
         .map(|f| f.vertices().map(|v| v.fix().index()))
         .collect();
     let aligned_share = |w: f64| -> f64 {
-        let mut b = Builder::new();
-        b.entity(2, 1, &[], &[]);
-        let tags: Vec<u64> = pts
-            .iter()
-            .map(|p| b.node(2, 1, [p[0], p[1], 0.0]))
-            .collect();
-        for tri in &tris {
-            b.tri(1, tri.map(|v| tags[v]));
-        }
-        let mut m = b.mesh;
+        let (mut m, _) = planar_mesh(&pts, &tris);
         let opts = RecombineOptions {
             verify: true,
             cross_field_weight: w,
