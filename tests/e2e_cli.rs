@@ -163,6 +163,20 @@ fn usage_errors_are_exit_2() {
             "--parity".as_ref(),
             "maybe".as_ref(),
         ],
+        vec![
+            shipped.as_os_str(),
+            "-o".as_ref(),
+            "x.msh".as_ref(),
+            "--cross-field".as_ref(),
+            "7".as_ref(),
+        ],
+        vec![
+            shipped.as_os_str(),
+            "-o".as_ref(),
+            "x.msh".as_ref(),
+            "--cross-field".as_ref(),
+            "NaN".as_ref(),
+        ],
         vec!["quality".as_ref()],
     ] {
         let (code, _, stderr) = blossomquad_run(args);

@@ -175,3 +175,26 @@ fn format_override_on_recombination() {
         recombine_and_check(&input, &output, target, &target.cli_args());
     }
 }
+
+/// The eq. 7 cost option on a curved multi-face solid and on the odd-surface fixture: the
+/// output passes the same independent checks (`recombine` runs with `--verify`).
+#[test]
+fn cross_field_cost_output_is_valid() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for fixture in ["cad_solid", "even_curves"] {
+        let input = generate(
+            fixture,
+            Variant::Msh41Binary,
+            dir.path(),
+            test_size(fixture),
+            &[],
+        );
+        let output = dir.path().join(format!("{fixture}-cross.msh"));
+        recombine_and_check(
+            &input,
+            &output,
+            Variant::Msh41Binary,
+            &["--cross-field", "0.3"],
+        );
+    }
+}
