@@ -34,8 +34,7 @@
 //! Cost: O(1) per candidate sequence (at most (2·7)^depth of them per start edge), one sweep
 //! over the edges per round, so O(n) per round for a fixed depth.
 
-use super::local::{Local, NONE};
-use crate::quality::eta_signed_fast;
+use super::local::{slot, Local, NONE};
 use glam::DVec3;
 use std::f64::consts::FRAC_PI_2;
 
@@ -117,10 +116,6 @@ struct Topo<'a> {
     unsafe_node: Vec<bool>,
     /// Undo log of the current tentative sequence.
     log: Vec<Saved>,
-}
-
-fn slot(quad: &[u32; 4], v: u32) -> Option<usize> {
-    quad.iter().position(|&w| w == v)
 }
 
 impl<'a> Topo<'a> {
@@ -236,9 +231,6 @@ impl<'a> Topo<'a> {
                 c += WIDE_CORNER_PENALTY;
             }
         }
-        if false {
-            c += WIDE_CORNER_PENALTY;
-        }
         c
     }
 
@@ -298,12 +290,6 @@ impl<'a> Topo<'a> {
             }
         });
         hit
-    }
-
-    fn quality(&self, quad: &[u32; 4]) -> f64 {
-        let p = quad.map(|w| self.l.pos[w as usize]);
-        let n: DVec3 = quad.iter().map(|&w| self.l.nrm[w as usize]).sum();
-        eta_signed_fast(&p, n)
     }
 
     /// Sets quad `q` to `nodes`, logging its old state.
@@ -392,7 +378,7 @@ impl<'a> Topo<'a> {
         quads.dedup();
         let mut moved: Vec<u32> = quads
             .iter()
-            .filter(|&&q| self.quality(&self.l.quads[q as usize]) <= MIN_ETA)
+            .filter(|&&q| self.l.quality(q) <= MIN_ETA)
             .flat_map(|&q| self.l.quads[q as usize])
             .filter(|&w| !self.l.fixed[w as usize])
             .collect();
@@ -424,12 +410,10 @@ impl<'a> Topo<'a> {
             }
         }
         let thr = RELOCATED_MIN_ETA;
-        let mut ok = quads
-            .iter()
-            .all(|&q| self.quality(&self.l.quads[q as usize]) > thr);
+        let mut ok = quads.iter().all(|&q| self.l.quality(q) > thr);
         for &w in &moved {
             self.around(w, |q| {
-                ok = ok && self.quality(&self.l.quads[q as usize]) > thr;
+                ok = ok && self.l.quality(q) > thr;
             });
         }
         ok
