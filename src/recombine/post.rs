@@ -165,7 +165,7 @@ pub(crate) fn build_faces(
 #[allow(clippy::too_many_arguments)]
 fn try_swap(
     topo: &SurfaceTopo,
-    fan: &super::graph::Fan,
+    fan: &Fan,
     mate: &[u32],
     mark: &[u8],
     coords: &[DVec3],
@@ -235,7 +235,7 @@ fn try_swap(
 /// (in the orientation of the triangles). The new edge `v v'` is shared by these two quads.
 fn duplicate(
     topo: &SurfaceTopo,
-    fan: &super::graph::Fan,
+    fan: &Fan,
     coords: &[DVec3],
     n_global: u32,
     faces: &mut [Vec<u32>],
@@ -245,15 +245,9 @@ fn duplicate(
     let v = fan.v;
     let k = fan.tris.len();
     let vp = n_global + out.new_nodes.len() as u32;
-    let near: Vec<u32> = fan
-        .tris
-        .windows(2)
-        .map(|w| shared_other(topo, w[0], w[1], v))
-        .collect();
-    if near.contains(&NONE) {
+    let Some(FanFrame { near, mean, normal }) = fan_frame(topo, coords, fan) else {
         return Err(format!("fan at node id {v} is not connected"));
-    }
-    let mean = near.iter().map(|&a| coords[a as usize]).sum::<DVec3>() / near.len() as f64;
+    };
     // 1. middle faces: v -> v'
     for &t in &fan.tris[1..k - 1] {
         let f = tri_face[t as usize] as usize;
@@ -296,30 +290,18 @@ fn duplicate(
         };
         faces[fe].insert(insert_after + 1, vp);
     }
-    let touched: Vec<usize> = fan
-        .tris
-        .iter()
-        .map(|&t| tri_face[t as usize] as usize)
-        .collect();
-    let normal: DVec3 = fan
-        .tris
-        .iter()
-        .map(|&t| super::graph::tri_normal(coords, topo.tris[t as usize]))
-        .sum();
     let earlier = &out.new_nodes;
     let at = |i: u32, cand: DVec3| match i.checked_sub(n_global) {
         _ if i == vp => cand,
         None => coords[i as usize],
         Some(k) => earlier.get(k as usize).map_or(cand, |nn| nn.pos),
     };
+    let touched = fan
+        .tris
+        .iter()
+        .map(|&t| &faces[tri_face[t as usize] as usize][..]);
     let (pos, _) = place_duplicate(coords[v as usize], mean, |cand| {
-        touched
-            .iter()
-            .map(|&f| {
-                let pts: Vec<DVec3> = faces[f].iter().map(|&i| at(i, cand)).collect();
-                unfolded_margin(&pts, normal)
-            })
-            .fold(f64::INFINITY, f64::min)
+        worst_margin(touched.clone(), |i| at(i, cand), normal)
     });
     out.new_nodes.push(NewNode { pos, near });
     Ok(())
@@ -353,20 +335,10 @@ pub(crate) fn duplication_margin(topo: &SurfaceTopo, coords: &[DVec3], fan: &Fan
     const VP: u32 = u32::MAX;
     let v = fan.v;
     let k = fan.tris.len();
-    let near: Vec<u32> = fan
-        .tris
-        .windows(2)
-        .map(|w| shared_other(topo, w[0], w[1], v))
-        .collect();
-    if k < 2 || near.contains(&NONE) {
+    let frame = (k >= 2).then(|| fan_frame(topo, coords, fan)).flatten();
+    let Some(FanFrame { near, mean, normal }) = frame else {
         return f64::NEG_INFINITY;
-    }
-    let mean = near.iter().map(|&a| coords[a as usize]).sum::<DVec3>() / near.len() as f64;
-    let normal: DVec3 = fan
-        .tris
-        .iter()
-        .map(|&t| super::graph::tri_normal(coords, topo.tris[t as usize]))
-        .sum();
+    };
     let mut polys: Vec<Vec<u32>> = Vec::with_capacity(k);
     for (end, a) in [(fan.tris[0], near[0]), (fan.tris[k - 1], near[k - 2])] {
         let tri = topo.tris[end as usize];
@@ -390,18 +362,55 @@ pub(crate) fn duplication_margin(topo: &SurfaceTopo, coords: &[DVec3], fan: &Fan
         );
     }
     place_duplicate(coords[v as usize], mean, |cand| {
-        polys
-            .iter()
-            .map(|poly| {
-                let pts: Vec<DVec3> = poly
-                    .iter()
-                    .map(|&i| if i == VP { cand } else { coords[i as usize] })
-                    .collect();
-                unfolded_margin(&pts, normal)
-            })
-            .fold(f64::INFINITY, f64::min)
+        worst_margin(
+            polys.iter().map(|p| &p[..]),
+            |i| if i == VP { cand } else { coords[i as usize] },
+            normal,
+        )
     })
     .1
+}
+
+/// What a vertex duplication of a fan at `v` needs: `near[i]`, the node shared by fan
+/// triangles `i` and `i + 1` besides `v`; their mean; and the fan's normal (sum of its
+/// triangles' normals).
+struct FanFrame {
+    near: Vec<u32>,
+    mean: DVec3,
+    normal: DVec3,
+}
+
+/// The [`FanFrame`] of `fan`; `None` when two successive triangles share no edge at `v`.
+fn fan_frame(topo: &SurfaceTopo, coords: &[DVec3], fan: &Fan) -> Option<FanFrame> {
+    let near: Vec<u32> = fan
+        .tris
+        .windows(2)
+        .map(|w| shared_other(topo, w[0], w[1], fan.v))
+        .collect();
+    if near.contains(&NONE) {
+        return None;
+    }
+    let mean = near.iter().map(|&a| coords[a as usize]).sum::<DVec3>() / near.len() as f64;
+    let normal = fan
+        .tris
+        .iter()
+        .map(|&t| super::graph::tri_normal(coords, topo.tris[t as usize]))
+        .sum();
+    Some(FanFrame { near, mean, normal })
+}
+
+/// The smallest [`unfolded_margin`] over `polys` (node ids placed by `at`).
+fn worst_margin<'p>(
+    polys: impl Iterator<Item = &'p [u32]>,
+    at: impl Fn(u32) -> DVec3,
+    normal: DVec3,
+) -> f64 {
+    polys
+        .map(|poly| {
+            let pts: Vec<DVec3> = poly.iter().map(|&i| at(i)).collect();
+            unfolded_margin(&pts, normal)
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// How far polygon `pts` is from folded, seen along `normal`: for a quad, the larger over its
