@@ -183,11 +183,11 @@ pub fn optimize(
             p(d.min(total), total);
         }
     };
-    let refnodes = RefNodes::new(reference);
+    let refnodes = FlatNodes::new(reference);
     let results: Vec<(Local, SurfaceOptimizeReport)> = locals
         .into_par_iter()
         .map(|mut l| {
-            attach_reference(&mut l, &refnodes);
+            attach_reference(&mut l, reference, &refnodes);
             let rep = run_surface(&mut l, opts, &tick);
             (l, rep)
         })
@@ -555,65 +555,19 @@ fn morton_order(quads: &[[u32; 4]], coords: &[DVec3]) -> Vec<u32> {
     keyed.into_iter().map(|(_, i)| i).collect()
 }
 
-/// The reference mesh's nodes, indexed once for every surface.
-struct RefNodes<'a> {
-    mesh: &'a Mesh,
-    index: crate::mesh::NodeIndex,
-    /// First flat index of each node block.
-    offsets: Vec<usize>,
-    total: usize,
-}
-
-impl<'a> RefNodes<'a> {
-    fn new(mesh: &'a Mesh) -> Self {
-        let mut offsets = Vec::with_capacity(mesh.node_blocks.len());
-        let mut total = 0;
-        for b in &mesh.node_blocks {
-            offsets.push(total);
-            total += b.tags.len();
-        }
-        RefNodes {
-            mesh,
-            index: mesh.node_index(),
-            offsets,
-            total,
-        }
-    }
-
-    /// Position of the node with flat index `id`.
-    fn position(&self, id: u32) -> DVec3 {
-        let b = self.offsets.partition_point(|&o| o <= id as usize) - 1;
-        DVec3::from_array(self.mesh.node_blocks[b].coords[id as usize - self.offsets[b]])
-    }
-
-    /// Flat index and position of node `tag`.
-    fn get(&self, tag: u64) -> Option<(u32, DVec3)> {
-        let r = self.index.get(tag)?;
-        let b = &self.mesh.node_blocks[r.block as usize];
-        let c = DVec3::from_array(b.coords[r.index as usize]);
-        Some((
-            (self.offsets[r.block as usize] + r.index as usize) as u32,
-            c,
-        ))
-    }
-}
-
 /// Builds the surface's reference triangulation (triangles of the same surface entity in
 /// `reference`, else the quads split in two), locates every node on it and sets the sizes.
 /// Planar surfaces need no projection: their nodes missing from the reference take the mean
 /// size of their matched neighbours and no spatial index is built.
-fn attach_reference(l: &mut Local, reference: &RefNodes) {
+fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes) {
     // reference triangles of the surface, on compact point indices (first use order)
-    let dense = reference.total <= 64 * l.pos.len().max(1);
-    let mut compact_dense: Vec<u32> = if dense {
-        vec![NONE; reference.total]
-    } else {
-        Vec::new()
-    };
+    let total = rnodes.coords.len();
+    let dense = total <= 64 * l.pos.len().max(1);
+    let mut compact_dense: Vec<u32> = if dense { vec![NONE; total] } else { Vec::new() };
     let mut compact_sparse: std::collections::HashMap<u32, u32> = Default::default();
     let mut pts: Vec<DVec3> = Vec::new();
     let mut tris: Vec<[u32; 3]> = Vec::new();
-    for b in &reference.mesh.element_blocks {
+    for b in &reference.element_blocks {
         if b.entity_dim != 2 || b.entity_tag != l.surface || b.element_type != etype::TRI3 {
             continue;
         }
@@ -622,7 +576,7 @@ fn attach_reference(l: &mut Local, reference: &RefNodes) {
             .with_min_len(4096)
             .map(|e| {
                 let el = b.element(e);
-                [el[0], el[1], el[2]].map(|t| reference.get(t).map_or(NONE, |(id, _)| id))
+                [el[0], el[1], el[2]].map(|t| rnodes.get(t).unwrap_or(NONE))
             })
             .collect();
         for t3 in ids {
@@ -638,7 +592,7 @@ fn attach_reference(l: &mut Local, reference: &RefNodes) {
                 };
                 if *slot == NONE {
                     *slot = pts.len() as u32;
-                    pts.push(reference.position(id));
+                    pts.push(rnodes.coords[id as usize]);
                 }
                 t[k] = *slot;
             }
@@ -687,9 +641,9 @@ fn attach_reference(l: &mut Local, reference: &RefNodes) {
             .into_par_iter()
             .with_min_len(4096)
             .map(|v| {
-                reference
+                rnodes
                     .get(l.tags[v])
-                    .and_then(|(id, p)| compact(id).filter(|_| p == l.pos[v]))
+                    .and_then(|id| compact(id).filter(|_| rnodes.coords[id as usize] == l.pos[v]))
                     .filter(|&i| incident[i as usize] != NONE)
             })
             .collect();
