@@ -15,3 +15,4 @@ pub mod msh;
 pub mod optimize;
 pub mod quality;
 pub mod recombine;
+pub mod refine;

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Independent invariant checker for blossomquad outputs.
 
-Usage: check_mesh.py INPUT.msh OUTPUT.msh [--allow-dropped-volumes] [--allow-triangles]
+Usage: check_mesh.py INPUT.msh OUTPUT.msh [--allow-dropped-volumes] [--allow-triangles] [--refined=N]
 
 INPUT is the triangle mesh given to blossomquad, OUTPUT its result. Both are read
 with Gmsh's own reader (the `gmsh` Python module); nothing here uses blossomquad's
@@ -17,9 +17,13 @@ code. Checks (names as in the JSON report):
   conformity        per surface, every edge is used by at most two faces.
   boundary          per surface, the edges used once are the input surface's
                     boundary edges, each either kept or split in two by exactly
-                    one new node lying on the segment (parity repair).
-  curve_edges       every input line element (1D) survives, kept or split in two
-                    the same way; every input segment inside a surface (embedded
+                    one new node lying on the segment (parity repair); with
+                    --refined=N (N uniform refinements), split into a chain of
+                    2^N (2^(N+1) after a parity split) pieces whose new nodes lie
+                    within a tenth of the segment's
+                    length of it (new curve nodes follow the curve).
+  curve_edges       every input line element (1D) survives, kept or split the
+                    same way; every input segment inside a surface (embedded
                     curve) is still an edge used twice there.
   fixed_nodes       nodes on curves and points, and nodes on surface boundaries,
                     keep their tag and coordinates.
@@ -27,7 +31,8 @@ code. Checks (names as in the JSON report):
                     classified on a surface (removed by doublet collapse or
                     quad-vertex merge) or, with --allow-dropped-volumes, on a volume.
   area              planar surfaces (all nodes on one plane) keep their total
-                    signed area to 1e-9 relative (quads counted as two triangles).
+                    signed area to 1e-9 relative (quads counted as two triangles;
+                    1e-3 with --refined, whose curve nodes follow curved curves).
   orientation       every quad is oriented like the input triangles of its
                     surface: on a planar surface its normal agrees with the
                     input's average normal; on a curved surface with the normal
@@ -227,12 +232,15 @@ class Report:
             self.violations.append(f"{name}: {message}")
 
 
-def match_split(expected, actual, inp, out, tol):
+def match_split(expected, actual, inp, out, tol, refined=0):
     """Matches expected edges (from INPUT) against actual edges (of OUTPUT).
 
-    Each expected edge must be in `actual`, or be split into (a, m), (m, b) with m a
-    node absent from INPUT lying on the segment. Returns (missing, extra, splits)
-    where splits maps an expected edge key to its split node.
+    Each expected edge must be in `actual`, or be split into a chain (a, m1), (m1, m2),
+    ..., (mk, b) of nodes absent from INPUT lying on the segment: k = 1 (parity repair)
+    without refinement; with `refined` uniform refinements, k < 2^(refined + 1) and the
+    nodes may lie off the chord by up to a tenth of the segment (new curve nodes follow
+    the curve). Returns (missing, extra, splits) where splits maps an expected edge key
+    to the tuple of its chain's inner nodes.
     """
     actual = set(actual)
     used = set()
@@ -242,25 +250,42 @@ def match_split(expected, actual, inp, out, tol):
     for e in actual:
         by_node.setdefault(e[0], []).append(e)
         by_node.setdefault(e[1], []).append(e)
+    # pieces per segment: 2 (parity split); 2^N after N refinements, 2^(N+1) when the
+    # segment was also split for parity
+    pieces = {2} if refined == 0 else {2 ** refined, 2 ** (refined + 1)}
+    max_inner = max(pieces) - 1
+    band = tol if refined == 0 else 0.1
+
+    def chain(a, b):
+        if a not in out.nodes or b not in out.nodes:
+            return None
+        pa, pb = out.nodes[a], out.nodes[b]
+        stack = [[a]]
+        while stack:
+            path = stack.pop()
+            for e in by_node.get(path[-1], []):
+                m = e[1] if e[0] == path[-1] else e[0]
+                if m == b and len(path) in pieces:
+                    return tuple(path[1:])
+                if m in inp.nodes or m not in out.nodes or m in path or len(path) > max_inner:
+                    continue
+                if on_segment(out.nodes[m], pa, pb, band):
+                    stack.append(path + [m])
+        return None
+
     for e in expected:
         if e in actual:
             used.add(e)
             continue
         a, b = e
-        found = None
-        for ea in by_node.get(a, []):
-            m = ea[1] if ea[0] == a else ea[0]
-            if m in inp.nodes or m not in out.nodes or key(m, b) not in actual:
-                continue
-            if a in out.nodes and b in out.nodes and on_segment(out.nodes[m], out.nodes[a], out.nodes[b], tol):
-                found = m
-                break
+        found = chain(a, b)
         if found is None:
             missing.append(e)
         else:
             splits[e] = found
-            used.add(key(a, found))
-            used.add(key(found, b))
+            nodes = (a,) + found + (b,)
+            for x, y in zip(nodes, nodes[1:]):
+                used.add(key(x, y))
     extra = sorted(actual - used)
     return missing, extra, splits
 
@@ -313,7 +338,7 @@ class NearestTriangle:
                 return best
 
 
-def check(inp, out, allow_dropped_volumes, allow_triangles):
+def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0):
     rep = Report()
     scale = scale_of(inp)
     tol = 1e-9
@@ -361,7 +386,7 @@ def check(inp, out, allow_dropped_volumes, allow_triangles):
     for curve, segs in inp.lines.items():
         expected = {key(a, b) for a, b in segs}
         actual = {key(a, b) for a, b in out.lines.get(curve, [])}
-        missing, extra, splits = match_split(expected, actual, inp, out, 1e-6)
+        missing, extra, splits = match_split(expected, actual, inp, out, 1e-6, refined)
         all_splits.update(splits)
         rep.check("curve_edges", not missing and not extra,
                   f"curve {curve}: {len(missing)} segments missing (e.g. {missing[:3]}), "
@@ -387,7 +412,7 @@ def check(inp, out, allow_dropped_volumes, allow_triangles):
         uses_in = edge_uses(in_faces)
         bnd_in = {e for e, n in uses_in.items() if n == 1}
         bnd_out = {e for e, n in uses_out.items() if n == 1}
-        missing, extra, splits = match_split(bnd_in, bnd_out, inp, out, 1e-6)
+        missing, extra, splits = match_split(bnd_in, bnd_out, inp, out, 1e-6, refined)
         rep.check("boundary", not missing and not extra,
                   f"surface {surface}: {len(missing)} input boundary edges lost (e.g. {missing[:3]}), "
                   f"{len(extra)} new boundary edges (e.g. {extra[:3]})")
@@ -402,11 +427,11 @@ def check(inp, out, allow_dropped_volumes, allow_triangles):
             for a, b in segs:
                 e = key(a, b)
                 if uses_in.get(e) == 2:
-                    m = all_splits.get(e)
-                    pieces = [e] if m is None else [key(a, m), key(m, b)]
+                    nodes = (a,) + all_splits.get(e, ()) + (b,)
+                    pieces = [key(x, y) for x, y in zip(nodes, nodes[1:])]
                     ok = all(uses_out.get(p) == 2 for p in pieces)
                     rep.check("curve_edges", ok, f"surface {surface}: embedded segment {e} lost")
-        check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, tol)
+        check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, tol if refined == 0 else 1e-3)
     for surface in out.faces:
         rep.check("entities", surface in inp.faces or any(e == (2, surface) for e in inp.entities),
                   f"faces on unknown surface {surface}")
@@ -415,8 +440,9 @@ def check(inp, out, allow_dropped_volumes, allow_triangles):
     return rep, quads, tris_left
 
 
-def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, tol):
-    """Area (planar surfaces) and orientation checks for one surface."""
+def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, area_tol):
+    """Area (planar surfaces, to `area_tol` relative) and orientation checks for one surface."""
+    tol = 1e-9
     in_pts = [[inp.nodes[n] for n in f] for _, f in in_faces]
     normals = [polygon_normal(p) for p in in_pts]
     total = (0.0, 0.0, 0.0)
@@ -436,7 +462,7 @@ def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, tol):
         area_in = sum(dot(n, axis) for n in normals) / 2.0
         area_out = sum(dot(polygon_normal(p), axis) for p in out_pts) / 2.0
         rel = abs(area_out - area_in) / max(abs(area_in), 1e-300)
-        rep.check("area", rel <= 1e-9, f"surface {surface}: area {area_in!r} -> {area_out!r} (rel {rel:.3e})")
+        rep.check("area", rel <= area_tol, f"surface {surface}: area {area_in!r} -> {area_out!r} (rel {rel:.3e})")
         flipped = sum(1 for p in out_pts if dot(polygon_normal(p), axis) <= 0.0)
     else:
         centroids = [tuple(sum(c[i] for c in p) / len(p) for i in range(3)) for p in in_pts]
@@ -453,7 +479,12 @@ def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, tol):
 
 def main(argv):
     args = [a for a in argv[1:] if not a.startswith("--")]
-    flags = {a for a in argv[1:] if a.startswith("--")}
+    flags = {a for a in argv[1:] if a.startswith("--") and not a.startswith("--refined=")}
+    refined = [a.split("=", 1)[1] for a in argv[1:] if a.startswith("--refined=")]
+    if refined and not refined[-1].isdigit():
+        print(__doc__.splitlines()[2], file=sys.stderr)
+        return 2
+    refined = int(refined[-1]) if refined else 0
     unknown = flags - {"--allow-dropped-volumes", "--allow-triangles"}
     if len(args) != 2 or unknown:
         print(__doc__.splitlines()[2], file=sys.stderr)
@@ -469,7 +500,7 @@ def main(argv):
         print(_dumps({"ok": False, "input": args[0], "output": args[1],
                           "checks": {"loads": False}, "violations": [f"loads: {m}" for m in out.errors[:5]]}))
         return 1
-    rep, quads, tris = check(inp, out, "--allow-dropped-volumes" in flags, "--allow-triangles" in flags)
+    rep, quads, tris = check(inp, out, "--allow-dropped-volumes" in flags, "--allow-triangles" in flags, refined)
     rep.checks["loads"] = True
     ok = all(rep.checks.values())
     print(_dumps({

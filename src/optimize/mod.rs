@@ -59,6 +59,10 @@ pub struct OptimizeOptions<'a> {
     /// Final quality-maximizing sweeps (pattern search on the star's mean η, worst η kept),
     /// preceded by a max-min polish of the quads with η < 0.6; 0 disables both.
     pub angle_sweeps: usize,
+    /// Factor applied to the target sizes taken from the reference triangulation: `0.5^N`
+    /// after N uniform refinements ([`crate::refine`]), whose quads are 2^N times smaller
+    /// than the triangles they came from.
+    pub reference_size_scale: f64,
     /// Called with (steps done, total steps) as surfaces progress, from any thread.
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
 }
@@ -75,6 +79,7 @@ impl Default for OptimizeOptions<'_> {
             max_rounds: 4,
             diagonal_weight: 0.5,
             angle_sweeps: 2,
+            reference_size_scale: 1.0,
             progress: None,
         }
     }
@@ -88,6 +93,7 @@ impl std::fmt::Debug for OptimizeOptions<'_> {
             .field("max_rounds", &self.max_rounds)
             .field("diagonal_weight", &self.diagonal_weight)
             .field("angle_sweeps", &self.angle_sweeps)
+            .field("reference_size_scale", &self.reference_size_scale)
             .field("progress", &self.progress.is_some())
             .finish()
     }
@@ -187,7 +193,7 @@ pub fn optimize(
     let results: Vec<(Local, SurfaceOptimizeReport)> = locals
         .into_par_iter()
         .map(|mut l| {
-            attach_reference(&mut l, reference, &refnodes);
+            attach_reference(&mut l, reference, &refnodes, opts.reference_size_scale);
             let rep = run_surface(&mut l, opts, &tick);
             (l, rep)
         })
@@ -556,10 +562,11 @@ fn morton_order(quads: &[[u32; 4]], coords: &[DVec3]) -> Vec<u32> {
 }
 
 /// Builds the surface's reference triangulation (triangles of the same surface entity in
-/// `reference`, else the quads split in two), locates every node on it and sets the sizes.
+/// `reference`, else the quads split in two), locates every node on it and sets the sizes
+/// (those from reference triangles times `size_scale`).
 /// Planar surfaces need no projection: their nodes missing from the reference take the mean
 /// size of their matched neighbours and no spatial index is built.
-fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes) {
+fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes, size_scale: f64) {
     // reference triangles of the surface, on compact point indices (first use order)
     let total = rnodes.coords.len();
     let dense = total <= 64 * l.pos.len().max(1);
@@ -625,7 +632,10 @@ fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes) {
             tris.push([q[0], q[2], q[3]]);
         }
     }
-    let nodal = mean_incident_edge_length(&pts, tris.iter().map(|t| &t[..]));
+    let mut nodal = mean_incident_edge_length(&pts, tris.iter().map(|t| &t[..]));
+    if !own {
+        nodal.iter_mut().for_each(|h| *h *= size_scale);
+    }
     // a node of the reference (same tag, same place) is located without a search
     let mut unmatched = Vec::new();
     if own {
@@ -659,24 +669,41 @@ fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes) {
         }
     }
     if l.planar {
-        // nothing to project on: a missing node takes its matched neighbours' mean size
+        // nothing to project on: a missing node takes its matched neighbours' mean size,
+        // in rounds outward from the matched nodes (after uniform refinement most nodes
+        // are new, some several rings away from any reference node)
         let mut matched = vec![true; l.pos.len()];
         for &v in &unmatched {
             matched[v] = false;
         }
-        for &v in &unmatched {
-            let (mut sum, mut cnt) = (0.0, 0);
-            for &q in l.star(v as u32) {
-                for &w in &l.quads[q as usize] {
-                    if matched[w as usize] {
-                        sum += l.h[w as usize];
-                        cnt += 1;
+        let mut left = unmatched;
+        while !left.is_empty() {
+            let mut assigned = Vec::new();
+            let mut rest = Vec::new();
+            for &v in &left {
+                let (mut sum, mut cnt) = (0.0, 0);
+                for &q in l.star(v as u32) {
+                    for &w in &l.quads[q as usize] {
+                        if matched[w as usize] {
+                            sum += l.h[w as usize];
+                            cnt += 1;
+                        }
                     }
                 }
+                if cnt > 0 {
+                    l.h[v] = sum / cnt as f64;
+                    assigned.push(v);
+                } else {
+                    rest.push(v);
+                }
             }
-            if cnt > 0 {
-                l.h[v] = sum / cnt as f64;
+            if assigned.is_empty() {
+                break;
             }
+            for v in assigned {
+                matched[v] = true;
+            }
+            left = rest;
         }
         return;
     }
