@@ -557,7 +557,7 @@ pub(crate) mod tests {
     use super::*;
     use crate::mesh::Mesh;
     use crate::optimize::synth::{self, Soup};
-    use crate::optimize::{extract, node_owners, write_back, OptimizeReport};
+    use crate::optimize::{extract, node_owners, write_back, OptimizeReport, PendingNodes};
     use crate::quality::FlatNodes;
 
     /// The single surface of `m` as a [`Local`], with its node → quads adjacency.
@@ -607,7 +607,9 @@ pub(crate) mod tests {
         l.build_adjacency();
         let e1 = energy(&mut l);
         let mut rep = OptimizeReport::default();
-        write_back(m, &flat, &l, &mut rep);
+        let mut pending = PendingNodes::new(m);
+        write_back(m, &flat, &l, &mut rep, &mut pending);
+        pending.apply(m);
         crate::optimize::check::check_surface_mesh(m).expect("conforming, oriented");
         (e0, e1, seqs)
     }

@@ -199,10 +199,12 @@ pub fn optimize(
         })
         .collect();
     let mut report = OptimizeReport::default();
+    let mut pending = PendingNodes::new(mesh);
     for (l, rep) in results {
-        write_back(mesh, &flat, &l, &mut report);
+        write_back(mesh, &flat, &l, &mut report, &mut pending);
         report.surfaces.push(rep);
     }
+    pending.apply(mesh);
     if report.quads_removed > 0
         || report
             .surfaces
@@ -736,14 +738,61 @@ fn remove_sorted<T>(v: &mut Vec<T>, rm: &[usize]) {
 }
 
 /// Writes node positions, removed nodes and changed/removed quads back into `mesh`.
-fn write_back(mesh: &mut Mesh, flat: &FlatNodes, l: &Local, report: &mut OptimizeReport) {
+/// Node changes of all surfaces, applied after every surface has been written back: a node
+/// block can hold nodes of several surfaces (e.g. new nodes on a curve-less edge shared by
+/// two surfaces), and removing nodes shifts the flat indices the other surfaces use.
+pub(crate) struct PendingNodes {
+    removed_by_block: Vec<Vec<usize>>,
+    moved_blocks: Vec<bool>,
+}
+
+impl PendingNodes {
+    pub(crate) fn new(mesh: &Mesh) -> Self {
+        PendingNodes {
+            removed_by_block: vec![Vec::new(); mesh.node_blocks.len()],
+            moved_blocks: vec![false; mesh.node_blocks.len()],
+        }
+    }
+
+    /// Removes the nodes marked removed; drops the parametric coordinates of blocks whose
+    /// nodes moved (they no longer match the coordinates).
+    pub(crate) fn apply(self, mesh: &mut Mesh) {
+        for (b, mut rm) in self.removed_by_block.into_iter().enumerate() {
+            if rm.is_empty() && !self.moved_blocks[b] {
+                continue;
+            }
+            let block = &mut mesh.node_blocks[b];
+            if block.params.is_some() {
+                block.params = None;
+                mesh.warnings.push(format!(
+                    "parametric coordinates of node block ({}, {}) dropped: nodes moved",
+                    block.entity_dim, block.entity_tag
+                ));
+            }
+            if rm.is_empty() {
+                continue;
+            }
+            rm.sort_unstable();
+            remove_sorted(&mut block.tags, &rm);
+            remove_sorted(&mut block.coords, &rm);
+        }
+    }
+}
+
+/// Writes surface `l` back: moved coordinates and the quads in place, dead quads removed;
+/// removed nodes go to `pending` (see [`PendingNodes`]).
+pub(crate) fn write_back(
+    mesh: &mut Mesh,
+    flat: &FlatNodes,
+    l: &Local,
+    report: &mut OptimizeReport,
+    pending: &mut PendingNodes,
+) {
     // nodes: flat index -> (block, index)
     let block_of = |g: usize| {
         let b = flat.offsets.partition_point(|&o| o <= g) - 1;
         (b, g - flat.offsets[b])
     };
-    let mut removed_by_block: Vec<Vec<usize>> = vec![Vec::new(); mesh.node_blocks.len()];
-    let mut moved_blocks = vec![false; mesh.node_blocks.len()];
     let tag_of = |g: u32| {
         let (b, i) = block_of(g as usize);
         mesh.node_blocks[b].tags[i]
@@ -755,31 +804,12 @@ fn write_back(mesh: &mut Mesh, flat: &FlatNodes, l: &Local, report: &mut Optimiz
         }
         let (b, i) = block_of(l.global[v] as usize);
         if l.removed[v] {
-            removed_by_block[b].push(i);
+            pending.removed_by_block[b].push(i);
             report.nodes_removed += 1;
         } else if mesh.node_blocks[b].coords[i] != l.pos[v].to_array() {
             mesh.node_blocks[b].coords[i] = l.pos[v].to_array();
-            moved_blocks[b] = true;
+            pending.moved_blocks[b] = true;
         }
-    }
-    for (b, mut rm) in removed_by_block.into_iter().enumerate() {
-        if rm.is_empty() && !moved_blocks[b] {
-            continue;
-        }
-        let block = &mut mesh.node_blocks[b];
-        if block.params.is_some() {
-            block.params = None;
-            mesh.warnings.push(format!(
-                "surface {}: parametric coordinates of node block ({}, {}) dropped: nodes moved",
-                l.surface, block.entity_dim, block.entity_tag
-            ));
-        }
-        if rm.is_empty() {
-            continue;
-        }
-        rm.sort_unstable();
-        remove_sorted(&mut block.tags, &rm);
-        remove_sorted(&mut block.coords, &rm);
     }
     // quads
     let mut dead_by_block: Vec<Vec<u32>> = vec![Vec::new(); mesh.element_blocks.len()];
