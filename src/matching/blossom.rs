@@ -121,6 +121,16 @@ impl TreeEdge {
     };
 }
 
+/// A heap entry: an edge `(u, v)` with its doubled cost `c` (as in [`Solver::ed`], times
+/// `Solver::mult` in current units), so that validating a popped event reads no edge array;
+/// or an expand event (`u` = blossom `| EXPAND`).
+#[derive(Clone, Copy, Debug)]
+struct Event {
+    c: i64,
+    u: u32,
+    v: u32,
+}
+
 /// A path-compression shortcut of a node: an ancestor `to`, the sum of the duals from the
 /// node up to `to` (excluded), and `to`'s generation when the shortcut was set.
 #[derive(Clone, Copy, Debug)]
@@ -152,8 +162,8 @@ struct Tight {
 /// Solver state. Nodes `0..n` are vertices, nodes `n..` blossoms.
 pub struct Solver {
     n: usize,
-    /// Half-edges (endpoints, scaled cost), loops removed: every edge `{a, b}` appears as
-    /// `(a, b)` and `(b, a)`; heap events are half-edge ids.
+    /// Half-edges (endpoints, doubled cost: units of 1/2, never rescaled), loops removed:
+    /// every edge `{a, b}` appears as `(a, b)` and `(b, a)`.
     ed: Vec<Edge>,
     /// Internal vertex numbering (for memory locality): `order[new] = old`,
     /// `perm[old] = new`.
@@ -181,7 +191,7 @@ pub struct Solver {
     /// lookups from `&self`.
     sc: Vec<Cell<Shortcut>>,
     gen: Vec<u32>,
-    heap: RadixHeap,
+    heap: RadixHeap<Event>,
     /// Global dual change `ε` (all trees move together).
     eps: i64,
     /// Nodes that joined each tree (stale entries are filtered by `tree[node]`).
@@ -189,13 +199,16 @@ pub struct Solver {
     /// Per tree: half-edges from a `+` node of another tree to a `−` node of this tree
     /// (recorded when [`Solver::edge_key`] meets them; stale entries are harmless). They have
     /// no heap entry, and are the only edges that become events when the tree is dissolved.
-    cross: Vec<Vec<u32>>,
-    /// Half-edges into nodes freed by a dissolve, waiting to be pushed.
-    freed: Vec<u32>,
+    cross: Vec<Vec<Event>>,
+    /// Edges into nodes freed by a dissolve, waiting to be pushed.
+    freed: Vec<Event>,
     mark: Vec<u32>,
     mark_stamp: u32,
     /// Costs and duals are in units of `1/scale`.
     scale: i64,
+    /// `scale / 2`: the factor from the doubled costs stored in `ed` (units of 1/2) to the
+    /// current units.
+    mult: i64,
     stack: Vec<(u32, u32)>,
     /// Statistics: number of vertices left exposed by the jump start, re-scalings.
     pub stats: Stats,
@@ -298,6 +311,7 @@ impl Solver {
             mark: vec![0; n],
             mark_stamp: 0,
             scale: 2,
+            mult: 1,
             stack: Vec::new(),
             stats: Stats::default(),
         }
@@ -436,10 +450,9 @@ impl Solver {
     /// runs dry (no perfect matching).
     #[inline]
     fn next_tight(&mut self) -> Result<Tight, NoPerfectMatching> {
-        let Some(e) = self.pop_edge_event() else {
+        let Some((u, v)) = self.pop_edge_event() else {
             return Err(self.stuck_witness());
         };
-        let (u, v) = (self.ed[e].u, self.ed[e].v);
         let (tu, tv) = (self.top_of(u), self.top_of(v));
         Ok(Tight {
             u,
@@ -452,8 +465,8 @@ impl Solver {
     }
 
     /// Pops heap entries until an edge event happens now (see [`Solver::next_event`]) and
-    /// returns its edge id; None when the heap runs dry.
-    fn pop_edge_event(&mut self) -> Option<usize> {
+    /// returns its endpoints; None when the heap runs dry.
+    fn pop_edge_event(&mut self) -> Option<(u32, u32)> {
         loop {
             let (key, id) = self.heap.pop()?;
             if let Some(e) = self.next_event(key, id) {
@@ -464,11 +477,11 @@ impl Solver {
 
     /// Handles a popped heap entry common to both growth modes: expands a `−` blossom whose
     /// dual reached zero, re-pushes an edge whose event time moved, drops stale entries.
-    /// Returns the edge id when an edge event happens now (`ε` advanced to it).
-    fn next_event(&mut self, key: u64, id: u32) -> Option<usize> {
+    /// Returns the edge's endpoints when an edge event happens now (`ε` advanced to it).
+    fn next_event(&mut self, key: u64, ev: Event) -> Option<(u32, u32)> {
         self.stats.pops += 1;
-        if id & EXPAND != 0 {
-            let b = id & !EXPAND;
+        if ev.u & EXPAND != 0 {
+            let b = ev.u & !EXPAND;
             let bi = b as usize;
             if self.nd[bi].label == DEAD
                 || self.nd[bi].parent != NONE
@@ -481,23 +494,26 @@ impl Solver {
             self.expand(b);
             return None;
         }
-        let e = id as usize;
         let key = key as i64;
-        let k2 = self.edge_key(e)?;
-        debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
+        let k2 = self.edge_key(ev)?;
+        debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {ev:?}");
         if k2 >> 1 > key >> 1 {
             // Keys were rescaled or the situation changed since the push.
-            self.heap.push(k2 as u64, id);
+            self.heap.push(k2 as u64, ev);
             return None;
         }
         debug_assert!(key >> 1 >= self.eps);
         self.eps = key >> 1;
-        Some(e)
+        Some((ev.u, ev.v))
     }
 
     fn min_incident_half(&self, v: usize) -> i64 {
         let (a, b) = (self.adj_start[v] as usize, self.adj_start[v + 1] as usize);
-        self.ed[a..b].iter().map(|e| e.c / 2).min().unwrap_or(0)
+        self.ed[a..b]
+            .iter()
+            .map(|e| e.c * self.mult / 2)
+            .min()
+            .unwrap_or(0)
     }
 
     /// Greedy dual jump start (see module docs, step 1).
@@ -512,7 +528,7 @@ impl Solver {
             let mut best_free = NONE;
             for e in a..b {
                 let w = self.ed[e].v;
-                let s = self.ed[e].c - self.nd[v].y - self.nd[w as usize].y;
+                let s = self.ed[e].c * self.mult - self.nd[v].y - self.nd[w as usize].y;
                 if s < best || (s == best && best_free == NONE && self.mate[w as usize] == NONE) {
                     best = s;
                     best_free = if self.mate[w as usize] == NONE {
@@ -584,7 +600,7 @@ impl Solver {
         let ed = self.ed[e];
         debug_assert_eq!(ed.u, x);
         let w = ed.v;
-        (ed.c - self.nd[x as usize].y - self.nd[w as usize].y == 0).then_some(w)
+        (ed.c * self.mult - self.nd[x as usize].y - self.nd[w as usize].y == 0).then_some(w)
     }
 
     /// Current dual of a top-level node (lazy tree correction applied).
@@ -655,25 +671,25 @@ impl Solver {
 
     /// Slack of edge `e` whose endpoints are in different top-level nodes.
     #[inline]
-    fn slack(&self, e: usize) -> i64 {
-        let (tu, iu) = self.find(self.ed[e].u);
-        let (tv, iv) = self.find(self.ed[e].v);
-        self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv)
+    fn slack(&self, e: Event) -> i64 {
+        let (tu, iu) = self.find(e.u);
+        let (tv, iv) = self.find(e.v);
+        e.c * self.mult - iu - iv - self.ycur(tu) - self.ycur(tv)
     }
 
     /// Heap key of edge `e`, or None if it is not an event edge: the event time `ε` shifted
     /// left by one, with bit 0 clear for events that end a tree (`+`–`+`, `+` to an exposed
     /// or half-matched vertex) and set for grows, so that among equal times the tree-ending
     /// events come first (ties are the rule on mesh graphs). May rescale.
-    fn edge_key(&mut self, e: usize) -> Option<i64> {
-        let (tu, iu) = self.find(self.ed[e].u);
-        let (tv, iv) = self.find(self.ed[e].v);
+    fn edge_key(&mut self, e: Event) -> Option<i64> {
+        let (tu, iu) = self.find(e.u);
+        let (tv, iv) = self.find(e.v);
         if tu == tv {
             return None;
         }
         let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
         if pu && pv {
-            let s = self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv);
+            let s = e.c * self.mult - iu - iv - self.ycur(tu) - self.ycur(tv);
             if s % 2 != 0 {
                 self.rescale();
                 return Some((self.eps + self.slack(e) / 2) << 1);
@@ -687,24 +703,24 @@ impl Solver {
                 // becomes an event when the `−` node's tree is dissolved: record it there.
                 let plus = if pu { tu } else { tv };
                 if to != self.nd[plus as usize].tree {
-                    self.cross[to as usize].push(e as u32);
+                    self.cross[to as usize].push(e);
                 }
                 return None;
             }
             let grow = self.mate[self.nd[other as usize].base as usize] != NONE;
-            let t = self.eps + self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv);
+            let t = self.eps + e.c * self.mult - iu - iv - self.ycur(tu) - self.ycur(tv);
             Some((t << 1) | grow as i64)
         } else {
             None
         }
     }
 
-    fn push_edge(&mut self, e: usize) {
+    fn push_edge(&mut self, e: Event) {
         self.stats.evals += 1;
         if let Some(k) = self.edge_key(e) {
-            debug_assert!(k >> 1 >= self.eps, "negative slack on edge {e}");
+            debug_assert!(k >> 1 >= self.eps, "negative slack on edge {e:?}");
             self.stats.pushes += 1;
-            self.heap.push(k as u64, e as u32);
+            self.heap.push(k as u64, e);
         }
     }
 
@@ -719,7 +735,12 @@ impl Solver {
                 self.adj_start[x as usize + 1] as usize,
             );
             for i in a..b {
-                self.push_edge(i);
+                let ed = self.ed[i];
+                self.push_edge(Event {
+                    c: ed.c,
+                    u: ed.u,
+                    v: ed.v,
+                });
             }
         }
         self.stack = verts;
@@ -747,9 +768,7 @@ impl Solver {
     fn rescale(&mut self) {
         self.stats.rescales += 1;
         self.scale *= 2;
-        for e in &mut self.ed {
-            e.c *= 2;
-        }
+        self.mult *= 2;
         for nd in &mut self.nd {
             nd.y *= 2;
         }
@@ -773,7 +792,12 @@ impl Solver {
             self.nd[i].y += self.eps;
             if i >= self.n {
                 let k = self.nd[i].y;
-                self.heap.push(((k << 1) | 1) as u64, node | EXPAND);
+                let ev = Event {
+                    c: 0,
+                    u: node | EXPAND,
+                    v: NONE,
+                };
+                self.heap.push(((k << 1) | 1) as u64, ev);
             }
         }
     }
@@ -1148,7 +1172,7 @@ impl Solver {
     fn push_freed(&mut self) {
         let freed = std::mem::take(&mut self.freed);
         for &e in &freed {
-            self.push_edge(e as usize);
+            self.push_edge(e);
         }
         self.freed = freed;
         self.freed.clear();
@@ -1198,7 +1222,7 @@ impl Solver {
                 best[v] = best[v].min(c);
             }
         }
-        let unit = self.scale;
+        let unit = 2; // `ed` costs are doubled
         let mut cost: i64 = 0;
         for v in 0..n {
             if (self.mate[v] as usize) > v && best[v] != i64::MAX {

@@ -86,8 +86,7 @@ impl Solver {
     /// up `budget` grow steps.
     fn fractional_search(&mut self, cy: &mut Cycles, budget: usize) {
         let mut grows = 0;
-        while let Some(e) = self.pop_edge_event() {
-            let (u, v) = (self.ed[e].u, self.ed[e].v);
+        while let Some((u, v)) = self.pop_edge_event() {
             let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
             if pu && pv {
                 self.close_cycle(cy, u, v);
@@ -154,10 +153,9 @@ impl Solver {
         }
         let mut alive = roots.len();
         while alive > 0 {
-            let Some(e) = self.pop_edge_event() else {
+            let Some((u, v)) = self.pop_edge_event() else {
                 break; // some tree is stuck: leave it to the main phase
             };
-            let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
             if pu && pv {
                 let (ta, tb) = (self.nd[u as usize].tree, self.nd[v as usize].tree);
