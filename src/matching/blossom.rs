@@ -635,32 +635,43 @@ impl Solver {
     /// [`Solver::find`] for a vertex inside a blossom (shortcut walk, path compression).
     #[inline(never)]
     fn find_inner(&self, x: u32) -> (u32, i64) {
-        let mut node = x;
-        let mut s = 0i64;
-        loop {
-            let ni = node as usize;
-            let p = self.nd[ni].parent;
-            if p == NONE {
-                break;
-            }
+        // One step up from non-top node `ni`: through its shortcut if still valid, else to
+        // its parent; returns the next node and the duals summed on the way.
+        let step = |ni: usize| -> (u32, i64) {
             let sc = self.sc[ni].get();
             if sc.to != NONE && sc.gen == self.gen[sc.to as usize] {
-                s += sc.sum;
-                node = sc.to;
+                (sc.to, sc.sum)
             } else {
-                s += self.nd[ni].y;
-                node = p;
+                (self.nd[ni].parent, self.nd[ni].y)
+            }
+        };
+        let mut node = x;
+        let mut s = 0i64;
+        let mut steps = 0u32;
+        while self.nd[node as usize].parent != NONE {
+            let (next, d) = step(node as usize);
+            s += d;
+            node = next;
+            steps += 1;
+        }
+        let top = node;
+        if steps > 0 {
+            // Full path compression: every node on the walk gets a shortcut to `top`, so
+            // deep nestings are walked once (the duals below the top level are frozen).
+            let gen = self.gen[top as usize];
+            let (mut node, mut rem) = (x, s);
+            while node != top {
+                let (next, d) = step(node as usize);
+                self.sc[node as usize].set(Shortcut {
+                    to: top,
+                    gen,
+                    sum: rem,
+                });
+                rem -= d;
+                node = next;
             }
         }
-        if node != x {
-            let xi = x as usize;
-            self.sc[xi].set(Shortcut {
-                to: node,
-                gen: self.gen[node as usize],
-                sum: s,
-            });
-        }
-        (node, s)
+        (top, s)
     }
 
     /// Top-level node containing vertex `x`.
