@@ -256,8 +256,15 @@ pub struct Stats {
 
 impl Solver {
     /// Builds the solver state (CSR adjacency, doubled costs). Loops and edges with an
-    /// endpoint `>= n` are dropped.
+    /// endpoint `>= n` are dropped. Panics when `n >= 2^30` or there are `2^31` edges or more
+    /// (u32 indices; such graphs would need tens of gigabytes anyway).
     pub fn new(n: usize, edges: &[(u32, u32, i64)]) -> Solver {
+        // u32 indices: half-edge ids below 2^32, node ids (vertices and blossoms, < 1.5 n)
+        // below the EXPAND flag bit.
+        assert!(
+            edges.len() < u32::MAX as usize / 2 && n < EXPAND as usize / 2,
+            "matching: too many edges or vertices for u32 indices"
+        );
         let order = locality_order(n, edges);
         let mut perm = vec![0u32; n];
         for (new, &old) in order.iter().enumerate() {
@@ -276,10 +283,6 @@ impl Solver {
         for v in 0..n {
             adj_start[v + 1] += adj_start[v];
         }
-        assert!(
-            (adj_start[n] as u64) < u64::from(EXPAND) && n < EXPAND as usize / 2,
-            "matching: too many edges or vertices for u32 heap ids"
-        );
         let mut fill = adj_start.clone();
         let mut ed = vec![Edge { u: 0, v: 0, c: 0 }; adj_start[n] as usize];
         for &(u, v, c) in edges {
