@@ -22,7 +22,8 @@
 //!    LP, so the other exposed vertices may keep theirs. Consecutive searches touch nearby
 //!    memory. A search that needs more than a budget of grow steps (256) is abandoned; its
 //!    dual changes and blossoms are kept (they are feasible), its root goes to step 3. (An
-//!    unbounded single tree can wander very far on mesh graphs: 50x slower.)
+//!    unbounded single tree can wander very far on mesh graphs: on lattice-1e6 the main
+//!    phase takes 4.5 s instead of 0.36 s.)
 //! 3. **Forest**: every remaining exposed vertex roots an alternating tree; all trees grow
 //!    together under one global dual change `ε`, so that far-apart trees meet half-way.
 //!    Dual changes are lazy (in both modes): when a node joins a tree its stored dual is
