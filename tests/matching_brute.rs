@@ -19,7 +19,9 @@ fn random_graph(rng: &mut Rng, n: usize, p_percent: u64, cost_range: i64) -> Vec
 }
 
 /// Solves with both entry points and checks them against the oracle and the certificate.
-fn check(n: usize, edges: &[(u32, u32, i64)]) {
+/// Returns how many events the starts pushed from dissolved trees' cross-edge lists.
+fn check(n: usize, edges: &[(u32, u32, i64)]) -> usize {
+    let mut cross = 0;
     let expect = brute_force_min_cost(n, edges);
     // Seven starts: fractional (default), none, greedy only, fractional with local-search
     // budgets 0 and 1 (work left to the global pass), main phase with single-tree budgets 0
@@ -31,15 +33,21 @@ fn check(n: usize, edges: &[(u32, u32, i64)]) {
             1 => s.run_plain(),
             2 => {
                 s.init_greedy();
-                s.solve_rest()
+                let r = s.solve_rest();
+                cross += s.stats.cross_pushes;
+                r
             }
             3 | 4 => {
                 s.init_fractional_with(start - 3);
-                s.solve_rest()
+                let r = s.solve_rest();
+                cross += s.stats.cross_pushes;
+                r
             }
             _ => {
                 s.init_fractional();
-                s.solve_rest_with(start - 5)
+                let r = s.solve_rest_with(start - 5);
+                cross += s.stats.cross_pushes;
+                r
             }
         };
         match (expect, res) {
@@ -69,18 +77,23 @@ fn check(n: usize, edges: &[(u32, u32, i64)]) {
         (None, Err(w)) => assert!(matching::verify_witness(n, edges, &w).is_ok()),
         _ => panic!("solve disagrees with oracle: n={n} {edges:?}"),
     }
+    cross
 }
 
 #[test]
 fn random_dense_and_sparse_graphs() {
     let mut rng = Rng(12345);
+    let mut cross = 0;
     for iter in 0..3000 {
         let n = 2 + 2 * rng.below(7) as usize; // 2..14 even
         let p = [15, 30, 50, 80, 100][iter % 5];
         let range = [1, 2, 3, 10, 1000][(iter / 5) % 5];
         let edges = random_graph(&mut rng, n, p, range.max(1));
-        check(n, &edges);
+        cross += check(n, &edges);
     }
+    // The forest starts (budget 0) must reach the dissolve path that re-pushes the edges
+    // other trees had into a dissolved tree's `−` nodes.
+    assert!(cross > 0, "no cross-edge event was ever pushed");
 }
 
 #[test]

@@ -2,8 +2,13 @@
 //!
 //! Edmonds' algorithm (1965) with the data-structure ideas of Kolmogorov's Blossom V (2009)
 //! and of Galil, Micali & Gabow (1986):
-//! 0. **Renumbering** (`locality_order`): vertices are renumbered in breadth-first order and
-//!    edges sorted by endpoint, so that neighbours share cache lines.
+//! 0. **Renumbering** (`locality_order`): vertices are renumbered in breadth-first order, so
+//!    that neighbours share cache lines, and every edge is stored twice as half-edges grouped
+//!    by their first endpoint (CSR), so a vertex's edges with their costs are contiguous. A
+//!    heap entry carries its edge's endpoints and cost, so validating a popped event reads
+//!    only the two endpoint records. Most time goes to cache misses on those records, so
+//!    every per-node structure is kept small (24-byte node records, one 16-byte shortcut
+//!    record, one tree-edge pair).
 //! 1. **Jump start** ([`Solver::init_greedy`], then [`Solver::init_fractional`]): greedy duals
 //!    `y_v` = cheapest cost at `v` (costs are doubled), each vertex raises its dual to its
 //!    smallest slack and takes a tight edge to an exposed neighbour, short tight augmenting
@@ -17,12 +22,13 @@
 //!    LP, so the other exposed vertices may keep theirs. Consecutive searches touch nearby
 //!    memory. A search that needs more than a budget of grow steps (256) is abandoned; its
 //!    dual changes and blossoms are kept (they are feasible), its root goes to step 3. (An
-//!    unbounded single tree can wander very far on mesh graphs: 50x slower.)
+//!    unbounded single tree can wander very far on mesh graphs: on lattice-1e6 the main
+//!    phase takes 4.5 s instead of 0.36 s.)
 //! 3. **Forest**: every remaining exposed vertex roots an alternating tree; all trees grow
 //!    together under one global dual change `ε`, so that far-apart trees meet half-way.
-//!    Dual changes are lazy (in both modes): a tree node stores its dual and
-//!    the `ε` at which it joined, and its current dual is corrected by `+(ε − join)` for `+`
-//!    nodes and `−(ε − join)` for `−` nodes, so a dual change costs O(1). Events live in one
+//!    Dual changes are lazy (in both modes): when a node joins a tree its stored dual is
+//!    offset by `−ε` (`+` node) or `+ε` (`−` node), so its current dual is the stored value
+//!    `+ ε` or `− ε` and a dual change costs O(1) (24-byte node records). Events live in one
 //!    monotone radix heap ([`super::radix`]) keyed by the `ε` at which they happen:
 //!    - `+` node to a free node (slack `s`): at `ε + s` → *grow*;
 //!    - `+` to `+` (slack `s`): at `ε + s/2` → *shrink* into a blossom (same tree) or
@@ -33,9 +39,14 @@
 //!
 //!    Among equal times, tree-ending events come first. Entries are validated when popped
 //!    (lazy deletion) and re-pushed with the right key when the situation changed.
-//! 4. After an augmentation only the two trees involved are dissolved (their duals committed);
+//! 4. After an augmentation only the two trees involved are dissolved (their duals committed).
+//!    The only edges that become events then are those from `+` nodes of other trees into the
+//!    dissolved `−` nodes (`+`→`−` slacks are constant, so they had no heap entry): each tree
+//!    keeps the list of them met so far (`cross`), so a dissolve re-evaluates those instead of
+//!    every edge of its `−` nodes (half the edge evaluations of the forest phases);
 //!    blossoms persist until their dual drops to zero while `−` (Blossom V). The enclosing
-//!    top-level blossom of a vertex is found through path-compressed shortcuts that stay exact
+//!    top-level blossom of a vertex is found through path-compressed shortcuts (every node
+//!    on a walk gets one to the top, so deep nestings are walked once) that stay exact
 //!    because the duals of non-top blossoms are frozen, so forming a blossom never relabels
 //!    its vertices.
 //!
@@ -63,7 +74,7 @@ const EXPAND: u32 = 1 << 31;
 /// forest grown together.
 const MAIN_LOCAL_GROWS: usize = 256;
 
-/// One edge: endpoints and cost (scaled).
+/// One half-edge: from `u` to `v`, and the cost (scaled) of the edge.
 #[derive(Clone, Copy, Debug)]
 struct Edge {
     u: u32,
@@ -71,13 +82,13 @@ struct Edge {
     c: i64,
 }
 
-/// Hot per-node fields (32 bytes).
+/// Hot per-node fields (24 bytes).
 #[derive(Clone, Copy, Debug)]
 struct Node {
-    /// Stored dual (exact unless the node is in a tree: see `ycur`).
+    /// Stored dual: exact for a node outside the trees; for a tree node, its dual minus `ε`
+    /// (`+`) or plus `ε` (`−`), so that [`Solver::ycur`] is `y + ε` or `y − ε` and a dual
+    /// change costs O(1).
     y: i64,
-    /// `ε` when the node joined its tree.
-    join: i64,
     /// Enclosing blossom, or NONE for a top-level node.
     parent: u32,
     /// Tree id, or NONE.
@@ -92,13 +103,54 @@ impl Node {
     fn new(base: u32) -> Node {
         Node {
             y: 0,
-            join: 0,
             parent: NONE,
             tree: NONE,
             base,
             label: FREE,
         }
     }
+}
+
+/// The tree edge of a `−` node: `own` (a vertex in the node) to `par` (a vertex in its
+/// parent `+` node).
+#[derive(Clone, Copy, Debug)]
+struct TreeEdge {
+    own: u32,
+    par: u32,
+}
+
+impl TreeEdge {
+    const NO: TreeEdge = TreeEdge {
+        own: NONE,
+        par: NONE,
+    };
+}
+
+/// A heap entry: an edge `(u, v)` with its doubled cost `c` (as in [`Solver::ed`], times
+/// `Solver::mult` in current units), so that validating a popped event reads no edge array;
+/// or an expand event (`u` = blossom `| EXPAND`).
+#[derive(Clone, Copy, Debug)]
+struct Event {
+    c: i64,
+    u: u32,
+    v: u32,
+}
+
+/// A path-compression shortcut of a node: an ancestor `to`, the sum of the duals from the
+/// node up to `to` (excluded), and `to`'s generation when the shortcut was set.
+#[derive(Clone, Copy, Debug)]
+struct Shortcut {
+    to: u32,
+    gen: u32,
+    sum: i64,
+}
+
+impl Shortcut {
+    const NO: Shortcut = Shortcut {
+        to: NONE,
+        gen: 0,
+        sum: 0,
+    };
 }
 
 /// A tight edge `{u, v}` popped from the heap: the top blossoms of its ends and whether
@@ -115,22 +167,21 @@ struct Tight {
 /// Solver state. Nodes `0..n` are vertices, nodes `n..` blossoms.
 pub struct Solver {
     n: usize,
-    /// Edges (endpoints, scaled cost), loops removed.
+    /// Half-edges (endpoints, doubled cost: units of 1/2, never rescaled), loops removed:
+    /// every edge `{a, b}` appears as `(a, b)` and `(b, a)`.
     ed: Vec<Edge>,
     /// Internal vertex numbering (for memory locality): `order[new] = old`,
     /// `perm[old] = new`.
     order: Vec<u32>,
     perm: Vec<u32>,
-    /// CSR adjacency: edge ids incident to vertex `v` are `adj[adj_start[v]..adj_start[v+1]]`.
+    /// CSR adjacency: the half-edges leaving vertex `v` are `adj_start[v]..adj_start[v+1]`.
     adj_start: Vec<u32>,
-    adj: Vec<u32>,
     /// `mate[v]`: matched vertex or NONE.
     mate: Vec<u32>,
     /// Per node: the hot fields, packed in one cache-line-friendly record.
     nd: Vec<Node>,
     /// For `−` nodes: the tree edge as (vertex in this node, vertex in the parent `+` node).
-    tself: Vec<u32>,
-    tpar: Vec<u32>,
+    tedge: Vec<TreeEdge>,
     /// Per blossom (index `node − n`): children in cycle order starting at the base child, and
     /// the cycle edges: `cyc[i] = (a, b)` with `a` in `children[i]`, `b` in `children[i+1]`.
     children: Vec<Vec<u32>>,
@@ -138,26 +189,31 @@ pub struct Solver {
     free_blossoms: Vec<u32>,
     /// Per vertex: top-level node containing it, and the sum of the duals of the nodes
     /// containing it strictly below the top level (its own dual included when not top-level).
-    /// Per node: a shortcut to an ancestor (`sc`), the sum of the duals from the node up to
-    /// that ancestor, excluded (`scsum`), and the ancestor's generation when the shortcut was
-    /// set (`scgen`). Duals of non-top nodes are fixed, so a shortcut stays exact until its
+    /// Per node: a shortcut to an ancestor (`to`), the sum of the duals from the node up to
+    /// that ancestor, excluded (`sum`), and the ancestor's generation when the shortcut was
+    /// set (`gen`), in one record (one cache line per lookup). Duals of non-top nodes are fixed, so a shortcut stays exact until its
     /// target is expanded, which bumps `gen[target]`. Path compression with `Cell`s keeps
     /// lookups from `&self`.
-    sc: Vec<Cell<u32>>,
-    scsum: Vec<Cell<i64>>,
-    scgen: Vec<Cell<u32>>,
+    sc: Vec<Cell<Shortcut>>,
     gen: Vec<u32>,
-    heap: RadixHeap,
+    heap: RadixHeap<Event>,
     /// Global dual change `ε` (all trees move together).
     eps: i64,
     /// Nodes that joined each tree (stale entries are filtered by `tree[node]`).
     tree_lists: Vec<Vec<u32>>,
-    /// Nodes freed by a dissolve, waiting for their edges to be pushed.
-    freed: Vec<u32>,
+    /// Per tree: half-edges from a `+` node of another tree to a `−` node of this tree
+    /// (recorded when [`Solver::edge_key`] meets them; stale entries are harmless). They have
+    /// no heap entry, and are the only edges that become events when the tree is dissolved.
+    cross: Vec<Vec<Event>>,
+    /// Edges into nodes freed by a dissolve, waiting to be pushed.
+    freed: Vec<Event>,
     mark: Vec<u32>,
     mark_stamp: u32,
     /// Costs and duals are in units of `1/scale`.
     scale: i64,
+    /// `scale / 2`: the factor from the doubled costs stored in `ed` (units of 1/2) to the
+    /// current units.
+    mult: i64,
     stack: Vec<(u32, u32)>,
     /// Statistics: number of vertices left exposed by the jump start, re-scalings.
     pub stats: Stats,
@@ -186,83 +242,86 @@ pub struct Stats {
     pub pops: usize,
     /// Nodes freed by dissolves.
     pub freed: usize,
+    /// Edge evaluations when pushing edges (each reads both endpoints' records).
+    pub evals: usize,
+    /// Events pushed from the cross-edge lists of dissolved trees.
+    pub cross_pushes: usize,
+    /// Wall time (s) of the phases: greedy start, fractional local searches, fractional
+    /// forest, main-phase single-tree searches, main-phase forest.
+    pub phase_s: [f64; 5],
+    /// Trees left to the fractional forest and to the main forest.
+    pub forest_trees: [usize; 2],
+    /// Cumulative (grows, edge evaluations, heap pops) at the end of each phase.
+    pub phase_counts: [(usize, usize, usize); 5],
 }
 
 impl Solver {
     /// Builds the solver state (CSR adjacency, doubled costs). Loops and edges with an
-    /// endpoint `>= n` are dropped.
+    /// endpoint `>= n` are dropped. Panics when `n >= 2^30` or there are `2^31` edges or more
+    /// (u32 indices; such graphs would need tens of gigabytes anyway).
     pub fn new(n: usize, edges: &[(u32, u32, i64)]) -> Solver {
+        // u32 indices: half-edge ids below 2^32, node ids (vertices and blossoms, < 1.5 n)
+        // below the EXPAND flag bit.
+        assert!(
+            edges.len() < u32::MAX as usize / 2 && n < EXPAND as usize / 2,
+            "matching: too many edges or vertices for u32 indices"
+        );
         let order = locality_order(n, edges);
         let mut perm = vec![0u32; n];
         for (new, &old) in order.iter().enumerate() {
             perm[old as usize] = new as u32;
         }
-        // Edges in new ids, sorted by their smaller endpoint (counting sort), so that a
-        // vertex's edges sit near each other in memory.
-        let mut cnt = vec![0u32; n + 1];
+        // Half-edges in new ids, grouped by their first endpoint (counting sort), so that a
+        // vertex's edges sit together in memory and pushing them touches one or two cache
+        // lines.
+        let mut adj_start = vec![0u32; n + 1];
         for &(u, v, _) in edges {
             if u != v && (u as usize) < n && (v as usize) < n {
-                cnt[perm[u as usize].min(perm[v as usize]) as usize + 1] += 1;
+                adj_start[perm[u as usize] as usize + 1] += 1;
+                adj_start[perm[v as usize] as usize + 1] += 1;
             }
         }
         for v in 0..n {
-            cnt[v + 1] += cnt[v];
+            adj_start[v + 1] += adj_start[v];
         }
-        let mut ed = vec![Edge { u: 0, v: 0, c: 0 }; cnt[n] as usize];
-        let mut deg = vec![0u32; n + 1];
+        let mut fill = adj_start.clone();
+        let mut ed = vec![Edge { u: 0, v: 0, c: 0 }; adj_start[n] as usize];
         for &(u, v, c) in edges {
             if u == v || u as usize >= n || v as usize >= n {
                 continue;
             }
             let (a, b) = (perm[u as usize], perm[v as usize]);
-            let slot = &mut cnt[a.min(b) as usize];
-            ed[*slot as usize] = Edge {
-                u: a,
-                v: b,
-                c: 2 * c.clamp(-MAX_ABS_COST, MAX_ABS_COST),
-            };
-            *slot += 1;
-            deg[a as usize] += 1;
-            deg[b as usize] += 1;
-        }
-        drop(cnt);
-        let mut adj_start = vec![0u32; n + 1];
-        for v in 0..n {
-            adj_start[v + 1] = adj_start[v] + deg[v];
-        }
-        let mut fill = adj_start.clone();
-        let mut adj = vec![0u32; adj_start[n] as usize];
-        for (e, edge) in ed.iter().enumerate() {
-            for x in [edge.u, edge.v] {
-                adj[fill[x as usize] as usize] = e as u32;
-                fill[x as usize] += 1;
+            let c = 2 * c.clamp(-MAX_ABS_COST, MAX_ABS_COST);
+            for (x, w) in [(a, b), (b, a)] {
+                let slot = &mut fill[x as usize];
+                ed[*slot as usize] = Edge { u: x, v: w, c };
+                *slot += 1;
             }
         }
+        drop(fill);
         Solver {
             n,
             order,
             perm,
             ed,
             adj_start,
-            adj,
             mate: vec![NONE; n],
             nd: (0..n as u32).map(Node::new).collect(),
-            tself: vec![NONE; n],
-            tpar: vec![NONE; n],
+            tedge: vec![TreeEdge::NO; n],
             children: Vec::new(),
             cyc: Vec::new(),
             free_blossoms: Vec::new(),
-            sc: vec![Cell::new(NONE); n],
-            scsum: vec![Cell::new(0); n],
-            scgen: vec![Cell::new(0); n],
+            sc: vec![Cell::new(Shortcut::NO); n],
             gen: vec![0; n],
             heap: RadixHeap::new(),
             eps: 0,
             tree_lists: Vec::new(),
+            cross: Vec::new(),
             freed: Vec::new(),
             mark: vec![0; n],
             mark_stamp: 0,
             scale: 2,
+            mult: 1,
             stack: Vec::new(),
             stats: Stats::default(),
         }
@@ -298,8 +357,14 @@ impl Solver {
     /// nearly everything to the forest grown together); tests use it to exercise both.
     pub fn solve_rest_with(&mut self, budget: usize) -> Result<Matching, NoPerfectMatching> {
         self.stats.exposed_after_init = self.mate.iter().filter(|&&m| m == NONE).count();
+        let t = std::time::Instant::now();
         self.run_local(budget)?;
+        self.stats.phase_s[3] = t.elapsed().as_secs_f64();
+        self.stats.phase_counts[3] = (self.stats.grows, self.stats.evals, self.stats.pops);
+        let t = std::time::Instant::now();
         self.run_forest()?;
+        self.stats.phase_s[4] = t.elapsed().as_secs_f64();
+        self.stats.phase_counts[4] = (self.stats.grows, self.stats.evals, self.stats.pops);
         Ok(self.result())
     }
 
@@ -309,7 +374,7 @@ impl Solver {
     /// `budget` grow steps is abandoned, its dual changes and blossoms kept, and its root left
     /// to [`Solver::run_forest`].
     fn run_local(&mut self, budget: usize) -> Result<(), NoPerfectMatching> {
-        self.tree_lists = vec![Vec::new()];
+        self.new_trees(1);
         for r in 0..self.n as u32 {
             if self.mate[r as usize] != NONE {
                 continue;
@@ -326,13 +391,19 @@ impl Solver {
         Ok(())
     }
 
+    /// Empty node and cross-edge lists for trees `0..k`.
+    fn new_trees(&mut self, k: usize) {
+        self.tree_lists = vec![Vec::new(); k];
+        self.cross = vec![Vec::new(); k];
+    }
+
     /// Makes top-level node `root` the `+` root of tree `t` (at `ε = 0`); its edges are not
     /// pushed.
     fn make_root(&mut self, root: u32, t: u32) {
         let nd = &mut self.nd[root as usize];
         nd.tree = t;
         nd.label = PLUS;
-        nd.join = 0;
+        nd.y -= self.eps;
         self.tree_lists[t as usize].push(root);
     }
 
@@ -389,10 +460,9 @@ impl Solver {
     /// runs dry (no perfect matching).
     #[inline]
     fn next_tight(&mut self) -> Result<Tight, NoPerfectMatching> {
-        let Some(e) = self.pop_edge_event() else {
+        let Some((u, v)) = self.pop_edge_event() else {
             return Err(self.stuck_witness());
         };
-        let (u, v) = (self.ed[e].u, self.ed[e].v);
         let (tu, tv) = (self.top_of(u), self.top_of(v));
         Ok(Tight {
             u,
@@ -405,8 +475,8 @@ impl Solver {
     }
 
     /// Pops heap entries until an edge event happens now (see [`Solver::next_event`]) and
-    /// returns its edge id; None when the heap runs dry.
-    fn pop_edge_event(&mut self) -> Option<usize> {
+    /// returns its endpoints; None when the heap runs dry.
+    fn pop_edge_event(&mut self) -> Option<(u32, u32)> {
         loop {
             let (key, id) = self.heap.pop()?;
             if let Some(e) = self.next_event(key, id) {
@@ -417,16 +487,16 @@ impl Solver {
 
     /// Handles a popped heap entry common to both growth modes: expands a `−` blossom whose
     /// dual reached zero, re-pushes an edge whose event time moved, drops stale entries.
-    /// Returns the edge id when an edge event happens now (`ε` advanced to it).
-    fn next_event(&mut self, key: u64, id: u32) -> Option<usize> {
+    /// Returns the edge's endpoints when an edge event happens now (`ε` advanced to it).
+    fn next_event(&mut self, key: u64, ev: Event) -> Option<(u32, u32)> {
         self.stats.pops += 1;
-        if id & EXPAND != 0 {
-            let b = id & !EXPAND;
+        if ev.u & EXPAND != 0 {
+            let b = ev.u & !EXPAND;
             let bi = b as usize;
             if self.nd[bi].label == DEAD
                 || self.nd[bi].parent != NONE
                 || !self.in_tree(b, MINUS)
-                || (((self.nd[bi].join + self.nd[bi].y) << 1) | 1) as u64 != key
+                || ((self.nd[bi].y << 1) | 1) as u64 != key
             {
                 return None;
             }
@@ -434,25 +504,24 @@ impl Solver {
             self.expand(b);
             return None;
         }
-        let e = id as usize;
         let key = key as i64;
-        let k2 = self.edge_key(e)?;
-        debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {e}");
+        let k2 = self.edge_key(ev)?;
+        debug_assert!(k2 >> 1 >= key >> 1, "missed event on edge {ev:?}");
         if k2 >> 1 > key >> 1 {
             // Keys were rescaled or the situation changed since the push.
-            self.heap.push(k2 as u64, id);
+            self.heap.push(k2 as u64, ev);
             return None;
         }
         debug_assert!(key >> 1 >= self.eps);
         self.eps = key >> 1;
-        Some(e)
+        Some((ev.u, ev.v))
     }
 
     fn min_incident_half(&self, v: usize) -> i64 {
         let (a, b) = (self.adj_start[v] as usize, self.adj_start[v + 1] as usize);
-        self.adj[a..b]
+        self.ed[a..b]
             .iter()
-            .map(|&e| self.ed[e as usize].c / 2)
+            .map(|e| e.c * self.mult / 2)
             .min()
             .unwrap_or(0)
     }
@@ -467,14 +536,9 @@ impl Solver {
             let (a, b) = (self.adj_start[v] as usize, self.adj_start[v + 1] as usize);
             let mut best = i64::MAX;
             let mut best_free = NONE;
-            for &e in &self.adj[a..b] {
-                let e = e as usize;
-                let w = if self.ed[e].u as usize == v {
-                    self.ed[e].v
-                } else {
-                    self.ed[e].u
-                };
-                let s = self.ed[e].c - self.nd[v].y - self.nd[w as usize].y;
+            for e in a..b {
+                let w = self.ed[e].v;
+                let s = self.ed[e].c * self.mult - self.nd[v].y - self.nd[w as usize].y;
                 if s < best || (s == best && best_free == NONE && self.mate[w as usize] == NONE) {
                     best = s;
                     best_free = if self.mate[w as usize] == NONE {
@@ -509,8 +573,7 @@ impl Solver {
                 self.adj_start[v as usize + 1] as usize,
             );
             'outer: for i in a..b {
-                let e = self.adj[i] as usize;
-                let Some(w) = self.tight_other(e, v) else {
+                let Some(w) = self.tight_other(i, v) else {
                     continue;
                 };
                 let w2 = self.mate[w as usize];
@@ -525,8 +588,7 @@ impl Solver {
                     self.adj_start[w2 as usize + 1] as usize,
                 );
                 for j in c..d {
-                    let f = self.adj[j] as usize;
-                    let Some(x) = self.tight_other(f, w2) else {
+                    let Some(x) = self.tight_other(j, w2) else {
                         continue;
                     };
                     if x != v && self.mate[x as usize] == NONE {
@@ -546,8 +608,9 @@ impl Solver {
     #[inline]
     fn tight_other(&self, e: usize, x: u32) -> Option<u32> {
         let ed = self.ed[e];
-        let w = if ed.u == x { ed.v } else { ed.u };
-        (ed.c - self.nd[x as usize].y - self.nd[w as usize].y == 0).then_some(w)
+        debug_assert_eq!(ed.u, x);
+        let w = ed.v;
+        (ed.c * self.mult - self.nd[x as usize].y - self.nd[w as usize].y == 0).then_some(w)
     }
 
     /// Current dual of a top-level node (lazy tree correction applied).
@@ -556,8 +619,8 @@ impl Solver {
         let i = node as usize;
         if self.nd[i].tree != NONE {
             match self.nd[i].label {
-                PLUS => return self.nd[i].y + (self.eps - self.nd[i].join),
-                MINUS => return self.nd[i].y - (self.eps - self.nd[i].join),
+                PLUS => return self.nd[i].y + self.eps,
+                MINUS => return self.nd[i].y - self.eps,
                 _ => {}
             }
         }
@@ -582,30 +645,43 @@ impl Solver {
     /// [`Solver::find`] for a vertex inside a blossom (shortcut walk, path compression).
     #[inline(never)]
     fn find_inner(&self, x: u32) -> (u32, i64) {
+        // One step up from non-top node `ni`: through its shortcut if still valid, else to
+        // its parent; returns the next node and the duals summed on the way.
+        let step = |ni: usize| -> (u32, i64) {
+            let sc = self.sc[ni].get();
+            if sc.to != NONE && sc.gen == self.gen[sc.to as usize] {
+                (sc.to, sc.sum)
+            } else {
+                (self.nd[ni].parent, self.nd[ni].y)
+            }
+        };
         let mut node = x;
         let mut s = 0i64;
-        loop {
-            let ni = node as usize;
-            let p = self.nd[ni].parent;
-            if p == NONE {
-                break;
-            }
-            let a = self.sc[ni].get();
-            if a != NONE && self.scgen[ni].get() == self.gen[a as usize] {
-                s += self.scsum[ni].get();
-                node = a;
-            } else {
-                s += self.nd[ni].y;
-                node = p;
+        let mut steps = 0u32;
+        while self.nd[node as usize].parent != NONE {
+            let (next, d) = step(node as usize);
+            s += d;
+            node = next;
+            steps += 1;
+        }
+        let top = node;
+        if steps > 0 {
+            // Full path compression: every node on the walk gets a shortcut to `top`, so
+            // deep nestings are walked once (the duals below the top level are frozen).
+            let gen = self.gen[top as usize];
+            let (mut node, mut rem) = (x, s);
+            while node != top {
+                let (next, d) = step(node as usize);
+                self.sc[node as usize].set(Shortcut {
+                    to: top,
+                    gen,
+                    sum: rem,
+                });
+                rem -= d;
+                node = next;
             }
         }
-        if node != x {
-            let xi = x as usize;
-            self.sc[xi].set(node);
-            self.scsum[xi].set(s);
-            self.scgen[xi].set(self.gen[node as usize]);
-        }
-        (node, s)
+        (top, s)
     }
 
     /// Top-level node containing vertex `x`.
@@ -616,25 +692,25 @@ impl Solver {
 
     /// Slack of edge `e` whose endpoints are in different top-level nodes.
     #[inline]
-    fn slack(&self, e: usize) -> i64 {
-        let (tu, iu) = self.find(self.ed[e].u);
-        let (tv, iv) = self.find(self.ed[e].v);
-        self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv)
+    fn slack(&self, e: Event) -> i64 {
+        let (tu, iu) = self.find(e.u);
+        let (tv, iv) = self.find(e.v);
+        e.c * self.mult - iu - iv - self.ycur(tu) - self.ycur(tv)
     }
 
     /// Heap key of edge `e`, or None if it is not an event edge: the event time `ε` shifted
     /// left by one, with bit 0 clear for events that end a tree (`+`–`+`, `+` to an exposed
     /// or half-matched vertex) and set for grows, so that among equal times the tree-ending
     /// events come first (ties are the rule on mesh graphs). May rescale.
-    fn edge_key(&mut self, e: usize) -> Option<i64> {
-        let (tu, iu) = self.find(self.ed[e].u);
-        let (tv, iv) = self.find(self.ed[e].v);
+    fn edge_key(&mut self, e: Event) -> Option<i64> {
+        let (tu, iu) = self.find(e.u);
+        let (tv, iv) = self.find(e.v);
         if tu == tv {
             return None;
         }
         let (pu, pv) = (self.in_tree(tu, PLUS), self.in_tree(tv, PLUS));
         if pu && pv {
-            let s = self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv);
+            let s = e.c * self.mult - iu - iv - self.ycur(tu) - self.ycur(tv);
             if s % 2 != 0 {
                 self.rescale();
                 return Some((self.eps + self.slack(e) / 2) << 1);
@@ -642,41 +718,68 @@ impl Solver {
             Some((self.eps + s / 2) << 1)
         } else if pu || pv {
             let other = if pu { tv } else { tu };
-            if self.nd[other as usize].tree != NONE {
-                return None; // `+`–`−` edge (any trees): slack does not change
+            let to = self.nd[other as usize].tree;
+            if to != NONE {
+                // `+`–`−` edge: slack does not change while both stay. Across two trees it
+                // becomes an event when the `−` node's tree is dissolved: record it there.
+                let plus = if pu { tu } else { tv };
+                if to != self.nd[plus as usize].tree {
+                    self.cross[to as usize].push(e);
+                }
+                return None;
             }
             let grow = self.mate[self.nd[other as usize].base as usize] != NONE;
-            let t = self.eps + self.ed[e].c - iu - iv - self.ycur(tu) - self.ycur(tv);
+            let t = self.eps + e.c * self.mult - iu - iv - self.ycur(tu) - self.ycur(tv);
             Some((t << 1) | grow as i64)
         } else {
             None
         }
     }
 
-    fn push_edge(&mut self, e: usize) {
+    fn push_edge(&mut self, e: Event) {
+        self.stats.evals += 1;
         if let Some(k) = self.edge_key(e) {
-            debug_assert!(k >> 1 >= self.eps, "negative slack on edge {e}");
+            debug_assert!(k >> 1 >= self.eps, "negative slack on edge {e:?}");
             self.stats.pushes += 1;
-            self.heap.push(k as u64, e as u32);
+            self.heap.push(k as u64, e);
         }
     }
 
     /// Pushes every edge incident to a vertex of `node`.
     fn push_edges_of(&mut self, node: u32) {
+        if (node as usize) < self.n {
+            self.push_vertex_edges(node);
+            return;
+        }
         let mut verts = std::mem::take(&mut self.stack);
         verts.clear();
         self.collect_vertices(node, &mut verts);
         for &(x, _) in &verts {
-            let (a, b) = (
-                self.adj_start[x as usize] as usize,
-                self.adj_start[x as usize + 1] as usize,
-            );
-            for i in a..b {
-                let e = self.adj[i] as usize;
-                self.push_edge(e);
-            }
+            self.push_vertex_edges(x);
         }
         self.stack = verts;
+    }
+
+    /// Pushes the edges of vertex `x` except those to its mate: whenever edges are pushed
+    /// (a node becomes `+`, a `−` node joins a `+` blossom, a blossom child becomes free) the
+    /// mate is in the same node, the `−` parent or an equally free node, so such an edge is
+    /// never an event.
+    fn push_vertex_edges(&mut self, x: u32) {
+        let m = self.mate[x as usize];
+        let (a, b) = (
+            self.adj_start[x as usize] as usize,
+            self.adj_start[x as usize + 1] as usize,
+        );
+        for i in a..b {
+            let ed = self.ed[i];
+            if ed.v != m {
+                self.push_edge(Event {
+                    c: ed.c,
+                    u: ed.u,
+                    v: ed.v,
+                });
+            }
+        }
     }
 
     /// Appends the vertices of `node` (as `(v, 0)` pairs) to `out`.
@@ -701,15 +804,12 @@ impl Solver {
     fn rescale(&mut self) {
         self.stats.rescales += 1;
         self.scale *= 2;
-        for e in &mut self.ed {
-            e.c *= 2;
-        }
+        self.mult *= 2;
         for nd in &mut self.nd {
             nd.y *= 2;
-            nd.join *= 2;
         }
-        for y in &mut self.scsum {
-            y.set(y.get() * 2);
+        for sc in &mut self.sc {
+            sc.get_mut().sum *= 2;
         }
         self.eps *= 2;
         self.heap.double_keys_flagged();
@@ -719,13 +819,22 @@ impl Solver {
         let i = node as usize;
         self.nd[i].tree = t;
         self.nd[i].label = lab;
-        self.nd[i].join = self.eps;
         self.tree_lists[t as usize].push(node);
         if lab == PLUS {
+            self.nd[i].y -= self.eps;
             self.push_edges_of(node);
-        } else if i >= self.n {
-            let k = self.eps + self.nd[i].y;
-            self.heap.push(((k << 1) | 1) as u64, node | EXPAND);
+        } else {
+            // Stored as `y + ε`: the current dual `y − ε` reaches 0 at `ε` = the stored value.
+            self.nd[i].y += self.eps;
+            if i >= self.n {
+                let k = self.nd[i].y;
+                let ev = Event {
+                    c: 0,
+                    u: node | EXPAND,
+                    v: NONE,
+                };
+                self.heap.push(((k << 1) | 1) as u64, ev);
+            }
         }
     }
 
@@ -738,7 +847,8 @@ impl Solver {
             .filter(|&v| self.mate[v as usize] == NONE)
             .collect();
         let mut alive = roots.len();
-        self.tree_lists = vec![Vec::new(); roots.len()];
+        self.stats.forest_trees[1] = alive;
+        self.new_trees(roots.len());
         for (t, &r) in roots.iter().enumerate() {
             self.make_root(self.top_of(r), t as u32);
         }
@@ -779,8 +889,7 @@ impl Solver {
     fn grow(&mut self, x: u32, w: u32) {
         self.stats.grows += 1;
         let tw = self.top_of(w);
-        self.tself[tw as usize] = w;
-        self.tpar[tw as usize] = x;
+        self.tedge[tw as usize] = TreeEdge { own: w, par: x };
         let mb = self.mate[self.nd[tw as usize].base as usize];
         let tm = self.top_of(mb);
         let t = self.nd[self.top_of(x) as usize].tree;
@@ -795,7 +904,7 @@ impl Solver {
             return NONE;
         }
         let tm = self.top_of(m);
-        self.top_of(self.tpar[tm as usize])
+        self.top_of(self.tedge[tm as usize].par)
     }
 
     fn new_blossom_id(&mut self) -> u32 {
@@ -804,12 +913,9 @@ impl Solver {
         }
         let b = self.nd.len() as u32;
         self.nd.push(Node::new(NONE));
-        self.tself.push(NONE);
-        self.tpar.push(NONE);
+        self.tedge.push(TreeEdge::NO);
         self.mark.push(0);
-        self.sc.push(Cell::new(NONE));
-        self.scsum.push(Cell::new(0));
-        self.scgen.push(Cell::new(0));
+        self.sc.push(Cell::new(Shortcut::NO));
         self.gen.push(0);
         self.children.push(Vec::new());
         self.cyc.push(Vec::new());
@@ -856,7 +962,10 @@ impl Solver {
             let m = self.mate[base as usize];
             let tm = self.top_of(m);
             path.push((p, (base, m)));
-            let (ms, mp) = (self.tself[tm as usize], self.tpar[tm as usize]);
+            let (ms, mp) = {
+                let t = self.tedge[tm as usize];
+                (t.own, t.par)
+            };
             path.push((tm, (ms, mp)));
             p = self.top_of(mp);
         }
@@ -903,12 +1012,11 @@ impl Solver {
             self.nd[c as usize].parent = b;
         }
         let bn = b as usize;
-        self.nd[bn].y = 0;
+        self.nd[bn].y = -self.eps; // dual 0 now (stored as `y − ε` for a `+` node)
         self.nd[bn].parent = NONE;
         self.nd[bn].base = self.nd[lca as usize].base;
         self.nd[bn].label = PLUS;
         self.nd[bn].tree = t;
-        self.nd[bn].join = self.eps;
         self.tree_lists[t as usize].push(b);
         self.children[bi] = ch;
         self.cyc[bi] = cy;
@@ -932,7 +1040,7 @@ impl Solver {
         self.stats.expands += 1;
         let bi = b as usize - self.n;
         let bn = b as usize;
-        let (ts, tp) = (self.tself[bn], self.tpar[bn]);
+        let (ts, tp) = (self.tedge[bn].own, self.tedge[bn].par);
         let t = self.nd[bn].tree;
         let j = self.child_index(b, ts);
         let ch = std::mem::take(&mut self.children[bi]);
@@ -949,7 +1057,7 @@ impl Solver {
         self.nd[bn].tree = NONE;
         self.free_blossoms.push(b);
         // Path from ch[j] to ch[0] of even length; its nodes go to the tree.
-        let mut path: Vec<(u32, u8, u32, u32)> = Vec::new(); // node, label, tself, tpar
+        let mut path: Vec<(u32, u8, u32, u32)> = Vec::new(); // node, label, tree edge (own, par)
         path.push((ch[j], MINUS, ts, tp));
         if j.is_multiple_of(2) {
             let mut i = j;
@@ -981,8 +1089,7 @@ impl Solver {
         }
         for &(node, lab, s, p) in &path {
             if lab == MINUS {
-                self.tself[node as usize] = s;
-                self.tpar[node as usize] = p;
+                self.tedge[node as usize] = TreeEdge { own: s, par: p };
             }
         }
         for &(node, lab, _, _) in &path {
@@ -1015,7 +1122,10 @@ impl Solver {
                 break;
             }
             let m = self.top_of(ext);
-            let (ms, mp) = (self.tself[m as usize], self.tpar[m as usize]);
+            let (ms, mp) = {
+                let t = self.tedge[m as usize];
+                (t.own, t.par)
+            };
             self.rebase(m, ms);
             self.mate[ms as usize] = mp;
             node = self.top_of(mp);
@@ -1081,26 +1191,27 @@ impl Solver {
             let i = p as usize;
             if self.nd[i].parent == NONE && self.nd[i].label != DEAD && self.nd[i].tree == t {
                 self.nd[i].y = self.ycur(p);
-                // Edges from other trees' `+` nodes into a former `+` node already have a
-                // heap entry (a `+`–`+` key, earlier than the new `+`–free time, fixed when
-                // popped); into a former `−` node they have none and must be pushed.
-                if self.nd[i].label == MINUS {
-                    self.freed.push(p);
-                }
                 self.nd[i].label = FREE;
                 self.nd[i].tree = NONE;
                 self.stats.freed += 1;
             }
         }
+        // Edges from other trees' `+` nodes into a former `+` node already have a heap entry
+        // (a `+`–`+` key, earlier than the new `+`–free time, fixed when popped); into a
+        // former `−` node they have none: they are in `cross[t]` and must be pushed.
+        let cross = std::mem::take(&mut self.cross[t as usize]);
+        self.freed.extend_from_slice(&cross);
     }
 
-    /// Pushes the edges of freed nodes: edges from `+` nodes of other trees into them are
+    /// Pushes the recorded edges from `+` nodes of other trees into freed nodes: they are
     /// grow events now.
     fn push_freed(&mut self) {
         let freed = std::mem::take(&mut self.freed);
-        for &p in &freed {
-            self.push_edges_of(p);
+        let before = self.stats.pushes;
+        for &e in &freed {
+            self.push_edge(e);
         }
+        self.stats.cross_pushes += self.stats.pushes - before;
         self.freed = freed;
         self.freed.clear();
     }
@@ -1143,13 +1254,13 @@ impl Solver {
         let mut best = vec![i64::MAX; n];
         for e in 0..self.ed.len() {
             let (u, v) = (self.ed[e].u as usize, self.ed[e].v as usize);
-            if self.mate[u] == v as u32 {
+            if u < v && self.mate[u] == v as u32 {
                 let c = self.ed[e].c;
                 best[u] = best[u].min(c);
                 best[v] = best[v].min(c);
             }
         }
-        let unit = self.scale;
+        let unit = 2; // `ed` costs are doubled
         let mut cost: i64 = 0;
         for v in 0..n {
             if (self.mate[v] as usize) > v && best[v] != i64::MAX {

@@ -3,23 +3,23 @@
 //! 64 buckets over its life, and every bucket is a plain `Vec`, so it is far more
 //! cache-friendly than a binary heap of millions of entries.
 
-/// Min-priority queue of `(key, id)` with monotone keys.
+/// Min-priority queue of `(key, payload)` with monotone keys.
 #[derive(Debug)]
-pub struct RadixHeap {
+pub struct RadixHeap<T = u32> {
     last: u64,
     len: usize,
-    buckets: Vec<Vec<(u64, u32)>>,
+    buckets: Vec<Vec<(u64, T)>>,
 }
 
-impl Default for RadixHeap {
+impl<T: Copy> Default for RadixHeap<T> {
     fn default() -> Self {
         Self::new()
     }
 }
 
-impl RadixHeap {
+impl<T: Copy> RadixHeap<T> {
     /// An empty heap whose minimum key so far is 0.
-    pub fn new() -> RadixHeap {
+    pub fn new() -> RadixHeap<T> {
         RadixHeap {
             last: 0,
             len: 0,
@@ -42,10 +42,10 @@ impl RadixHeap {
         self.len == 0
     }
 
-    /// Inserts `(key, id)`; `key` must be at least the last popped key (smaller keys are
+    /// Inserts `(key, id)` (`id` any payload); `key` must be at least the last popped key (smaller keys are
     /// clamped to it, which keeps the structure valid).
     #[inline]
-    pub fn push(&mut self, key: u64, id: u32) {
+    pub fn push(&mut self, key: u64, id: T) {
         let key = key.max(self.last);
         let b = self.bucket(key);
         self.buckets[b].push((key, id));
@@ -53,7 +53,7 @@ impl RadixHeap {
     }
 
     /// Removes and returns an entry of minimum key.
-    pub fn pop(&mut self) -> Option<(u64, u32)> {
+    pub fn pop(&mut self) -> Option<(u64, T)> {
         if self.buckets[0].is_empty() {
             let i = self.buckets.iter().position(|b| !b.is_empty())?;
             let moved = std::mem::take(&mut self.buckets[i]);
@@ -105,7 +105,7 @@ mod tests {
 
     #[test]
     fn pops_in_key_order_with_monotone_pushes() {
-        let mut h = RadixHeap::new();
+        let mut h = RadixHeap::<u32>::new();
         let mut x: u64 = 12345;
         let mut popped = Vec::new();
         let mut last = 0;

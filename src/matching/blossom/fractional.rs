@@ -38,13 +38,22 @@ impl Solver {
     /// [`Solver::init_fractional`] with a given grow budget for the local searches (0 leaves
     /// nearly everything to the global pass); tests use it to exercise both passes.
     pub fn init_fractional_with(&mut self, budget: usize) {
+        let t = std::time::Instant::now();
         self.init_greedy();
+        self.stats.phase_s[0] = t.elapsed().as_secs_f64();
+        self.stats.phase_counts[0] = (self.stats.grows, self.stats.evals, self.stats.pops);
         let mut cy = Cycles {
             id: vec![NONE; self.n],
             list: Vec::new(),
         };
+        let t = std::time::Instant::now();
         self.fractional_local(&mut cy, budget);
+        self.stats.phase_s[1] = t.elapsed().as_secs_f64();
+        self.stats.phase_counts[1] = (self.stats.grows, self.stats.evals, self.stats.pops);
+        let t = std::time::Instant::now();
         self.fractional_global(&mut cy);
+        self.stats.phase_s[2] = t.elapsed().as_secs_f64();
+        self.stats.phase_counts[2] = (self.stats.grows, self.stats.evals, self.stats.pops);
         for cycle in &cy.list {
             if let Some(&first) = cycle.first() {
                 Self::match_cycle_except(&mut self.mate, cycle, first);
@@ -62,7 +71,7 @@ impl Solver {
     /// abandoned: its dual changes are kept (they are feasible) and its root stays exposed
     /// for the global pass.
     fn fractional_local(&mut self, cy: &mut Cycles, budget: usize) {
-        self.tree_lists = vec![Vec::new()];
+        self.new_trees(1);
         for r in 0..self.n as u32 {
             if self.mate[r as usize] != NONE || cy.id[r as usize] != NONE {
                 continue;
@@ -77,8 +86,7 @@ impl Solver {
     /// up `budget` grow steps.
     fn fractional_search(&mut self, cy: &mut Cycles, budget: usize) {
         let mut grows = 0;
-        while let Some(e) = self.pop_edge_event() {
-            let (u, v) = (self.ed[e].u, self.ed[e].v);
+        while let Some((u, v)) = self.pop_edge_event() {
             let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
             if pu && pv {
                 self.close_cycle(cy, u, v);
@@ -135,7 +143,8 @@ impl Solver {
         let roots: Vec<u32> = (0..self.n as u32)
             .filter(|&v| self.mate[v as usize] == NONE && cy.id[v as usize] == NONE)
             .collect();
-        self.tree_lists = vec![Vec::new(); roots.len()];
+        self.stats.forest_trees[0] = roots.len();
+        self.new_trees(roots.len());
         for (t, &r) in roots.iter().enumerate() {
             self.make_root(r, t as u32);
         }
@@ -144,10 +153,9 @@ impl Solver {
         }
         let mut alive = roots.len();
         while alive > 0 {
-            let Some(e) = self.pop_edge_event() else {
+            let Some((u, v)) = self.pop_edge_event() else {
                 break; // some tree is stuck: leave it to the main phase
             };
-            let (u, v) = (self.ed[e].u, self.ed[e].v);
             let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
             if pu && pv {
                 let (ta, tb) = (self.nd[u as usize].tree, self.nd[v as usize].tree);
@@ -209,7 +217,7 @@ impl Solver {
                 let m = s.mate[p as usize];
                 out.push(p);
                 out.push(m);
-                p = s.tpar[m as usize];
+                p = s.tedge[m as usize].par;
             }
             out
         };
@@ -225,7 +233,7 @@ impl Solver {
                 break;
             }
             debug_assert_eq!(self.nd[ext as usize].label, MINUS);
-            let mp = self.tpar[ext as usize];
+            let mp = self.tedge[ext as usize].par;
             self.mate[ext as usize] = mp;
             partner = ext;
             node = mp;
