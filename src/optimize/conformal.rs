@@ -135,15 +135,13 @@ pub(crate) fn unshear(l: &mut Local) -> usize {
             }
         })
         .collect();
+    let quads: Vec<[u32; 4]> = live.iter().map(|&q| l.quads[q as usize]).collect();
+    // out = A x; entries at fixed nodes are not masked: the preconditioner is zero there, so
+    // they never reach the iterates (and x is zero there)
     let apply = |x: &[C], out: &mut [C]| {
         out.iter_mut().for_each(|o| *o = C::default());
-        for (i, &q) in live.iter().enumerate() {
-            accumulate(&l.quads[q as usize], weights[i], x, out);
-        }
-        for (o, &f) in out.iter_mut().zip(&free) {
-            if !f {
-                *o = C::default();
-            }
+        for (quad, &w) in quads.iter().zip(&weights) {
+            accumulate(quad, w, x, out);
         }
     };
     let dot =
