@@ -19,7 +19,8 @@
 //! (at most [`MAX_ITERATIONS`]).
 //!
 //! The step to the minimizer is then taken in full, half or quarter, whichever comes first
-//! with no quad turned inverted and a higher mean signed η (eq. 3); otherwise nothing moves.
+//! with a higher mean signed η (eq. 3), no valid quad turned invalid and no invalid quad's
+//! signed η lowered; otherwise nothing moves.
 
 use super::local::Local;
 use crate::quality::eta::eta_signed_fast;
@@ -190,7 +191,7 @@ pub(crate) fn unshear(l: &mut Local) -> usize {
             p[v] = s[v].add(p[v].scale(beta));
         }
     }
-    // line search on the mean signed η: no quad that is valid now may turn invalid
+    // line search on the mean signed η
     let eval = |pos: &[DVec3]| -> Vec<f64> {
         live.iter()
             .map(|&q| eta_signed_fast(&l.quads[q as usize].map(|v| pos[v as usize]), normal))
@@ -207,10 +208,12 @@ pub(crate) fn unshear(l: &mut Local) -> usize {
             }
         }
         let after = eval(&trial);
+        // a valid quad stays valid; an invalid one (a hopeless corner, or a fold the
+        // topology pass did not remove) must not get worse
         let inverts = before
             .iter()
             .zip(&after)
-            .any(|(&b, &a)| b > 0.0 && a <= 0.0);
+            .any(|(&b, &a)| if b > 0.0 { a <= 0.0 } else { a < b });
         if !inverts && after.iter().sum::<f64>() > base {
             l.pos = trial;
             return free.iter().filter(|&&f| f).count();
