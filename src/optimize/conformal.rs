@@ -62,16 +62,20 @@ fn corner(prev: C, at: C, next: C) -> C {
     next.sub(at).rot().sub(prev.sub(at))
 }
 
-/// Adds `w · Lᴴ L x` for one quad to `out` (L: the four corner residuals).
+/// Adds `w · Lᴴ L x` for one quad to `out` (L: the four corner residuals). Each node `j` is
+/// the next node of corner `j − 1`, the corner of `j` and the previous node of `j + 1`, so it
+/// gathers `−i r_{j−1} + (1 + i) r_j − r_{j+1}`: four loads and four updates per quad.
 #[inline]
 fn accumulate(quad: &[u32; 4], w: f64, x: &[C], out: &mut [C]) {
-    for k in 0..4 {
-        let (p, a, n) = (quad[(k + 3) & 3], quad[k], quad[(k + 1) & 3]);
-        let r = corner(x[p as usize], x[a as usize], x[n as usize]).scale(w);
-        // r = i x_n + (1 − i) x_a − x_p; adjoint: −i r → n, (1 + i) r → a, −r → p
-        out[n as usize] = out[n as usize].sub(r.rot());
-        out[a as usize] = out[a as usize].add(r).add(r.rot());
-        out[p as usize] = out[p as usize].sub(r);
+    let z = quad.map(|v| x[v as usize]);
+    let r: [C; 4] = std::array::from_fn(|k| corner(z[(k + 3) & 3], z[k], z[(k + 1) & 3]).scale(w));
+    for j in 0..4 {
+        let g = r[j]
+            .add(r[j].rot())
+            .sub(r[(j + 3) & 3].rot())
+            .sub(r[(j + 1) & 3]);
+        let o = &mut out[quad[j] as usize];
+        *o = o.add(g);
     }
 }
 
