@@ -91,15 +91,20 @@ struct RunArgs {
     #[arg(long)]
     verify: bool,
     /// Weight W of the cross-field alignment cost (paper eq. 7, cross field following the
-    /// nearest boundary) added to the quality cost (eq. 4); 0 = eq. 4 alone. Raises the share
-    /// of regular vertices and τ; lowers η̄ on strongly graded planar meshes.
-    #[arg(long, value_name = "W", default_value_t = 0.0, value_parser = parse_weight)]
+    /// nearest boundary) added to the quality cost (eq. 4); 0 = eq. 4 alone. Small weights
+    /// raise η̄, the share of regular vertices and τ; weights from 0.1 up lower the worst
+    /// quality on strongly graded planar meshes (see the README).
+    #[arg(long, value_name = "W", default_value_t = 0.05, value_parser = parse_weight)]
     cross_field: f64,
     /// Uniform refinement after recombination, N times (0..=3): every quad split into four,
     /// every curve segment into two (paper Figure 2, Table I rows 2h and 4h). Mesh the
     /// triangles at 2^N times the wanted size; all new vertices are regular.
     #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=3))]
     refine: u8,
+    /// With --cross-field W > 0: use a smooth (harmonic) cross field interpolating the walls'
+    /// directions instead of the nearest-wall field.
+    #[arg(long)]
+    harmonic_cross_field: bool,
     /// Smoothing iterations of the optimization.
     #[arg(long, value_name = "N")]
     smooth: Option<usize>,
@@ -247,6 +252,7 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         drop_volumes: args.drop_volumes,
         verify: args.verify,
         cross_field_weight: args.cross_field,
+        harmonic_cross_field: args.harmonic_cross_field,
         ..Default::default()
     };
     let t1 = Instant::now();

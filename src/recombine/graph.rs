@@ -4,6 +4,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use super::cross_field::{smooth_cross_field, CrossField};
 use super::topology::{SurfaceTopo, NONE};
 use crate::quality::eta::{corner_eta, signed_angle};
 
@@ -305,22 +306,29 @@ pub(crate) struct Graph {
 /// fan of three or more triangles whose end triangles are not already adjacent (section
 /// 5.3; a fan ends at walls: the surface boundary, curves, or orientation changes).
 /// `split_nodes` (sorted global ids) are the nodes made by parity repair; `cross_w` > 0
-/// adds `cross_w` times the cross-field cost (eq. 7) to every edge that is not hopeless.
+/// adds `cross_w` times the cross-field cost (eq. 7) to every edge that is not hopeless, with
+/// the nearest-wall field ([`boundary_cross_field`]) or, when `harmonic`, the smooth field of
+/// [`smooth_cross_field`] (its cost scaled by the field's confidence `|z|`).
 pub(crate) fn build(
     topo: &SurfaceTopo,
     coords: &[DVec3],
     split_nodes: &[u32],
     cross_w: f64,
+    harmonic: bool,
     with_extra: bool,
 ) -> Graph {
     let n = topo.len();
     let walls = wall_nodes(topo);
     let walls = &walls;
     let split_cost = split_halves_cost(n);
-    let field = if cross_w > 0.0 {
-        boundary_cross_field(topo, coords)
-    } else {
-        Vec::new()
+    let field = match (cross_w > 0.0, harmonic) {
+        (false, _) => CrossField::default(),
+        (true, false) => {
+            let t1 = boundary_cross_field(topo, coords);
+            let weight = vec![1.0; t1.len()];
+            CrossField { t1, weight }
+        }
+        (true, true) => smooth_cross_field(topo, coords),
     };
     let field = &field;
     let mut edges: Vec<(u32, u32, i64)> = (0..n)
@@ -335,8 +343,9 @@ pub(crate) fn build(
                         let tri = topo.tris[t];
                         let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];
                         let nrm = tri_normal(coords, tri);
-                        c += (COST_SCALE as f64 * cross_w * cross_cost(e, field[t], nrm)).round()
-                            as i64;
+                        let wt = field.weight[t];
+                        c += (COST_SCALE as f64 * cross_w * wt * cross_cost(e, field.t1[t], nrm))
+                            .round() as i64;
                     }
                     (t as u32, u, c)
                 })

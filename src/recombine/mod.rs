@@ -72,7 +72,11 @@
 //!    takes up to two more extra edges (whose quads optimization repairs) to avoid them.
 //!    With [`RecombineOptions::cross_field_weight`] `w` > 0, the paper's alternative cost
 //!    (eq. 7) is added to ordinary edges: `10⁴ · w · c₇`, c₇ = 0 when the shared edge (the
-//!    quad's diagonal) bisects a cross field that follows the nearest wall.
+//!    quad's diagonal) bisects a cross field that follows the nearest wall, or, with
+//!    [`RecombineOptions::harmonic_cross_field`], the smooth field of `cross_field.rs`
+//!    (the walls' directions interpolated harmonically in the 4θ representation; its cost
+//!    is scaled by the field's confidence `|z|`, which drops near singularities). The CLI
+//!    uses w = 0.05 by default (measured in the README); the library default is 0.
 //! 5. **Extra edges** (section 5.3). Around every vertex, the triangles between two walls
 //!    form a *fan* `t1 … tk` (each sharing a graph edge `{v, a_i}` with the next). The paper
 //!    joins the triangles of two successive boundary edges; here every fan with k ≥ 3 whose
@@ -119,6 +123,7 @@
 //! unchanged (up to parity splits), planar areas are unchanged, orientations are kept,
 //! physical groups are identical.
 
+mod cross_field;
 mod graph;
 mod invariants;
 mod parity;
@@ -162,9 +167,13 @@ pub struct RecombineOptions {
     pub extra_edges: bool,
     /// Weight of the cross-field alignment cost (eq. 7) added to the quality cost (eq. 4):
     /// a graph edge costs `10⁴ · (1 − η_s + w · c₇)`, the cross field following the
-    /// nearest wall in graph steps (a breadth-first search from the wall edges). 0 (default) is eq. 4 alone; clamped
-    /// to [0, 5]. See the README for its measured effect.
+    /// nearest wall in graph steps (a breadth-first search from the wall edges). 0 (default)
+    /// is eq. 4 alone (the CLI's default is 0.05); clamped to [0, 5]. See the README for its
+    /// measured effect.
     pub cross_field_weight: f64,
+    /// With `cross_field_weight` > 0: use the smooth (harmonic) cross field of
+    /// `cross_field.rs` instead of the nearest-wall one (off by default; see the README).
+    pub harmonic_cross_field: bool,
 }
 
 impl Default for RecombineOptions {
@@ -175,6 +184,7 @@ impl Default for RecombineOptions {
             verify: false,
             extra_edges: true,
             cross_field_weight: 0.0,
+            harmonic_cross_field: false,
         }
     }
 }
@@ -762,7 +772,14 @@ fn match_surface(
 ) -> Result<SurfaceResult, RecombineError> {
     let t0 = Instant::now();
     let cross = opts.cross_field_weight.clamp(0.0, 5.0);
-    let g = graph::build(&w.topo, coords, split_nodes, cross, opts.extra_edges);
+    let g = graph::build(
+        &w.topo,
+        coords,
+        split_nodes,
+        cross,
+        opts.harmonic_cross_field,
+        opts.extra_edges,
+    );
     let time_graph = w.time + t0.elapsed();
     if let Some(dir) = std::env::var_os("BLOSSOMQUAD_DUMP_GRAPHS") {
         dump_graph(std::path::Path::new(&dir), w.tag, w.topo.len(), &g.edges);

@@ -1,0 +1,280 @@
+//! Global shear removal on planar surfaces: one least-squares solve of a discrete conformal
+//! ("as-square-as-possible") energy over all free nodes at once.
+//!
+//! Why: the node-by-node smoothers ([`super::smooth`], [`super::polish`]) move one node at a
+//! time. An affine image of a regular grid — a uniformly sheared lattice, as the cross-field
+//! cost (eq. 7) produces when it pairs equilateral triangles into 60°/120° rhombi — is a
+//! fixed point of the centroid smoothing and a local optimum of every single-node move,
+//! although its quads have η = 2/3; only the boundary can undo the shear, and it propagates
+//! inwards one node per sweep. A global solve removes it at once.
+//!
+//! The energy, in the plane of the surface with nodes as complex numbers `z` and every
+//! quad `(z0, z1, z2, z3)` counter-clockwise, is
+//! `E = Σ_q w_q Σ_k |i (z_{k+1} − z_k) − (z_{k−1} − z_k)|²`: at a square's corner the
+//! previous edge is the next one turned by 90°, so `E = 0` exactly on squares, and a quad
+//! pays for both its angle defects and its aspect ratio. `w_q = 1 / h_q²` (h the target size
+//! at the quad's nodes) makes each quad's term scale-free. `E` is quadratic; with the fixed
+//! nodes (curves, points, shared nodes) as Dirichlet data its minimizer solves a Hermitian
+//! positive definite system, solved by conjugate gradients from the current positions
+//! (at most [`MAX_ITERATIONS`]).
+//!
+//! The step to the minimizer is then taken in full, half or quarter, whichever comes first
+//! with a higher mean signed η (eq. 3), no valid quad turned invalid and no invalid quad's
+//! signed η lowered; otherwise nothing moves.
+
+use super::local::Local;
+use crate::quality::eta::eta_signed_fast;
+use glam::DVec3;
+
+/// Cap on conjugate-gradient iterations (the solve is warm-started and only needs to remove
+/// the low-frequency shear modes).
+pub(crate) const MAX_ITERATIONS: usize = 100;
+
+/// Relative residual at which the solve stops.
+pub(crate) const TOLERANCE: f64 = 1e-3;
+
+#[derive(Clone, Copy, Default)]
+struct C(f64, f64);
+
+impl C {
+    #[inline]
+    fn add(self, o: C) -> C {
+        C(self.0 + o.0, self.1 + o.1)
+    }
+    #[inline]
+    fn sub(self, o: C) -> C {
+        C(self.0 - o.0, self.1 - o.1)
+    }
+    #[inline]
+    fn scale(self, s: f64) -> C {
+        C(self.0 * s, self.1 * s)
+    }
+    /// `i · self`
+    #[inline]
+    fn rot(self) -> C {
+        C(-self.1, self.0)
+    }
+}
+
+/// Corner residual `i (z1 − z0) − (z3 − z0)` at corner 0 of `(z3, z0, z1)`.
+#[inline]
+fn corner(prev: C, at: C, next: C) -> C {
+    next.sub(at).rot().sub(prev.sub(at))
+}
+
+/// Adds `w · Lᴴ L x` for one quad to `out` (L: the four corner residuals). Each node `j` is
+/// the next node of corner `j − 1`, the corner of `j` and the previous node of `j + 1`, so it
+/// gathers `−i r_{j−1} + (1 + i) r_j − r_{j+1}`: four loads and four updates per quad.
+#[inline]
+fn accumulate(quad: &[u32; 4], w: f64, x: &[C], out: &mut [C]) {
+    let z = quad.map(|v| x[v as usize]);
+    let r: [C; 4] = std::array::from_fn(|k| corner(z[(k + 3) & 3], z[k], z[(k + 1) & 3]).scale(w));
+    for j in 0..4 {
+        let g = r[j]
+            .add(r[j].rot())
+            .sub(r[(j + 3) & 3].rot())
+            .sub(r[(j + 1) & 3]);
+        let o = &mut out[quad[j] as usize];
+        *o = o.add(g);
+    }
+}
+
+/// The conformal solve (module docs) on a planar surface; returns the number of nodes moved
+/// (0 when the surface is curved, has no free node, or no step improved the mean η).
+/// Needs a current adjacency.
+pub(crate) fn unshear(l: &mut Local) -> usize {
+    if !l.planar {
+        return 0;
+    }
+    let n = l.pos.len();
+    let live: Vec<u32> = (0..l.quads.len() as u32)
+        .filter(|&q| l.alive[q as usize])
+        .collect();
+    let Some(&q0) = live.first() else {
+        return 0;
+    };
+    let normal = l.nrm[l.quads[q0 as usize][0] as usize];
+    if normal == DVec3::ZERO {
+        return 0;
+    }
+    let u = normal.any_orthonormal_vector();
+    let mut w = normal.cross(u);
+    // counter-clockwise in (u, w): the quads' signed area is positive
+    let z0: Vec<C> = l.pos.iter().map(|p| C(p.dot(u), p.dot(w))).collect();
+    let area: f64 = live
+        .iter()
+        .map(|&q| {
+            let c = l.quads[q as usize].map(|v| z0[v as usize]);
+            (0..4)
+                .map(|k| c[k].0 * c[(k + 1) & 3].1 - c[(k + 1) & 3].0 * c[k].1)
+                .sum::<f64>()
+        })
+        .sum();
+    let flip = area < 0.0;
+    if flip {
+        w = -w;
+    }
+    let z: Vec<C> = if flip {
+        z0.iter().map(|c| C(c.0, -c.1)).collect()
+    } else {
+        z0
+    };
+    let free: Vec<bool> = (0..n)
+        .map(|v| !l.fixed[v] && !l.removed[v] && !l.star(v as u32).is_empty())
+        .collect();
+    if !free.iter().any(|&f| f) {
+        return 0;
+    }
+    let weights: Vec<f64> = live
+        .iter()
+        .map(|&q| {
+            let h = l.quads[q as usize]
+                .iter()
+                .map(|&v| l.h[v as usize])
+                .sum::<f64>()
+                / 4.0;
+            if h > 0.0 && h.is_finite() {
+                1.0 / (h * h)
+            } else {
+                1.0
+            }
+        })
+        .collect();
+    let quads: Vec<[u32; 4]> = live.iter().map(|&q| l.quads[q as usize]).collect();
+    // out = A x; entries at fixed nodes are not masked: the preconditioner is zero there, so
+    // they never reach the iterates (and x is zero there)
+    let apply = |x: &[C], out: &mut [C]| {
+        out.iter_mut().for_each(|o| *o = C::default());
+        for (quad, &w) in quads.iter().zip(&weights) {
+            accumulate(quad, w, x, out);
+        }
+    };
+    let dot =
+        |a: &[C], b: &[C]| -> f64 { a.iter().zip(b).map(|(x, y)| x.0 * y.0 + x.1 * y.1).sum() };
+    // solve A d = −∇E(z) on the free nodes, d = 0 elsewhere, by conjugate gradients with
+    // the diagonal of A (4 Σ w_q over the node's quads) as preconditioner: the weights vary
+    // like 1/h², so on graded meshes the diagonal scaling matters
+    let mut diag = vec![0.0f64; n];
+    for (i, &q) in live.iter().enumerate() {
+        for &v in &l.quads[q as usize] {
+            diag[v as usize] += 4.0 * weights[i];
+        }
+    }
+    let inv: Vec<f64> = diag
+        .iter()
+        .zip(&free)
+        .map(|(&d, &f)| if f && d > 0.0 { 1.0 / d } else { 0.0 })
+        .collect();
+    let mut r = vec![C::default(); n];
+    apply(&z, &mut r);
+    r.iter_mut().for_each(|c| *c = c.scale(-1.0));
+    let mut d = vec![C::default(); n];
+    let mut s: Vec<C> = r.iter().zip(&inv).map(|(c, &m)| c.scale(m)).collect();
+    let mut p = s.clone();
+    let mut ap = vec![C::default(); n];
+    let mut rs = dot(&r, &s);
+    let stop = TOLERANCE * TOLERANCE * rs;
+    let mut it = 0usize;
+    while it < MAX_ITERATIONS && rs > stop && rs > 0.0 {
+        it += 1;
+        apply(&p, &mut ap);
+        let pap = dot(&p, &ap);
+        if pap <= 0.0 || !pap.is_finite() {
+            break;
+        }
+        let alpha = rs / pap;
+        for v in 0..n {
+            d[v] = d[v].add(p[v].scale(alpha));
+            r[v] = r[v].sub(ap[v].scale(alpha));
+            s[v] = r[v].scale(inv[v]);
+        }
+        let rs_new = dot(&r, &s);
+        let beta = rs_new / rs;
+        rs = rs_new;
+        for v in 0..n {
+            p[v] = s[v].add(p[v].scale(beta));
+        }
+    }
+    // line search on the mean signed η
+    let eval = |pos: &[DVec3]| -> Vec<f64> {
+        live.iter()
+            .map(|&q| eta_signed_fast(&l.quads[q as usize].map(|v| pos[v as usize]), normal))
+            .collect()
+    };
+    let before = eval(&l.pos);
+    let base: f64 = before.iter().sum();
+    let mut trial = l.pos.clone();
+    for step in [1.0, 0.5, 0.25] {
+        for v in 0..n {
+            if free[v] {
+                let dv = d[v];
+                trial[v] = l.pos[v] + u * (step * dv.0) + w * (step * dv.1);
+            }
+        }
+        let after = eval(&trial);
+        // a valid quad stays valid; an invalid one (a hopeless corner, or a fold the
+        // topology pass did not remove) must not get worse
+        let inverts = before
+            .iter()
+            .zip(&after)
+            .any(|(&b, &a)| if b > 0.0 { a <= 0.0 } else { a < b });
+        if !inverts && after.iter().sum::<f64>() > base {
+            l.pos = trial;
+            return free.iter().filter(|&&f| f).count();
+        }
+    }
+    0
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optimize::cleanup::tests::local_of;
+    use crate::optimize::synth;
+
+    fn mean_and_worst(l: &Local) -> (f64, f64) {
+        let n = l.nrm[0];
+        let e: Vec<f64> = (0..l.quads.len())
+            .map(|q| eta_signed_fast(&l.corners(q as u32), n))
+            .collect();
+        let mean = e.iter().sum::<f64>() / e.len() as f64;
+        (mean, e.iter().copied().fold(f64::INFINITY, f64::min))
+    }
+
+    #[test]
+    fn a_sheared_grid_is_made_square_and_the_boundary_stays() {
+        let mut s = synth::quad_grid(12, 12, 1.0, 1.0);
+        let fixed = synth::boundary_nodes(&s);
+        // a smooth interior shear that no single-node move undoes quickly
+        for (p, &f) in s.points.iter_mut().zip(&fixed) {
+            if !f {
+                let bump = (std::f64::consts::PI * p.x).sin() * (std::f64::consts::PI * p.y).sin();
+                p.x += 0.3 * bump * (p.y - 0.5);
+            }
+        }
+        let (_, mut l) = local_of(&synth::to_mesh(&s));
+        let walls: Vec<(usize, DVec3)> = (0..l.pos.len())
+            .filter(|&v| l.fixed[v])
+            .map(|v| (v, l.pos[v]))
+            .collect();
+        assert!(!walls.is_empty());
+        let (m0, w0) = mean_and_worst(&l);
+        assert!(m0 < 0.95, "the shear should cost quality: {m0}");
+        let moved = unshear(&mut l);
+        assert!(moved > 0);
+        let (m1, w1) = mean_and_worst(&l);
+        assert!(m1 > 0.995 && w1 > 0.98 && w1 > w0, "{m0} {w0} -> {m1} {w1}");
+        for (v, p) in walls {
+            assert_eq!(l.pos[v], p, "fixed node {v} moved");
+        }
+    }
+
+    #[test]
+    fn a_square_grid_is_left_alone() {
+        let s = synth::quad_grid(8, 5, 1.6, 1.0);
+        let (_, mut l) = local_of(&synth::to_mesh(&s));
+        let before = l.pos.clone();
+        assert_eq!(unshear(&mut l), 0);
+        assert_eq!(l.pos, before);
+    }
+}

@@ -1,0 +1,344 @@
+//! A smooth cross field on the triangles of one surface, for the paper's alignment cost
+//! (section 4.3, eq. 7).
+//!
+//! A cross (four directions 90° apart) at angle θ in a triangle's frame is stored as the
+//! unit complex number `z = e^{4iθ}`, which is the same for all four directions. The field
+//! minimizes the discrete Dirichlet energy `Σ |z_t − s_tu z_u|²` over the graph edges `(t, u)`
+//! (the *connection Laplacian*: `s_tu = (c_t · conj(c_u))⁴` carries a cross from `u`'s frame
+//! to `t`'s by unfolding the two triangles about their shared edge, `c_t` being the unit
+//! direction of that edge in `t`'s frame), with every triangle that has a wall edge fixed to
+//! that wall's direction (several walls are averaged in the `4θ` representation; a triangle
+//! whose walls disagree too much, as at a sharp corner, stays free). This is a harmonic
+//! interpolation of the walls' directions: unlike the nearest-wall field
+//! ([`super::graph::boundary_cross_field`]), which jumps on the medial axis, it turns
+//! gradually between walls, and its magnitude `|z|` drops towards 0 near the field's
+//! singularities, where no direction is meaningful.
+//!
+//! The linear system (Hermitian positive definite when a component has a fixed triangle) is
+//! solved by conjugate gradients started from the nearest-wall field, which is exact where
+//! all walls agree (an axis-aligned rectangle, whose field is constant): CG then stops at
+//! once. The iteration count is capped ([`MAX_ITERATIONS`]), so the cost is linear in the
+//! mesh size.
+
+use glam::DVec3;
+
+use super::topology::{SurfaceTopo, NONE};
+
+/// Cap on conjugate-gradient iterations. The field only steers a cost; a direction error of
+/// a degree is irrelevant, so the solve stops at a relative residual of [`TOLERANCE`] or
+/// after this many iterations.
+pub const MAX_ITERATIONS: usize = 400;
+
+/// Relative residual (`‖r‖ / ‖b‖`) at which the conjugate-gradient solve stops.
+pub const TOLERANCE: f64 = 1e-4;
+
+/// A minimal complex number (re, im).
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+struct C(f64, f64);
+
+impl C {
+    #[inline]
+    fn mul(self, o: C) -> C {
+        C(self.0 * o.0 - self.1 * o.1, self.0 * o.1 + self.1 * o.0)
+    }
+    #[inline]
+    fn conj(self) -> C {
+        C(self.0, -self.1)
+    }
+    #[inline]
+    fn norm2(self) -> f64 {
+        self.0 * self.0 + self.1 * self.1
+    }
+    #[inline]
+    fn pow4(self) -> C {
+        let s = self.mul(self);
+        s.mul(s)
+    }
+    #[inline]
+    fn unit(self) -> C {
+        let r = self.norm2().sqrt();
+        if r > 0.0 {
+            C(self.0 / r, self.1 / r)
+        } else {
+            C(0.0, 0.0)
+        }
+    }
+}
+
+/// The smooth cross field of a surface: per triangle a unit tangent `t1` (the cross is
+/// `t1, n × t1`) and a confidence in [0, 1] (`|z|`, 1 along walls, dropping towards the
+/// field's singularities).
+#[derive(Default)]
+pub(crate) struct CrossField {
+    /// One cross direction per triangle (unit, in the triangle's plane).
+    pub t1: Vec<DVec3>,
+    /// `|z|` per triangle, clamped to [0, 1].
+    pub weight: Vec<f64>,
+}
+
+/// Per-triangle orthonormal frame `(e1, e2)` in its plane: `e1` along the first edge.
+fn frame(coords: &[DVec3], tri: [u32; 3]) -> (DVec3, DVec3) {
+    let (a, b, c) = (
+        coords[tri[0] as usize],
+        coords[tri[1] as usize],
+        coords[tri[2] as usize],
+    );
+    let e1 = (b - a).normalize_or_zero();
+    let n = (b - a).cross(c - a).normalize_or_zero();
+    (e1, n.cross(e1))
+}
+
+/// Direction `d` as a unit complex number in the frame `f` (0 when `d` is normal or zero).
+#[inline]
+fn in_frame(f: (DVec3, DVec3), d: DVec3) -> C {
+    C(d.dot(f.0), d.dot(f.1)).unit()
+}
+
+/// Solves for the smooth cross field (module docs). `coords` are indexed by the global node
+/// ids of `topo.tris`.
+pub(crate) fn smooth_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> CrossField {
+    let n = topo.len();
+    let frames: Vec<(DVec3, DVec3)> = topo.tris.iter().map(|&t| frame(coords, t)).collect();
+    // transports s_tu per half-edge (3t + k) and the wall constraint per triangle
+    let mut s = vec![C::default(); 3 * n];
+    let mut fixed = vec![false; n];
+    let mut z = vec![C::default(); n];
+    for t in 0..n {
+        let tri = topo.tris[t];
+        let mut wall = C::default();
+        let mut walls = 0usize;
+        for k in 0..3 {
+            let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];
+            let ct = in_frame(frames[t], e);
+            let u = topo.nbr[3 * t + k];
+            if u == NONE {
+                let w = ct.pow4();
+                wall = C(wall.0 + w.0, wall.1 + w.1);
+                walls += 1;
+            } else {
+                let cu = in_frame(frames[u as usize], e);
+                s[3 * t + k] = ct.mul(cu.conj()).pow4();
+            }
+        }
+        if walls > 0 && wall.norm2().sqrt() >= 0.7 * walls as f64 {
+            fixed[t] = true;
+            z[t] = wall.unit();
+        }
+    }
+    if !fixed.iter().any(|&f| f) {
+        // no usable wall: keep the nearest-wall field (a fixed global direction)
+        let t1 = super::graph::boundary_cross_field(topo, coords);
+        return CrossField {
+            t1,
+            weight: vec![1.0; n],
+        };
+    }
+    // initial guess on the free triangles: the nearest-wall field
+    let bfs = super::graph::boundary_cross_field(topo, coords);
+    for t in 0..n {
+        if !fixed[t] {
+            z[t] = in_frame(frames[t], bfs[t]).pow4();
+        }
+    }
+    // A x on the free triangles: deg_t x_t − Σ_{u free} s_tu x_u (fixed entries of x are 0)
+    let apply = |x: &[C], out: &mut [C]| {
+        for t in 0..n {
+            if fixed[t] {
+                out[t] = C::default();
+                continue;
+            }
+            let mut acc = C::default();
+            let mut deg = 0.0;
+            for k in 0..3 {
+                let u = topo.nbr[3 * t + k];
+                if u == NONE {
+                    continue;
+                }
+                deg += 1.0;
+                let v = s[3 * t + k].mul(x[u as usize]);
+                acc = C(acc.0 + v.0, acc.1 + v.1);
+            }
+            out[t] = C(deg * x[t].0 - acc.0, deg * x[t].1 - acc.1);
+        }
+    };
+    // b_t = Σ_{u fixed} s_tu z_u; r = b − A x0 computed as −(full operator applied to z)
+    let mut r = vec![C::default(); n];
+    let mut bnorm2 = 0.0;
+    for t in 0..n {
+        if fixed[t] {
+            continue;
+        }
+        let mut acc = C::default();
+        let mut bacc = C::default();
+        let mut deg = 0.0;
+        for k in 0..3 {
+            let u = topo.nbr[3 * t + k];
+            if u == NONE {
+                continue;
+            }
+            deg += 1.0;
+            let v = s[3 * t + k].mul(z[u as usize]);
+            acc = C(acc.0 + v.0, acc.1 + v.1);
+            if fixed[u as usize] {
+                bacc = C(bacc.0 + v.0, bacc.1 + v.1);
+            }
+        }
+        r[t] = C(acc.0 - deg * z[t].0, acc.1 - deg * z[t].1);
+        bnorm2 += bacc.norm2();
+    }
+    let dot = |a: &[C], b: &[C]| -> f64 {
+        // Re <a, b>; for the Hermitian system the needed products are real
+        a.iter().zip(b).map(|(x, y)| x.0 * y.0 + x.1 * y.1).sum()
+    };
+    let mut p = r.clone();
+    let mut ap = vec![C::default(); n];
+    let mut rr = dot(&r, &r);
+    let stop = TOLERANCE * TOLERANCE * bnorm2.max(f64::MIN_POSITIVE);
+    let mut iterations = 0usize;
+    while iterations < MAX_ITERATIONS && rr > stop {
+        apply(&p, &mut ap);
+        let pap = dot(&p, &ap);
+        if pap <= 0.0 || !pap.is_finite() {
+            break;
+        }
+        let alpha = rr / pap;
+        for t in 0..n {
+            if !fixed[t] {
+                z[t] = C(z[t].0 + alpha * p[t].0, z[t].1 + alpha * p[t].1);
+                r[t] = C(r[t].0 - alpha * ap[t].0, r[t].1 - alpha * ap[t].1);
+            }
+        }
+        let rr_new = dot(&r, &r);
+        let beta = rr_new / rr;
+        rr = rr_new;
+        for t in 0..n {
+            p[t] = C(r[t].0 + beta * p[t].0, r[t].1 + beta * p[t].1);
+        }
+        iterations += 1;
+    }
+    let mut t1 = vec![DVec3::ZERO; n];
+    let mut weight = vec![0.0; n];
+    for t in 0..n {
+        let m = z[t].norm2().sqrt();
+        weight[t] = m.min(1.0);
+        let (e1, e2) = frames[t];
+        t1[t] = if m > 0.0 {
+            let phi = z[t].1.atan2(z[t].0) / 4.0;
+            e1 * phi.cos() + e2 * phi.sin()
+        } else {
+            bfs[t]
+        };
+    }
+    CrossField { t1, weight }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::recombine::graph::{boundary_cross_field, cross_cost};
+
+    /// A structured triangulation of `[0, 1]²` (`m × m` cells, each split in two) mapped by
+    /// `f`, with its adjacency: edges used once are walls.
+    fn mesh(m: usize, f: impl Fn(f64, f64) -> DVec3) -> (SurfaceTopo, Vec<DVec3>) {
+        let id = |i: usize, j: usize| (j * (m + 1) + i) as u32;
+        let mut coords = Vec::new();
+        for j in 0..=m {
+            for i in 0..=m {
+                coords.push(f(i as f64 / m as f64, j as f64 / m as f64));
+            }
+        }
+        let mut tris = Vec::new();
+        for j in 0..m {
+            for i in 0..m {
+                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+                if (i + j) % 2 == 0 {
+                    tris.push([a, b, c]);
+                    tris.push([a, c, d]);
+                } else {
+                    tris.push([a, b, d]);
+                    tris.push([b, c, d]);
+                }
+            }
+        }
+        let mut half: std::collections::HashMap<(u32, u32), u32> = Default::default();
+        for (t, tri) in tris.iter().enumerate() {
+            for k in 0..3 {
+                half.insert((tri[k], tri[(k + 1) % 3]), t as u32);
+            }
+        }
+        let mut nbr = vec![NONE; 3 * tris.len()];
+        for (t, tri) in tris.iter().enumerate() {
+            for k in 0..3 {
+                if let Some(&u) = half.get(&(tri[(k + 1) % 3], tri[k])) {
+                    nbr[3 * t + k] = u;
+                }
+            }
+        }
+        (SurfaceTopo { tris, nbr }, coords)
+    }
+
+    /// Angle of the cross of every triangle in `[0, π/2)` (planar meshes in the xy plane).
+    fn angles(t1: &[DVec3]) -> Vec<f64> {
+        let q = std::f64::consts::FRAC_PI_2;
+        t1.iter().map(|d| d.y.atan2(d.x).rem_euclid(q)).collect()
+    }
+
+    /// Largest angle between the crosses of two neighbouring triangles with no wall edge
+    /// (wall triangles on two walls meeting at a corner differ by the corner's angle).
+    fn max_jump(topo: &SurfaceTopo, t1: &[DVec3]) -> f64 {
+        let a = angles(t1);
+        let q = std::f64::consts::FRAC_PI_2;
+        let inner = |t: usize| (0..3).all(|k| topo.nbr[3 * t + k] != NONE);
+        let mut worst: f64 = 0.0;
+        for t in (0..topo.len()).filter(|&t| inner(t)) {
+            for k in 0..3 {
+                let u = topo.nbr[3 * t + k] as usize;
+                if inner(u) {
+                    let d = (a[t] - a[u]).rem_euclid(q);
+                    worst = worst.max(d.min(q - d));
+                }
+            }
+        }
+        worst
+    }
+
+    #[test]
+    fn the_field_of_an_axis_aligned_rectangle_is_the_axes() {
+        let (topo, coords) = mesh(12, |x, y| DVec3::new(2.0 * x, y, 0.0));
+        let f = smooth_cross_field(&topo, &coords);
+        for (t, d) in f.t1.iter().enumerate() {
+            assert!((d.length() - 1.0).abs() < 1e-9);
+            assert!(d.x.abs().max(d.y.abs()) > 1.0 - 1e-9, "triangle {t}: {d:?}");
+            assert!(f.weight[t] > 1.0 - 1e-6, "{}", f.weight[t]);
+        }
+    }
+
+    #[test]
+    fn the_field_follows_the_walls_and_turns_smoothly_between_them() {
+        // bottom wall horizontal, top wall rising at atan(0.5) ≈ 26.6°, sides vertical
+        let (topo, coords) = mesh(24, |x, y| DVec3::new(x, y * (1.0 + 0.5 * x), 0.0));
+        let f = smooth_cross_field(&topo, &coords);
+        let nrm = DVec3::Z;
+        for t in 0..topo.len() {
+            for k in 0..3 {
+                if topo.nbr[3 * t + k] == NONE {
+                    let tri = topo.tris[t];
+                    let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];
+                    let c = cross_cost(e, f.t1[t], nrm);
+                    // corner triangles average two walls; the others follow their wall
+                    let walls = (0..3).filter(|&j| topo.nbr[3 * t + j] == NONE).count();
+                    assert!(walls > 1 || c > 1.0 - 1e-9, "triangle {t}: cost {c}");
+                }
+            }
+        }
+        let bfs = boundary_cross_field(&topo, &coords);
+        let (smooth, nearest) = (max_jump(&topo, &f.t1), max_jump(&topo, &bfs));
+        // the nearest-wall field jumps by the angle between the walls on the medial axis
+        assert!(nearest > 0.3, "{nearest}");
+        assert!(smooth < 0.5 * nearest, "{smooth} vs {nearest}");
+        // and in the middle the cross lies between the walls' directions
+        let a = angles(&f.t1);
+        let mid = 2 * (12 * 24 + 12); // a triangle of the centre cell
+        assert!(a[mid] > 0.02 && a[mid] < 0.45, "{}", a[mid]);
+    }
+}
