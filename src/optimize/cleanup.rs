@@ -36,6 +36,7 @@
 
 use super::local::{slot, Local, NONE};
 use glam::DVec3;
+use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
 
 /// Widest acceptable corner at a fixed node (radians), 150°: wider corners cannot be opened
@@ -49,6 +50,11 @@ pub(crate) const MIN_FIXED_CORNER: f64 = 65.0 / 180.0 * std::f64::consts::PI;
 /// Smallest signed η of the quads a rotation sequence rewrote, after moving the free nodes
 /// of invalid ones to their ring's centroid (a worse quad would survive smoothing).
 const RELOCATED_MIN_ETA: f64 = 0.2;
+
+/// Quad rings around the focus within which [`Topo::near`] builds the quad neighbours: a
+/// search from a focus quad rewrites quads within 3 rings of the focus (depth 2) and walks
+/// the fans of their nodes; one more ring for margin.
+const REACH_RINGS: usize = 4;
 
 /// Energy of a fixed node whose corners would be wider than [`MAX_FIXED_CORNER`].
 const WIDE_CORNER_PENALTY: i32 = 16;
@@ -119,15 +125,86 @@ struct Topo<'a> {
 }
 
 impl<'a> Topo<'a> {
+    #[cfg(test)]
     fn new(l: &'a mut Local) -> Self {
+        Self::near(l, None)
+    }
+
+    /// [`Topo::new`] for a search that only starts from quads with a node in `focus`: the
+    /// quad neighbours and manifold checks are computed only for the quads with a node
+    /// within [`REACH_RINGS`] quad rings of it (all a search of depth ≤ 2 reads), the rest
+    /// is left unknown ([`NONE`] neighbours).
+    fn near(l: &'a mut Local, focus: Option<&[bool]>) -> Self {
         l.build_adjacency();
         let n = l.pos.len();
         let (ideal, angle) = ideal_valence(l);
-        let mut nb = vec![[NONE; 4]; l.quads.len()];
+        let region = focus.map(|f| {
+            let mut mark: Vec<bool> = (0..n).map(|v| f.get(v) == Some(&true)).collect();
+            let mut frontier: Vec<u32> = (0..n as u32).filter(|&v| mark[v as usize]).collect();
+            for _ in 0..REACH_RINGS {
+                let mut next = Vec::new();
+                for &v in &frontier {
+                    for &q in l.star(v) {
+                        for &w in &l.quads[q as usize] {
+                            if !mark[w as usize] {
+                                mark[w as usize] = true;
+                                next.push(w);
+                            }
+                        }
+                    }
+                }
+                frontier = next;
+            }
+            mark
+        });
+        let in_region = |v: u32| region.as_ref().is_none_or(|r| r[v as usize]);
+        // per quad (in parallel, read-only): the neighbour across each edge, and which edges
+        // are not manifold (a second quad running a -> b, or several running b -> a)
+        let lr: &Local = l;
+        let rows: Vec<([u32; 4], u8)> = (0..lr.quads.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|q| {
+                let mut nbq = [NONE; 4];
+                let mut bad = 0u8;
+                let quad = lr.quads[q];
+                if !lr.alive[q] || !quad.iter().any(|&w| in_region(w)) {
+                    return (nbq, bad);
+                }
+                for k in 0..4 {
+                    let (a, b) = (quad[k], quad[(k + 1) % 4]);
+                    let mut found = NONE;
+                    let mut count = 0;
+                    let mut same_dir = false;
+                    for &s in lr.star(a) {
+                        if s as usize == q {
+                            continue;
+                        }
+                        let r = &lr.quads[s as usize];
+                        for m in 0..4 {
+                            if r[m] == b && r[(m + 1) % 4] == a {
+                                found = s;
+                                count += 1;
+                                break;
+                            }
+                        }
+                        same_dir |= (0..4).any(|m| r[m] == a && r[(m + 1) % 4] == b);
+                    }
+                    if count == 1 && !same_dir {
+                        nbq[k] = found;
+                    } else if count > 1 || same_dir {
+                        bad |= 1 << k;
+                    }
+                }
+                (nbq, bad)
+            })
+            .collect();
+        let mut nb = Vec::with_capacity(rows.len());
         let mut val = vec![0i32; n];
         let mut corner = vec![NONE; n];
         let mut unsafe_node = vec![false; n];
-        for (q, nbq) in nb.iter_mut().enumerate() {
+        for (q, (nbq, bad)) in rows.into_iter().enumerate() {
+            nb.push(nbq);
             if !l.alive[q] {
                 continue;
             }
@@ -136,24 +213,7 @@ impl<'a> Topo<'a> {
                 let (a, b) = (quad[k], quad[(k + 1) % 4]);
                 val[a as usize] += 1;
                 corner[a as usize] = q as u32;
-                // the quad running b -> a
-                let mut found = NONE;
-                let mut count = 0;
-                for &s in l.star(a) {
-                    let r = &l.quads[s as usize];
-                    if s as usize != q && (0..4).any(|m| r[m] == b && r[(m + 1) % 4] == a) {
-                        found = s;
-                        count += 1;
-                    }
-                }
-                // a second quad running a -> b, or several running b -> a: not manifold
-                let same_dir = l.star(a).iter().any(|&s| {
-                    let r = &l.quads[s as usize];
-                    s as usize != q && (0..4).any(|m| r[m] == a && r[(m + 1) % 4] == b)
-                });
-                if count == 1 && !same_dir {
-                    nbq[k] = found;
-                } else if count > 1 || same_dir {
+                if bad & (1 << k) != 0 {
                     unsafe_node[a as usize] = true;
                     unsafe_node[b as usize] = true;
                 }
@@ -169,14 +229,23 @@ impl<'a> Topo<'a> {
             unsafe_node,
             log: Vec::new(),
         };
-        for v in 0..n as u32 {
-            if t.val[v as usize] > 0 && !t.unsafe_node[v as usize] {
-                let mut c = 0;
-                t.around(v, |_| c += 1);
-                if c != t.val[v as usize] {
-                    t.unsafe_node[v as usize] = true;
+        // a fan that does not close over all of a node's quads is not manifold either
+        let tr = &t;
+        let open: Vec<u32> = (0..n as u32)
+            .into_par_iter()
+            .with_min_len(4096)
+            .filter(|&v| {
+                let vi = v as usize;
+                if tr.val[vi] == 0 || tr.unsafe_node[vi] || !in_region(v) {
+                    return false;
                 }
-            }
+                let mut c = 0;
+                tr.around(v, |_| c += 1);
+                c != tr.val[vi]
+            })
+            .collect();
+        for v in open {
+            t.unsafe_node[v as usize] = true;
         }
         t
     }
@@ -508,7 +577,11 @@ pub(crate) fn cleanup(
     if depth == 0 {
         return (0, 0);
     }
-    let mut t = Topo::new(l);
+    let t0 = std::time::Instant::now();
+    let mut t = Topo::near(l, focus);
+    if std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some() {
+        eprintln!("Topo::new {:.3}", t0.elapsed().as_secs_f64());
+    }
     let (mut sequences, mut rotations) = (0, 0);
     for _ in 0..max_rounds {
         let mut applied = 0;

@@ -275,11 +275,13 @@ impl<'a> StarEval<'a> {
         e
     }
 
-    /// [`shape_key`] of star quad `i` with `v` at `p`.
+    /// The largest |cot α| over the corners of star quad `i` with `v` at `p` (the key is
+    /// 1 / (1 + that)), or a negative number when some corner does not turn positively (or
+    /// on the slow path).
     #[inline]
-    pub fn key(&self, i: usize, p: DVec3) -> f64 {
+    pub fn worst_cot(&self, i: usize, p: DVec3) -> f64 {
         if !self.fast {
-            return self.l.key_with(self.l.star(self.v)[i], self.v, p);
+            return -1.0;
         }
         let [b, c, d] = self.pts[i];
         let n = self.nrm[i];
@@ -289,16 +291,31 @@ impl<'a> StarEval<'a> {
             for (a, e) in [(b - p, d - p), (c - b, p - b), (p - d, c - d)] {
                 let s = n.dot(a.cross(e));
                 if s <= 0.0 {
-                    worst = -1.0;
-                    break;
+                    return -1.0;
                 }
                 worst = worst.max(a.dot(e).abs() / s);
             }
         }
+        worst
+    }
+
+    /// [`shape_key`] of star quad `i` with `v` at `p`.
+    #[inline]
+    pub fn key(&self, i: usize, p: DVec3) -> f64 {
+        if !self.fast {
+            return self.l.key_with(self.l.star(self.v)[i], self.v, p);
+        }
+        let worst = self.worst_cot(i, p);
         if worst < 0.0 {
-            return shape_key(&[p, b, c, d], n);
+            let [b, c, d] = self.pts[i];
+            return shape_key(&[p, b, c, d], self.nrm[i]);
         }
         1.0 / (1.0 + worst)
+    }
+
+    /// True when the star is held (see [`StarEval::new`]): [`StarEval::worst_cot`] works.
+    pub fn fast(&self) -> bool {
+        self.fast
     }
 
     /// Number of quads evaluated (the star without its hopeless quads, on the fast path).
