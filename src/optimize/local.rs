@@ -299,6 +299,63 @@ impl<'a> StarEval<'a> {
         worst
     }
 
+    /// [`StarEval::worst_cot`] of star quad `i` at eight positions of `v` at once
+    /// (branch-free, the same arithmetic per position; needs the fast path).
+    #[inline]
+    pub fn worst_cot8(&self, i: usize, ps: &[DVec3; 8]) -> [f64; 8] {
+        let [b, c, d] = self.pts[i];
+        let n = self.nrm[i];
+        let opp = self.opp[i];
+        let mut out = [0.0; 8];
+        for (o, &p) in out.iter_mut().zip(ps) {
+            let mut worst = opp;
+            let mut bad = opp < 0.0;
+            for (a, e) in [(b - p, d - p), (c - b, p - b), (p - d, c - d)] {
+                let s = n.dot(a.cross(e));
+                bad |= s <= 0.0;
+                worst = worst.max(a.dot(e).abs() / s);
+            }
+            *o = if bad { -1.0 } else { worst };
+        }
+        out
+    }
+
+    /// (worst, sum) of the star's keys at each of eight positions of `v` (as
+    /// [`StarEval::min_key`] and the sum in [`StarEval::min_sum_above`], same arithmetic):
+    /// the eight are evaluated together on the fast path, a position where some quad is
+    /// invalid is redone one quad at a time.
+    pub fn min_sum8(&self, ps: &[DVec3; 8]) -> [(f64, f64); 8] {
+        let mut out = [(f64::INFINITY, 0.0); 8];
+        if !self.fast {
+            for (o, &p) in out.iter_mut().zip(ps) {
+                for i in 0..self.len {
+                    let k = self.key(i, p);
+                    *o = (o.0.min(k), o.1 + k);
+                }
+            }
+            return out;
+        }
+        let mut bad = [false; 8];
+        for i in 0..self.len {
+            let c = self.worst_cot8(i, ps);
+            for j in 0..8 {
+                bad[j] |= c[j] < 0.0;
+                let k = 1.0 / (1.0 + c[j]);
+                out[j] = (out[j].0.min(k), out[j].1 + k);
+            }
+        }
+        for j in 0..8 {
+            if bad[j] {
+                out[j] = (f64::INFINITY, 0.0);
+                for i in 0..self.len {
+                    let k = self.key(i, ps[j]);
+                    out[j] = (out[j].0.min(k), out[j].1 + k);
+                }
+            }
+        }
+        out
+    }
+
     /// [`shape_key`] of star quad `i` with `v` at `p`.
     #[inline]
     pub fn key(&self, i: usize, p: DVec3) -> f64 {

@@ -255,8 +255,12 @@ fn run_surface(
             } else {
                 let active = near_changes(l, &snapshot, RESMOOTH_RINGS);
                 focus = Some(active.clone());
-                let m =
-                    smooth::smooth_near(l, opts.smooth_iterations, opts.diagonal_weight, active);
+                let m = smooth::smooth_near(
+                    l,
+                    knob("BQ_RESMOOTH", opts.smooth_iterations),
+                    opts.diagonal_weight,
+                    active,
+                );
                 if std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some() {
                     let c = focus
                         .as_ref()

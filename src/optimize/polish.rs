@@ -84,9 +84,25 @@ fn mean_node(l: &Local, v: u32) -> Option<(DVec3, u32)> {
         Some((max, sum))
     };
     let (max0, sum0) = eval(x0)?;
-    pattern_search(l, v, &[0.1, 0.04, 0.015], sum0, |p| {
-        eval(p).and_then(|(mx, sum)| (mx <= max0).then_some(sum))
-    })
+    let score = |p: DVec3| eval(p).and_then(|(mx, sum)| (mx <= max0).then_some(sum));
+    if star.fast() {
+        // the eight compass trials of a step scored together (same sums as `eval`)
+        return super::smooth::pattern_search8(l, v, &[0.1, 0.04, 0.015], sum0, |ps| {
+            let mut max = [0.0_f64; 8];
+            let mut sum = [0.0; 8];
+            let mut ok = [true; 8];
+            for i in 0..star.len() {
+                let c = star.worst_cot8(i, ps);
+                for j in 0..8 {
+                    ok[j] &= c[j] >= 0.0;
+                    max[j] = max[j].max(c[j]);
+                    sum[j] += eta_of_cot(c[j].max(0.0));
+                }
+            }
+            std::array::from_fn(|j| (ok[j] && max[j] <= max0).then_some(sum[j]))
+        });
+    }
+    pattern_search(l, v, &[0.1, 0.04, 0.015], sum0, score)
 }
 
 /// Up to `sweeps` sweeps of [`mean_node`] over all free nodes, Gauss-Seidel by colour (the
