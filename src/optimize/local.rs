@@ -53,6 +53,11 @@ pub(crate) struct Local {
     /// Per quad: a corner whose three nodes are fixed does not turn positively, so no move
     /// can make the quad valid (see [`Local::refresh_quad_normals`]).
     pub hopeless: Vec<bool>,
+    /// Free nodes by colour for the sweeps (see [`Local::prepare_sweeps`]).
+    pub colours: Vec<Vec<u32>>,
+    /// True while `qn`, `hopeless` and `colours` match the quads (cleared by
+    /// [`Local::build_adjacency`]).
+    pub sweep_ready: bool,
 }
 
 impl Local {
@@ -60,6 +65,19 @@ impl Local {
     pub fn build_adjacency(&mut self) {
         let alive = &self.alive;
         (self.start, self.adj) = csr(self.pos.len(), &self.quads, |q| alive[q]);
+        self.sweep_ready = false;
+    }
+
+    /// Quad normals, hopeless quads ([`Local::refresh_quad_normals`]) and the colouring of
+    /// the free nodes, recomputed only when the quads changed since the last call: they
+    /// depend on the topology, the node normals and fixed nodes only, none of which a
+    /// smoothing sweep changes. Needs a current adjacency.
+    pub fn prepare_sweeps(&mut self) {
+        if !self.sweep_ready {
+            self.refresh_quad_normals();
+            self.colours = super::smooth::colour_free_nodes(self);
+            self.sweep_ready = true;
+        }
     }
 
     /// Recomputes the unit reference normal of every quad from its nodes' normals, and
@@ -69,9 +87,13 @@ impl Local {
     /// key would let a node's other quads degrade down to it).
     pub fn refresh_quad_normals(&mut self) {
         self.qn = (0..self.quads.len() as u32)
+            .into_par_iter()
+            .with_min_len(4096)
             .map(|q| self.quad_normal(q).normalize_or_zero())
             .collect();
         self.hopeless = (0..self.quads.len())
+            .into_par_iter()
+            .with_min_len(4096)
             .map(|q| {
                 let quad = &self.quads[q];
                 self.alive[q]

@@ -109,8 +109,8 @@ fn mean_node(l: &Local, v: u32) -> Option<(DVec3, u32)> {
 /// nodes of one colour share no quad: their moves are computed in parallel).
 pub(crate) fn polish_mean(l: &mut Local, sweeps: usize) -> usize {
     use rayon::prelude::*;
-    l.refresh_quad_normals();
-    let groups = super::smooth::colour_free_nodes(l);
+    l.prepare_sweeps();
+    let groups = std::mem::take(&mut l.colours);
     let mut moves = 0;
     // after the first sweep, only nodes sharing a quad with a node that moved
     let mut active = vec![true; l.pos.len()];
@@ -144,6 +144,7 @@ pub(crate) fn polish_mean(l: &mut Local, sweeps: usize) -> usize {
         std::mem::swap(&mut active, &mut next);
         next.fill(false);
     }
+    l.colours = groups;
     moves
 }
 

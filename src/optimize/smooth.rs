@@ -107,8 +107,8 @@ const MOVE_TOL: f64 = 1e-3;
 /// near a significant move of the previous one; the first sweep over the nodes flagged in
 /// `active` (all nodes when `None`).
 fn sweeps(l: &mut Local, sweeps: usize, propose: &Propose, active: Option<Vec<bool>>) -> usize {
-    l.refresh_quad_normals();
-    let groups = colour_free_nodes(l);
+    l.prepare_sweeps();
+    let groups = std::mem::take(&mut l.colours);
     let mut active = active.unwrap_or_else(|| vec![true; l.pos.len()]);
     let mut next = vec![false; l.pos.len()];
     let mut moves = 0;
@@ -120,6 +120,7 @@ fn sweeps(l: &mut Local, sweeps: usize, propose: &Propose, active: Option<Vec<bo
         std::mem::swap(&mut active, &mut next);
         next.fill(false);
     }
+    l.colours = groups;
     moves
 }
 
@@ -308,7 +309,7 @@ fn propose_worst(l: &Local, v: u32) -> Option<(DVec3, u32)> {
 /// Max-min polish of the worst quads: [`propose_worst`] on the nodes of quads with η below
 /// 0.6 and, over `n` sweeps, around the nodes that moved. Returns the number of moves.
 pub(crate) fn polish_worst(l: &mut Local, n: usize) -> usize {
-    l.refresh_quad_normals();
+    l.prepare_sweeps();
     let mut active = vec![false; l.pos.len()];
     let mut any = false;
     for (q, quad) in l.quads.iter().enumerate() {

@@ -44,6 +44,7 @@ const CLEANUP_DEPTH: usize = 2;
 pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[bool]>) -> usize {
     let t0 = std::time::Instant::now();
     let mut laps = Vec::new();
+    l.sweep_ready = false;
     let mut dirty = vec![false; l.pos.len()];
     let (ideal, angle) = ideal_valence(l);
     laps.push(t0.elapsed().as_secs_f64());
