@@ -577,11 +577,7 @@ pub(crate) fn cleanup(
     if depth == 0 {
         return (0, 0);
     }
-    let t0 = std::time::Instant::now();
     let mut t = Topo::near(l, focus);
-    if std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some() {
-        eprintln!("Topo::new {:.3}", t0.elapsed().as_secs_f64());
-    }
     let (mut sequences, mut rotations) = (0, 0);
     for _ in 0..max_rounds {
         let mut applied = 0;
@@ -713,6 +709,80 @@ pub(crate) mod tests {
         }
         // depth 2 finds sequences a single greedy rotation cannot
         assert!(total.1 < total.0, "{total:?}");
+    }
+
+    #[test]
+    fn a_focus_over_every_node_finds_the_same_rotations_as_no_focus() {
+        // the focused neighbours (built only near the focus) must not miss anything a
+        // search from a focus quad reads
+        for (seed, quads) in matched_squares().into_iter().take(3) {
+            let m = synth::to_mesh(&quads);
+            let (_, mut a) = local_of(&m);
+            let (_, mut b) = local_of(&m);
+            let all = vec![true; b.pos.len()];
+            let ra = cleanup(&mut a, 2, 8, None);
+            let rb = cleanup(&mut b, 2, 8, Some(&all));
+            assert!(ra.0 > 0, "seed {seed}: nothing to do");
+            assert_eq!(ra, rb, "seed {seed}");
+            assert_eq!(a.quads, b.quads, "seed {seed}");
+        }
+    }
+
+    #[test]
+    fn a_focused_cleanup_only_rewrites_quads_near_the_focus() {
+        for (seed, quads) in matched_squares().into_iter().take(3) {
+            let m = synth::to_mesh(&quads);
+            let (_, mut l) = local_of(&m);
+            // focus: the nodes left of the middle
+            let mid = l.pos.iter().map(|p| p.x).sum::<f64>() / l.pos.len() as f64;
+            let focus: Vec<bool> = l.pos.iter().map(|p| p.x < mid).collect();
+            let before = l.quads.clone();
+            let (_, mut full) = local_of(&m);
+            cleanup(&mut full, 2, 1, None);
+            cleanup(&mut l, 2, 1, Some(&focus));
+            // within 3 quad rings of the focus (a depth-2 sequence from a focus quad)
+            l.build_adjacency();
+            let mut near = focus.clone();
+            for _ in 0..3 {
+                let mut next = near.clone();
+                for v in 0..l.pos.len() as u32 {
+                    if near[v as usize] {
+                        for &q in l.star(v).iter().chain(
+                            (0..before.len() as u32)
+                                .filter(|&q| before[q as usize].contains(&v))
+                                .collect::<Vec<_>>()
+                                .iter(),
+                        ) {
+                            for &w in l.quads[q as usize].iter().chain(&before[q as usize]) {
+                                next[w as usize] = true;
+                            }
+                        }
+                    }
+                }
+                near = next;
+            }
+            let mut changed = 0;
+            for (q, quad) in l.quads.iter().enumerate() {
+                if *quad != before[q] {
+                    changed += 1;
+                    assert!(
+                        quad.iter().chain(&before[q]).any(|&w| near[w as usize]),
+                        "seed {seed}: quad {q} rewritten far from the focus"
+                    );
+                }
+            }
+            // and it did less than the unfocused search
+            let changed_full = full
+                .quads
+                .iter()
+                .zip(&before)
+                .filter(|(a, b)| a != b)
+                .count();
+            assert!(
+                changed > 0 && changed < changed_full,
+                "seed {seed}: {changed} vs {changed_full}"
+            );
+        }
     }
 
     #[test]

@@ -465,6 +465,54 @@ mod tests {
     use super::*;
 
     #[test]
+    fn batched_star_evaluation_matches_one_position_at_a_time() {
+        use crate::optimize::cleanup::tests::local_of;
+        use crate::optimize::synth;
+        let mut s = synth::quad_grid(7, 7, 1.0, 1.0);
+        synth::jitter(&mut s, 0.25 / 7.0, 11);
+        let m = synth::to_mesh(&s);
+        let (_, mut l) = local_of(&m);
+        l.prepare_sweeps();
+        let (mut checked, mut invalid) = (0, 0);
+        for v in 0..l.pos.len() as u32 {
+            if l.fixed[v as usize] {
+                continue;
+            }
+            let star = StarEval::new(&l, v);
+            assert!(star.fast());
+            // trial positions up to 0.8 h away: some turn a quad over
+            let x0 = l.pos[v as usize];
+            let ps: [DVec3; 8] = std::array::from_fn(|k| {
+                let a = k as f64 * 0.8;
+                x0 + DVec3::new(a.cos(), a.sin(), 0.0) * (0.02 + 0.015 * k as f64)
+            });
+            let batch = star.min_sum8(&ps);
+            for (j, &p) in ps.iter().enumerate() {
+                let keys: Vec<f64> = (0..star.len()).map(|i| star.key(i, p)).collect();
+                let min = keys.iter().copied().fold(f64::INFINITY, f64::min);
+                let sum: f64 = keys.iter().sum();
+                assert_eq!(batch[j], (min, sum), "node {v} trial {j}");
+                assert_eq!(star.min_key(p), min);
+                for i in 0..star.len() {
+                    let c = star.worst_cot8(i, &ps)[j];
+                    assert_eq!(c, star.worst_cot(i, p));
+                    if c >= 0.0 {
+                        assert_eq!(keys[i], 1.0 / (1.0 + c));
+                    } else {
+                        invalid += 1;
+                        assert!(keys[i] < 0.0, "an invalid quad has a negative key");
+                    }
+                }
+                checked += 1;
+            }
+        }
+        assert!(
+            checked > 100 && invalid > 0,
+            "{checked} trials, {invalid} invalid quads"
+        );
+    }
+
+    #[test]
     fn shape_key_orders_like_eta_and_converts_back() {
         let q = |pts: [[f64; 2]; 4]| pts.map(|[x, y]| DVec3::new(x, y, 0.0));
         let quads = [

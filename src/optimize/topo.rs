@@ -42,12 +42,9 @@ const CLEANUP_DEPTH: usize = 2;
 /// and quads (merges, rotations, cleanup) with a node in it: the region a previous pass
 /// and its smoothing changed (elsewhere the same searches already failed).
 pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[bool]>) -> usize {
-    let t0 = std::time::Instant::now();
-    let mut laps = Vec::new();
     l.sweep_ready = false;
     let mut dirty = vec![false; l.pos.len()];
     let (ideal, angle) = ideal_valence(l);
-    laps.push(t0.elapsed().as_secs_f64());
     let before = ops.doublet_collapses + ops.quad_vertex_merges + ops.edge_rotations;
     let in_focus = |v: u32| focus.is_none_or(|f| f.get(v as usize) == Some(&true));
     let quad_in_focus =
@@ -57,20 +54,17 @@ pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[boo
             ops.doublet_collapses += 1;
         }
     }
-    laps.push(t0.elapsed().as_secs_f64());
     for q in 0..l.quads.len() as u32 {
         if quad_in_focus(l, q) && quad_vertex_merge(l, q, &ideal, &angle, &mut dirty) {
             ops.quad_vertex_merges += 1;
         }
     }
-    laps.push(t0.elapsed().as_secs_f64());
     // quality of each quad when first needed (a quad is only read while none of its nodes is
     // dirty, i.e. as it was when the rotations started)
     let mut qual = vec![f64::NAN; l.quads.len()];
     let mut valence: Vec<i32> = (0..l.pos.len() as u32)
         .map(|v| l.star(v).len() as i32)
         .collect();
-    laps.push(t0.elapsed().as_secs_f64());
     for q in 0..l.quads.len() as u32 {
         if !quad_in_focus(l, q) {
             continue;
@@ -82,15 +76,8 @@ pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[boo
             }
         }
     }
-    laps.push(t0.elapsed().as_secs_f64());
     let (_, rot) = super::cleanup::cleanup(l, CLEANUP_DEPTH, 1, focus);
     ops.edge_rotations += rot;
-    laps.push(t0.elapsed().as_secs_f64());
-    if std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some() {
-        eprintln!(
-            "topo laps (ideal, doublet, merge, qual+val, rot, cleanup): {laps:.3?} ops {ops:?}"
-        );
-    }
     ops.doublet_collapses + ops.quad_vertex_merges + ops.edge_rotations - before
 }
 
