@@ -621,7 +621,7 @@ fn morton_order(quads: &[[u32; 4]], coords: &[DVec3]) -> Vec<u32> {
             (code, i as u32)
         })
         .collect();
-    keyed.sort_unstable();
+    keyed.par_sort_unstable();
     keyed.into_iter().map(|(_, i)| i).collect()
 }
 
