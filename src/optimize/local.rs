@@ -493,14 +493,14 @@ mod tests {
                 let sum: f64 = keys.iter().sum();
                 assert_eq!(batch[j], (min, sum), "node {v} trial {j}");
                 assert_eq!(star.min_key(p), min);
-                for i in 0..star.len() {
+                for (i, &k) in keys.iter().enumerate() {
                     let c = star.worst_cot8(i, &ps)[j];
                     assert_eq!(c, star.worst_cot(i, p));
                     if c >= 0.0 {
-                        assert_eq!(keys[i], 1.0 / (1.0 + c));
+                        assert_eq!(k, 1.0 / (1.0 + c));
                     } else {
                         invalid += 1;
-                        assert!(keys[i] < 0.0, "an invalid quad has a negative key");
+                        assert!(k < 0.0, "an invalid quad has a negative key");
                     }
                 }
                 checked += 1;
