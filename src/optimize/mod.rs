@@ -13,9 +13,9 @@
 //! from every node on surfaces under 20k quads); a max-min polish of the quads with η < 0.6;
 //! 2 pattern-search sweeps; 2 mean-η polish sweeps. On surfaces of 20k quads or more, the
 //! topology passes after the first only look at the quads within 2 rings of what the
-//! previous pass changed (elsewhere the same searches already failed). For speed the quads are numbered in Morton order of their
-//! centroids and the nodes by first use (memory locality), and planar surfaces build no
-//! spatial index. Measured on a 1e6-triangle rectangle (2 cores, shared machine): CPU time
+//! previous pass changed (elsewhere the same searches already failed). For speed the quads
+//! are numbered in Morton order of their centroids and the nodes by first use (memory
+//! locality), and planar surfaces build no spatial index. Measured on a 1e6-triangle rectangle (2 cores, shared machine): CPU time
 //! about 3x lower than the schedule that re-smoothed every node in every round.
 //!
 //! **Invariant:** nodes classified on points and curves, nodes on the boundary of a
