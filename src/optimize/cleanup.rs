@@ -36,6 +36,7 @@
 
 use super::local::{slot, Local, NONE};
 use glam::DVec3;
+use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
 
 /// Widest acceptable corner at a fixed node (radians), 150°: wider corners cannot be opened
@@ -49,6 +50,11 @@ pub(crate) const MIN_FIXED_CORNER: f64 = 65.0 / 180.0 * std::f64::consts::PI;
 /// Smallest signed η of the quads a rotation sequence rewrote, after moving the free nodes
 /// of invalid ones to their ring's centroid (a worse quad would survive smoothing).
 const RELOCATED_MIN_ETA: f64 = 0.2;
+
+/// Quad rings around the focus within which [`Topo::near`] builds the quad neighbours: a
+/// search from a focus quad rewrites quads within 3 rings of the focus (depth 2) and walks
+/// the fans of their nodes; one more ring for margin.
+const REACH_RINGS: usize = 4;
 
 /// Energy of a fixed node whose corners would be wider than [`MAX_FIXED_CORNER`].
 const WIDE_CORNER_PENALTY: i32 = 16;
@@ -119,15 +125,86 @@ struct Topo<'a> {
 }
 
 impl<'a> Topo<'a> {
+    #[cfg(test)]
     fn new(l: &'a mut Local) -> Self {
+        Self::near(l, None)
+    }
+
+    /// [`Topo::new`] for a search that only starts from quads with a node in `focus`: the
+    /// quad neighbours and manifold checks are computed only for the quads with a node
+    /// within [`REACH_RINGS`] quad rings of it (all a search of depth ≤ 2 reads), the rest
+    /// is left unknown ([`NONE`] neighbours).
+    fn near(l: &'a mut Local, focus: Option<&[bool]>) -> Self {
         l.build_adjacency();
         let n = l.pos.len();
         let (ideal, angle) = ideal_valence(l);
-        let mut nb = vec![[NONE; 4]; l.quads.len()];
+        let region = focus.map(|f| {
+            let mut mark: Vec<bool> = (0..n).map(|v| f.get(v) == Some(&true)).collect();
+            let mut frontier: Vec<u32> = (0..n as u32).filter(|&v| mark[v as usize]).collect();
+            for _ in 0..REACH_RINGS {
+                let mut next = Vec::new();
+                for &v in &frontier {
+                    for &q in l.star(v) {
+                        for &w in &l.quads[q as usize] {
+                            if !mark[w as usize] {
+                                mark[w as usize] = true;
+                                next.push(w);
+                            }
+                        }
+                    }
+                }
+                frontier = next;
+            }
+            mark
+        });
+        let in_region = |v: u32| region.as_ref().is_none_or(|r| r[v as usize]);
+        // per quad (in parallel, read-only): the neighbour across each edge, and which edges
+        // are not manifold (a second quad running a -> b, or several running b -> a)
+        let lr: &Local = l;
+        let rows: Vec<([u32; 4], u8)> = (0..lr.quads.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|q| {
+                let mut nbq = [NONE; 4];
+                let mut bad = 0u8;
+                let quad = lr.quads[q];
+                if !lr.alive[q] || !quad.iter().any(|&w| in_region(w)) {
+                    return (nbq, bad);
+                }
+                for k in 0..4 {
+                    let (a, b) = (quad[k], quad[(k + 1) % 4]);
+                    let mut found = NONE;
+                    let mut count = 0;
+                    let mut same_dir = false;
+                    for &s in lr.star(a) {
+                        if s as usize == q {
+                            continue;
+                        }
+                        let r = &lr.quads[s as usize];
+                        for m in 0..4 {
+                            if r[m] == b && r[(m + 1) % 4] == a {
+                                found = s;
+                                count += 1;
+                                break;
+                            }
+                        }
+                        same_dir |= (0..4).any(|m| r[m] == a && r[(m + 1) % 4] == b);
+                    }
+                    if count == 1 && !same_dir {
+                        nbq[k] = found;
+                    } else if count > 1 || same_dir {
+                        bad |= 1 << k;
+                    }
+                }
+                (nbq, bad)
+            })
+            .collect();
+        let mut nb = Vec::with_capacity(rows.len());
         let mut val = vec![0i32; n];
         let mut corner = vec![NONE; n];
         let mut unsafe_node = vec![false; n];
-        for (q, nbq) in nb.iter_mut().enumerate() {
+        for (q, (nbq, bad)) in rows.into_iter().enumerate() {
+            nb.push(nbq);
             if !l.alive[q] {
                 continue;
             }
@@ -136,24 +213,7 @@ impl<'a> Topo<'a> {
                 let (a, b) = (quad[k], quad[(k + 1) % 4]);
                 val[a as usize] += 1;
                 corner[a as usize] = q as u32;
-                // the quad running b -> a
-                let mut found = NONE;
-                let mut count = 0;
-                for &s in l.star(a) {
-                    let r = &l.quads[s as usize];
-                    if s as usize != q && (0..4).any(|m| r[m] == b && r[(m + 1) % 4] == a) {
-                        found = s;
-                        count += 1;
-                    }
-                }
-                // a second quad running a -> b, or several running b -> a: not manifold
-                let same_dir = l.star(a).iter().any(|&s| {
-                    let r = &l.quads[s as usize];
-                    s as usize != q && (0..4).any(|m| r[m] == a && r[(m + 1) % 4] == b)
-                });
-                if count == 1 && !same_dir {
-                    nbq[k] = found;
-                } else if count > 1 || same_dir {
+                if bad & (1 << k) != 0 {
                     unsafe_node[a as usize] = true;
                     unsafe_node[b as usize] = true;
                 }
@@ -169,14 +229,23 @@ impl<'a> Topo<'a> {
             unsafe_node,
             log: Vec::new(),
         };
-        for v in 0..n as u32 {
-            if t.val[v as usize] > 0 && !t.unsafe_node[v as usize] {
-                let mut c = 0;
-                t.around(v, |_| c += 1);
-                if c != t.val[v as usize] {
-                    t.unsafe_node[v as usize] = true;
+        // a fan that does not close over all of a node's quads is not manifold either
+        let tr = &t;
+        let open: Vec<u32> = (0..n as u32)
+            .into_par_iter()
+            .with_min_len(4096)
+            .filter(|&v| {
+                let vi = v as usize;
+                if tr.val[vi] == 0 || tr.unsafe_node[vi] || !in_region(v) {
+                    return false;
                 }
-            }
+                let mut c = 0;
+                tr.around(v, |_| c += 1);
+                c != tr.val[vi]
+            })
+            .collect();
+        for v in open {
+            t.unsafe_node[v as usize] = true;
         }
         t
     }
@@ -508,7 +577,7 @@ pub(crate) fn cleanup(
     if depth == 0 {
         return (0, 0);
     }
-    let mut t = Topo::new(l);
+    let mut t = Topo::near(l, focus);
     let (mut sequences, mut rotations) = (0, 0);
     for _ in 0..max_rounds {
         let mut applied = 0;
@@ -642,6 +711,80 @@ pub(crate) mod tests {
         }
         // depth 2 finds sequences a single greedy rotation cannot
         assert!(total.1 < total.0, "{total:?}");
+    }
+
+    #[test]
+    fn a_focus_over_every_node_finds_the_same_rotations_as_no_focus() {
+        // the focused neighbours (built only near the focus) must not miss anything a
+        // search from a focus quad reads
+        for (seed, quads) in matched_squares().into_iter().take(3) {
+            let m = synth::to_mesh(&quads);
+            let (_, mut a) = local_of(&m);
+            let (_, mut b) = local_of(&m);
+            let all = vec![true; b.pos.len()];
+            let ra = cleanup(&mut a, 2, 8, None);
+            let rb = cleanup(&mut b, 2, 8, Some(&all));
+            assert!(ra.0 > 0, "seed {seed}: nothing to do");
+            assert_eq!(ra, rb, "seed {seed}");
+            assert_eq!(a.quads, b.quads, "seed {seed}");
+        }
+    }
+
+    #[test]
+    fn a_focused_cleanup_only_rewrites_quads_near_the_focus() {
+        for (seed, quads) in matched_squares().into_iter().take(3) {
+            let m = synth::to_mesh(&quads);
+            let (_, mut l) = local_of(&m);
+            // focus: the nodes left of the middle
+            let mid = l.pos.iter().map(|p| p.x).sum::<f64>() / l.pos.len() as f64;
+            let focus: Vec<bool> = l.pos.iter().map(|p| p.x < mid).collect();
+            let before = l.quads.clone();
+            let (_, mut full) = local_of(&m);
+            cleanup(&mut full, 2, 1, None);
+            cleanup(&mut l, 2, 1, Some(&focus));
+            // within 3 quad rings of the focus (a depth-2 sequence from a focus quad)
+            l.build_adjacency();
+            let mut near = focus.clone();
+            for _ in 0..3 {
+                let mut next = near.clone();
+                for v in 0..l.pos.len() as u32 {
+                    if near[v as usize] {
+                        for &q in l.star(v).iter().chain(
+                            (0..before.len() as u32)
+                                .filter(|&q| before[q as usize].contains(&v))
+                                .collect::<Vec<_>>()
+                                .iter(),
+                        ) {
+                            for &w in l.quads[q as usize].iter().chain(&before[q as usize]) {
+                                next[w as usize] = true;
+                            }
+                        }
+                    }
+                }
+                near = next;
+            }
+            let mut changed = 0;
+            for (q, quad) in l.quads.iter().enumerate() {
+                if *quad != before[q] {
+                    changed += 1;
+                    assert!(
+                        quad.iter().chain(&before[q]).any(|&w| near[w as usize]),
+                        "seed {seed}: quad {q} rewritten far from the focus"
+                    );
+                }
+            }
+            // and it did less than the unfocused search
+            let changed_full = full
+                .quads
+                .iter()
+                .zip(&before)
+                .filter(|(a, b)| a != b)
+                .count();
+            assert!(
+                changed > 0 && changed < changed_full,
+                "seed {seed}: {changed} vs {changed_full}"
+            );
+        }
     }
 
     #[test]

@@ -53,6 +53,11 @@ pub(crate) struct Local {
     /// Per quad: a corner whose three nodes are fixed does not turn positively, so no move
     /// can make the quad valid (see [`Local::refresh_quad_normals`]).
     pub hopeless: Vec<bool>,
+    /// Free nodes by colour for the sweeps (see [`Local::prepare_sweeps`]).
+    pub colours: Vec<Vec<u32>>,
+    /// True while `qn`, `hopeless` and `colours` match the quads (cleared by
+    /// [`Local::build_adjacency`]).
+    pub sweep_ready: bool,
 }
 
 impl Local {
@@ -60,6 +65,19 @@ impl Local {
     pub fn build_adjacency(&mut self) {
         let alive = &self.alive;
         (self.start, self.adj) = csr(self.pos.len(), &self.quads, |q| alive[q]);
+        self.sweep_ready = false;
+    }
+
+    /// Quad normals, hopeless quads ([`Local::refresh_quad_normals`]) and the colouring of
+    /// the free nodes, recomputed only when the quads changed since the last call: they
+    /// depend on the topology, the node normals and fixed nodes only, none of which a
+    /// smoothing sweep changes. Needs a current adjacency.
+    pub fn prepare_sweeps(&mut self) {
+        if !self.sweep_ready {
+            self.refresh_quad_normals();
+            self.colours = super::smooth::colour_free_nodes(self);
+            self.sweep_ready = true;
+        }
     }
 
     /// Recomputes the unit reference normal of every quad from its nodes' normals, and
@@ -69,9 +87,13 @@ impl Local {
     /// key would let a node's other quads degrade down to it).
     pub fn refresh_quad_normals(&mut self) {
         self.qn = (0..self.quads.len() as u32)
+            .into_par_iter()
+            .with_min_len(4096)
             .map(|q| self.quad_normal(q).normalize_or_zero())
             .collect();
         self.hopeless = (0..self.quads.len())
+            .into_par_iter()
+            .with_min_len(4096)
             .map(|q| {
                 let quad = &self.quads[q];
                 self.alive[q]
@@ -275,11 +297,13 @@ impl<'a> StarEval<'a> {
         e
     }
 
-    /// [`shape_key`] of star quad `i` with `v` at `p`.
+    /// The largest |cot α| over the corners of star quad `i` with `v` at `p` (the key is
+    /// 1 / (1 + that)), or a negative number when some corner does not turn positively (or
+    /// on the slow path).
     #[inline]
-    pub fn key(&self, i: usize, p: DVec3) -> f64 {
+    pub fn worst_cot(&self, i: usize, p: DVec3) -> f64 {
         if !self.fast {
-            return self.l.key_with(self.l.star(self.v)[i], self.v, p);
+            return -1.0;
         }
         let [b, c, d] = self.pts[i];
         let n = self.nrm[i];
@@ -289,16 +313,88 @@ impl<'a> StarEval<'a> {
             for (a, e) in [(b - p, d - p), (c - b, p - b), (p - d, c - d)] {
                 let s = n.dot(a.cross(e));
                 if s <= 0.0 {
-                    worst = -1.0;
-                    break;
+                    return -1.0;
                 }
                 worst = worst.max(a.dot(e).abs() / s);
             }
         }
+        worst
+    }
+
+    /// [`StarEval::worst_cot`] of star quad `i` at eight positions of `v` at once
+    /// (branch-free, the same arithmetic per position; needs the fast path).
+    #[inline]
+    pub fn worst_cot8(&self, i: usize, ps: &[DVec3; 8]) -> [f64; 8] {
+        let [b, c, d] = self.pts[i];
+        let n = self.nrm[i];
+        let opp = self.opp[i];
+        let mut out = [0.0; 8];
+        for (o, &p) in out.iter_mut().zip(ps) {
+            let mut worst = opp;
+            let mut bad = opp < 0.0;
+            for (a, e) in [(b - p, d - p), (c - b, p - b), (p - d, c - d)] {
+                let s = n.dot(a.cross(e));
+                bad |= s <= 0.0;
+                worst = worst.max(a.dot(e).abs() / s);
+            }
+            *o = if bad { -1.0 } else { worst };
+        }
+        out
+    }
+
+    /// (worst, sum) of the star's keys at each of eight positions of `v` (as
+    /// [`StarEval::min_key`] and the sum in [`StarEval::min_sum_above`], same arithmetic):
+    /// the eight are evaluated together on the fast path, a position where some quad is
+    /// invalid is redone one quad at a time.
+    pub fn min_sum8(&self, ps: &[DVec3; 8]) -> [(f64, f64); 8] {
+        let mut out = [(f64::INFINITY, 0.0); 8];
+        if !self.fast {
+            for (o, &p) in out.iter_mut().zip(ps) {
+                for i in 0..self.len {
+                    let k = self.key(i, p);
+                    *o = (o.0.min(k), o.1 + k);
+                }
+            }
+            return out;
+        }
+        let mut bad = [false; 8];
+        for i in 0..self.len {
+            let c = self.worst_cot8(i, ps);
+            for j in 0..8 {
+                bad[j] |= c[j] < 0.0;
+                let k = 1.0 / (1.0 + c[j]);
+                out[j] = (out[j].0.min(k), out[j].1 + k);
+            }
+        }
+        for j in 0..8 {
+            if bad[j] {
+                out[j] = (f64::INFINITY, 0.0);
+                for i in 0..self.len {
+                    let k = self.key(i, ps[j]);
+                    out[j] = (out[j].0.min(k), out[j].1 + k);
+                }
+            }
+        }
+        out
+    }
+
+    /// [`shape_key`] of star quad `i` with `v` at `p`.
+    #[inline]
+    pub fn key(&self, i: usize, p: DVec3) -> f64 {
+        if !self.fast {
+            return self.l.key_with(self.l.star(self.v)[i], self.v, p);
+        }
+        let worst = self.worst_cot(i, p);
         if worst < 0.0 {
-            return shape_key(&[p, b, c, d], n);
+            let [b, c, d] = self.pts[i];
+            return shape_key(&[p, b, c, d], self.nrm[i]);
         }
         1.0 / (1.0 + worst)
+    }
+
+    /// True when the star is held (see [`StarEval::new`]): [`StarEval::worst_cot`] works.
+    pub fn fast(&self) -> bool {
+        self.fast
     }
 
     /// Number of quads evaluated (the star without its hopeless quads, on the fast path).
@@ -367,6 +463,54 @@ pub(crate) fn key_to_eta(key: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn batched_star_evaluation_matches_one_position_at_a_time() {
+        use crate::optimize::cleanup::tests::local_of;
+        use crate::optimize::synth;
+        let mut s = synth::quad_grid(7, 7, 1.0, 1.0);
+        synth::jitter(&mut s, 0.25 / 7.0, 11);
+        let m = synth::to_mesh(&s);
+        let (_, mut l) = local_of(&m);
+        l.prepare_sweeps();
+        let (mut checked, mut invalid) = (0, 0);
+        for v in 0..l.pos.len() as u32 {
+            if l.fixed[v as usize] {
+                continue;
+            }
+            let star = StarEval::new(&l, v);
+            assert!(star.fast());
+            // trial positions up to 0.8 h away: some turn a quad over
+            let x0 = l.pos[v as usize];
+            let ps: [DVec3; 8] = std::array::from_fn(|k| {
+                let a = k as f64 * 0.8;
+                x0 + DVec3::new(a.cos(), a.sin(), 0.0) * (0.02 + 0.015 * k as f64)
+            });
+            let batch = star.min_sum8(&ps);
+            for (j, &p) in ps.iter().enumerate() {
+                let keys: Vec<f64> = (0..star.len()).map(|i| star.key(i, p)).collect();
+                let min = keys.iter().copied().fold(f64::INFINITY, f64::min);
+                let sum: f64 = keys.iter().sum();
+                assert_eq!(batch[j], (min, sum), "node {v} trial {j}");
+                assert_eq!(star.min_key(p), min);
+                for (i, &k) in keys.iter().enumerate() {
+                    let c = star.worst_cot8(i, &ps)[j];
+                    assert_eq!(c, star.worst_cot(i, p));
+                    if c >= 0.0 {
+                        assert_eq!(k, 1.0 / (1.0 + c));
+                    } else {
+                        invalid += 1;
+                        assert!(k < 0.0, "an invalid quad has a negative key");
+                    }
+                }
+                checked += 1;
+            }
+        }
+        assert!(
+            checked > 100 && invalid > 0,
+            "{checked} trials, {invalid} invalid quads"
+        );
+    }
 
     #[test]
     fn shape_key_orders_like_eta_and_converts_back() {

@@ -38,10 +38,11 @@ fn atan_fast(t: f64) -> f64 {
     }
 }
 
-/// η (eq. 3) of a valid quad from its [`shape_key`](super::local) `k` ∈ (0, 1], through
-/// [`atan_fast`] (the exact form is [`key_to_eta`](super::local::key_to_eta)).
-fn eta_of_key(k: f64) -> f64 {
-    1.0 - atan_fast(1.0 / k - 1.0) / std::f64::consts::FRAC_PI_2
+/// η (eq. 3) of a valid quad whose worst |cot α| is `c` (see [`StarEval::worst_cot`];
+/// its [`shape_key`](super::local) is 1 / (1 + c)), through [`atan_fast`] (the exact form
+/// is [`key_to_eta`](super::local::key_to_eta)).
+fn eta_of_cot(c: f64) -> f64 {
+    1.0 - atan_fast(c) / std::f64::consts::FRAC_PI_2
 }
 
 /// Pattern search maximizing the star's summed η, its worst kept: the new position and
@@ -58,31 +59,58 @@ fn mean_node(l: &Local, v: u32) -> Option<(DVec3, u32)> {
         return None;
     }
     let star = StarEval::new(l, v);
+    // (worst |cot|, summed η): the worst cot stands for the worst key (the key is
+    // 1 / (1 + cot)), so no key is computed
     let eval = |p: DVec3| -> Option<(f64, f64)> {
-        let mut min = f64::INFINITY;
+        let mut max = 0.0_f64;
         let mut sum = 0.0;
         for i in 0..star.len() {
-            let k = star.key(i, p);
-            if k.is_nan() || k <= 0.0 {
+            let c = if star.fast() {
+                star.worst_cot(i, p)
+            } else {
+                let k = star.key(i, p);
+                if k > 0.0 {
+                    1.0 / k - 1.0
+                } else {
+                    -1.0
+                }
+            };
+            if c.is_nan() || c < 0.0 {
                 return None;
             }
-            min = min.min(k);
-            sum += eta_of_key(k);
+            max = max.max(c);
+            sum += eta_of_cot(c);
         }
-        Some((min, sum))
+        Some((max, sum))
     };
-    let (min0, sum0) = eval(x0)?;
-    pattern_search(l, v, &[0.1, 0.04, 0.015], sum0, |p| {
-        eval(p).and_then(|(mn, sum)| (mn >= min0).then_some(sum))
-    })
+    let (max0, sum0) = eval(x0)?;
+    let score = |p: DVec3| eval(p).and_then(|(mx, sum)| (mx <= max0).then_some(sum));
+    if star.fast() {
+        // the eight compass trials of a step scored together (same sums as `eval`)
+        return super::smooth::pattern_search8(l, v, &[0.1, 0.04, 0.015], sum0, |ps| {
+            let mut max = [0.0_f64; 8];
+            let mut sum = [0.0; 8];
+            let mut ok = [true; 8];
+            for i in 0..star.len() {
+                let c = star.worst_cot8(i, ps);
+                for j in 0..8 {
+                    ok[j] &= c[j] >= 0.0;
+                    max[j] = max[j].max(c[j]);
+                    sum[j] += eta_of_cot(c[j].max(0.0));
+                }
+            }
+            std::array::from_fn(|j| (ok[j] && max[j] <= max0).then_some(sum[j]))
+        });
+    }
+    pattern_search(l, v, &[0.1, 0.04, 0.015], sum0, score)
 }
 
 /// Up to `sweeps` sweeps of [`mean_node`] over all free nodes, Gauss-Seidel by colour (the
 /// nodes of one colour share no quad: their moves are computed in parallel).
 pub(crate) fn polish_mean(l: &mut Local, sweeps: usize) -> usize {
     use rayon::prelude::*;
-    l.refresh_quad_normals();
-    let groups = super::smooth::colour_free_nodes(l);
+    l.prepare_sweeps();
+    let groups = std::mem::take(&mut l.colours);
     let mut moves = 0;
     // after the first sweep, only nodes sharing a quad with a node that moved
     let mut active = vec![true; l.pos.len()];
@@ -116,6 +144,7 @@ pub(crate) fn polish_mean(l: &mut Local, sweeps: usize) -> usize {
         std::mem::swap(&mut active, &mut next);
         next.fill(false);
     }
+    l.colours = groups;
     moves
 }
 

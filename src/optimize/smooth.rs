@@ -107,8 +107,8 @@ const MOVE_TOL: f64 = 1e-3;
 /// near a significant move of the previous one; the first sweep over the nodes flagged in
 /// `active` (all nodes when `None`).
 fn sweeps(l: &mut Local, sweeps: usize, propose: &Propose, active: Option<Vec<bool>>) -> usize {
-    l.refresh_quad_normals();
-    let groups = colour_free_nodes(l);
+    l.prepare_sweeps();
+    let groups = std::mem::take(&mut l.colours);
     let mut active = active.unwrap_or_else(|| vec![true; l.pos.len()]);
     let mut next = vec![false; l.pos.len()];
     let mut moves = 0;
@@ -120,6 +120,7 @@ fn sweeps(l: &mut Local, sweeps: usize, propose: &Propose, active: Option<Vec<bo
         std::mem::swap(&mut active, &mut next);
         next.fill(false);
     }
+    l.colours = groups;
     moves
 }
 
@@ -189,8 +190,9 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
     if min0 >= 0.7 {
         return None;
     }
-    pattern_search(l, v, &[0.15, 0.05, 0.015], best_sum, |p| {
-        star.min_sum_above(p, min0).map(|(_, sum)| sum)
+    pattern_search8(l, v, &[0.15, 0.05, 0.015], best_sum, |ps| {
+        star.min_sum8(ps)
+            .map(|(min, sum)| (min >= min0).then_some(sum))
     })
 }
 
@@ -218,6 +220,39 @@ pub(crate) fn pattern_search(
                 Some(x) if x > best_score + 1e-12 => {
                     best_score = x;
                     best = Some((p, tri));
+                }
+                _ => {}
+            }
+        }
+    }
+    best
+}
+
+/// [`pattern_search`] scoring the eight compass trials of each step together (`score`
+/// gets the eight projected points in compass order); same result.
+pub(crate) fn pattern_search8(
+    l: &Local,
+    v: u32,
+    steps: &[f64],
+    start: f64,
+    score: impl Fn(&[DVec3; 8]) -> [Option<f64>; 8],
+) -> Option<(DVec3, u32)> {
+    let vi = v as usize;
+    let (t1, t2) = tangents(l.nrm[vi]);
+    let h = l.h[vi];
+    let dirs = compass(t1, t2);
+    let mut best_score = start;
+    let mut best: Option<(DVec3, u32)> = None;
+    for &s in steps {
+        let base = best.map_or(l.pos[vi], |b| b.0);
+        let trials: [(DVec3, u32); 8] =
+            std::array::from_fn(|k| l.project(v, base + dirs[k] * (s * h)));
+        let scores = score(&trials.map(|t| t.0));
+        for (k, sc) in scores.into_iter().enumerate() {
+            match sc {
+                Some(x) if x > best_score + 1e-12 => {
+                    best_score = x;
+                    best = Some(trials[k]);
                 }
                 _ => {}
             }
@@ -266,15 +301,15 @@ fn propose_worst(l: &Local, v: u32) -> Option<(DVec3, u32)> {
     if min0 >= POLISH_BELOW {
         return None;
     }
-    pattern_search(l, v, &[0.1, 0.03, 0.01, 0.003], min0, |p| {
-        Some(star.min_key(p))
+    pattern_search8(l, v, &[0.1, 0.03, 0.01, 0.003], min0, |ps| {
+        star.min_sum8(ps).map(|(min, _)| Some(min))
     })
 }
 
 /// Max-min polish of the worst quads: [`propose_worst`] on the nodes of quads with η below
 /// 0.6 and, over `n` sweeps, around the nodes that moved. Returns the number of moves.
 pub(crate) fn polish_worst(l: &mut Local, n: usize) -> usize {
-    l.refresh_quad_normals();
+    l.prepare_sweeps();
     let mut active = vec![false; l.pos.len()];
     let mut any = false;
     for (q, quad) in l.quads.iter().enumerate() {

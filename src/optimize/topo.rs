@@ -38,37 +38,39 @@ use glam::DVec3;
 const CLEANUP_DEPTH: usize = 2;
 
 /// One pass of the operators; returns how many were applied. Leaves the adjacency stale:
-/// the caller rebuilds it. With `focus`, the valence cleanup searches only quads with a
-/// node in it (the region a previous pass changed; elsewhere its searches already failed).
+/// the caller rebuilds it. With `focus`, every operator only looks at the nodes (doublets)
+/// and quads (merges, rotations, cleanup) with a node in it: the region a previous pass
+/// and its smoothing changed (elsewhere the same searches already failed).
 pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[bool]>) -> usize {
+    l.sweep_ready = false;
     let mut dirty = vec![false; l.pos.len()];
     let (ideal, angle) = ideal_valence(l);
     let before = ops.doublet_collapses + ops.quad_vertex_merges + ops.edge_rotations;
+    let in_focus = |v: u32| focus.is_none_or(|f| f.get(v as usize) == Some(&true));
+    let quad_in_focus =
+        |l: &Local, q: u32| focus.is_none() || l.quads[q as usize].iter().any(|&w| in_focus(w));
     for v in 0..l.pos.len() as u32 {
-        if doublet_collapse(l, v, &mut dirty) {
+        if in_focus(v) && doublet_collapse(l, v, &mut dirty) {
             ops.doublet_collapses += 1;
         }
     }
     for q in 0..l.quads.len() as u32 {
-        if quad_vertex_merge(l, q, &ideal, &angle, &mut dirty) {
+        if quad_in_focus(l, q) && quad_vertex_merge(l, q, &ideal, &angle, &mut dirty) {
             ops.quad_vertex_merges += 1;
         }
     }
-    let qual: Vec<f64> = (0..l.quads.len() as u32)
-        .map(|q| {
-            if l.alive[q as usize] {
-                l.quality(q)
-            } else {
-                0.0
-            }
-        })
-        .collect();
+    // quality of each quad when first needed (a quad is only read while none of its nodes is
+    // dirty, i.e. as it was when the rotations started)
+    let mut qual = vec![f64::NAN; l.quads.len()];
     let mut valence: Vec<i32> = (0..l.pos.len() as u32)
         .map(|v| l.star(v).len() as i32)
         .collect();
     for q in 0..l.quads.len() as u32 {
+        if !quad_in_focus(l, q) {
+            continue;
+        }
         for k in 0..4 {
-            if edge_rotation(l, q, k, &ideal, &mut valence, &qual, &mut dirty) {
+            if edge_rotation(l, q, k, &ideal, &mut valence, &mut qual, &mut dirty) {
                 ops.edge_rotations += 1;
                 break;
             }
@@ -294,7 +296,7 @@ fn edge_rotation(
     k: usize,
     ideal: &[i32],
     valence: &mut [i32],
-    qual: &[f64],
+    qual: &mut [f64],
     dirty: &mut [bool],
 ) -> bool {
     if !l.alive[q1 as usize] {
@@ -328,8 +330,15 @@ fn edge_rotation(
         let d = val - ideal[w as usize];
         d * d
     };
-    // qualities cached at the start of the pass (quads touched since have dirty nodes)
-    let old_min = qual[q1 as usize].min(qual[q2 as usize]);
+    // qualities as at the start of the rotations (quads touched since have dirty nodes)
+    let mut cached = |q: u32| {
+        let c = &mut qual[q as usize];
+        if c.is_nan() {
+            *c = l.quality(q);
+        }
+        *c
+    };
+    let old_min = cached(q1).min(cached(q2));
     let gains = [1usize, 2].map(|s| {
         let (x, y) = (hex[s], hex[s + 3]);
         let before: i32 = [u, v, x, y]
