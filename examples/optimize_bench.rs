@@ -173,10 +173,10 @@ fn files_mode(quads: &str, reference: &str, reps: usize, opts: &OptimizeOptions)
     let mut mesh = input.clone();
     for _ in 0..reps.max(1) {
         mesh = input.clone();
-        let (t, c) = (Instant::now(), cpu_seconds());
+        let (t, c) = (Instant::now(), optimize::cpu_seconds());
         optimize::optimize(&mut mesh, &tri_mesh, opts).expect("optimize");
         best = best.min(t.elapsed().as_secs_f64());
-        best_cpu = best_cpu.min(cpu_seconds() - c);
+        best_cpu = best_cpu.min(optimize::cpu_seconds() - c);
     }
     optimize::check::check_surface_mesh(&mesh).expect("invariants");
     let size = SizeField::Reference(ReferenceSize::from_mesh(&tri_mesh).expect("reference"));
@@ -189,20 +189,6 @@ fn files_mode(quads: &str, reference: &str, reps: usize, opts: &OptimizeOptions)
         q.d4_percent.unwrap_or(f64::NAN),
         q.tau_percent.unwrap_or(f64::NAN)
     );
-}
-
-/// User + system CPU seconds of this process, all threads (Linux `/proc/self/stat`; 0 when
-/// unavailable).
-fn cpu_seconds() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let f: Vec<&str> = s
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let ticks = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
-    (ticks(11) + ticks(12)) / 100.0
 }
 
 /// All 3-node triangles of a mesh as a soup over its nodes.

@@ -140,21 +140,7 @@ impl<'a> Topo<'a> {
         let (ideal, angle) = ideal_valence(l);
         let region = focus.map(|f| {
             let mut mark: Vec<bool> = (0..n).map(|v| f.get(v) == Some(&true)).collect();
-            let mut frontier: Vec<u32> = (0..n as u32).filter(|&v| mark[v as usize]).collect();
-            for _ in 0..REACH_RINGS {
-                let mut next = Vec::new();
-                for &v in &frontier {
-                    for &q in l.star(v) {
-                        for &w in &l.quads[q as usize] {
-                            if !mark[w as usize] {
-                                mark[w as usize] = true;
-                                next.push(w);
-                            }
-                        }
-                    }
-                }
-                frontier = next;
-            }
+            super::grow_rings(l, &mut mark, REACH_RINGS);
             mark
         });
         let in_region = |v: u32| region.as_ref().is_none_or(|r| r[v as usize]);

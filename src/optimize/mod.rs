@@ -309,7 +309,9 @@ struct StageTimer {
     laps: Vec<(&'static str, f64)>,
 }
 
-fn cpu_now() -> f64 {
+/// User + system CPU seconds of this process, all threads (Linux `/proc/self/stat`; 0 when
+/// unavailable).
+pub fn cpu_seconds() -> f64 {
     let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
     let f: Vec<&str> = s
         .rsplit(')')
@@ -327,13 +329,13 @@ impl StageTimer {
         StageTimer {
             on,
             surface,
-            c: if on { cpu_now() } else { 0.0 },
+            c: if on { cpu_seconds() } else { 0.0 },
             laps: Vec::new(),
         }
     }
     fn lap(&mut self, name: &'static str) {
         if self.on {
-            let c = cpu_now();
+            let c = cpu_seconds();
             self.laps.push((name, c - self.c));
             self.c = c;
         }
@@ -388,7 +390,16 @@ fn near_changes(
             *m = true;
         }
     }
-    let mut frontier: Vec<u32> = (0..n as u32).filter(|&v| mark[v as usize]).collect();
+    grow_rings(l, &mut mark, rings);
+    mark
+}
+
+/// Adds to `mark` every node within `rings` quad rings of a marked node. Needs a current
+/// adjacency.
+pub(crate) fn grow_rings(l: &Local, mark: &mut [bool], rings: usize) {
+    let mut frontier: Vec<u32> = (0..l.pos.len() as u32)
+        .filter(|&v| mark[v as usize])
+        .collect();
     for _ in 0..rings {
         let mut next = Vec::new();
         for &v in &frontier {
@@ -403,7 +414,6 @@ fn near_changes(
         }
         frontier = next;
     }
-    mark
 }
 
 const UNSET: u32 = u32::MAX;
