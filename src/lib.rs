@@ -3,7 +3,8 @@
 //! on each surface's triangle-adjacency graph, then quad-specific optimization.
 //!
 //! Data flows `msh` (bytes → [`mesh::Mesh`]) → `recombine` (triangles → quads, using
-//! `matching`) → `optimize` → `msh` (Mesh → bytes). `quality` measures any mesh.
+//! `matching`) → optionally `refine` (uniform refinement) → `optimize` → `msh` (Mesh →
+//! bytes). `quality` measures any mesh.
 //! See ARCHITECTURE.md for the map and the invariants of each stage.
 
 #![forbid(unsafe_code)]
