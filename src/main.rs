@@ -262,6 +262,8 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     for line in &report.log {
         log.say(line);
     }
+    let t_recombine = t1.elapsed().as_secs_f64();
+    let t_refine_start = Instant::now();
     for level in 1..=args.refine {
         let r = refine::refine(&mut mesh).map_err(|e| format!("{}: {e}", input.display()))?;
         log.say(format!(
@@ -269,7 +271,7 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
             r.quads, r.lines, r.nodes_added
         ));
     }
-    let t_recombine = t1.elapsed().as_secs_f64();
+    let t_refine = t_refine_start.elapsed().as_secs_f64();
     // invariants after optimization are checked against the mesh it started from
     let refined = (args.verify && args.refine > 0).then(|| mesh.clone());
 
@@ -332,8 +334,13 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     let t3 = Instant::now();
     write(&mesh, &output, &args.format, &log)?;
     let t_write = t3.elapsed().as_secs_f64();
+    let refine_time = if args.refine > 0 {
+        format!(", refine {t_refine:.3} s")
+    } else {
+        String::new()
+    };
     log.say(format!(
-        "time: read {t_read:.3} s, recombine {t_recombine:.3} s, optimize {t_opt:.3} s, write {t_write:.3} s"
+        "time: read {t_read:.3} s, recombine {t_recombine:.3} s{refine_time}, optimize {t_opt:.3} s, write {t_write:.3} s"
     ));
     let sum = |f: fn(&recombine::SurfaceReport) -> std::time::Duration| {
         report

@@ -146,13 +146,7 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
         }
     }
 
-    let edges = edge_nodes(mesh, &index);
-    let lookup = |a: u64, b: u64| -> usize {
-        // every edge of every element was collected, so the search always succeeds
-        edges
-            .binary_search_by_key(&key(a, b), |e| e.edge)
-            .unwrap_or_default()
-    };
+    let (edges, slot_edge) = edge_nodes(mesh, &index);
     let mut report = RefineReport::default();
     let chains = CurveChains::new(mesh);
 
@@ -177,7 +171,7 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
         new_refs.push(vec![a, b]);
     }
     let first_tag = mesh.max_node_tag() + 1;
-    let edge_tag = |a: u64, b: u64| first_tag + lookup(a, b) as u64;
+    let mut slot = 0usize;
 
     // elements
     let mut next_elem = mesh.max_element_tag() + 1;
@@ -208,23 +202,35 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
         };
         for i in 0..blk.len() {
             let el = blk.element(i);
-            let m: Vec<u64> = (0..k).map(|j| edge_tag(el[j], el[(j + 1) % k])).collect();
-            let pieces: Vec<Vec<u64>> = if k == 2 {
-                vec![vec![el[0], m[0]], vec![m[0], el[1]]]
+            // the edge nodes, in local-edge order (edge j runs from el[j] to el[j + 1]; a
+            // line has one edge)
+            let n_edges = if k == 2 { 1 } else { k };
+            let mut m = [0u64; 4];
+            for (j, t) in m.iter_mut().take(n_edges).enumerate() {
+                *t = first_tag + u64::from(slot_edge[slot + j]);
+            }
+            slot += n_edges;
+            let mut pieces = [[0u64; 4]; 4];
+            if k == 2 {
+                pieces[0][..2].copy_from_slice(&[el[0], m[0]]);
+                pieces[1][..2].copy_from_slice(&[m[0], el[1]]);
             } else {
                 let c = first_tag + new_pos.len() as u64;
-                let pts: Result<Vec<DVec3>, RefineError> = el.iter().map(|&t| coord(t)).collect();
-                let pts = pts?;
-                new_pos.push(pts.iter().sum::<DVec3>() / k as f64);
+                let mut sum = DVec3::ZERO;
+                for &t in el {
+                    sum += coord(t)?;
+                }
+                new_pos.push(sum / k as f64);
                 new_owner.push((2, blk.entity_tag));
                 new_refs.push(el.to_vec());
                 // child j is the corner el[j] with its two edge nodes and the centre,
                 // oriented like the parent
-                (0..k)
-                    .map(|j| vec![el[j], m[j], c, m[(j + k - 1) % k]])
-                    .collect()
-            };
-            for (n, p) in pieces.iter().enumerate() {
+                for (j, p) in pieces.iter_mut().take(k).enumerate() {
+                    *p = [el[j], m[j], c, m[(j + k - 1) % k]];
+                }
+            }
+            let width = if k == 2 { 2 } else { 4 };
+            for (n, p) in pieces.iter().take(k).map(|p| &p[..width]).enumerate() {
                 let tag = if n == 0 {
                     blk.tags[i]
                 } else {
@@ -337,10 +343,12 @@ fn check_supported(mesh: &Mesh) -> Result<(), RefineError> {
     Ok(())
 }
 
-/// Every edge of every line, triangle and quad, sorted by key, with its classifying entity.
-fn edge_nodes(mesh: &Mesh, index: &NodeIndex) -> Vec<EdgeNode> {
+/// Every edge of every line, triangle and quad, sorted by key, with its classifying entity;
+/// and for every element edge, in block, element and local-edge order (the order
+/// [`refine`] walks them), the index of its edge in that list.
+fn edge_nodes(mesh: &Mesh, index: &NodeIndex) -> (Vec<EdgeNode>, Vec<u32>) {
     // rank: 0 = a line element's curve, 1 = curve from node classification, 2 = a surface
-    let mut all: Vec<((u64, u64), u8, EntityKey)> = Vec::new();
+    let mut all: Vec<((u64, u64), u8, EntityKey, u32)> = Vec::new();
     for b in &mesh.element_blocks {
         let k = match b.element_type {
             etype::LINE2 => 2,
@@ -350,24 +358,31 @@ fn edge_nodes(mesh: &Mesh, index: &NodeIndex) -> Vec<EdgeNode> {
         };
         for i in 0..b.len() {
             let el = b.element(i);
+            let slot = all.len() as u32;
             if k == 2 {
-                all.push((key(el[0], el[1]), 0, (1, b.entity_tag)));
+                all.push((key(el[0], el[1]), 0, (1, b.entity_tag), slot));
                 continue;
             }
             for j in 0..k {
                 let (a, c) = (el[j], el[(j + 1) % k]);
+                let slot = slot + j as u32;
                 match classified_curve(mesh, index, a, c) {
-                    Some(curve) => all.push((key(a, c), 1, (1, curve))),
-                    None => all.push((key(a, c), 2, (2, b.entity_tag))),
+                    Some(curve) => all.push((key(a, c), 1, (1, curve), slot)),
+                    None => all.push((key(a, c), 2, (2, b.entity_tag), slot)),
                 }
             }
         }
     }
-    all.sort_unstable_by_key(|&(e, rank, _)| (e, rank));
-    all.dedup_by_key(|x| x.0);
-    all.into_iter()
-        .map(|(edge, _, owner)| EdgeNode { edge, owner })
-        .collect()
+    all.sort_unstable_by_key(|&(e, rank, _, slot)| (e, rank, slot));
+    let mut slot_edge = vec![0u32; all.len()];
+    let mut edges: Vec<EdgeNode> = Vec::new();
+    for &(edge, _, owner, slot) in &all {
+        if edges.last().is_none_or(|e| e.edge != edge) {
+            edges.push(EdgeNode { edge, owner });
+        }
+        slot_edge[slot as usize] = (edges.len() - 1) as u32;
+    }
+    (edges, slot_edge)
 }
 
 /// The curve an edge lies on by node classification alone: both nodes on the same curve, or
