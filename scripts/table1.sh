@@ -25,9 +25,9 @@ print("| %s | %s | %.3f | %.3f | %.1f | %d | %d | %.1f %% | %s s |" % (sys.argv[
       t["eta_worst"], t["eta_mean"], t["d4_percent"], t["d_min"], t["d_max"], t["tau_percent"], sys.argv[3]))
 ' "$1" "$2" "$4"
 }
-timed() { # out-file command...: runs the command, prints its wall time in seconds
+timed() { # command...: runs the command, prints its wall time in seconds
     local s e
-    s=$(date +%s.%N); "${@:2}" >/dev/null 2>&1; e=$(date +%s.%N)
+    s=$(date +%s.%N); "$@" >/dev/null 2>&1; e=$(date +%s.%N)
     "$PYTHON" -c "print('%.2f' % ($e - $s))"
 }
 
@@ -38,15 +38,15 @@ done
 cp "$work/t1.msh" "$work/h.msh"
 echo "| algorithm | h_algo | η_w | η̄ | d4 % | d_min | d_max | τ | time |"
 echo "|---|---|---|---|---|---|---|---|---|"
-t=$(timed x gmsh -2 "$geo" -setnumber size "$size" -setnumber Mesh.RecombineAll 1 \
+t=$(timed gmsh -2 "$geo" -setnumber size "$size" -setnumber Mesh.RecombineAll 1 \
     -setnumber Mesh.RecombinationAlgorithm 1 -format msh41 -bin -o "$work/g1.msh")
 row "Gmsh $GMSH_VERSION blossom from CAD (whole run)" h "$work/g1.msh" "$t"
-t=$(timed x gmsh -2 "$geo" -setnumber size "$size" -setnumber Mesh.RecombineAll 1 \
+t=$(timed gmsh -2 "$geo" -setnumber size "$size" -setnumber Mesh.RecombineAll 1 \
     -setnumber Mesh.RecombinationAlgorithm 3 -format msh41 -bin -o "$work/g3.msh")
 row "Gmsh $GMSH_VERSION blossom full-quad from CAD (whole run)" "2h, subdivided" "$work/g3.msh" "$t"
 for n in 0 1 2; do
     k=$((1 << n))
-    t=$(timed x "$bin" "$work/t$k.msh" -o "$work/q$n.msh" --refine "$n" --quiet)
+    t=$(timed "$bin" "$work/t$k.msh" -o "$work/q$n.msh" --refine "$n" --quiet)
     label=$([ "$n" = 0 ] && echo h || echo "${k}h, refined $n×")
     row "blossomquad --refine $n" "$label" "$work/q$n.msh" "$t"
 done

@@ -153,7 +153,9 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
     // positions and owners of all new nodes: edge nodes first, then face centres in block order
     let mut new_pos: Vec<DVec3> = Vec::with_capacity(edges.len());
     let mut new_owner: Vec<(i32, i32)> = Vec::with_capacity(edges.len());
-    let mut new_refs: Vec<Vec<u64>> = Vec::with_capacity(edges.len());
+    // parent nodes of each new node (2 for an edge, 3 or 4 for a face), for its parametric
+    // coordinates
+    let mut new_refs: Vec<([u64; 4], usize)> = Vec::with_capacity(edges.len());
     for e in &edges {
         let (a, b) = e.edge;
         let (pa, pb) = (coord(a)?, coord(b)?);
@@ -168,7 +170,7 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
         };
         new_pos.push(pos);
         new_owner.push(e.owner);
-        new_refs.push(vec![a, b]);
+        new_refs.push(([a, b, 0, 0], 2));
     }
     let first_tag = mesh.max_node_tag() + 1;
     let mut slot = 0usize;
@@ -222,7 +224,9 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
                 }
                 new_pos.push(sum / k as f64);
                 new_owner.push((2, blk.entity_tag));
-                new_refs.push(el.to_vec());
+                let mut refs = [0u64; 4];
+                refs[..k].copy_from_slice(el);
+                new_refs.push((refs, k));
                 // child j is the corner el[j] with its two edge nodes and the centre,
                 // oriented like the parent
                 for (j, p) in pieces.iter_mut().take(k).enumerate() {
@@ -294,7 +298,7 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
         blk.tags.push(first_tag + i as u64);
         blk.coords.push(pos.to_array());
         if let Some(params) = blk.params.as_mut() {
-            let (uv, complete) = mean_params(&mesh.node_blocks, &index, bi, np, refs);
+            let (uv, complete) = mean_params(&mesh.node_blocks, &index, bi, np, &refs.0[..refs.1]);
             if !complete {
                 unparametrized += 1;
             }

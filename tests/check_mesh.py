@@ -20,8 +20,8 @@ code. Checks (names as in the JSON report):
                     one new node lying on the segment (parity repair); with
                     --refined=N (N uniform refinements), split into a chain of
                     2^N (2^(N+1) after a parity split) pieces whose new nodes lie
-                    within a tenth of the segment's
-                    length of it (new curve nodes follow the curve).
+                    within a tenth of the segment's length of it (new curve nodes
+                    follow the curve).
   curve_edges       every input line element (1D) survives, kept or split the
                     same way; every input segment inside a surface (embedded
                     curve) is still an edge used twice there.
@@ -239,9 +239,9 @@ def match_split(expected, actual, inp, out, tol, refined=0):
 
     Each expected edge must be in `actual`, or be split into a chain (a, m1), (m1, m2),
     ..., (mk, b) of nodes absent from INPUT lying on the segment: k = 1 (parity repair)
-    without refinement; with `refined` uniform refinements, k < 2^(refined + 1) and the
-    nodes may lie off the chord by up to a tenth of the segment (new curve nodes follow
-    the curve). Returns (missing, extra, splits) where splits maps an expected edge key
+    without refinement; with `refined` uniform refinements, k + 1 = 2^refined pieces
+    (2^(refined + 1) after a parity split) and the nodes may lie off the chord by up to a
+    tenth of the segment (new curve nodes follow the curve). Returns (missing, extra, splits) where splits maps an expected edge key
     to the tuple of its chain's inner nodes.
     """
     actual = set(actual)
@@ -343,7 +343,6 @@ class NearestTriangle:
 def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0):
     rep = Report()
     scale = scale_of(inp)
-    tol = 1e-9
 
     # Entities and physical groups.
     max_dim = 2 if allow_dropped_volumes else 3
