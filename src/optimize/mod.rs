@@ -252,19 +252,23 @@ fn run_surface(
         // measured on the 1e5 fixtures: d4 within 0.02 point, same η)
         let mut focus: Option<Vec<bool>> = None;
         for _ in 0..opts.max_rounds {
-            let snapshot = (l.quads.clone(), l.alive.clone(), l.pos.clone());
+            // the state before the pass, to find what it changed (a pass never adds quads,
+            // so the surface size decides before it)
+            let snapshot = (l.quads.len() >= RESMOOTH_ALL_BELOW)
+                .then(|| (l.quads.clone(), l.alive.clone(), l.pos.clone()));
             let changed = topo::pass(l, &mut ops, focus.as_deref());
             tm.lap("topo");
             if changed == 0 {
                 break;
             }
             l.build_adjacency();
-            ops.smoothing_moves += if l.quads.len() < RESMOOTH_ALL_BELOW {
-                smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight)
-            } else {
-                let active = near_changes(l, &snapshot, RESMOOTH_RINGS);
-                focus = Some(active.clone());
-                smooth::smooth_near(l, opts.smooth_iterations, opts.diagonal_weight, active)
+            ops.smoothing_moves += match &snapshot {
+                None => smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
+                Some(snapshot) => {
+                    let active = near_changes(l, snapshot, RESMOOTH_RINGS);
+                    focus = Some(active.clone());
+                    smooth::smooth_near(l, opts.smooth_iterations, opts.diagonal_weight, active)
+                }
             };
             tm.lap("resmooth");
             tick(1);

@@ -12,7 +12,7 @@
 //! Cost: 2 colour-parallel sweeps over the free nodes.
 
 use super::local::{Local, StarEval};
-use super::smooth::pattern_search;
+use super::smooth::pattern_search8;
 use glam::DVec3;
 
 /// Sweeps of [`polish_mean`]. Measured on the Gmsh fixtures at 10^5 triangles: 2 sweeps add
@@ -87,7 +87,7 @@ fn mean_node(l: &Local, v: u32) -> Option<(DVec3, u32)> {
     let score = |p: DVec3| eval(p).and_then(|(mx, sum)| (mx <= max0).then_some(sum));
     if star.fast() {
         // the eight compass trials of a step scored together (same sums as `eval`)
-        return super::smooth::pattern_search8(l, v, &[0.1, 0.04, 0.015], sum0, |ps| {
+        return pattern_search8(l, v, &[0.1, 0.04, 0.015], sum0, |ps| {
             let mut max = [0.0_f64; 8];
             let mut sum = [0.0; 8];
             let mut ok = [true; 8];
@@ -102,7 +102,7 @@ fn mean_node(l: &Local, v: u32) -> Option<(DVec3, u32)> {
             std::array::from_fn(|j| (ok[j] && max[j] <= max0).then_some(sum[j]))
         });
     }
-    pattern_search(l, v, &[0.1, 0.04, 0.015], sum0, score)
+    pattern_search8(l, v, &[0.1, 0.04, 0.015], sum0, |ps| ps.map(score))
 }
 
 /// Up to `sweeps` sweeps of [`mean_node`] over all free nodes, Gauss-Seidel by colour (the

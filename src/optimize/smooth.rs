@@ -198,38 +198,9 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
 
 /// Pattern search for node `v` in its tangent plane: for each step `s·h` in `steps`, the 8
 /// compass moves from the best point so far (projected on the reference surface) are
-/// scored, `None` meaning not allowed; the best score above `start` (the score of the
-/// current position) wins. Returns the best position and its reference triangle, if any.
-pub(crate) fn pattern_search(
-    l: &Local,
-    v: u32,
-    steps: &[f64],
-    start: f64,
-    score: impl Fn(DVec3) -> Option<f64>,
-) -> Option<(DVec3, u32)> {
-    let vi = v as usize;
-    let (t1, t2) = tangents(l.nrm[vi]);
-    let h = l.h[vi];
-    let mut best_score = start;
-    let mut best: Option<(DVec3, u32)> = None;
-    for &s in steps {
-        let base = best.map_or(l.pos[vi], |b| b.0);
-        for d in compass(t1, t2) {
-            let (p, tri) = l.project(v, base + d * (s * h));
-            match score(p) {
-                Some(x) if x > best_score + 1e-12 => {
-                    best_score = x;
-                    best = Some((p, tri));
-                }
-                _ => {}
-            }
-        }
-    }
-    best
-}
-
-/// [`pattern_search`] scoring the eight compass trials of each step together (`score`
-/// gets the eight projected points in compass order); same result.
+/// scored together (`score` gets the eight projected points in compass order and returns
+/// their scores, `None` meaning not allowed); the best score above `start` (the score of
+/// the current position) wins. Returns the best position and its reference triangle, if any.
 pub(crate) fn pattern_search8(
     l: &Local,
     v: u32,

@@ -140,25 +140,32 @@ pub(crate) fn smooth_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> CrossF
             z[t] = in_frame(frames[t], bfs[t]).pow4();
         }
     }
-    // A x on the free triangles: deg_t x_t − Σ_{u free} s_tu x_u (fixed entries of x are 0)
-    let apply = |x: &[C], out: &mut [C]| {
-        for t in 0..n {
-            if fixed[t] {
-                out[t] = C::default();
+    // (Σ s_tu x_u over t's neighbours u, or only over the fixed ones; number of neighbours)
+    let neighbour_sum = |t: usize, x: &[C], only_fixed: bool| -> (C, f64) {
+        let mut acc = C::default();
+        let mut deg = 0.0;
+        for k in 0..3 {
+            let u = topo.nbr[3 * t + k];
+            if u == NONE {
                 continue;
             }
-            let mut acc = C::default();
-            let mut deg = 0.0;
-            for k in 0..3 {
-                let u = topo.nbr[3 * t + k];
-                if u == NONE {
-                    continue;
-                }
-                deg += 1.0;
+            deg += 1.0;
+            if !only_fixed || fixed[u as usize] {
                 let v = s[3 * t + k].mul(x[u as usize]);
                 acc = C(acc.0 + v.0, acc.1 + v.1);
             }
-            out[t] = C(deg * x[t].0 - acc.0, deg * x[t].1 - acc.1);
+        }
+        (acc, deg)
+    };
+    // A x on the free triangles: deg_t x_t − Σ_{u free} s_tu x_u (fixed entries of x are 0)
+    let apply = |x: &[C], out: &mut [C]| {
+        for t in 0..n {
+            out[t] = if fixed[t] {
+                C::default()
+            } else {
+                let (acc, deg) = neighbour_sum(t, x, false);
+                C(deg * x[t].0 - acc.0, deg * x[t].1 - acc.1)
+            };
         }
     };
     // b_t = Σ_{u fixed} s_tu z_u; r = b − A x0 computed as −(full operator applied to z)
@@ -168,23 +175,9 @@ pub(crate) fn smooth_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> CrossF
         if fixed[t] {
             continue;
         }
-        let mut acc = C::default();
-        let mut bacc = C::default();
-        let mut deg = 0.0;
-        for k in 0..3 {
-            let u = topo.nbr[3 * t + k];
-            if u == NONE {
-                continue;
-            }
-            deg += 1.0;
-            let v = s[3 * t + k].mul(z[u as usize]);
-            acc = C(acc.0 + v.0, acc.1 + v.1);
-            if fixed[u as usize] {
-                bacc = C(bacc.0 + v.0, bacc.1 + v.1);
-            }
-        }
+        let (acc, deg) = neighbour_sum(t, &z, false);
         r[t] = C(acc.0 - deg * z[t].0, acc.1 - deg * z[t].1);
-        bnorm2 += bacc.norm2();
+        bnorm2 += neighbour_sum(t, &z, true).0.norm2();
     }
     let dot = |a: &[C], b: &[C]| -> f64 {
         // Re <a, b>; for the Hermitian system the needed products are real
