@@ -11,8 +11,13 @@
 //! Schedule per surface (`run_surface`): 5 smoothing sweeps; up to 4 rounds of (topology
 //! pass, 5 sweeps starting from the nodes within 2 quad rings of what the pass changed, or
 //! from every node on surfaces under 20k quads); on planar surfaces one global conformal
-//! solve that removes shear no node-by-node move can undo ([`conformal`](self)); a max-min
-//! polish of the quads with η < 0.6; 2 pattern-search sweeps; 2 mean-η polish sweeps. On
+//! solve that removes shear no node-by-node move can undo, keeping part of each corner's
+//! aspect ratio ([`conformal`](self)); a max-min polish of the quads with η < 0.6; 2
+//! pattern-search sweeps; 2 mean-η polish sweeps. Planar surfaces under 20k quads also run
+//! these last stages with a square-target solve and keep that result unless the
+//! aspect-keeping one has a higher η̄ with η_w at most 0.002 and estimated τ at most 0.3
+//! point lower (on a few surfaces the aspect-keeping solve costs η_w: even_curves 1e4
+//! 0.595 -> 0.583 without this choice). On
 //! surfaces of 20k quads or more, the topology passes after the first only look at the quads
 //! within 2 rings of what the previous pass changed (elsewhere the same searches already
 //! failed). For speed the quads are numbered in Morton order of their centroids and the
@@ -45,6 +50,7 @@ use crate::quality::size::mean_incident_edge_length;
 use crate::quality::FlatNodes;
 use glam::DVec3;
 use local::{csr, Local, NONE};
+
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -245,39 +251,108 @@ fn run_surface(
     };
     tm.lap("smooth");
     tick(1);
-    let mut ticks = 1;
-    if opts.topology {
-        // speed: after a pass, smooth only around what it changed (see `near_changes`), and
-        // let the next pass's operators search only there (elsewhere they found nothing;
-        // measured on the 1e5 fixtures: d4 within 0.02 point, same η)
-        let mut focus: Option<Vec<bool>> = None;
-        for _ in 0..opts.max_rounds {
-            // the state before the pass, to find what it changed (a pass never adds quads,
-            // so the surface size decides before it)
-            let snapshot = (l.quads.len() >= RESMOOTH_ALL_BELOW)
-                .then(|| (l.quads.clone(), l.alive.clone(), l.pos.clone()));
-            let changed = topo::pass(l, &mut ops, focus.as_deref());
-            tm.lap("topo");
-            if changed == 0 {
-                break;
-            }
-            l.build_adjacency();
-            ops.smoothing_moves += match &snapshot {
-                None => smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
-                Some(snapshot) => {
-                    let active = near_changes(l, snapshot, RESMOOTH_RINGS);
-                    focus = Some(active.clone());
-                    smooth::smooth_near(l, opts.smooth_iterations, opts.diagonal_weight, active)
-                }
-            };
-            tm.lap("resmooth");
-            tick(1);
-            ticks += 1;
+    let polish = opts.angle_sweeps > 0 && opts.smooth_iterations > 0;
+    let ticks = if opts.topology {
+        topology_rounds(l, opts, &mut ops, &mut tm, tick)
+    } else {
+        1
+    };
+    if polish && l.planar && l.quads.len() < RESMOOTH_ALL_BELOW {
+        // quality: small planar surfaces also finish with square targets (β = 0) and keep
+        // that when the aspect-keeping solve does not win (see `better`): on a few
+        // surfaces it costs η_w (module docs)
+        let mut plain = l.clone();
+        let mut plain_ops = ops;
+        finish(&mut plain, opts, &mut plain_ops, &mut tm, 0.0);
+        finish(l, opts, &mut ops, &mut tm, conformal::KEEP_ASPECT);
+        let base = (plain.stats(), plain.tau_estimate());
+        if !better(&(l.stats(), l.tau_estimate()), &base) {
+            std::mem::swap(l, &mut plain);
+            ops = plain_ops;
         }
+    } else {
+        finish(l, opts, &mut ops, &mut tm, conformal::KEEP_ASPECT);
     }
+    tick(1 + opts.max_rounds - ticks);
+    let after = l.stats();
+    tm.lap("stats");
+    tm.done();
+    SurfaceOptimizeReport {
+        surface: l.surface,
+        before,
+        after,
+        operations: ops,
+    }
+}
+
+/// True when `cand` (stats, τ estimate) should replace `base`: a higher η̄, η_w at most
+/// [`ETA_W_SLACK`] lower and τ at most [`TAU_SLACK`] points lower.
+fn better(cand: &(Stats, f64), base: &(Stats, f64)) -> bool {
+    cand.0.eta_mean > base.0.eta_mean
+        && cand.0.eta_worst >= base.0.eta_worst - ETA_W_SLACK
+        && cand.1 >= base.1 - TAU_SLACK
+}
+
+/// How much lower η_w the aspect-keeping finish may end with than the square one and still
+/// be chosen.
+const ETA_W_SLACK: f64 = 0.002;
+
+/// How many points lower τ (estimated, [`Local::tau_estimate`]) the aspect-keeping finish
+/// may end with than the square one and still be chosen.
+const TAU_SLACK: f64 = 0.3;
+
+/// Up to `opts.max_rounds` rounds of (topology pass, smoothing near the changes). Returns
+/// the progress ticks given.
+fn topology_rounds(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    ops: &mut OperationCounts,
+    tm: &mut StageTimer,
+    tick: &(dyn Fn(usize) + Sync),
+) -> usize {
+    let mut ticks = 1;
+    // speed: after a pass, smooth only around what it changed (see `near_changes`), and
+    // let the next pass's operators search only there (elsewhere they found nothing;
+    // measured on the 1e5 fixtures: d4 within 0.02 point, same η)
+    let mut focus: Option<Vec<bool>> = None;
+    for _ in 0..opts.max_rounds {
+        // the state before the pass, to find what it changed (a pass never adds quads,
+        // so the surface size decides before it)
+        let snapshot = (l.quads.len() >= RESMOOTH_ALL_BELOW)
+            .then(|| (l.quads.clone(), l.alive.clone(), l.pos.clone()));
+        let changed = topo::pass(l, ops, focus.as_deref());
+        tm.lap("topo");
+        if changed == 0 {
+            break;
+        }
+        l.build_adjacency();
+        ops.smoothing_moves += match &snapshot {
+            None => smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
+            Some(snapshot) => {
+                let active = near_changes(l, snapshot, RESMOOTH_RINGS);
+                focus = Some(active.clone());
+                smooth::smooth_near(l, opts.smooth_iterations, opts.diagonal_weight, active)
+            }
+        };
+        tm.lap("resmooth");
+        tick(1);
+        ticks += 1;
+    }
+    ticks
+}
+
+/// The last stages: conformal solve (keeping `keep_aspect` of the aspect ratios), max-min
+/// polish, pattern sweeps, mean-η polish.
+fn finish(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    ops: &mut OperationCounts,
+    tm: &mut StageTimer,
+    keep_aspect: f64,
+) {
     // quality: undo global shear the node-by-node smoothers cannot (conformal.rs)
     if opts.angle_sweeps > 0 && opts.smooth_iterations > 0 {
-        ops.smoothing_moves += conformal::unshear(l);
+        ops.smoothing_moves += conformal::unshear(l, keep_aspect);
         tm.lap("conformal");
     }
     // quality: lift the worst quads (max-min) first; the pattern search after it keeps
@@ -292,16 +367,6 @@ fn run_surface(
     if opts.smooth_iterations > 0 {
         ops.smoothing_moves += polish::polish_mean(l, polish::MEAN_SWEEPS);
         tm.lap("polish_mean");
-    }
-    tick(1 + opts.max_rounds - ticks);
-    let after = l.stats();
-    tm.lap("stats");
-    tm.done();
-    SurfaceOptimizeReport {
-        surface: l.surface,
-        before,
-        after,
-        operations: ops,
     }
 }
 
