@@ -13,7 +13,7 @@
 //! from every node on surfaces under 20k quads); on planar surfaces one global conformal
 //! solve that removes shear no node-by-node move can undo, keeping part of each corner's
 //! aspect ratio ([`conformal`](self)); a max-min polish of the quads with η < 0.6; 2
-//! pattern-search sweeps; 2 mean-η polish sweeps. Planar surfaces under 20k quads also run
+//! pattern-search sweeps; 2 mean-η polish sweeps (4 under 20k quads). Planar surfaces under 20k quads also run
 //! these last stages with a square-target solve and keep that result unless the
 //! aspect-keeping one has a higher η̄ with η_w at most 0.002 and estimated τ at most 0.3
 //! point lower (on a few surfaces the aspect-keeping solve costs η_w: even_curves 1e4
@@ -365,7 +365,12 @@ fn finish(
     }
     // then maximize the mean η, the worst of every star kept (polish.rs)
     if opts.smooth_iterations > 0 {
-        ops.smoothing_moves += polish::polish_mean(l, polish::MEAN_SWEEPS);
+        let sweeps = if l.quads.len() < RESMOOTH_ALL_BELOW {
+            polish::MEAN_SWEEPS_SMALL
+        } else {
+            polish::MEAN_SWEEPS
+        };
+        ops.smoothing_moves += polish::polish_mean(l, sweeps);
         tm.lap("polish_mean");
     }
 }
