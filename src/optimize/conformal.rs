@@ -10,10 +10,13 @@
 //!
 //! The energy, in the plane of the surface with nodes as complex numbers `z` and every
 //! quad `(z0, z1, z2, z3)` counter-clockwise, is
-//! `E = Σ_q w_q Σ_k |i (z_{k+1} − z_k) − (z_{k−1} − z_k)|²`: at a square's corner the
-//! previous edge is the next one turned by 90°, so `E = 0` exactly on squares, and a quad
-//! pays for both its angle defects and its aspect ratio. `w_q = 1 / h_q²` (h the target size
-//! at the quad's nodes) makes each quad's term scale-free. `E` is quadratic; with the fixed
+//! `E = Σ_q w_q Σ_k |i ρ_k (z_{k+1} − z_k) − (z_{k−1} − z_k)|²`: with `ρ_k = 1`, at a
+//! square's corner the previous edge is the next one turned by 90°, so `E = 0` exactly on
+//! squares, and a quad pays for both its angle defects and its aspect ratio. η (eq. 3) sees
+//! angles only, so the corner ratio `ρ_k` keeps part of the current aspect: it is
+//! `(|z_{k−1} − z_k| / |z_{k+1} − z_k|)^β` at the start positions (β = [`KEEP_ASPECT`]), and
+//! a rectangle of aspect `a` then pays as one of aspect `a^(1−β)`. `w_q = 1 / h_q²` (h the
+//! target size at the quad's nodes) makes each quad's term scale-free. `E` is quadratic; with the fixed
 //! nodes (curves, points, shared nodes) as Dirichlet data its minimizer solves a Hermitian
 //! positive definite system, solved by conjugate gradients from the current positions
 //! (at most [`MAX_ITERATIONS`]).
@@ -29,6 +32,12 @@ use glam::DVec3;
 /// Cap on conjugate-gradient iterations (the solve is warm-started and only needs to remove
 /// the low-frequency shear modes).
 pub(crate) const MAX_ITERATIONS: usize = 100;
+
+/// Share β of the current corner aspect ratio the energy keeps (module docs). Measured on the
+/// eight 1e4/1e5 fixture runs against β = 0 (pure squares): η̄ +0.001 to +0.002 and τ
+/// +0.1 to +0.2 point on most; β = 0.5 gains a little more η̄ at 1e4 but loses η_w
+/// (even_curves 1e5 0.596 -> 0.592), β = 1 (aspect fully kept) loses τ (−0.7 point).
+pub(crate) const KEEP_ASPECT: f64 = 0.3;
 
 /// Relative residual at which the solve stops.
 pub(crate) const TOLERANCE: f64 = 1e-3;
@@ -56,33 +65,52 @@ impl C {
     }
 }
 
-/// Corner residual `i (z1 − z0) − (z3 − z0)` at corner 0 of `(z3, z0, z1)`.
+/// Corner residual `i ρ (z1 − z0) − (z3 − z0)` at corner 0 of `(z3, z0, z1)`.
 #[inline]
-fn corner(prev: C, at: C, next: C) -> C {
-    next.sub(at).rot().sub(prev.sub(at))
+fn corner(prev: C, at: C, next: C, rho: f64) -> C {
+    next.sub(at).scale(rho).rot().sub(prev.sub(at))
 }
 
-/// Adds `w · Lᴴ L x` for one quad to `out` (L: the four corner residuals). Each node `j` is
-/// the next node of corner `j − 1`, the corner of `j` and the previous node of `j + 1`, so it
-/// gathers `−i r_{j−1} + (1 + i) r_j − r_{j+1}`: four loads and four updates per quad.
+/// Adds `w · Lᴴ L x` for one quad to `out` (L: the four corner residuals
+/// `r_k = i ρ_k z_{k+1} + (1 − i ρ_k) z_k − z_{k−1}`). Each node `j` is the next node of
+/// corner `j − 1`, the corner of `j` and the previous node of `j + 1`, so it gathers
+/// `−i ρ_{j−1} r_{j−1} + (1 + i ρ_j) r_j − r_{j+1}`: four loads and four updates per quad.
 #[inline]
-fn accumulate(quad: &[u32; 4], w: f64, x: &[C], out: &mut [C]) {
+fn accumulate(quad: &[u32; 4], w: f64, rho: &[f64; 4], x: &[C], out: &mut [C]) {
     let z = quad.map(|v| x[v as usize]);
-    let r: [C; 4] = std::array::from_fn(|k| corner(z[(k + 3) & 3], z[k], z[(k + 1) & 3]).scale(w));
+    let r: [C; 4] =
+        std::array::from_fn(|k| corner(z[(k + 3) & 3], z[k], z[(k + 1) & 3], rho[k]).scale(w));
     for j in 0..4 {
+        let jm = (j + 3) & 3;
         let g = r[j]
-            .add(r[j].rot())
-            .sub(r[(j + 3) & 3].rot())
+            .add(r[j].scale(rho[j]).rot())
+            .sub(r[jm].scale(rho[jm]).rot())
             .sub(r[(j + 1) & 3]);
         let o = &mut out[quad[j] as usize];
         *o = o.add(g);
     }
 }
 
-/// The conformal solve (module docs) on a planar surface; returns the number of nodes moved
+/// The corner ratios ρ_k of one quad (module docs): `(|prev edge| / |next edge|)^beta`
+/// at each corner, clamped to [1/2, 2]; 1 for a degenerate corner.
+fn corner_ratios(p: [C; 4], beta: f64) -> [f64; 4] {
+    let len = |c: C| (c.0 * c.0 + c.1 * c.1).sqrt();
+    std::array::from_fn(|k| {
+        let prev = len(p[(k + 3) & 3].sub(p[k]));
+        let next = len(p[(k + 1) & 3].sub(p[k]));
+        if beta != 0.0 && prev > 0.0 && next > 0.0 && (prev / next).is_finite() {
+            (prev / next).powf(beta).clamp(0.5, 2.0)
+        } else {
+            1.0
+        }
+    })
+}
+
+/// The conformal solve (module docs) on a planar surface, keeping the share `keep_aspect`
+/// (β) of the corner aspect ratios ([`KEEP_ASPECT`] by default); returns the number of nodes moved
 /// (0 when the surface is curved, has no free node, or no step improved the mean η).
 /// Needs a current adjacency.
-pub(crate) fn unshear(l: &mut Local) -> usize {
+pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
     if !l.planar {
         return 0;
     }
@@ -141,23 +169,29 @@ pub(crate) fn unshear(l: &mut Local) -> usize {
         })
         .collect();
     let quads: Vec<[u32; 4]> = live.iter().map(|&q| l.quads[q as usize]).collect();
+    let rhos: Vec<[f64; 4]> = quads
+        .iter()
+        .map(|quad| corner_ratios(quad.map(|v| z[v as usize]), keep_aspect))
+        .collect();
     // out = A x; entries at fixed nodes are not masked: the preconditioner is zero there, so
     // they never reach the iterates (and x is zero there)
     let apply = |x: &[C], out: &mut [C]| {
         out.iter_mut().for_each(|o| *o = C::default());
-        for (quad, &w) in quads.iter().zip(&weights) {
-            accumulate(quad, w, x, out);
+        for ((quad, &w), rho) in quads.iter().zip(&weights).zip(&rhos) {
+            accumulate(quad, w, rho, x, out);
         }
     };
     let dot =
         |a: &[C], b: &[C]| -> f64 { a.iter().zip(b).map(|(x, y)| x.0 * y.0 + x.1 * y.1).sum() };
     // solve A d = −∇E(z) on the free nodes, d = 0 elsewhere, by conjugate gradients with
-    // the diagonal of A (4 Σ w_q over the node's quads) as preconditioner: the weights vary
-    // like 1/h², so on graded meshes the diagonal scaling matters
+    // the diagonal of A (Σ w_q (2 + ρ_j² + ρ_{j−1}²) over the node's quads, 4 Σ w_q for
+    // squares) as preconditioner: the weights vary like 1/h², so on graded meshes the
+    // diagonal scaling matters
     let mut diag = vec![0.0f64; n];
-    for (i, &q) in live.iter().enumerate() {
-        for &v in &l.quads[q as usize] {
-            diag[v as usize] += 4.0 * weights[i];
+    for ((quad, &w), rho) in quads.iter().zip(&weights).zip(&rhos) {
+        for (j, &v) in quad.iter().enumerate() {
+            let jm = (j + 3) & 3;
+            diag[v as usize] += (2.0 + rho[j] * rho[j] + rho[jm] * rho[jm]) * w;
         }
     }
     let inv: Vec<f64> = diag
@@ -260,7 +294,7 @@ mod tests {
         assert!(!walls.is_empty());
         let (m0, w0) = mean_and_worst(&l);
         assert!(m0 < 0.95, "the shear should cost quality: {m0}");
-        let moved = unshear(&mut l);
+        let moved = unshear(&mut l, 0.0);
         assert!(moved > 0);
         let (m1, w1) = mean_and_worst(&l);
         assert!(m1 > 0.995 && w1 > 0.98 && w1 > w0, "{m0} {w0} -> {m1} {w1}");
@@ -269,12 +303,93 @@ mod tests {
         }
     }
 
+    /// Recombined Delaunay squares (the fixtures' kind of input, in small) through the
+    /// pipeline: summed over seeds, the last stages with the aspect-keeping solve end with a
+    /// higher mean η than with the square-target one, and no fixed node moves.
+    #[test]
+    fn keeping_part_of_the_aspect_ratio_gives_better_angles_on_recombined_squares() {
+        let (mut sum_square, mut sum_aspect, mut runs) = (0.0, 0.0, 0);
+        for seed in 1u64..40 {
+            let Some(quads) = synth::pair_optimal(&synth::delaunay_square(14, 1.0, 0.3, seed))
+            else {
+                continue;
+            };
+            let m = synth::to_mesh(&quads);
+            let (_, mut l) = local_of(&m);
+            // the state the solve sees in the pipeline: smoothed, topology done
+            let opts = crate::optimize::OptimizeOptions::default();
+            let mut ops = crate::optimize::OperationCounts::default();
+            let mut tm = crate::optimize::StageTimer::new(0);
+            crate::optimize::smooth::smooth(&mut l, opts.smooth_iterations, opts.diagonal_weight);
+            crate::optimize::topology_rounds(&mut l, &opts, &mut ops, &mut tm, &|_| {}, false);
+            let mut square = l.clone();
+            let mut aspect = l;
+            let walls: Vec<(usize, DVec3)> = (0..aspect.pos.len())
+                .filter(|&v| aspect.fixed[v])
+                .map(|v| (v, aspect.pos[v]))
+                .collect();
+            crate::optimize::finish(&mut square, &opts, &mut ops, &mut tm, 0.0);
+            crate::optimize::finish(&mut aspect, &opts, &mut ops, &mut tm, KEEP_ASPECT);
+            let (ms, _) = mean_and_worst(&square);
+            let (ma, _) = mean_and_worst(&aspect);
+            for (v, p) in walls {
+                assert_eq!(aspect.pos[v], p, "seed {seed}: fixed node {v} moved");
+            }
+            sum_square += ms;
+            sum_aspect += ma;
+            runs += 1;
+            if runs == 7 {
+                break;
+            }
+        }
+        assert_eq!(runs, 7, "not enough matchable seeds");
+        assert!(sum_aspect > sum_square, "{sum_square} vs {sum_aspect}");
+    }
+
+    /// The schedule choice of small planar surfaces (`run_surface`): the kept result has at
+    /// least the η̄ of the plain schedule (square-target finish), an η_w at most 0.002 lower,
+    /// and on some seed it is another schedule's, strictly better.
+    #[test]
+    fn small_planar_surfaces_keep_the_best_schedule() {
+        let (mut runs, mut better) = (0, 0);
+        for seed in 1u64..40 {
+            let Some(quads) = synth::pair_optimal(&synth::delaunay_square(14, 1.0, 0.3, seed))
+            else {
+                continue;
+            };
+            let (_, l) = local_of(&synth::to_mesh(&quads));
+            let opts = crate::optimize::OptimizeOptions::default();
+            let mut plain = l.clone();
+            let mut ops = crate::optimize::OperationCounts::default();
+            let mut tm = crate::optimize::StageTimer::new(0);
+            crate::optimize::smooth::smooth(
+                &mut plain,
+                opts.smooth_iterations,
+                opts.diagonal_weight,
+            );
+            crate::optimize::topology_rounds(&mut plain, &opts, &mut ops, &mut tm, &|_| {}, false);
+            crate::optimize::finish(&mut plain, &opts, &mut ops, &mut tm, 0.0);
+            let base = plain.stats();
+            let mut chosen = l;
+            let rep = crate::optimize::run_surface(&mut chosen, &opts, &|_| {});
+            assert!(
+                rep.after.eta_mean >= base.eta_mean
+                    && rep.after.eta_worst >= base.eta_worst - 0.002,
+                "seed {seed}: plain {base:?}, chosen {:?}",
+                rep.after
+            );
+            better += usize::from(rep.after.eta_mean > base.eta_mean);
+            runs += 1;
+        }
+        assert!(runs >= 5 && better > 0, "{better} of {runs} runs improved");
+    }
+
     #[test]
     fn a_square_grid_is_left_alone() {
         let s = synth::quad_grid(8, 5, 1.6, 1.0);
         let (_, mut l) = local_of(&synth::to_mesh(&s));
         let before = l.pos.clone();
-        assert_eq!(unshear(&mut l), 0);
+        assert_eq!(unshear(&mut l, KEEP_ASPECT), 0);
         assert_eq!(l.pos, before);
     }
 }
