@@ -235,7 +235,7 @@ fn run_surface(
     opts: &OptimizeOptions,
     tick: &(dyn Fn(usize) + Sync),
 ) -> SurfaceOptimizeReport {
-    let mut tm = StageTimer::new(l.surface);
+    let mut tm = StageTimer::new("optimize", l.surface);
     l.build_adjacency();
     let before = l.stats();
     tm.lap("adj+stats");
@@ -306,12 +306,14 @@ fn run_surface(
 }
 
 /// Stage timer for profiling (`BLOSSOMQUAD_STAGE_TIMES` set: one line per surface on stderr,
-/// process CPU seconds per stage).
-struct StageTimer {
+/// process CPU seconds per stage, then wall seconds).
+pub(crate) struct StageTimer {
     on: bool,
+    what: &'static str,
     surface: i32,
     c: f64,
-    laps: Vec<(&'static str, f64)>,
+    w: std::time::Instant,
+    laps: Vec<(&'static str, f64, f64)>,
 }
 
 /// User + system CPU seconds of this process, all threads (Linux `/proc/self/stat`; 0 when
@@ -329,32 +331,42 @@ pub fn cpu_seconds() -> f64 {
 }
 
 impl StageTimer {
-    fn new(surface: i32) -> Self {
+    /// A timer for stage group `what` (e.g. "optimize") of surface `surface`.
+    pub(crate) fn new(what: &'static str, surface: i32) -> Self {
         let on = std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some();
         StageTimer {
             on,
+            what,
             surface,
             c: if on { cpu_seconds() } else { 0.0 },
+            w: std::time::Instant::now(),
             laps: Vec::new(),
         }
     }
-    fn lap(&mut self, name: &'static str) {
+    /// Ends stage `name` (started at the previous lap or at creation).
+    pub(crate) fn lap(&mut self, name: &'static str) {
         if self.on {
             let c = cpu_seconds();
-            self.laps.push((name, c - self.c));
+            let w = std::time::Instant::now();
+            self.laps
+                .push((name, c - self.c, (w - self.w).as_secs_f64()));
             self.c = c;
+            self.w = w;
         }
     }
-    fn done(&self) {
+    /// Prints the laps (when enabled).
+    pub(crate) fn done(&self) {
         if self.on {
             let total: f64 = self.laps.iter().map(|x| x.1).sum();
+            let wall: f64 = self.laps.iter().map(|x| x.2).sum();
             let s: Vec<String> = self
                 .laps
                 .iter()
-                .map(|(n, t)| format!("{n} {t:.2}"))
+                .map(|(n, t, w)| format!("{n} {t:.2}/{w:.2}"))
                 .collect();
             eprintln!(
-                "surface {} cpu ({total:.2} s): {}",
+                "{} surface {} cpu/wall ({total:.2}/{wall:.2} s): {}",
+                self.what,
                 self.surface,
                 s.join(", ")
             );

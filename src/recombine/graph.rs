@@ -318,8 +318,10 @@ pub(crate) fn build(
     with_extra: bool,
 ) -> Graph {
     let n = topo.len();
+    let mut tm = crate::optimize::StageTimer::new("graph", 0);
     let walls = wall_nodes(topo);
     let walls = &walls;
+    tm.lap("walls");
     let split_cost = split_halves_cost(n);
     let field = match (cross_w > 0.0, harmonic) {
         (false, _) => CrossField::default(),
@@ -331,6 +333,7 @@ pub(crate) fn build(
         (true, true) => smooth_cross_field(topo, coords),
     };
     let field = &field;
+    tm.lap("cross field");
     let mut edges: Vec<(u32, u32, i64)> = (0..n)
         .into_par_iter()
         .with_min_len(4096)
@@ -353,6 +356,7 @@ pub(crate) fn build(
         })
         .collect();
     let real = edges.len();
+    tm.lap("edges");
     let mut extra_fans = Vec::new();
     if with_extra {
         let cost = extra_edge_cost(n);
@@ -382,6 +386,8 @@ pub(crate) fn build(
             extra_fans.push(fan);
         }
     }
+    tm.lap("extra");
+    tm.done();
     Graph {
         edges,
         real,
