@@ -68,7 +68,14 @@ pub(crate) fn boundary_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> Vec<
     let n = topo.len();
     let mut t1 = vec![DVec3::ZERO; n];
     let mut queue: std::collections::VecDeque<u32> = std::collections::VecDeque::new();
-    let unit_n = |t: usize| tri_normal(coords, topo.tris[t]).normalize_or_zero();
+    // unit normals up front, in parallel (the search below then reads one array)
+    let unit: Vec<DVec3> = topo
+        .tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&tri| tri_normal(coords, tri).normalize_or_zero())
+        .collect();
+    let unit_n = |t: usize| unit[t];
     let project = |d: DVec3, nrm: DVec3| (d - nrm * d.dot(nrm)).normalize_or_zero();
     for (t, dir) in t1.iter_mut().enumerate() {
         for k in 0..3 {
@@ -158,12 +165,14 @@ pub const FIXED_CORNER_MIN_ETA: f64 = 0.25;
 /// angle — can never become valid, so it costs [`HOPELESS_COST`], far more than a folded
 /// quad, and the matching takes it only when avoiding it would cost even more; when the
 /// straight corner is at a parity-split node (`split_nodes`, sorted) it costs `split_cost`
-/// ([`split_halves_cost`]). `wall_nodes` is the sorted list of the surface's wall nodes.
+/// ([`split_halves_cost`]). `wall_nodes` holds the surface's wall nodes, `normals` the
+/// triangles' [`tri_normal`]s.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn edge_cost(
     topo: &SurfaceTopo,
     coords: &[DVec3],
-    wall_nodes: &[u32],
+    normals: &[DVec3],
+    wall_nodes: &NodeSet,
     split_nodes: &[u32],
     split_cost: i64,
     t: usize,
@@ -171,12 +180,12 @@ pub(crate) fn edge_cost(
 ) -> i64 {
     let quad = merged_quad(topo, t, k);
     let u = topo.nbr[3 * t + k] as usize;
-    let normal = tri_normal(coords, topo.tris[t]) + tri_normal(coords, topo.tris[u]);
+    let normal = normals[t] + normals[u];
     let pts = quad.map(|i| coords[i as usize]);
     let eta = eta_signed_fast(&pts, normal);
     let eta = if eta.is_finite() { eta } else { -1.0 };
     let cost = (COST_SCALE as f64 * (1.0 - eta)).round() as i64;
-    if has_hopeless_corner(&pts, normal, |k| wall_nodes.binary_search(&quad[k]).is_ok()) {
+    if has_hopeless_corner(&pts, normal, |k| wall_nodes.contains(quad[k])) {
         let at_split = !split_nodes.is_empty()
             && has_hopeless_corner(&pts, normal, |k| {
                 split_nodes.binary_search(&quad[k]).is_ok()
@@ -184,6 +193,31 @@ pub(crate) fn edge_cost(
         return if at_split { split_cost } else { HOPELESS_COST };
     }
     cost
+}
+
+/// A set of global node ids as a bitmap (one bit per id up to the largest member).
+pub(crate) struct NodeSet {
+    bits: Vec<u64>,
+}
+
+impl NodeSet {
+    /// The set of `ids`.
+    pub fn new(ids: &[u32]) -> Self {
+        let len = ids.iter().map(|&i| i as usize / 64 + 1).max().unwrap_or(0);
+        let mut bits = vec![0u64; len];
+        for &i in ids {
+            bits[i as usize / 64] |= 1 << (i % 64);
+        }
+        NodeSet { bits }
+    }
+
+    /// True when `id` is in the set.
+    #[inline]
+    pub fn contains(&self, id: u32) -> bool {
+        self.bits
+            .get(id as usize / 64)
+            .is_some_and(|w| w >> (id % 64) & 1 == 1)
+    }
 }
 
 /// True when a corner `k` of the quad with `on_wall(k)` has corner quality ≤
@@ -319,8 +353,15 @@ pub(crate) fn build(
 ) -> Graph {
     let n = topo.len();
     let mut tm = crate::optimize::StageTimer::new("graph", 0);
-    let walls = wall_nodes(topo);
+    let walls = NodeSet::new(&wall_nodes(topo));
     let walls = &walls;
+    let normals: Vec<DVec3> = topo
+        .tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&tri| tri_normal(coords, tri))
+        .collect();
+    let normals = &normals;
     tm.lap("walls");
     let split_cost = split_halves_cost(n);
     let field = match (cross_w > 0.0, harmonic) {
@@ -341,11 +382,12 @@ pub(crate) fn build(
             (0..3).filter_map(move |k| {
                 let u = topo.nbr[3 * t + k];
                 (u != NONE && (t as u32) < u).then(|| {
-                    let mut c = edge_cost(topo, coords, walls, split_nodes, split_cost, t, k);
+                    let mut c =
+                        edge_cost(topo, coords, normals, walls, split_nodes, split_cost, t, k);
                     if cross_w > 0.0 && c <= 2 * COST_SCALE {
                         let tri = topo.tris[t];
                         let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];
-                        let nrm = tri_normal(coords, tri);
+                        let nrm = normals[t];
                         let wt = field.weight[t];
                         c += (COST_SCALE as f64 * cross_w * wt * cross_cost(e, field.t1[t], nrm))
                             .round() as i64;
