@@ -171,7 +171,153 @@ pub fn optimize(
     reference: &Mesh,
     opts: &OptimizeOptions,
 ) -> Result<OptimizeReport, OptimizeError> {
+    optimize_prepared(mesh, PreparedReference::new(reference), opts)
+}
+
+/// The reference triangulation of every surface of a triangle mesh, prepared for
+/// [`optimize_prepared`]: per surface its triangles on compact point indices, the nodal
+/// sizes (mean incident edge length) and a triangle at each point. It depends on the
+/// triangle mesh only, so it can be built while the recombination runs (the CLI does).
+pub struct PreparedReference {
+    nodes: FlatNodes,
+    /// By increasing surface tag.
+    surfaces: Vec<(i32, SurfaceReference)>,
+}
+
+/// One surface's part of a [`PreparedReference`].
+struct SurfaceReference {
+    pts: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+    /// Unscaled mean incident edge length per point.
+    nodal: Vec<f64>,
+    /// A triangle at each point.
+    incident: Vec<u32>,
+    /// Flat reference node index -> point index: a dense table when the surface holds a
+    /// good share of the mesh's nodes, else a map.
+    compact_dense: Vec<u32>,
+    compact_sparse: std::collections::HashMap<u32, u32>,
+}
+
+impl SurfaceReference {
+    /// No triangles.
+    fn empty() -> Self {
+        SurfaceReference {
+            pts: Vec::new(),
+            tris: Vec::new(),
+            nodal: Vec::new(),
+            incident: Vec::new(),
+            compact_dense: Vec::new(),
+            compact_sparse: Default::default(),
+        }
+    }
+
+    /// Point index of flat reference node `id`.
+    fn compact(&self, id: u32) -> Option<u32> {
+        if self.compact_dense.is_empty() {
+            self.compact_sparse.get(&id).copied()
+        } else {
+            self.compact_dense
+                .get(id as usize)
+                .copied()
+                .filter(|&c| c != NONE)
+        }
+    }
+}
+
+impl PreparedReference {
+    /// Prepares the triangles (3-node) of every surface of `reference` (in parallel).
+    pub fn new(reference: &Mesh) -> Self {
+        let nodes = FlatNodes::new(reference);
+        let mut tags: Vec<i32> = reference
+            .element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3 && !b.is_empty())
+            .map(|b| b.entity_tag)
+            .collect();
+        tags.sort_unstable();
+        tags.dedup();
+        let surfaces = tags
+            .par_iter()
+            .map(|&s| (s, surface_reference(reference, &nodes, s)))
+            .collect();
+        PreparedReference { nodes, surfaces }
+    }
+}
+
+/// The reference triangles of surface `s` on compact point indices (first use order).
+fn surface_reference(reference: &Mesh, rnodes: &FlatNodes, s: i32) -> SurfaceReference {
+    let total = rnodes.coords.len();
+    let count: usize = reference
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::TRI3)
+        .map(|b| b.len())
+        .sum();
+    // a dense table when the surface's points (about half its triangles) are a good share
+    let dense = total <= 32 * count.max(1);
+    let mut compact_dense: Vec<u32> = if dense { vec![NONE; total] } else { Vec::new() };
+    let mut compact_sparse: std::collections::HashMap<u32, u32> = Default::default();
+    let mut pts: Vec<DVec3> = Vec::new();
+    let mut tris: Vec<[u32; 3]> = Vec::with_capacity(count);
+    for b in &reference.element_blocks {
+        if b.entity_dim != 2 || b.entity_tag != s || b.element_type != etype::TRI3 {
+            continue;
+        }
+        let ids: Vec<[u32; 3]> = (0..b.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|e| {
+                let el = b.element(e);
+                [el[0], el[1], el[2]].map(|t| rnodes.get(t).unwrap_or(NONE))
+            })
+            .collect();
+        for t3 in ids {
+            if t3.contains(&NONE) {
+                continue;
+            }
+            let mut t = [0u32; 3];
+            for (k, &id) in t3.iter().enumerate() {
+                let slot = if dense {
+                    &mut compact_dense[id as usize]
+                } else {
+                    compact_sparse.entry(id).or_insert(NONE)
+                };
+                if *slot == NONE {
+                    *slot = pts.len() as u32;
+                    pts.push(rnodes.coords[id as usize]);
+                }
+                t[k] = *slot;
+            }
+            tris.push(t);
+        }
+    }
+    let nodal = mean_incident_edge_length(&pts, tris.iter().map(|t| &t[..]));
+    let mut incident = vec![NONE; pts.len()];
+    for (t, tri) in tris.iter().enumerate() {
+        for &v in tri {
+            incident[v as usize] = t as u32;
+        }
+    }
+    SurfaceReference {
+        pts,
+        tris,
+        nodal,
+        incident,
+        compact_dense,
+        compact_sparse,
+    }
+}
+
+/// [`optimize`] with the reference triangulation already prepared (from the triangle mesh
+/// before recombination).
+pub fn optimize_prepared(
+    mesh: &mut Mesh,
+    prepared: PreparedReference,
+    opts: &OptimizeOptions,
+) -> Result<OptimizeReport, OptimizeError> {
+    let mut tm = StageTimer::new("optimize setup", 0);
     let flat = FlatNodes::new(mesh);
+    tm.lap("flat");
     let mut surfaces: Vec<i32> = mesh
         .element_blocks
         .iter()
@@ -181,11 +327,13 @@ pub fn optimize(
     surfaces.sort_unstable();
     surfaces.dedup();
     let owner = node_owners(mesh, &flat, &surfaces)?;
+    tm.lap("owners");
     let mut locals = Vec::with_capacity(surfaces.len());
     let mut scratch = vec![NONE; flat.coords.len()];
     for (si, &s) in surfaces.iter().enumerate() {
         locals.push(extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?);
     }
+    tm.lap("extract");
     let total = locals.len() * (1 + opts.max_rounds);
     let done = AtomicUsize::new(0);
     let tick = |n: usize| {
@@ -194,15 +342,34 @@ pub fn optimize(
             p(d.min(total), total);
         }
     };
-    let refnodes = FlatNodes::new(reference);
+    let PreparedReference {
+        nodes: refnodes,
+        surfaces: mut prepared,
+    } = prepared;
+    // each surface takes its reference (the quad surfaces are sorted by tag, as are these)
+    let refs: Vec<Option<SurfaceReference>> = locals
+        .iter()
+        .map(|l| {
+            prepared
+                .binary_search_by_key(&l.surface, |p| p.0)
+                .ok()
+                .map(|i| std::mem::replace(&mut prepared[i].1, SurfaceReference::empty()))
+        })
+        .collect();
+    let refnodes = &refnodes;
     let results: Vec<(Local, SurfaceOptimizeReport)> = locals
         .into_par_iter()
-        .map(|mut l| {
-            attach_reference(&mut l, reference, &refnodes, opts.reference_size_scale);
+        .zip(refs)
+        .map(|(mut l, sref)| {
+            let mut tr = StageTimer::new("attach", l.surface);
+            attach_reference(&mut l, sref, refnodes, opts.reference_size_scale);
+            tr.lap("attach_reference");
+            tr.done();
             let rep = run_surface(&mut l, opts, &tick);
             (l, rep)
         })
         .collect();
+    tm.lap("surfaces");
     let mut report = OptimizeReport::default();
     let mut pending = PendingNodes::new(mesh);
     for (l, rep) in results {
@@ -210,6 +377,8 @@ pub fn optimize(
         report.surfaces.push(rep);
     }
     pending.apply(mesh);
+    tm.lap("write back");
+    tm.done();
     if report.quads_removed > 0
         || report
             .surfaces
@@ -675,61 +844,32 @@ fn morton_order(quads: &[[u32; 4]], coords: &[DVec3]) -> Vec<u32> {
     keyed.into_iter().map(|(_, i)| i).collect()
 }
 
-/// Builds the surface's reference triangulation (triangles of the same surface entity in
-/// `reference`, else the quads split in two), locates every node on it and sets the sizes
-/// (those from reference triangles times `size_scale`).
+/// Attaches the surface's reference triangulation (`sref`, the prepared triangles of the
+/// same surface entity, else the quads split in two), locates every node on it and sets the
+/// sizes (those from reference triangles times `size_scale`).
 /// Planar surfaces need no projection: their nodes missing from the reference take the mean
 /// size of their matched neighbours and no spatial index is built.
-fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes, size_scale: f64) {
-    // reference triangles of the surface, on compact point indices (first use order)
-    let total = rnodes.coords.len();
-    let dense = total <= 64 * l.pos.len().max(1);
-    let mut compact_dense: Vec<u32> = if dense { vec![NONE; total] } else { Vec::new() };
-    let mut compact_sparse: std::collections::HashMap<u32, u32> = Default::default();
-    let mut pts: Vec<DVec3> = Vec::new();
-    let mut tris: Vec<[u32; 3]> = Vec::new();
-    for b in &reference.element_blocks {
-        if b.entity_dim != 2 || b.entity_tag != l.surface || b.element_type != etype::TRI3 {
-            continue;
-        }
-        let ids: Vec<[u32; 3]> = (0..b.len())
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|e| {
-                let el = b.element(e);
-                [el[0], el[1], el[2]].map(|t| rnodes.get(t).unwrap_or(NONE))
-            })
-            .collect();
-        for t3 in ids {
-            if t3.contains(&NONE) {
-                continue;
-            }
-            let mut t = [0u32; 3];
-            for (k, &id) in t3.iter().enumerate() {
-                let slot = if dense {
-                    &mut compact_dense[id as usize]
-                } else {
-                    compact_sparse.entry(id).or_insert(NONE)
-                };
-                if *slot == NONE {
-                    *slot = pts.len() as u32;
-                    pts.push(rnodes.coords[id as usize]);
-                }
-                t[k] = *slot;
-            }
-            tris.push(t);
-        }
-    }
-    let compact = |id: u32| {
-        if dense {
-            compact_dense
-                .get(id as usize)
-                .copied()
-                .filter(|&c| c != NONE)
-        } else {
-            compact_sparse.get(&id).copied()
-        }
+fn attach_reference(
+    l: &mut Local,
+    sref: Option<SurfaceReference>,
+    rnodes: &FlatNodes,
+    size_scale: f64,
+) {
+    let sref = sref.unwrap_or_else(SurfaceReference::empty);
+    let SurfaceReference {
+        mut pts,
+        mut tris,
+        nodal: ref_nodal,
+        incident,
+        compact_dense,
+        compact_sparse,
+    } = sref;
+    let maps = SurfaceReference {
+        compact_dense,
+        compact_sparse,
+        ..SurfaceReference::empty()
     };
+    let compact = |id: u32| maps.compact(id);
     let own = tris.is_empty();
     if own {
         // quad edges are ~h; the split diagonals (√2 h) would inflate the mean: use the
@@ -746,7 +886,11 @@ fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes, size_sc
             tris.push([q[0], q[2], q[3]]);
         }
     }
-    let mut nodal = mean_incident_edge_length(&pts, tris.iter().map(|t| &t[..]));
+    let mut nodal = if own {
+        mean_incident_edge_length(&pts, tris.iter().map(|t| &t[..]))
+    } else {
+        ref_nodal
+    };
     if !own {
         nodal.iter_mut().for_each(|h| *h *= size_scale);
     }
@@ -755,12 +899,6 @@ fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes, size_sc
     if own {
         unmatched.extend(0..l.pos.len());
     } else {
-        let mut incident = vec![NONE; pts.len()];
-        for (t, tri) in tris.iter().enumerate() {
-            for &v in tri {
-                incident[v as usize] = t as u32;
-            }
-        }
         let found: Vec<Option<u32>> = (0..l.pos.len())
             .into_par_iter()
             .with_min_len(4096)
