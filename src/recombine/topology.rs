@@ -495,7 +495,7 @@ mod tests {
             x ^= x << 13;
             x ^= x >> 7;
             x ^= x << 17;
-            if x % 50 != 0 {
+            if !x.is_multiple_of(50) {
                 nbr[3 * t + 1] = t as u32 + 1;
                 nbr[3 * (t + 1) + 2] = t as u32;
             }
