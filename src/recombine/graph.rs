@@ -100,15 +100,26 @@ pub(crate) fn boundary_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> Vec<
         };
         queue.push_back(0);
     }
+    // speed: "t1 is set" (non-zero) as a bitmap, which stays in cache (t1 does not)
+    let mut set = vec![0u64; n.div_ceil(64)];
+    for (t, d) in t1.iter().enumerate() {
+        if *d != DVec3::ZERO {
+            set[t / 64] |= 1 << (t % 64);
+        }
+    }
     while let Some(t) = queue.pop_front() {
         let t = t as usize;
         for k in 0..3 {
             let u = topo.nbr[3 * t + k];
-            if u == NONE || t1[u as usize] != DVec3::ZERO {
+            if u == NONE || set[u as usize / 64] >> (u % 64) & 1 == 1 {
                 continue;
             }
             let d = project(t1[t], unit_n(u as usize));
-            t1[u as usize] = if d == DVec3::ZERO { t1[t] } else { d };
+            let val = if d == DVec3::ZERO { t1[t] } else { d };
+            t1[u as usize] = val;
+            if val != DVec3::ZERO {
+                set[u as usize / 64] |= 1 << (u % 64);
+            }
             queue.push_back(u);
         }
     }
