@@ -7,6 +7,8 @@
 //! into flat arrays ([`local`](self)), optimized, and written back. Curved surfaces are
 //! smoothed in 3D and projected back onto the *reference triangulation* (the triangle mesh
 //! before recombination), so no CAD kernel is needed; planar surfaces move in their plane.
+//! That triangulation depends on the triangles alone ([`PreparedReference`]): the CLI builds
+//! it while the recombination runs and passes it to [`optimize_prepared`].
 //!
 //! Schedule per surface (`run_surface`): 5 smoothing sweeps; up to 4 rounds of (topology
 //! pass, 3 sweeps starting from the nodes within 2 quad rings of what the pass changed, or
