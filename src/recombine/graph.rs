@@ -239,8 +239,14 @@ pub(crate) fn has_hopeless_corner(
     normal: DVec3,
     on_wall: impl Fn(usize) -> bool,
 ) -> bool {
-    let unit = normal.normalize_or_zero();
-    (0..4).any(|k| on_wall(k) && corner_eta(signed_angle(pts, unit, k)) <= FIXED_CORNER_MIN_ETA)
+    // the unit normal only when some corner is on a wall (most quads have none)
+    let mut unit = None;
+    (0..4).any(|k| {
+        on_wall(k) && {
+            let unit = *unit.get_or_insert_with(|| normal.normalize_or_zero());
+            corner_eta(signed_angle(pts, unit, k)) <= FIXED_CORNER_MIN_ETA
+        }
+    })
 }
 
 /// Sorted, deduplicated nodes that lie on a wall edge of the surface (an edge with no
