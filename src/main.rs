@@ -257,8 +257,20 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     };
     let t1 = Instant::now();
     let before = mesh.clone();
-    let report =
-        recombine::recombine(&mut mesh, &opts).map_err(|e| format!("{}: {e}", input.display()))?;
+    // the optimizer's reference triangulation depends on the triangles only: prepared on
+    // its own thread while the recombination runs (its matching is serial per surface)
+    let (report, prepared) = std::thread::scope(|sc| {
+        let prep =
+            (!args.no_optimize).then(|| sc.spawn(|| optimize::PreparedReference::new(&before)));
+        let report = recombine::recombine(&mut mesh, &opts);
+        (report, prep.map(|h| h.join()))
+    });
+    let report = report.map_err(|e| format!("{}: {e}", input.display()))?;
+    let prepared = match prepared {
+        Some(Ok(p)) => Some(p),
+        Some(Err(panic)) => std::panic::resume_unwind(panic),
+        None => None,
+    };
     for line in &report.log {
         log.say(line);
     }
@@ -303,7 +315,8 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
             }
         };
         oopts.progress = Some(&progress);
-        let orep = optimize::optimize(&mut mesh, &before, &oopts)
+        let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(&before));
+        let orep = optimize::optimize_prepared(&mut mesh, prepared, &oopts)
             .map_err(|e| format!("{}: {e}", input.display()))?;
         if let Some(b) = bar {
             b.finish_and_clear();

@@ -563,7 +563,9 @@ pub(crate) fn cleanup(
     if depth == 0 {
         return (0, 0);
     }
+    let mut tm = super::StageTimer::new("cleanup", 0);
     let mut t = Topo::near(l, focus);
+    tm.lap("near");
     let (mut sequences, mut rotations) = (0, 0);
     for _ in 0..max_rounds {
         let mut applied = 0;
@@ -599,11 +601,13 @@ pub(crate) fn cleanup(
             }
         }
         t.log.clear();
+        tm.lap("search");
         sequences += applied;
         if applied == 0 {
             break;
         }
     }
+    tm.done();
     (sequences, rotations)
 }
 

@@ -19,7 +19,10 @@
 //! target size at the quad's nodes) makes each quad's term scale-free. `E` is quadratic; with the fixed
 //! nodes (curves, points, shared nodes) as Dirichlet data its minimizer solves a Hermitian
 //! positive definite system, solved by conjugate gradients from the current positions
-//! (at most [`MAX_ITERATIONS`]).
+//! (at most [`MAX_ITERATIONS`]; measured on the 1e5 fixtures, 50 iterations lose up to 0.025
+//! of η̄). The product runs on blocks of nodes in parallel and the vector updates are fused
+//! with the dot products; every sum is taken in a fixed order, so the result does not
+//! depend on the thread count.
 //!
 //! The step to the minimizer is then taken in full, half or quarter, whichever comes first
 //! with a higher mean signed η (eq. 3), no valid quad turned invalid and no invalid quad's
@@ -28,6 +31,7 @@
 use super::local::Local;
 use crate::quality::eta::eta_signed_fast;
 use glam::DVec3;
+use rayon::prelude::*;
 
 /// Cap on conjugate-gradient iterations (the solve is warm-started and only needs to remove
 /// the low-frequency shear modes).
@@ -71,12 +75,12 @@ fn corner(prev: C, at: C, next: C, rho: f64) -> C {
     next.sub(at).scale(rho).rot().sub(prev.sub(at))
 }
 
-/// Adds `w · Lᴴ L x` for one quad to `out` (L: the four corner residuals
+/// Adds `w · Lᴴ L x` for one quad through `add(node, term)` (L: the four corner residuals
 /// `r_k = i ρ_k z_{k+1} + (1 − i ρ_k) z_k − z_{k−1}`). Each node `j` is the next node of
 /// corner `j − 1`, the corner of `j` and the previous node of `j + 1`, so it gathers
 /// `−i ρ_{j−1} r_{j−1} + (1 + i ρ_j) r_j − r_{j+1}`: four loads and four updates per quad.
 #[inline]
-fn accumulate(quad: &[u32; 4], w: f64, rho: &[f64; 4], x: &[C], out: &mut [C]) {
+fn accumulate(quad: &[u32; 4], w: f64, rho: &[f64; 4], x: &[C], mut add: impl FnMut(usize, C)) {
     let z = quad.map(|v| x[v as usize]);
     let r: [C; 4] =
         std::array::from_fn(|k| corner(z[(k + 3) & 3], z[k], z[(k + 1) & 3], rho[k]).scale(w));
@@ -86,8 +90,7 @@ fn accumulate(quad: &[u32; 4], w: f64, rho: &[f64; 4], x: &[C], out: &mut [C]) {
             .add(r[j].scale(rho[j]).rot())
             .sub(r[jm].scale(rho[jm]).rot())
             .sub(r[(j + 1) & 3]);
-        let o = &mut out[quad[j] as usize];
-        *o = o.add(g);
+        add(quad[j] as usize, g);
     }
 }
 
@@ -104,6 +107,104 @@ fn corner_ratios(p: [C; 4], beta: f64) -> [f64; 4] {
             1.0
         }
     })
+}
+
+/// Nodes per block of the parallel product [`apply`].
+const BLOCK: usize = 16_384;
+
+/// The live quads grouped for [`apply`]: block `b` holds the quads whose smallest node is in
+/// `b · BLOCK .. (b + 1) · BLOCK` (nodes are numbered by first use in the Morton order of the
+/// quads, so a block's quads are mostly a compact patch), in increasing order.
+struct Blocks {
+    start: Vec<usize>,
+    quads: Vec<[u32; 4]>,
+    weights: Vec<f64>,
+    rhos: Vec<[f64; 4]>,
+}
+
+impl Blocks {
+    fn new(n: usize, quads: &[[u32; 4]], live: &[u32], weights: &[f64], rhos: &[[f64; 4]]) -> Self {
+        let nb = n.div_ceil(BLOCK).max(1);
+        let block = |q: u32| quads[q as usize].iter().copied().min().unwrap_or(0) as usize / BLOCK;
+        let mut start = vec![0usize; nb + 1];
+        for &q in live {
+            start[block(q) + 1] += 1;
+        }
+        for b in 0..nb {
+            start[b + 1] += start[b];
+        }
+        let mut fill = start.clone();
+        let mut out = vec![[0u32; 4]; live.len()];
+        let mut w = vec![0.0; live.len()];
+        let mut rh = vec![[1.0; 4]; live.len()];
+        for &q in live {
+            let b = block(q);
+            out[fill[b]] = quads[q as usize];
+            w[fill[b]] = weights[q as usize];
+            rh[fill[b]] = rhos[q as usize];
+            fill[b] += 1;
+        }
+        Blocks {
+            start,
+            quads: out,
+            weights: w,
+            rhos: rh,
+        }
+    }
+}
+
+/// `out = A x` (A = Σ_q w_q Lᴴ L), the blocks of [`Blocks`] in parallel: each block adds
+/// its quads' terms to the nodes of its own range and keeps the others (nodes of later
+/// blocks, along its edge), which are added after, block by block, so the sums do not
+/// depend on the thread count.
+fn apply(blocks: &Blocks, x: &[C], out: &mut [C]) {
+    let spills: Vec<Vec<(u32, C)>> = out
+        .par_chunks_mut(BLOCK)
+        .enumerate()
+        .map(|(b, o)| {
+            o.fill(C::default());
+            let lo = b * BLOCK;
+            let mut spill = Vec::new();
+            let range = blocks.start[b]..blocks.start[b + 1];
+            for ((quad, &w), rho) in blocks.quads[range.clone()]
+                .iter()
+                .zip(&blocks.weights[range.clone()])
+                .zip(&blocks.rhos[range])
+            {
+                accumulate(quad, w, rho, x, |v, g| {
+                    match v.checked_sub(lo).filter(|&i| i < o.len()) {
+                        Some(i) => o[i] = o[i].add(g),
+                        None => spill.push((v as u32, g)),
+                    }
+                });
+            }
+            spill
+        })
+        .collect();
+    for spill in spills {
+        for (v, g) in spill {
+            out[v as usize] = out[v as usize].add(g);
+        }
+    }
+}
+
+/// Vector chunk of the parallel loops of the conjugate gradients.
+const CHUNK: usize = 8192;
+
+/// Real part of `a · b̄`, summed per chunk of [`CHUNK`] entries and then in chunk order (the
+/// same for any thread count).
+fn pdot(a: &[C], b: &[C]) -> f64 {
+    a.par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(a, b)| {
+            a.iter()
+                .zip(b)
+                .map(|(x, y)| x.0 * y.0 + x.1 * y.1)
+                .sum::<f64>()
+        })
+        .collect::<Vec<f64>>()
+        .iter()
+        .sum()
 }
 
 /// The conformal solve (module docs) on a planar surface, keeping the share `keep_aspect`
@@ -153,45 +254,37 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
     if !free.iter().any(|&f| f) {
         return 0;
     }
-    let weights: Vec<f64> = live
-        .iter()
-        .map(|&q| {
-            let h = l.quads[q as usize]
-                .iter()
-                .map(|&v| l.h[v as usize])
-                .sum::<f64>()
-                / 4.0;
-            if h > 0.0 && h.is_finite() {
-                1.0 / (h * h)
-            } else {
-                1.0
-            }
-        })
-        .collect();
-    let quads: Vec<[u32; 4]> = live.iter().map(|&q| l.quads[q as usize]).collect();
-    let rhos: Vec<[f64; 4]> = quads
-        .iter()
-        .map(|quad| corner_ratios(quad.map(|v| z[v as usize]), keep_aspect))
-        .collect();
-    // out = A x; entries at fixed nodes are not masked: the preconditioner is zero there, so
-    // they never reach the iterates (and x is zero there)
-    let apply = |x: &[C], out: &mut [C]| {
-        out.iter_mut().for_each(|o| *o = C::default());
-        for ((quad, &w), rho) in quads.iter().zip(&weights).zip(&rhos) {
-            accumulate(quad, w, rho, x, out);
-        }
-    };
-    let dot =
-        |a: &[C], b: &[C]| -> f64 { a.iter().zip(b).map(|(x, y)| x.0 * y.0 + x.1 * y.1).sum() };
+    let mut weights = vec![0.0f64; l.quads.len()];
+    for &q in &live {
+        let h = l.quads[q as usize]
+            .iter()
+            .map(|&v| l.h[v as usize])
+            .sum::<f64>()
+            / 4.0;
+        weights[q as usize] = if h > 0.0 && h.is_finite() {
+            1.0 / (h * h)
+        } else {
+            1.0
+        };
+    }
+    let weights = &weights;
+    let mut rhos = vec![[1.0f64; 4]; l.quads.len()];
+    for &q in &live {
+        rhos[q as usize] = corner_ratios(l.quads[q as usize].map(|v| z[v as usize]), keep_aspect);
+    }
+    let blocks = Blocks::new(n, &l.quads, &live, weights, &rhos);
     // solve A d = −∇E(z) on the free nodes, d = 0 elsewhere, by conjugate gradients with
     // the diagonal of A (Σ w_q (2 + ρ_j² + ρ_{j−1}²) over the node's quads, 4 Σ w_q for
     // squares) as preconditioner: the weights vary like 1/h², so on graded meshes the
-    // diagonal scaling matters
+    // diagonal scaling matters. Entries of A x at fixed
+    // nodes are not masked: the preconditioner is zero there, so they never reach the
+    // iterates (and x is zero there).
     let mut diag = vec![0.0f64; n];
-    for ((quad, &w), rho) in quads.iter().zip(&weights).zip(&rhos) {
-        for (j, &v) in quad.iter().enumerate() {
+    for &q in &live {
+        let rho = &rhos[q as usize];
+        for (j, &v) in l.quads[q as usize].iter().enumerate() {
             let jm = (j + 3) & 3;
-            diag[v as usize] += (2.0 + rho[j] * rho[j] + rho[jm] * rho[jm]) * w;
+            diag[v as usize] += (2.0 + rho[j] * rho[j] + rho[jm] * rho[jm]) * weights[q as usize];
         }
     }
     let inv: Vec<f64> = diag
@@ -200,38 +293,56 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
         .map(|(&d, &f)| if f && d > 0.0 { 1.0 / d } else { 0.0 })
         .collect();
     let mut r = vec![C::default(); n];
-    apply(&z, &mut r);
+    apply(&blocks, &z, &mut r);
     r.iter_mut().for_each(|c| *c = c.scale(-1.0));
     let mut d = vec![C::default(); n];
-    let mut s: Vec<C> = r.iter().zip(&inv).map(|(c, &m)| c.scale(m)).collect();
-    let mut p = s.clone();
+    let mut p: Vec<C> = r.iter().zip(&inv).map(|(c, &m)| c.scale(m)).collect();
     let mut ap = vec![C::default(); n];
-    let mut rs = dot(&r, &s);
+    let mut rs = pdot(&r, &p);
     let stop = TOLERANCE * TOLERANCE * rs;
     let mut it = 0usize;
     while it < MAX_ITERATIONS && rs > stop && rs > 0.0 {
         it += 1;
-        apply(&p, &mut ap);
-        let pap = dot(&p, &ap);
+        apply(&blocks, &p, &mut ap);
+        let pap = pdot(&p, &ap);
         if pap <= 0.0 || !pap.is_finite() {
             break;
         }
         let alpha = rs / pap;
-        for v in 0..n {
-            d[v] = d[v].add(p[v].scale(alpha));
-            r[v] = r[v].sub(ap[v].scale(alpha));
-            s[v] = r[v].scale(inv[v]);
-        }
-        let rs_new = dot(&r, &s);
+        // d += α p, r −= α A p, and rs = r · M⁻¹ r in one pass (sums per chunk, then in
+        // chunk order: the same for any thread count)
+        let rs_new: f64 = d
+            .par_chunks_mut(CHUNK)
+            .zip(r.par_chunks_mut(CHUNK))
+            .zip(p.par_chunks(CHUNK).zip(ap.par_chunks(CHUNK)))
+            .zip(inv.par_chunks(CHUNK))
+            .map(|(((d, r), (p, ap)), inv)| {
+                let mut rs = 0.0;
+                for v in 0..d.len() {
+                    d[v] = d[v].add(p[v].scale(alpha));
+                    r[v] = r[v].sub(ap[v].scale(alpha));
+                    let s = r[v].scale(inv[v]);
+                    rs += r[v].0 * s.0 + r[v].1 * s.1;
+                }
+                rs
+            })
+            .collect::<Vec<f64>>()
+            .iter()
+            .sum();
         let beta = rs_new / rs;
         rs = rs_new;
-        for v in 0..n {
-            p[v] = s[v].add(p[v].scale(beta));
-        }
+        p.par_chunks_mut(CHUNK)
+            .zip(r.par_chunks(CHUNK).zip(inv.par_chunks(CHUNK)))
+            .for_each(|(p, (r, inv))| {
+                for v in 0..p.len() {
+                    p[v] = r[v].scale(inv[v]).add(p[v].scale(beta));
+                }
+            });
     }
     // line search on the mean signed η
     let eval = |pos: &[DVec3]| -> Vec<f64> {
-        live.iter()
+        live.par_iter()
+            .with_min_len(4096)
             .map(|&q| eta_signed_fast(&l.quads[q as usize].map(|v| pos[v as usize]), normal))
             .collect()
     };

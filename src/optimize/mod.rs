@@ -7,10 +7,12 @@
 //! into flat arrays ([`local`](self)), optimized, and written back. Curved surfaces are
 //! smoothed in 3D and projected back onto the *reference triangulation* (the triangle mesh
 //! before recombination), so no CAD kernel is needed; planar surfaces move in their plane.
+//! That triangulation depends on the triangles alone ([`PreparedReference`]): the CLI builds
+//! it while the recombination runs and passes it to [`optimize_prepared`].
 //!
 //! Schedule per surface (`run_surface`): 5 smoothing sweeps; up to 4 rounds of (topology
-//! pass, 5 sweeps starting from the nodes within 2 quad rings of what the pass changed, or
-//! from every node on surfaces under 20k quads); on planar surfaces one global conformal
+//! pass, 3 sweeps starting from the nodes within 2 quad rings of what the pass changed, or
+//! 5 from every node on surfaces under 20k quads); on planar surfaces one global conformal
 //! solve that removes shear no node-by-node move can undo, keeping part of each corner's
 //! aspect ratio ([`conformal`](self)); a max-min polish of the quads with η < 0.6; 2
 //! pattern-search sweeps; 2 mean-η polish sweeps (4 under 20k quads), whose objective has a
@@ -187,7 +189,153 @@ pub fn optimize(
     reference: &Mesh,
     opts: &OptimizeOptions,
 ) -> Result<OptimizeReport, OptimizeError> {
+    optimize_prepared(mesh, PreparedReference::new(reference), opts)
+}
+
+/// The reference triangulation of every surface of a triangle mesh, prepared for
+/// [`optimize_prepared`]: per surface its triangles on compact point indices, the nodal
+/// sizes (mean incident edge length) and a triangle at each point. It depends on the
+/// triangle mesh only, so it can be built while the recombination runs (the CLI does).
+pub struct PreparedReference {
+    nodes: FlatNodes,
+    /// By increasing surface tag.
+    surfaces: Vec<(i32, SurfaceReference)>,
+}
+
+/// One surface's part of a [`PreparedReference`].
+struct SurfaceReference {
+    pts: Vec<DVec3>,
+    tris: Vec<[u32; 3]>,
+    /// Unscaled mean incident edge length per point.
+    nodal: Vec<f64>,
+    /// A triangle at each point.
+    incident: Vec<u32>,
+    /// Flat reference node index -> point index: a dense table when the surface holds a
+    /// good share of the mesh's nodes, else a map.
+    compact_dense: Vec<u32>,
+    compact_sparse: std::collections::HashMap<u32, u32>,
+}
+
+impl SurfaceReference {
+    /// No triangles.
+    fn empty() -> Self {
+        SurfaceReference {
+            pts: Vec::new(),
+            tris: Vec::new(),
+            nodal: Vec::new(),
+            incident: Vec::new(),
+            compact_dense: Vec::new(),
+            compact_sparse: Default::default(),
+        }
+    }
+
+    /// Point index of flat reference node `id`.
+    fn compact(&self, id: u32) -> Option<u32> {
+        if self.compact_dense.is_empty() {
+            self.compact_sparse.get(&id).copied()
+        } else {
+            self.compact_dense
+                .get(id as usize)
+                .copied()
+                .filter(|&c| c != NONE)
+        }
+    }
+}
+
+impl PreparedReference {
+    /// Prepares the triangles (3-node) of every surface of `reference` (in parallel).
+    pub fn new(reference: &Mesh) -> Self {
+        let nodes = FlatNodes::new(reference);
+        let mut tags: Vec<i32> = reference
+            .element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3 && !b.is_empty())
+            .map(|b| b.entity_tag)
+            .collect();
+        tags.sort_unstable();
+        tags.dedup();
+        let surfaces = tags
+            .par_iter()
+            .map(|&s| (s, surface_reference(reference, &nodes, s)))
+            .collect();
+        PreparedReference { nodes, surfaces }
+    }
+}
+
+/// The reference triangles of surface `s` on compact point indices (first use order).
+fn surface_reference(reference: &Mesh, rnodes: &FlatNodes, s: i32) -> SurfaceReference {
+    let total = rnodes.coords.len();
+    let count: usize = reference
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::TRI3)
+        .map(|b| b.len())
+        .sum();
+    // a dense table when the surface's points (about half its triangles) are a good share
+    let dense = total <= 32 * count.max(1);
+    let mut compact_dense: Vec<u32> = if dense { vec![NONE; total] } else { Vec::new() };
+    let mut compact_sparse: std::collections::HashMap<u32, u32> = Default::default();
+    let mut pts: Vec<DVec3> = Vec::new();
+    let mut tris: Vec<[u32; 3]> = Vec::with_capacity(count);
+    for b in &reference.element_blocks {
+        if b.entity_dim != 2 || b.entity_tag != s || b.element_type != etype::TRI3 {
+            continue;
+        }
+        let ids: Vec<[u32; 3]> = (0..b.len())
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(|e| {
+                let el = b.element(e);
+                [el[0], el[1], el[2]].map(|t| rnodes.get(t).unwrap_or(NONE))
+            })
+            .collect();
+        for t3 in ids {
+            if t3.contains(&NONE) {
+                continue;
+            }
+            let mut t = [0u32; 3];
+            for (k, &id) in t3.iter().enumerate() {
+                let slot = if dense {
+                    &mut compact_dense[id as usize]
+                } else {
+                    compact_sparse.entry(id).or_insert(NONE)
+                };
+                if *slot == NONE {
+                    *slot = pts.len() as u32;
+                    pts.push(rnodes.coords[id as usize]);
+                }
+                t[k] = *slot;
+            }
+            tris.push(t);
+        }
+    }
+    let nodal = mean_incident_edge_length(&pts, tris.iter().map(|t| &t[..]));
+    let mut incident = vec![NONE; pts.len()];
+    for (t, tri) in tris.iter().enumerate() {
+        for &v in tri {
+            incident[v as usize] = t as u32;
+        }
+    }
+    SurfaceReference {
+        pts,
+        tris,
+        nodal,
+        incident,
+        compact_dense,
+        compact_sparse,
+    }
+}
+
+/// [`optimize`] with the reference triangulation already prepared (from the triangle mesh
+/// before recombination).
+pub fn optimize_prepared(
+    mesh: &mut Mesh,
+    prepared: PreparedReference,
+    opts: &OptimizeOptions,
+) -> Result<OptimizeReport, OptimizeError> {
+    let mut tm = StageTimer::new("optimize setup", 0);
     let flat = FlatNodes::new(mesh);
+    tm.lap("flat");
     let mut surfaces: Vec<i32> = mesh
         .element_blocks
         .iter()
@@ -197,11 +345,13 @@ pub fn optimize(
     surfaces.sort_unstable();
     surfaces.dedup();
     let owner = node_owners(mesh, &flat, &surfaces)?;
+    tm.lap("owners");
     let mut locals = Vec::with_capacity(surfaces.len());
     let mut scratch = vec![NONE; flat.coords.len()];
     for (si, &s) in surfaces.iter().enumerate() {
         locals.push(extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?);
     }
+    tm.lap("extract");
     let total = locals.len() * (1 + opts.max_rounds);
     let done = AtomicUsize::new(0);
     let tick = |n: usize| {
@@ -210,15 +360,34 @@ pub fn optimize(
             p(d.min(total), total);
         }
     };
-    let refnodes = FlatNodes::new(reference);
+    let PreparedReference {
+        nodes: refnodes,
+        surfaces: mut prepared,
+    } = prepared;
+    // each surface takes its reference (the quad surfaces are sorted by tag, as are these)
+    let refs: Vec<Option<SurfaceReference>> = locals
+        .iter()
+        .map(|l| {
+            prepared
+                .binary_search_by_key(&l.surface, |p| p.0)
+                .ok()
+                .map(|i| std::mem::replace(&mut prepared[i].1, SurfaceReference::empty()))
+        })
+        .collect();
+    let refnodes = &refnodes;
     let results: Vec<(Local, SurfaceOptimizeReport)> = locals
         .into_par_iter()
-        .map(|mut l| {
-            attach_reference(&mut l, reference, &refnodes, opts.reference_size_scale);
+        .zip(refs)
+        .map(|(mut l, sref)| {
+            let mut tr = StageTimer::new("attach", l.surface);
+            attach_reference(&mut l, sref, refnodes, opts.reference_size_scale);
+            tr.lap("attach_reference");
+            tr.done();
             let rep = run_surface(&mut l, opts, &tick);
             (l, rep)
         })
         .collect();
+    tm.lap("surfaces");
     let mut report = OptimizeReport::default();
     let mut pending = PendingNodes::new(mesh);
     for (l, rep) in results {
@@ -226,6 +395,8 @@ pub fn optimize(
         report.surfaces.push(rep);
     }
     pending.apply(mesh);
+    tm.lap("write back");
+    tm.done();
     if report.quads_removed > 0
         || report
             .surfaces
@@ -251,7 +422,7 @@ fn run_surface(
     opts: &OptimizeOptions,
     tick: &(dyn Fn(usize) + Sync),
 ) -> SurfaceOptimizeReport {
-    let mut tm = StageTimer::new(l.surface);
+    let mut tm = StageTimer::new("optimize", l.surface);
     l.build_adjacency();
     let before = l.stats();
     tm.lap("adj+stats");
@@ -338,6 +509,8 @@ fn topology_rounds(
     unshear: bool,
 ) -> usize {
     let mut ticks = 1;
+    // speed: around the changes of a topology pass on a large surface, 3/5 of the sweeps
+    let near_its = (opts.smooth_iterations * NEAR_SWEEPS_NUM).div_ceil(5);
     // speed: after a pass, smooth only around what it changed (see `near_changes`), and
     // let the next pass's operators search only there (elsewhere they found nothing;
     // measured on the 1e5 fixtures: d4 within 0.02 point, same η)
@@ -358,7 +531,7 @@ fn topology_rounds(
             Some(snapshot) => {
                 let active = near_changes(l, snapshot, RESMOOTH_RINGS);
                 focus = Some(active.clone());
-                smooth::smooth_near(l, opts.smooth_iterations, opts.diagonal_weight, active)
+                smooth::smooth_near(l, near_its, opts.diagonal_weight, active)
             }
         };
         tm.lap("resmooth");
@@ -406,12 +579,14 @@ fn finish(
 }
 
 /// Stage timer for profiling (`BLOSSOMQUAD_STAGE_TIMES` set: one line per surface on stderr,
-/// process CPU seconds per stage).
-struct StageTimer {
+/// process CPU seconds per stage, then wall seconds).
+pub(crate) struct StageTimer {
     on: bool,
+    what: &'static str,
     surface: i32,
     c: f64,
-    laps: Vec<(&'static str, f64)>,
+    w: std::time::Instant,
+    laps: Vec<(&'static str, f64, f64)>,
 }
 
 /// User + system CPU seconds of this process, all threads (Linux `/proc/self/stat`; 0 when
@@ -429,32 +604,42 @@ pub fn cpu_seconds() -> f64 {
 }
 
 impl StageTimer {
-    fn new(surface: i32) -> Self {
+    /// A timer for stage group `what` (e.g. "optimize") of surface `surface`.
+    pub(crate) fn new(what: &'static str, surface: i32) -> Self {
         let on = std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some();
         StageTimer {
             on,
+            what,
             surface,
             c: if on { cpu_seconds() } else { 0.0 },
+            w: std::time::Instant::now(),
             laps: Vec::new(),
         }
     }
-    fn lap(&mut self, name: &'static str) {
+    /// Ends stage `name` (started at the previous lap or at creation).
+    pub(crate) fn lap(&mut self, name: &'static str) {
         if self.on {
             let c = cpu_seconds();
-            self.laps.push((name, c - self.c));
+            let w = std::time::Instant::now();
+            self.laps
+                .push((name, c - self.c, (w - self.w).as_secs_f64()));
             self.c = c;
+            self.w = w;
         }
     }
-    fn done(&self) {
+    /// Prints the laps (when enabled).
+    pub(crate) fn done(&self) {
         if self.on {
             let total: f64 = self.laps.iter().map(|x| x.1).sum();
+            let wall: f64 = self.laps.iter().map(|x| x.2).sum();
             let s: Vec<String> = self
                 .laps
                 .iter()
-                .map(|(n, t)| format!("{n} {t:.2}"))
+                .map(|(n, t, w)| format!("{n} {t:.2}/{w:.2}"))
                 .collect();
             eprintln!(
-                "surface {} cpu ({total:.2} s): {}",
+                "{} surface {} cpu/wall ({total:.2}/{wall:.2} s): {}",
+                self.what,
                 self.surface,
                 s.join(", ")
             );
@@ -466,6 +651,12 @@ impl StageTimer {
 /// the changes (measured on 1.6e5 and 1e6-triangle rectangles: η̄ within 0.001 of smoothing
 /// every node, at a fraction of the work).
 const RESMOOTH_RINGS: usize = 2;
+
+/// Sweeps of the smoothing around a topology pass's changes on surfaces of
+/// [`RESMOOTH_ALL_BELOW`] quads or more, in fifths of `smooth_iterations` (rounded up: 3 of
+/// the default 5). Measured on the 1e5 fixtures: 3 keep η_w, η̄, τ and d4 within 0.001 /
+/// 0.1 point; 2 or 1 lose up to 0.017 of η_w or 0.003 of η̄ on some.
+const NEAR_SWEEPS_NUM: usize = 3;
 
 /// Surfaces with fewer quads re-smooth every node after each topological pass: cheap there,
 /// and measured on the 1e5-triangle cad_solid fixture (14 curved surfaces of 500 to 5,000
@@ -756,61 +947,32 @@ fn morton_order(quads: &[[u32; 4]], coords: &[DVec3]) -> Vec<u32> {
     keyed.into_iter().map(|(_, i)| i).collect()
 }
 
-/// Builds the surface's reference triangulation (triangles of the same surface entity in
-/// `reference`, else the quads split in two), locates every node on it and sets the sizes
-/// (those from reference triangles times `size_scale`).
+/// Attaches the surface's reference triangulation (`sref`, the prepared triangles of the
+/// same surface entity, else the quads split in two), locates every node on it and sets the
+/// sizes (those from reference triangles times `size_scale`).
 /// Planar surfaces need no projection: their nodes missing from the reference take the mean
 /// size of their matched neighbours and no spatial index is built.
-fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes, size_scale: f64) {
-    // reference triangles of the surface, on compact point indices (first use order)
-    let total = rnodes.coords.len();
-    let dense = total <= 64 * l.pos.len().max(1);
-    let mut compact_dense: Vec<u32> = if dense { vec![NONE; total] } else { Vec::new() };
-    let mut compact_sparse: std::collections::HashMap<u32, u32> = Default::default();
-    let mut pts: Vec<DVec3> = Vec::new();
-    let mut tris: Vec<[u32; 3]> = Vec::new();
-    for b in &reference.element_blocks {
-        if b.entity_dim != 2 || b.entity_tag != l.surface || b.element_type != etype::TRI3 {
-            continue;
-        }
-        let ids: Vec<[u32; 3]> = (0..b.len())
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|e| {
-                let el = b.element(e);
-                [el[0], el[1], el[2]].map(|t| rnodes.get(t).unwrap_or(NONE))
-            })
-            .collect();
-        for t3 in ids {
-            if t3.contains(&NONE) {
-                continue;
-            }
-            let mut t = [0u32; 3];
-            for (k, &id) in t3.iter().enumerate() {
-                let slot = if dense {
-                    &mut compact_dense[id as usize]
-                } else {
-                    compact_sparse.entry(id).or_insert(NONE)
-                };
-                if *slot == NONE {
-                    *slot = pts.len() as u32;
-                    pts.push(rnodes.coords[id as usize]);
-                }
-                t[k] = *slot;
-            }
-            tris.push(t);
-        }
-    }
-    let compact = |id: u32| {
-        if dense {
-            compact_dense
-                .get(id as usize)
-                .copied()
-                .filter(|&c| c != NONE)
-        } else {
-            compact_sparse.get(&id).copied()
-        }
+fn attach_reference(
+    l: &mut Local,
+    sref: Option<SurfaceReference>,
+    rnodes: &FlatNodes,
+    size_scale: f64,
+) {
+    let sref = sref.unwrap_or_else(SurfaceReference::empty);
+    let SurfaceReference {
+        mut pts,
+        mut tris,
+        nodal: ref_nodal,
+        incident,
+        compact_dense,
+        compact_sparse,
+    } = sref;
+    let maps = SurfaceReference {
+        compact_dense,
+        compact_sparse,
+        ..SurfaceReference::empty()
     };
+    let compact = |id: u32| maps.compact(id);
     let own = tris.is_empty();
     if own {
         // quad edges are ~h; the split diagonals (√2 h) would inflate the mean: use the
@@ -827,7 +989,11 @@ fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes, size_sc
             tris.push([q[0], q[2], q[3]]);
         }
     }
-    let mut nodal = mean_incident_edge_length(&pts, tris.iter().map(|t| &t[..]));
+    let mut nodal = if own {
+        mean_incident_edge_length(&pts, tris.iter().map(|t| &t[..]))
+    } else {
+        ref_nodal
+    };
     if !own {
         nodal.iter_mut().for_each(|h| *h *= size_scale);
     }
@@ -836,12 +1002,6 @@ fn attach_reference(l: &mut Local, reference: &Mesh, rnodes: &FlatNodes, size_sc
     if own {
         unmatched.extend(0..l.pos.len());
     } else {
-        let mut incident = vec![NONE; pts.len()];
-        for (t, tri) in tris.iter().enumerate() {
-            for &v in tri {
-                incident[v as usize] = t as u32;
-            }
-        }
         let found: Vec<Option<u32>> = (0..l.pos.len())
             .into_par_iter()
             .with_min_len(4096)

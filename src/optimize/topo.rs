@@ -43,6 +43,7 @@ const CLEANUP_DEPTH: usize = 2;
 /// and its smoothing changed (elsewhere the same searches already failed).
 pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[bool]>) -> usize {
     l.sweep_ready = false;
+    let mut tm = super::StageTimer::new("topo pass", l.surface);
     let mut dirty = vec![false; l.pos.len()];
     let (ideal, angle) = ideal_valence(l);
     let before = ops.doublet_collapses + ops.quad_vertex_merges + ops.edge_rotations;
@@ -54,11 +55,13 @@ pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[boo
             ops.doublet_collapses += 1;
         }
     }
+    tm.lap("doublets");
     for q in 0..l.quads.len() as u32 {
         if quad_in_focus(l, q) && quad_vertex_merge(l, q, &ideal, &angle, &mut dirty) {
             ops.quad_vertex_merges += 1;
         }
     }
+    tm.lap("merges");
     // quality of each quad when first needed (a quad is only read while none of its nodes is
     // dirty, i.e. as it was when the rotations started)
     let mut qual = vec![f64::NAN; l.quads.len()];
@@ -76,8 +79,11 @@ pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[boo
             }
         }
     }
+    tm.lap("rotations");
     let (_, rot) = super::cleanup::cleanup(l, CLEANUP_DEPTH, 1, focus);
     ops.edge_rotations += rot;
+    tm.lap("cleanup");
+    tm.done();
     ops.doublet_collapses + ops.quad_vertex_merges + ops.edge_rotations - before
 }
 

@@ -68,7 +68,14 @@ pub(crate) fn boundary_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> Vec<
     let n = topo.len();
     let mut t1 = vec![DVec3::ZERO; n];
     let mut queue: std::collections::VecDeque<u32> = std::collections::VecDeque::new();
-    let unit_n = |t: usize| tri_normal(coords, topo.tris[t]).normalize_or_zero();
+    // unit normals up front, in parallel (the search below then reads one array)
+    let unit: Vec<DVec3> = topo
+        .tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&tri| tri_normal(coords, tri).normalize_or_zero())
+        .collect();
+    let unit_n = |t: usize| unit[t];
     let project = |d: DVec3, nrm: DVec3| (d - nrm * d.dot(nrm)).normalize_or_zero();
     for (t, dir) in t1.iter_mut().enumerate() {
         for k in 0..3 {
@@ -93,15 +100,26 @@ pub(crate) fn boundary_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> Vec<
         };
         queue.push_back(0);
     }
+    // speed: "t1 is set" (non-zero) as a bitmap, which stays in cache (t1 does not)
+    let mut set = vec![0u64; n.div_ceil(64)];
+    for (t, d) in t1.iter().enumerate() {
+        if *d != DVec3::ZERO {
+            set[t / 64] |= 1 << (t % 64);
+        }
+    }
     while let Some(t) = queue.pop_front() {
         let t = t as usize;
         for k in 0..3 {
             let u = topo.nbr[3 * t + k];
-            if u == NONE || t1[u as usize] != DVec3::ZERO {
+            if u == NONE || set[u as usize / 64] >> (u % 64) & 1 == 1 {
                 continue;
             }
             let d = project(t1[t], unit_n(u as usize));
-            t1[u as usize] = if d == DVec3::ZERO { t1[t] } else { d };
+            let val = if d == DVec3::ZERO { t1[t] } else { d };
+            t1[u as usize] = val;
+            if val != DVec3::ZERO {
+                set[u as usize / 64] |= 1 << (u % 64);
+            }
             queue.push_back(u);
         }
     }
@@ -158,12 +176,14 @@ pub const FIXED_CORNER_MIN_ETA: f64 = 0.25;
 /// angle — can never become valid, so it costs [`HOPELESS_COST`], far more than a folded
 /// quad, and the matching takes it only when avoiding it would cost even more; when the
 /// straight corner is at a parity-split node (`split_nodes`, sorted) it costs `split_cost`
-/// ([`split_halves_cost`]). `wall_nodes` is the sorted list of the surface's wall nodes.
+/// ([`split_halves_cost`]). `wall_nodes` holds the surface's wall nodes, `normals` the
+/// triangles' [`tri_normal`]s.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn edge_cost(
     topo: &SurfaceTopo,
     coords: &[DVec3],
-    wall_nodes: &[u32],
+    normals: &[DVec3],
+    wall_nodes: &NodeSet,
     split_nodes: &[u32],
     split_cost: i64,
     t: usize,
@@ -171,12 +191,12 @@ pub(crate) fn edge_cost(
 ) -> i64 {
     let quad = merged_quad(topo, t, k);
     let u = topo.nbr[3 * t + k] as usize;
-    let normal = tri_normal(coords, topo.tris[t]) + tri_normal(coords, topo.tris[u]);
+    let normal = normals[t] + normals[u];
     let pts = quad.map(|i| coords[i as usize]);
     let eta = eta_signed_fast(&pts, normal);
     let eta = if eta.is_finite() { eta } else { -1.0 };
     let cost = (COST_SCALE as f64 * (1.0 - eta)).round() as i64;
-    if has_hopeless_corner(&pts, normal, |k| wall_nodes.binary_search(&quad[k]).is_ok()) {
+    if has_hopeless_corner(&pts, normal, |k| wall_nodes.contains(quad[k])) {
         let at_split = !split_nodes.is_empty()
             && has_hopeless_corner(&pts, normal, |k| {
                 split_nodes.binary_search(&quad[k]).is_ok()
@@ -184,6 +204,31 @@ pub(crate) fn edge_cost(
         return if at_split { split_cost } else { HOPELESS_COST };
     }
     cost
+}
+
+/// A set of global node ids as a bitmap (one bit per id up to the largest member).
+pub(crate) struct NodeSet {
+    bits: Vec<u64>,
+}
+
+impl NodeSet {
+    /// The set of `ids`.
+    pub fn new(ids: &[u32]) -> Self {
+        let len = ids.iter().map(|&i| i as usize / 64 + 1).max().unwrap_or(0);
+        let mut bits = vec![0u64; len];
+        for &i in ids {
+            bits[i as usize / 64] |= 1 << (i % 64);
+        }
+        NodeSet { bits }
+    }
+
+    /// True when `id` is in the set.
+    #[inline]
+    pub fn contains(&self, id: u32) -> bool {
+        self.bits
+            .get(id as usize / 64)
+            .is_some_and(|w| w >> (id % 64) & 1 == 1)
+    }
 }
 
 /// True when a corner `k` of the quad with `on_wall(k)` has corner quality ≤
@@ -194,8 +239,14 @@ pub(crate) fn has_hopeless_corner(
     normal: DVec3,
     on_wall: impl Fn(usize) -> bool,
 ) -> bool {
-    let unit = normal.normalize_or_zero();
-    (0..4).any(|k| on_wall(k) && corner_eta(signed_angle(pts, unit, k)) <= FIXED_CORNER_MIN_ETA)
+    // the unit normal only when some corner is on a wall (most quads have none)
+    let mut unit = None;
+    (0..4).any(|k| {
+        on_wall(k) && {
+            let unit = *unit.get_or_insert_with(|| normal.normalize_or_zero());
+            corner_eta(signed_angle(pts, unit, k)) <= FIXED_CORNER_MIN_ETA
+        }
+    })
 }
 
 /// Sorted, deduplicated nodes that lie on a wall edge of the surface (an edge with no
@@ -318,8 +369,17 @@ pub(crate) fn build(
     with_extra: bool,
 ) -> Graph {
     let n = topo.len();
-    let walls = wall_nodes(topo);
+    let mut tm = crate::optimize::StageTimer::new("graph", 0);
+    let walls = NodeSet::new(&wall_nodes(topo));
     let walls = &walls;
+    let normals: Vec<DVec3> = topo
+        .tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&tri| tri_normal(coords, tri))
+        .collect();
+    let normals = &normals;
+    tm.lap("walls");
     let split_cost = split_halves_cost(n);
     let field = match (cross_w > 0.0, harmonic) {
         (false, _) => CrossField::default(),
@@ -331,6 +391,7 @@ pub(crate) fn build(
         (true, true) => smooth_cross_field(topo, coords),
     };
     let field = &field;
+    tm.lap("cross field");
     let mut edges: Vec<(u32, u32, i64)> = (0..n)
         .into_par_iter()
         .with_min_len(4096)
@@ -338,11 +399,12 @@ pub(crate) fn build(
             (0..3).filter_map(move |k| {
                 let u = topo.nbr[3 * t + k];
                 (u != NONE && (t as u32) < u).then(|| {
-                    let mut c = edge_cost(topo, coords, walls, split_nodes, split_cost, t, k);
+                    let mut c =
+                        edge_cost(topo, coords, normals, walls, split_nodes, split_cost, t, k);
                     if cross_w > 0.0 && c <= 2 * COST_SCALE {
                         let tri = topo.tris[t];
                         let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];
-                        let nrm = tri_normal(coords, tri);
+                        let nrm = normals[t];
                         let wt = field.weight[t];
                         c += (COST_SCALE as f64 * cross_w * wt * cross_cost(e, field.t1[t], nrm))
                             .round() as i64;
@@ -353,6 +415,7 @@ pub(crate) fn build(
         })
         .collect();
     let real = edges.len();
+    tm.lap("edges");
     let mut extra_fans = Vec::new();
     if with_extra {
         let cost = extra_edge_cost(n);
@@ -382,6 +445,8 @@ pub(crate) fn build(
             extra_fans.push(fan);
         }
     }
+    tm.lap("extra");
+    tm.done();
     Graph {
         edges,
         real,

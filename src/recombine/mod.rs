@@ -470,10 +470,16 @@ fn parity_stage(
     opts: &RecombineOptions,
     report: &mut RecombineReport,
 ) -> Result<(NodeTable, Vec<SurfaceWork>), RecombineError> {
+    let mut tm = crate::optimize::StageTimer::new("parity stage", 0);
     let nodes = NodeTable::new(mesh);
+    tm.lap("node table");
     let curves = CurveInfo::new(mesh, &nodes)?;
+    tm.lap("curves");
     let work = surface_work(mesh, &nodes, &curves)?;
+    tm.lap("surface work");
     let plan = parity::plan(mesh, &nodes, &work);
+    tm.lap("plan");
+    tm.done();
     if plan.odd.is_empty() {
         return Ok((nodes, work));
     }
@@ -681,6 +687,7 @@ fn surface_work(
         .into_par_iter()
         .map(|tag| {
             let t0 = Instant::now();
+            let mut tm = crate::optimize::StageTimer::new("topology", tag);
             let mut tris = Vec::new();
             let mut elem_tags = Vec::new();
             let mut partitions = Vec::new();
@@ -701,8 +708,12 @@ fn surface_work(
                 })
                 .map(|b| b.len())
                 .sum();
+            tm.lap("ids");
             let topo = SurfaceTopo::new(tris, nodes, curves);
+            tm.lap("adjacency");
             let (region, n_regions) = topo.regions();
+            tm.lap("regions");
+            tm.done();
             Ok(SurfaceWork {
                 tag,
                 topo,

@@ -378,8 +378,15 @@ impl SurfaceTopo {
 
     /// Connected components of the graph (graph edges only): component id per triangle and
     /// the number of components.
+    ///
+    /// Components are numbered in the order of their first triangle. Large surfaces join the
+    /// triangles across graph edges in parallel (a union-find whose root is always the
+    /// smallest triangle of its tree, so each root is its component's first triangle).
     pub fn regions(&self) -> (Vec<u32>, usize) {
         let n = self.len();
+        if n >= PARALLEL_REGIONS {
+            return self.regions_parallel();
+        }
         let mut id = vec![NONE; n];
         let mut count = 0u32;
         let mut stack = Vec::new();
@@ -402,7 +409,68 @@ impl SurfaceTopo {
         }
         (id, count as usize)
     }
+
+    /// [`SurfaceTopo::regions`] by a parallel union-find.
+    fn regions_parallel(&self) -> (Vec<u32>, usize) {
+        use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+        let n = self.len();
+        let parent: Vec<AtomicU32> = (0..n as u32).map(AtomicU32::new).collect();
+        let find = |mut x: u32| loop {
+            let p = parent[x as usize].load(Relaxed);
+            if p == x {
+                return x;
+            }
+            // path halving: any ancestor is as good a parent
+            let g = parent[p as usize].load(Relaxed);
+            let _ = parent[x as usize].compare_exchange(p, g, Relaxed, Relaxed);
+            x = g;
+        };
+        (0..n).into_par_iter().with_min_len(4096).for_each(|t| {
+            for k in 0..3 {
+                let u = self.nbr[3 * t + k];
+                if u == NONE || u < t as u32 {
+                    continue;
+                }
+                let (mut a, mut b) = (t as u32, u);
+                loop {
+                    a = find(a);
+                    b = find(b);
+                    if a == b {
+                        break;
+                    }
+                    // link the larger root under the smaller (only if still a root)
+                    let (lo, hi) = if a < b { (a, b) } else { (b, a) };
+                    if parent[hi as usize]
+                        .compare_exchange(hi, lo, Relaxed, Relaxed)
+                        .is_ok()
+                    {
+                        break;
+                    }
+                }
+            }
+        });
+        let root: Vec<u32> = (0..n as u32)
+            .into_par_iter()
+            .with_min_len(4096)
+            .map(find)
+            .collect();
+        let mut id = vec![NONE; n];
+        let mut count = 0u32;
+        for t in 0..n {
+            let r = root[t] as usize;
+            id[t] = if r == t {
+                count += 1;
+                count - 1
+            } else {
+                id[r]
+            };
+        }
+        (id, count as usize)
+    }
 }
+
+/// Surfaces with at least this many triangles find their regions in parallel.
+const PARALLEL_REGIONS: usize = 1 << 15;
 
 #[cfg(test)]
 mod tests {
@@ -414,6 +482,59 @@ mod tests {
             self.runs(|r| out.push(r.to_vec()));
             out
         }
+    }
+
+    #[test]
+    fn parallel_regions_match_the_search() {
+        // a strip of 60 000 triangles cut into components by removing graph edges
+        let n = 60_000usize;
+        let tris: Vec<[u32; 3]> = (0..n as u32).map(|t| [t, t + 1, t + 2]).collect();
+        let mut nbr = vec![NONE; 3 * n];
+        let mut x: u64 = 0x9E37;
+        for t in 0..n - 1 {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            if !x.is_multiple_of(50) {
+                nbr[3 * t + 1] = t as u32 + 1;
+                nbr[3 * (t + 1) + 2] = t as u32;
+            }
+        }
+        // plus a few long-range links, so trees merge out of order
+        for t in (0..n / 2).step_by(977) {
+            nbr[3 * t] = (n - 1 - t) as u32;
+            nbr[3 * (n - 1 - t)] = t as u32;
+        }
+        let topo = SurfaceTopo { tris, nbr };
+        let (par, count) = topo.regions_parallel();
+        // the serial search, forced
+        let serial = SurfaceTopo {
+            tris: topo.tris[..].to_vec(),
+            nbr: topo.nbr.clone(),
+        };
+        let mut id = vec![NONE; n];
+        let mut c = 0u32;
+        for s in 0..n {
+            if id[s] != NONE {
+                continue;
+            }
+            id[s] = c;
+            let mut stack = vec![s as u32];
+            while let Some(t) = stack.pop() {
+                for k in 0..3 {
+                    let u = serial.nbr[3 * t as usize + k];
+                    if u != NONE && id[u as usize] == NONE {
+                        id[u as usize] = c;
+                        stack.push(u);
+                    }
+                }
+            }
+            c += 1;
+        }
+        assert!(count > 100, "{count}");
+        assert_eq!(count, c as usize);
+        assert_eq!(par, id);
+        assert_eq!(topo.regions(), (id, count));
     }
 
     #[test]
