@@ -430,7 +430,7 @@ mod tests {
             // the state the solve sees in the pipeline: smoothed, topology done
             let opts = crate::optimize::OptimizeOptions::default();
             let mut ops = crate::optimize::OperationCounts::default();
-            let mut tm = crate::optimize::StageTimer::new(0);
+            let mut tm = crate::optimize::StageTimer::new("optimize", 0);
             crate::optimize::smooth::smooth(&mut l, opts.smooth_iterations, opts.diagonal_weight);
             crate::optimize::topology_rounds(&mut l, &opts, &mut ops, &mut tm, &|_| {}, false);
             let mut square = l.clone();
@@ -472,7 +472,7 @@ mod tests {
             let opts = crate::optimize::OptimizeOptions::default();
             let mut plain = l.clone();
             let mut ops = crate::optimize::OperationCounts::default();
-            let mut tm = crate::optimize::StageTimer::new(0);
+            let mut tm = crate::optimize::StageTimer::new("optimize", 0);
             crate::optimize::smooth::smooth(
                 &mut plain,
                 opts.smooth_iterations,

@@ -1239,7 +1239,9 @@ mod tests {
             .expect("a matchable seed");
         let reference = synth::to_mesh(&tris);
         let (_, mut l) = local_of(&synth::to_mesh(&quads));
-        attach_reference(&mut l, &reference, &FlatNodes::new(&reference), 1.0);
+        let rnodes = FlatNodes::new(&reference);
+        let sref = surface_reference(&reference, &rnodes, l.surface);
+        attach_reference(&mut l, Some(sref), &rnodes, 1.0);
         assert!(l.planar && !l.ref_sizes.is_empty() && l.reference.is_some());
         let start_sizes = l.h.clone();
         for v in 0..l.pos.len() {

@@ -310,7 +310,7 @@ mod tests {
             );
             let opts = crate::optimize::OptimizeOptions::default();
             let mut ops = crate::optimize::OperationCounts::default();
-            let mut tm = crate::optimize::StageTimer::new(0);
+            let mut tm = crate::optimize::StageTimer::new("optimize", 0);
             crate::optimize::smooth::smooth(&mut l, opts.smooth_iterations, opts.diagonal_weight);
             crate::optimize::topology_rounds(&mut l, &opts, &mut ops, &mut tm, &|_| {}, false);
             for (k, w) in [0.0, SIZE_WEIGHT].into_iter().enumerate() {
