@@ -4,7 +4,10 @@
 //! optimality certificate on mesh-like graphs of 10^5 and 10^6 vertices.
 
 use blossomquad::matching::{
-    self, blossom::Solver, oracle::brute_force_min_cost, CertificateError,
+    self,
+    blossom::{ForestMode, Solver},
+    oracle::brute_force_min_cost,
+    CertificateError,
 };
 
 type Edges = Vec<(u32, u32, i64)>;
@@ -18,13 +21,14 @@ use matching_common::Rng;
 
 /// Solves from the plain start (no jump start), from the greedy start only, from the
 /// fractional start with local-search budgets 0 and 2 (nearly all work, or the abandoned
-/// searches, left to the global pass), and with main-phase single-tree budgets 0 and 3:
-/// other dual trajectories than [`matching::solve`]'s; checks every certificate, returns the
-/// costs.
-fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 6] {
+/// searches, left to the global pass), and with main-phase single-tree budgets 0 and 3,
+/// and with the variable-δ forest (budgets 0 for both phases, and the plain start with main
+/// budget 0): other dual trajectories than [`matching::solve`]'s; checks every certificate,
+/// returns the costs.
+fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 8] {
     let plain = Solver::new(n, edges).run_plain().expect("plain start");
     assert!(matching::verify(n, edges, &plain).is_ok());
-    let mut costs = [plain.cost; 6];
+    let mut costs = [plain.cost; 8];
     let starts = [
         (None, 256),
         (Some(0), 256),
@@ -44,6 +48,21 @@ fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 6] {
             "start {frac:?} {main}"
         );
         costs[i + 1] = m.cost;
+    }
+    for (i, plain) in [false, true].into_iter().enumerate() {
+        let mut s = Solver::new(n, edges);
+        s.set_forest_mode(ForestMode::Variable);
+        if plain {
+            s.init_plain();
+        } else {
+            s.init_fractional_with(0);
+        }
+        let m = s.solve_rest_with(0).expect("perfect matching");
+        assert!(
+            matching::verify(n, edges, &m).is_ok(),
+            "variable-δ start {plain}"
+        );
+        costs[6 + i] = m.cost;
     }
     costs
 }
@@ -218,7 +237,7 @@ fn nested_blossoms_agree_across_starts_and_with_brute_force() {
             let got = solve_verified(n, &e);
             assert_eq!(
                 other_starts(n, &e),
-                [got; 6],
+                [got; 8],
                 "depth {depth} variant {variant}"
             );
             if n <= 20 {
@@ -276,7 +295,7 @@ fn mid_size_random_graphs_agree_across_starts() {
             e.push((u, v, c));
         }
         let got = solve_verified(n, &e);
-        assert_eq!(other_starts(n, &e), [got; 6], "iteration {it}");
+        assert_eq!(other_starts(n, &e), [got; 8], "iteration {it}");
     }
 }
 
@@ -508,7 +527,7 @@ fn mesh_graph_costs_are_quad_badness() {
     let small = e.iter().filter(|&&(_, _, c)| c < 300).count();
     assert!(small > e.len() / 4, "{small} of {}", e.len());
     let got = solve_verified(n, &e);
-    assert_eq!(other_starts(n, &e), [got; 6]);
+    assert_eq!(other_starts(n, &e), [got; 8]);
 }
 
 #[test]
@@ -517,13 +536,13 @@ fn certificate_on_mesh_graph_1e5() {
     let (n, e) = mesh_graph(250, 200, &mut rng);
     assert_eq!(n, 100_000);
     let got = solve_verified(n, &e);
-    assert_eq!(other_starts(n, &e), [got; 6]);
+    assert_eq!(other_starts(n, &e), [got; 8]);
     // Delaunay meshes of the benchmark: near-ties (lattice) and poor quads (random).
     for kind in ["lattice", "random"] {
         let (n, e) = gen_matching_graph::delaunay_graph(kind, 100_000, 7).expect("mesh");
         assert!(n > 90_000 && n % 2 == 0);
         let got = solve_verified(n, &e);
-        assert_eq!(other_starts(n, &e), [got; 6]);
+        assert_eq!(other_starts(n, &e), [got; 8]);
     }
 }
 

@@ -61,8 +61,10 @@
 use super::radix::RadixHeap;
 
 mod fractional;
+mod var;
 use super::{BlossomDual, Duals, Matching, NoPerfectMatching, MAX_ABS_COST, NONE};
 use std::cell::Cell;
+pub use var::ForestMode;
 
 const FREE: u8 = 0;
 const PLUS: u8 = 1;
@@ -199,6 +201,15 @@ pub struct Solver {
     heap: RadixHeap<Event>,
     /// Global dual change `ε` (all trees move together).
     eps: i64,
+    /// Per tree: its own dual change `ε_T` (variable-δ forest only; zero otherwise).
+    teps: Vec<i64>,
+    /// True while the variable-δ forest runs: edges are routed to per-tree heaps and
+    /// per-pair-of-trees heaps (`var`) instead of `heap`.
+    var_on: bool,
+    /// The variable-δ forest's queues.
+    var: var::VarQueues,
+    /// Which forest the fractional and main phases use.
+    forest_mode: ForestMode,
     /// Nodes that joined each tree (stale entries are filtered by `tree[node]`).
     tree_lists: Vec<Vec<u32>>,
     /// Per tree: half-edges from a `+` node of another tree to a `−` node of this tree
@@ -253,6 +264,16 @@ pub struct Stats {
     pub forest_trees: [usize; 2],
     /// Cumulative (grows, edge evaluations, heap pops) at the end of each phase.
     pub phase_counts: [(usize, usize, usize); 5],
+    /// Variable-δ forest: dual updates, those where trees moved by different amounts,
+    /// components joined through a tight `(+, −)` edge between trees, and augmentations
+    /// found in a pair-of-trees heap.
+    pub var_rounds: usize,
+    /// See [`Stats::var_rounds`].
+    pub var_split_rounds: usize,
+    /// See [`Stats::var_rounds`].
+    pub var_joins: usize,
+    /// See [`Stats::var_rounds`].
+    pub var_pair_augments: usize,
 }
 
 impl Solver {
@@ -315,6 +336,10 @@ impl Solver {
             gen: vec![0; n],
             heap: RadixHeap::new(),
             eps: 0,
+            teps: Vec::new(),
+            var_on: false,
+            var: var::VarQueues::default(),
+            forest_mode: ForestMode::DEFAULT,
             tree_lists: Vec::new(),
             cross: Vec::new(),
             freed: Vec::new(),
@@ -362,7 +387,10 @@ impl Solver {
         self.stats.phase_s[3] = t.elapsed().as_secs_f64();
         self.stats.phase_counts[3] = (self.stats.grows, self.stats.evals, self.stats.pops);
         let t = std::time::Instant::now();
-        self.run_forest()?;
+        match self.forest_mode {
+            ForestMode::Global => self.run_forest()?,
+            ForestMode::Variable => self.run_forest_var()?,
+        }
         self.stats.phase_s[4] = t.elapsed().as_secs_f64();
         self.stats.phase_counts[4] = (self.stats.grows, self.stats.evals, self.stats.pops);
         Ok(self.result())
@@ -395,6 +423,7 @@ impl Solver {
     fn new_trees(&mut self, k: usize) {
         self.tree_lists = vec![Vec::new(); k];
         self.cross = vec![Vec::new(); k];
+        self.teps = vec![0; k];
     }
 
     /// Makes top-level node `root` the `+` root of tree `t` (at `ε = 0`); its edges are not
@@ -403,7 +432,7 @@ impl Solver {
         let nd = &mut self.nd[root as usize];
         nd.tree = t;
         nd.label = PLUS;
-        nd.y -= self.eps;
+        nd.y -= self.eps + self.teps[t as usize];
         self.tree_lists[t as usize].push(root);
     }
 
@@ -619,12 +648,19 @@ impl Solver {
         let i = node as usize;
         if self.nd[i].tree != NONE {
             match self.nd[i].label {
-                PLUS => return self.nd[i].y + self.eps,
-                MINUS => return self.nd[i].y - self.eps,
+                PLUS => return self.nd[i].y + self.off(self.nd[i].tree),
+                MINUS => return self.nd[i].y - self.off(self.nd[i].tree),
                 _ => {}
             }
         }
         self.nd[i].y
+    }
+
+    /// The dual change of tree `t` so far: the global `ε` plus the tree's own `ε_T` (one of
+    /// the two is always zero: `ε_T` is used by the variable-δ forest only).
+    #[inline]
+    fn off(&self, t: u32) -> i64 {
+        self.eps + self.teps[t as usize]
     }
 
     #[inline]
@@ -738,6 +774,10 @@ impl Solver {
 
     fn push_edge(&mut self, e: Event) {
         self.stats.evals += 1;
+        if self.var_on {
+            self.var_push_edge(e);
+            return;
+        }
         if let Some(k) = self.edge_key(e) {
             debug_assert!(k >> 1 >= self.eps, "negative slack on edge {e:?}");
             self.stats.pushes += 1;
@@ -813,6 +853,12 @@ impl Solver {
         }
         self.eps *= 2;
         self.heap.double_keys_flagged();
+        for e in &mut self.teps {
+            *e *= 2;
+        }
+        if self.var_on {
+            self.var_rescale();
+        }
     }
 
     fn add_to_tree(&mut self, node: u32, lab: u8, t: u32) {
@@ -821,11 +867,11 @@ impl Solver {
         self.nd[i].label = lab;
         self.tree_lists[t as usize].push(node);
         if lab == PLUS {
-            self.nd[i].y -= self.eps;
+            self.nd[i].y -= self.off(t);
             self.push_edges_of(node);
         } else {
             // Stored as `y + ε`: the current dual `y − ε` reaches 0 at `ε` = the stored value.
-            self.nd[i].y += self.eps;
+            self.nd[i].y += self.off(t);
             if i >= self.n {
                 let k = self.nd[i].y;
                 let ev = Event {
@@ -833,7 +879,11 @@ impl Solver {
                     u: node | EXPAND,
                     v: NONE,
                 };
-                self.heap.push(((k << 1) | 1) as u64, ev);
+                if self.var_on {
+                    self.var_push_tree(t, (k << 1) | 1, ev);
+                } else {
+                    self.heap.push(((k << 1) | 1) as u64, ev);
+                }
             }
         }
     }
@@ -1012,7 +1062,7 @@ impl Solver {
             self.nd[c as usize].parent = b;
         }
         let bn = b as usize;
-        self.nd[bn].y = -self.eps; // dual 0 now (stored as `y − ε` for a `+` node)
+        self.nd[bn].y = -self.off(t); // dual 0 now (stored as `y − ε` for a `+` node)
         self.nd[bn].parent = NONE;
         self.nd[bn].base = self.nd[lca as usize].base;
         self.nd[bn].label = PLUS;
@@ -1220,12 +1270,18 @@ impl Solver {
     /// (all single vertices: a `−` blossom always has a pending expand event); every `+` node
     /// has edges only to `U` and is an odd set, and there are more `+` nodes than `−` nodes.
     fn stuck_witness(&mut self) -> NoPerfectMatching {
+        self.stuck_witness_in(&|_| true)
+    }
+
+    /// [`Solver::stuck_witness`] restricted to the trees `t` with `keep(t)`: valid when the
+    /// `+` nodes of those trees have edges only to their `−` vertices.
+    fn stuck_witness_in(&mut self, keep: &dyn Fn(u32) -> bool) -> NoPerfectMatching {
         let mut witness = Vec::new();
         let mut slot = vec![NONE; self.nd.len()];
         let mut odd: Vec<Vec<u32>> = Vec::new();
         for v in 0..self.n as u32 {
             let p = self.top_of(v);
-            if self.nd[p as usize].tree == NONE {
+            if self.nd[p as usize].tree == NONE || !keep(self.nd[p as usize].tree) {
                 continue;
             }
             match self.nd[p as usize].label {
