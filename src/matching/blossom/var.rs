@@ -39,7 +39,7 @@
 //! pairs) are pushed again as grow events.
 
 use super::fractional::Cycles;
-use super::{Event, NoPerfectMatching, Solver, DEAD, EXPAND, MINUS, NONE, PLUS};
+use super::{Event, NoPerfectMatching, RadixHeap, Solver, EXPAND, MINUS, NONE, PLUS};
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -80,6 +80,44 @@ impl Entry {
 
 type Heap = BinaryHeap<Reverse<Entry>>;
 
+/// A tree's own events: a monotone radix heap (keys never go below `2 ε_T`, and an entry is
+/// popped only when its time has come, so the last popped key never exceeds later pushes
+/// except for the flag bit of a tie) with a cached minimum key for the dual updates.
+#[derive(Default)]
+struct TreeHeap {
+    h: RadixHeap<Event>,
+    /// The minimum key when `known` (None: empty).
+    min: Option<u64>,
+    known: bool,
+}
+
+impl TreeHeap {
+    fn push(&mut self, key: i64, e: Event) {
+        let key = (key as u64).max(self.h.floor());
+        self.h.push(key, e);
+        if self.known {
+            self.min = Some(self.min.map_or(key, |m| m.min(key)));
+        }
+    }
+
+    fn min_key(&mut self) -> Option<i64> {
+        if !self.known {
+            self.min = self.h.peek_min();
+            self.known = true;
+        }
+        self.min.map(|m| m as i64)
+    }
+
+    /// Pops an entry of minimum key if that key is at most `limit`.
+    fn pop_le(&mut self, limit: i64) -> Option<(i64, Event)> {
+        if self.min_key()? > limit {
+            return None;
+        }
+        self.known = false;
+        self.h.pop().map(|(k, e)| (k as i64, e))
+    }
+}
+
 /// Pair heap of `(+a, +b)` edges.
 const PP: usize = 0;
 
@@ -97,7 +135,7 @@ struct Pair {
 /// Queues and scratch arrays of the variable-δ forest.
 #[derive(Default)]
 pub struct VarQueues {
-    tree: Vec<Heap>,
+    tree: Vec<TreeHeap>,
     pairs: Vec<Pair>,
     /// Per tree: `(other tree, pair)` for every live pair it belongs to.
     tpairs: Vec<Vec<(u32, u32)>>,
@@ -111,6 +149,9 @@ pub struct VarQueues {
     head: Vec<u32>,
     cdone: Vec<bool>,
     cdelta: Vec<i64>,
+    /// Trees that may have a tight event (a stack, and membership flags).
+    dirty: Vec<u32>,
+    is_dirty: Vec<bool>,
 }
 
 /// Where an edge belongs now.
@@ -170,7 +211,7 @@ impl Solver {
         let k = roots.len();
         self.new_trees(k);
         let q = &mut self.var;
-        q.tree = (0..k).map(|_| Heap::new()).collect();
+        q.tree = (0..k).map(|_| TreeHeap::default()).collect();
         q.pairs.clear();
         q.tpairs = vec![Vec::new(); k];
         q.alive = (0..k as u32).collect();
@@ -181,6 +222,8 @@ impl Solver {
         q.head = vec![NONE; k];
         q.cdone = vec![false; k];
         q.cdelta = vec![0; k];
+        q.dirty = (0..k as u32).rev().collect();
+        q.is_dirty = vec![true; k];
         self.var_on = true;
         for (t, &r) in roots.iter().enumerate() {
             self.make_root(r, t as u32);
@@ -189,23 +232,15 @@ impl Solver {
             self.push_edges_of(r);
         }
         let res = loop {
-            loop {
-                let mut acted = false;
-                let mut i = 0;
-                while i < self.var.alive.len() {
-                    let t = self.var.alive[i];
-                    if !self.var.dead[t as usize] {
-                        acted |= self.var_primal_tree(t, kind);
-                    }
-                    i += 1;
-                }
-                let dead = std::mem::take(&mut self.var.dead);
-                self.var.alive.retain(|&t| !dead[t as usize]);
-                self.var.dead = dead;
-                if !acted {
-                    break;
+            while let Some(t) = self.var.dirty.pop() {
+                self.var.is_dirty[t as usize] = false;
+                if !self.var.dead[t as usize] {
+                    self.var_primal_tree(t, kind);
                 }
             }
+            let dead = std::mem::take(&mut self.var.dead);
+            self.var.alive.retain(|&t| !dead[t as usize]);
+            self.var.dead = dead;
             if self.var.alive.is_empty() {
                 break Ok(());
             }
@@ -238,50 +273,59 @@ impl Solver {
         res
     }
 
-    /// Acts on every tight event of tree `t` (its own heap, then its `(+, +)` pair heaps);
-    /// true if something happened.
-    fn var_primal_tree(&mut self, t: u32, kind: &mut Kind) -> bool {
+    /// Acts on every tight event of tree `t` (its own heap, then its `(+, +)` pair heaps).
+    fn var_primal_tree(&mut self, t: u32, kind: &mut Kind) {
         let ti = t as usize;
-        let mut acted = false;
-        while let Some(key) = self.clean_tree(t) {
-            if key >> 1 > self.teps[ti] {
-                break;
-            }
-            debug_assert_eq!(key >> 1, self.teps[ti]);
-            let Some(Reverse(en)) = self.var.tree[ti].pop() else {
-                break;
-            };
-            acted = true;
+        while let Some((key, ev)) = self.var.tree[ti].pop_le((self.teps[ti] << 1) | 1) {
+            // Its time has come: validate (it may be stale), then act.
             self.stats.pops += 1;
-            if en.u & EXPAND != 0 {
-                self.expand(en.u & !EXPAND);
+            if ev.u & EXPAND != 0 {
+                let b = (ev.u & !EXPAND) as usize;
+                let nd = &self.nd[b];
+                if nd.label == MINUS && nd.parent == NONE && nd.tree == t && nd.y == key >> 1 {
+                    self.expand(ev.u & !EXPAND);
+                }
                 continue;
             }
-            if self.tree_event(t, en.u, en.v, kind) {
+            let d = self.route(ev);
+            match d {
+                Dest::Tree(t2, k2) if t2 == t && k2 >> 1 == self.teps[ti] => {}
+                _ => {
+                    self.place(ev, d);
+                    continue;
+                }
+            }
+            if self.tree_event(t, ev.u, ev.v, kind) {
                 self.push_freed();
-                return true;
+                return;
             }
         }
-        let mut i = 0;
-        while i < self.var.tpairs[ti].len() {
-            let p = self.var.tpairs[ti][i].1;
-            if self.clean_pair(p, PP) == Some(0) {
-                let Some(&Reverse(en)) = self.var.pairs[p as usize].h[PP].peek() else {
-                    break;
-                };
-                let (a, b) = (self.tree_of(en.u), self.tree_of(en.v));
-                self.stats.augments += matches!(kind, Kind::Main) as usize;
-                self.stats.var_pair_augments += 1;
-                self.augment_path(en.u, en.v);
-                self.augment_path(en.v, en.u);
-                self.var_dissolve(a);
-                self.var_dissolve(b);
-                self.push_freed();
-                return true;
-            }
-            i += 1;
+        // `(+, +)` entries never go stale while both trees live (a `+` node stays `+` in
+        // its tree), so the raw minimum is exact.
+        let et = self.teps[ti];
+        let found = self.var.tpairs[ti].iter().find_map(|&(o, p)| {
+            let &Reverse(en) = self.var.pairs[p as usize].h[PP].peek()?;
+            (en.key - et - self.teps[o as usize] == 0).then_some(en)
+        });
+        if let Some(en) = found {
+            let (a, b) = (self.tree_of(en.u), self.tree_of(en.v));
+            debug_assert!(a != b && a != NONE && b != NONE);
+            self.stats.augments += matches!(kind, Kind::Main) as usize;
+            self.stats.var_pair_augments += 1;
+            self.augment_path(en.u, en.v);
+            self.augment_path(en.v, en.u);
+            self.var_dissolve(a);
+            self.var_dissolve(b);
+            self.push_freed();
         }
-        acted
+    }
+
+    /// Queues tree `t` for the primal steps.
+    fn mark_dirty(&mut self, t: u32) {
+        if !self.var.is_dirty[t as usize] {
+            self.var.is_dirty[t as usize] = true;
+            self.var.dirty.push(t);
+        }
     }
 
     fn tree_of(&self, x: u32) -> u32 {
@@ -391,23 +435,27 @@ impl Solver {
             Dest::Tree(t, key) => {
                 debug_assert!(key >> 1 >= self.teps[t as usize]);
                 self.stats.pushes += 1;
-                self.var.tree[t as usize].push(en(key));
+                self.var.tree[t as usize].push(key, e);
+                if key >> 1 == self.teps[t as usize] {
+                    self.mark_dirty(t);
+                }
             }
             Dest::Pair(p, w, k) => {
                 self.stats.pushes += 1;
                 self.var.pairs[p as usize].h[w].push(en(k));
+                if w == PP && self.pair_slack(p, PP, k) == 0 {
+                    self.mark_dirty(self.var.pairs[p as usize].a);
+                }
             }
         }
     }
 
     /// Pushes an expand event (key `(y << 1) | 1`) into tree `t`'s heap.
     pub(super) fn var_push_tree(&mut self, t: u32, key: i64, ev: Event) {
-        self.var.tree[t as usize].push(Reverse(Entry {
-            key,
-            u: ev.u,
-            v: ev.v,
-            c: ev.c,
-        }));
+        self.var.tree[t as usize].push(key, ev);
+        if key >> 1 == self.teps[t as usize] {
+            self.mark_dirty(t);
+        }
     }
 
     /// The pair of trees `{a, b}`, created if they had not met.
@@ -458,44 +506,12 @@ impl Solver {
         }
     }
 
-    /// Validates the top of tree `t`'s heap (re-routing stale entries) and returns its key.
-    fn clean_tree(&mut self, t: u32) -> Option<i64> {
-        let ti = t as usize;
-        loop {
-            let &Reverse(en) = self.var.tree[ti].peek()?;
-            if en.u & EXPAND != 0 {
-                let b = (en.u & !EXPAND) as usize;
-                let nd = &self.nd[b];
-                if nd.label != DEAD
-                    && nd.parent == NONE
-                    && nd.tree == t
-                    && nd.label == MINUS
-                    && (nd.y << 1) | 1 == en.key
-                {
-                    return Some(en.key);
-                }
-                self.var.tree[ti].pop();
-                continue;
-            }
-            let r0 = self.stats.rescales;
-            let d = self.route(en.event());
-            if self.stats.rescales != r0 {
-                continue;
-            }
-            if d == Dest::Tree(t, en.key) {
-                return Some(en.key);
-            }
-            self.var.tree[ti].pop();
-            self.place(en.event(), d);
-        }
-    }
-
     /// Dissolves tree `t` (duals committed, nodes freed); the edges of its pairs from other
     /// trees' `+` nodes into its nodes are queued in `freed`.
     fn var_dissolve(&mut self, t: u32) {
         self.dissolve(t);
         self.var.dead[t as usize] = true;
-        self.var.tree[t as usize] = Heap::new();
+        self.var.tree[t as usize] = TreeHeap::default();
         let pl = std::mem::take(&mut self.var.tpairs[t as usize]);
         for (o, p) in pl {
             let lst = &mut self.var.tpairs[o as usize];
@@ -529,7 +545,8 @@ impl Solver {
             *h = BinaryHeap::from(v);
         };
         for h in &mut self.var.tree {
-            dbl(h, true);
+            h.h.double_keys_flagged();
+            h.known = false;
         }
         for pair in &mut self.var.pairs {
             for h in &mut pair.h {
@@ -563,11 +580,16 @@ impl Solver {
             self.var.uf[ti] = t;
             self.var.head[ti] = NONE;
             self.var.cdone[ti] = false;
-            self.var.own[ti] = match self.clean_tree(t) {
+            // The raw top: a stale entry only delays this tree (its key is not later than
+            // the event it stood for, and the real event has its own entry).
+            self.var.own[ti] = match self.var.tree[ti].min_key() {
                 Some(key) => (key >> 1) - self.teps[ti],
                 None => i64::MAX,
             };
-            retry |= self.var.own[ti] <= 0;
+            if self.var.own[ti] <= 0 {
+                retry = true;
+                self.mark_dirty(t);
+            }
         }
         for &t in alive {
             let ti = t as usize;
@@ -578,14 +600,22 @@ impl Solver {
                 if self.var.pairs[p as usize].a != t {
                     continue;
                 }
+                // Raw minima: `(+, +)` entries are never stale; a stale `(+, −)` entry only
+                // restricts, and is validated when it would join two trees.
                 let mut m = [i64::MAX; 3];
                 for (w, mw) in m.iter_mut().enumerate() {
-                    if let Some(s) = self.clean_pair(p, w) {
-                        *mw = s;
+                    if let Some(&Reverse(en)) = self.var.pairs[p as usize].h[w].peek() {
+                        *mw = self.pair_slack(p, w, en.key);
+                    }
+                    if w != PP && *mw == 0 {
+                        *mw = self.clean_pair(p, w).unwrap_or(i64::MAX);
                     }
                 }
                 self.var.pairs[p as usize].min = m;
-                retry |= m[PP] == 0;
+                if m[PP] == 0 {
+                    retry = true;
+                    self.mark_dirty(t);
+                }
                 if m[1] == 0 || m[2] == 0 {
                     let (ra, rb) = (self.uf_find(t), self.uf_find(o));
                     if ra != rb {
@@ -668,6 +698,24 @@ impl Solver {
             split |= seen.is_some_and(|s| s != d);
             seen = Some(d);
             self.teps[t as usize] += d;
+            // Trees whose own next event is now, or with a `(+, +)` edge that is now tight.
+            let mut tight = self.var.own[t as usize] == d;
+            for &(_, p) in &self.var.tpairs[t as usize] {
+                let pr = &self.var.pairs[p as usize];
+                if pr.a == t && pr.min[PP] != i64::MAX {
+                    let rb = {
+                        let mut y = pr.b;
+                        while self.var.uf[y as usize] != y {
+                            y = self.var.uf[y as usize];
+                        }
+                        y
+                    };
+                    tight |= pr.min[PP] == d + self.var.cdelta[rb as usize];
+                }
+            }
+            if tight {
+                self.mark_dirty(t);
+            }
         }
         self.stats.var_split_rounds += split as usize;
         DualStep::Moved
