@@ -46,12 +46,17 @@ fn check(n: usize, edges: &[(u32, u32, i64)]) -> usize {
     let expect = brute_force_min_cost(n, edges);
     // Eleven starts: fractional (default), none, greedy only, fractional with local-search
     // budgets 0 and 1 (work left to the global pass), main phase with single-tree budgets 0
-    // and 1 (work left to the forest grown together); then in the variable-δ forest mode:
+    // and 1 (work left to the forest grown together), these six in the global-ε forest mode;
+    // then in the variable-δ forest mode:
     // default, plain start with main budget 0 (every tree in the forest, blossoms from
     // scratch), greedy with main budget 0, fractional with both budgets 0.
     for start in 0..11 {
         let mut s = Solver::new(n, edges);
-        if start >= 7 {
+        // Start 0 is the default (variable δ); 1-6 grow the global-ε forest; 7-10 the
+        // variable-δ forest.
+        if (1..7).contains(&start) {
+            s.set_forest_mode(ForestMode::Global);
+        } else if start >= 7 {
             s.set_forest_mode(ForestMode::Variable);
         }
         let res = match start {

@@ -274,6 +274,9 @@ pub struct Stats {
     pub var_joins: usize,
     /// See [`Stats::var_rounds`].
     pub var_pair_augments: usize,
+    /// Variable-δ forest: components of trees found free to move without bound (a Tutte
+    /// witness in the main phase, trees left to the main phase in the fractional one).
+    pub var_stuck: usize,
 }
 
 impl Solver {

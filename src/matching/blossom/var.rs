@@ -56,7 +56,7 @@ pub enum ForestMode {
 
 impl ForestMode {
     /// The mode [`Solver::new`] starts with.
-    pub const DEFAULT: ForestMode = ForestMode::Global;
+    pub const DEFAULT: ForestMode = ForestMode::Variable;
 }
 
 /// A heap entry: key, then the edge (or an expand event: `u` = blossom `| EXPAND`).
@@ -247,6 +247,10 @@ impl Solver {
             match self.var_dual() {
                 DualStep::Moved | DualStep::Retry => {}
                 DualStep::Stuck(trees) => match kind {
+                    _ if {
+                        self.stats.var_stuck += 1;
+                        false
+                    } => {}
                     Kind::Main => {
                         let mut inside = vec![false; k];
                         for &t in &trees {
