@@ -15,7 +15,10 @@
 //! since vertex duals are free in the perfect-matching LP), so consecutive searches touch
 //! nearby memory; a search that needs too many grow steps is abandoned (its dual changes are
 //! kept). A *global* pass then grows the remaining trees together, so that they can meet
-//! half-way (on near-bipartite lattice meshes the last exposed vertices are far apart).
+//! half-way (on near-bipartite lattice meshes the last exposed vertices are far apart), in the
+//! solver's forest mode: variable δ (the `var` module, with `Kind::Frac`: a tight `+`–`+` edge
+//! inside a tree closes an odd cycle and a component that can move without bound is dissolved
+//! and left to the main phase) or one global `ε`.
 
 use super::{Solver, MINUS, NONE, PLUS};
 
