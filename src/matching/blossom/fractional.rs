@@ -99,7 +99,9 @@ impl Solver {
                 return;
             }
             let (x, w) = if pu { (u, v) } else { (v, u) };
-            if cy.id[w as usize] != NONE {
+            // A vertex on a half-matched cycle has no mate (tested first: `mate` is read
+            // by the grow step anyway, `cy.id` would be one more cache miss).
+            if self.mate[w as usize] == NONE && cy.id[w as usize] != NONE {
                 self.augment_into_cycle(cy, x, w);
                 return;
             }
@@ -178,7 +180,7 @@ impl Solver {
                 }
             } else {
                 let (x, w) = if pu { (u, v) } else { (v, u) };
-                if cy.id[w as usize] != NONE {
+                if self.mate[w as usize] == NONE && cy.id[w as usize] != NONE {
                     let ta = self.nd[x as usize].tree;
                     self.augment_into_cycle(cy, x, w);
                     self.dissolve(ta);

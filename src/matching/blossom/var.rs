@@ -355,7 +355,8 @@ impl Solver {
         }
         let (x, w, tw) = if pu { (u, v, tv) } else { (v, u, tu) };
         if let Kind::Frac(cy) = kind {
-            if cy.id[w as usize] != NONE {
+            // On a half-matched cycle (no mate; `mate` first, it is read anyway).
+            if self.mate[w as usize] == NONE && cy.id[w as usize] != NONE {
                 self.augment_into_cycle(cy, x, w);
                 self.var_dissolve(t);
                 return true;
