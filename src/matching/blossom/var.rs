@@ -4,11 +4,11 @@
 //!
 //! Lazy duals as in the global forest, but per tree: a `+` node of `T` stores `y − ε_T`, a
 //! `−` node `y + ε_T` ([`Solver::off`]). Queues:
-//! - per tree, a binary heap of the events that involve `T` alone, keyed by the value of
-//!   `ε_T` at which they happen (`(time << 1) | flag` as in the global heap): `+` node to a
-//!   free node (grow, or augment into an exposed/half-matched node), `+`–`+` inside `T`
-//!   (shrink, or close an odd cycle in the fractional phase), `−` blossom whose dual reaches
-//!   zero (expand);
+//! - per tree, a monotone radix heap of the events that involve `T` alone, keyed by the
+//!   value of `ε_T` at which they happen (`(time << 1) | flag`; the flag is clear only for
+//!   `+`–`+` edges, so that at equal times they come first): `+` node to a free node (grow,
+//!   or augment into an exposed/half-matched node), `+`–`+` inside `T` (shrink, or close an
+//!   odd cycle in the fractional phase), `−` blossom whose dual reaches zero (expand);
 //! - per pair of trees `{A, B}` that have met, three heaps keyed by the part of the slack
 //!   that does not move: `(+A, +B)` edges (slack `k − ε_A − ε_B`; zero slack is an
 //!   augmentation), `(+A, −B)` edges (slack `k − ε_A + ε_B`) and `(+B, −A)` edges.
@@ -405,7 +405,7 @@ impl Solver {
             let p = self.pair_of(ta, tb);
             return Dest::Pair(p, PP, s + self.teps[ta as usize] + self.teps[tb as usize]);
         }
-        let (other, tp, to) = if pu { (tv, ta, tb) } else { (tu, tb, ta) };
+        let (tp, to) = if pu { (ta, tb) } else { (tb, ta) };
         if to != NONE {
             if to == tp {
                 return Dest::Drop;
@@ -422,8 +422,11 @@ impl Solver {
                 s + self.teps[tp as usize] - self.teps[to as usize],
             );
         }
-        let grow = self.mate[self.nd[other as usize].base as usize] != NONE;
-        Dest::Tree(tp, ((self.teps[tp as usize] + s) << 1) | grow as i64)
+        // Flag bit set whether the free node is matched (grow) or not (augment): unlike the
+        // global heap, no tie-break for tree-ending events here, which saves reading `mate`
+        // of the far node for every edge (a cache miss) and changed the number of grow steps
+        // by 1e-4 on lattice-1e6.
+        Dest::Tree(tp, ((self.teps[tp as usize] + s) << 1) | 1)
     }
 
     fn place(&mut self, e: Event, d: Dest) {
