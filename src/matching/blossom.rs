@@ -32,9 +32,11 @@
 //!      rounds of primal steps alternate with dual updates that give each connected
 //!      component of trees (joined by tight `(+, −)` edges) its own `δ` under the
 //!      constraints `δ_T + δ_T' ≤ slack` (`(+, +)` edges) and `δ_T − δ_T' ≤ slack`
-//!      (`(+ of T, − of T')` edges). Measured at 10^6: 5-12% less CPU than the global mode
-//!      (the number of grow steps is about the same; the per-tree heaps are smaller and
-//!      more local);
+//!      (`(+ of T, − of T')` edges). Measured (best of 2-3, interleaved, shared machine):
+//!      6-15% less CPU than the global mode at 10^6 and 4-8% at 4·10^6 on the lattice and
+//!      random families, ~6% more instructions at 10^5 (where everything fits in cache).
+//!      The number of grow steps is nearly the same (−8% in the fractional forest on
+//!      lattice-4e6); the gain comes from the per-tree heaps being small and local;
 //!    - *global ε*: all trees under one dual change `ε` and one radix heap, described below
 //!      (the single-tree searches of step 2 use the same machinery with one tree).
 //!
