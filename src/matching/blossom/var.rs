@@ -583,6 +583,7 @@ impl Solver {
 
     fn var_dual_in(&mut self, alive: &[u32], r0: usize) -> DualStep {
         let mut retry = false;
+        let pushes = self.stats.pushes;
         for &t in alive {
             let ti = t as usize;
             self.var.uf[ti] = t;
@@ -633,7 +634,9 @@ impl Solver {
                 }
             }
         }
-        if retry || self.stats.rescales != r0 {
+        // A stale entry re-routed while the bounds were gathered may have landed in a heap
+        // already read (or a new pair): gather again.
+        if retry || self.stats.rescales != r0 || self.stats.pushes != pushes {
             return DualStep::Retry;
         }
         for &t in alive {
