@@ -9,18 +9,22 @@
 //!   `+`–`+` edges, so that at equal times they come first): `+` node to a free node (grow,
 //!   or augment into an exposed/half-matched node), `+`–`+` inside `T` (shrink, or close an
 //!   odd cycle in the fractional phase), `−` blossom whose dual reaches zero (expand);
-//! - per pair of trees `{A, B}` that have met, three heaps keyed by the part of the slack
-//!   that does not move: `(+A, +B)` edges (slack `k − ε_A − ε_B`; zero slack is an
+//! - per pair of trees `{A, B}` that have met (found through a short per-tree list), three
+//!   binary heaps keyed by the part of the slack that does not move: `(+A, +B)` edges (slack `k − ε_A − ε_B`; zero slack is an
 //!   augmentation), `(+A, −B)` edges (slack `k − ε_A + ε_B`) and `(+B, −A)` edges.
 //!
-//! Entries are validated when they reach the top of their heap and re-routed when the
-//! situation of the edge changed (lazy deletion). An edge to a node that has since become `−`
-//! of another tree stays in its tree heap as a grow event until it surfaces; the bound it
-//! gives (`δ_A ≤ slack`) is stricter than the true one (`δ_A − δ_B ≤ slack`), so it only
-//! delays `A`, and it is moved to its pair heap when it surfaces.
+//! Entries are validated when their time comes and re-routed when the situation of the edge
+//! changed (lazy deletion). An edge to a node that has since become `−` of another tree stays
+//! in its tree heap as a grow event until it surfaces; the bound it gives (`δ_A ≤ slack`) is
+//! stricter than the true one (`δ_A − δ_B ≤ slack`), so it only delays `A`, and it is moved
+//! to its pair heap when it surfaces. The dual updates therefore read the raw heap minima
+//! (a stale entry only restricts): `(+, +)` pair entries are never stale while both trees
+//! live, and a `(+, −)` minimum is validated only when it is tight (it would join two
+//! trees); if that re-routes an entry, the bounds are gathered again.
 //!
-//! Rounds: first every tree acts on all its tight events (primal steps, repeated until none
-//! is left anywhere); then one dual update picks every tree's `δ_T ≥ 0`:
+//! Rounds: first every tree with a tight event (a worklist filled by the dual update and by
+//! pushes whose time is now) acts on all of them (primal steps); then one dual update picks
+//! every tree's `δ_T ≥ 0`:
 //! 1. trees joined by a tight `(+, −)` edge form components that share one `δ` (then a
 //!    tight `(+A, −B)` edge stays tight);
 //! 2. components are processed in turn, trees not processed yet counting as `δ = 0`; a
