@@ -1,6 +1,11 @@
 //! Matching solver against the brute-force oracle on many small random graphs.
 
-use blossomquad::matching::{self, blossom::Solver, oracle::brute_force_min_cost};
+use blossomquad::matching::{
+    self,
+    blossom::{ForestMode, Solver, Stats},
+    oracle::brute_force_min_cost,
+};
+use std::cell::RefCell;
 
 mod matching_common;
 use matching_common::Rng;
@@ -18,16 +23,42 @@ fn random_graph(rng: &mut Rng, n: usize, p_percent: u64, cost_range: i64) -> Vec
     edges
 }
 
+thread_local! {
+    /// Variable-δ forest counters summed over the checks of this thread:
+    /// (dual updates, split updates, joins, pair augmentations).
+    static VAR: RefCell<[usize; 4]> = const { RefCell::new([0; 4]) };
+}
+
+fn add_var(st: &Stats) {
+    VAR.with(|v| {
+        let mut v = v.borrow_mut();
+        v[0] += st.var_rounds;
+        v[1] += st.var_split_rounds;
+        v[2] += st.var_joins;
+        v[3] += st.var_pair_augments;
+    });
+}
+
 /// Solves with both entry points and checks them against the oracle and the certificate.
 /// Returns how many events the starts pushed from dissolved trees' cross-edge lists.
 fn check(n: usize, edges: &[(u32, u32, i64)]) -> usize {
     let mut cross = 0;
     let expect = brute_force_min_cost(n, edges);
-    // Seven starts: fractional (default), none, greedy only, fractional with local-search
+    // Eleven starts: fractional (default), none, greedy only, fractional with local-search
     // budgets 0 and 1 (work left to the global pass), main phase with single-tree budgets 0
-    // and 1 (work left to the forest grown together).
-    for start in 0..7 {
+    // and 1 (work left to the forest grown together), these six in the global-ε forest mode;
+    // then in the variable-δ forest mode:
+    // default, plain start with main budget 0 (every tree in the forest, blossoms from
+    // scratch), greedy with main budget 0, fractional with both budgets 0.
+    for start in 0..11 {
         let mut s = Solver::new(n, edges);
+        // Start 0 is the default (variable δ); 1-6 grow the global-ε forest; 7-10 the
+        // variable-δ forest.
+        if (1..7).contains(&start) {
+            s.set_forest_mode(ForestMode::Global);
+        } else if start >= 7 {
+            s.set_forest_mode(ForestMode::Variable);
+        }
         let res = match start {
             0 => s.run(),
             1 => s.run_plain(),
@@ -43,10 +74,21 @@ fn check(n: usize, edges: &[(u32, u32, i64)]) -> usize {
                 cross += s.stats.cross_pushes;
                 r
             }
-            _ => {
+            5 | 6 => {
                 s.init_fractional();
                 let r = s.solve_rest_with(start - 5);
                 cross += s.stats.cross_pushes;
+                r
+            }
+            _ => {
+                match start {
+                    7 => s.init_fractional(),
+                    8 => s.init_plain(),
+                    9 => s.init_greedy(),
+                    _ => s.init_fractional_with(0),
+                }
+                let r = s.solve_rest_with(if start == 7 { 256 } else { 0 });
+                add_var(&s.stats);
                 r
             }
         };
@@ -94,6 +136,13 @@ fn random_dense_and_sparse_graphs() {
     // The forest starts (budget 0) must reach the dissolve path that re-pushes the edges
     // other trees had into a dissolved tree's `−` nodes.
     assert!(cross > 0, "no cross-edge event was ever pushed");
+    // The variable-δ starts must really give trees different dual changes, join trees
+    // through tight `(+, −)` edges and augment between trees.
+    let [rounds, split, joins, pair_aug] = VAR.with(|v| *v.borrow());
+    eprintln!("variable δ: rounds {rounds} split {split} joins {joins} pair augments {pair_aug}");
+    assert!(split > 100, "split rounds {split} of {rounds}");
+    assert!(joins > 100, "joins {joins}");
+    assert!(pair_aug > 1000, "pair augmentations {pair_aug}");
 }
 
 #[test]

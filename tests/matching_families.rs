@@ -4,7 +4,10 @@
 //! optimality certificate on mesh-like graphs of 10^5 and 10^6 vertices.
 
 use blossomquad::matching::{
-    self, blossom::Solver, oracle::brute_force_min_cost, CertificateError,
+    self,
+    blossom::{ForestMode, Solver},
+    oracle::brute_force_min_cost,
+    CertificateError,
 };
 
 type Edges = Vec<(u32, u32, i64)>;
@@ -16,15 +19,18 @@ mod gen_matching_graph;
 mod matching_common;
 use matching_common::Rng;
 
-/// Solves from the plain start (no jump start), from the greedy start only, from the
+/// Solves (global-ε forest) from the plain start (no jump start), from the greedy start only, from the
 /// fractional start with local-search budgets 0 and 2 (nearly all work, or the abandoned
-/// searches, left to the global pass), and with main-phase single-tree budgets 0 and 3:
-/// other dual trajectories than [`matching::solve`]'s; checks every certificate, returns the
-/// costs.
-fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 6] {
-    let plain = Solver::new(n, edges).run_plain().expect("plain start");
+/// searches, left to the global pass), and with main-phase single-tree budgets 0 and 3,
+/// and with the variable-δ forest (budgets 0 for both phases, and the plain start with main
+/// budget 0): other dual trajectories than [`matching::solve`]'s; checks every certificate,
+/// returns the costs.
+fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 8] {
+    let mut plain = Solver::new(n, edges);
+    plain.set_forest_mode(ForestMode::Global);
+    let plain = plain.run_plain().expect("plain start");
     assert!(matching::verify(n, edges, &plain).is_ok());
-    let mut costs = [plain.cost; 6];
+    let mut costs = [plain.cost; 8];
     let starts = [
         (None, 256),
         (Some(0), 256),
@@ -34,6 +40,7 @@ fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 6] {
     ];
     for (i, (frac, main)) in starts.into_iter().enumerate() {
         let mut s = Solver::new(n, edges);
+        s.set_forest_mode(ForestMode::Global);
         match frac {
             None => s.init_greedy(),
             Some(budget) => s.init_fractional_with(budget),
@@ -44,6 +51,21 @@ fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 6] {
             "start {frac:?} {main}"
         );
         costs[i + 1] = m.cost;
+    }
+    for (i, plain) in [false, true].into_iter().enumerate() {
+        let mut s = Solver::new(n, edges);
+        s.set_forest_mode(ForestMode::Variable);
+        if plain {
+            s.init_plain();
+        } else {
+            s.init_fractional_with(0);
+        }
+        let m = s.solve_rest_with(0).expect("perfect matching");
+        assert!(
+            matching::verify(n, edges, &m).is_ok(),
+            "variable-δ start {plain}"
+        );
+        costs[6 + i] = m.cost;
     }
     costs
 }
@@ -103,6 +125,50 @@ fn paper_figure6_triangulations_have_no_perfect_matching() {
     // The same pattern at larger size.
     let (n, e) = fig6_triangle(30);
     expect_witness(n, &e);
+}
+
+/// No perfect matching, solved in the variable-δ forest mode with every tree left to the
+/// forests (budgets 0): the witness must verify; returns how many stuck components the
+/// forests found.
+fn witness_variable(n: usize, edges: &[(u32, u32, i64)]) -> usize {
+    let mut stuck = 0;
+    for start in 0..3 {
+        let mut s = Solver::new(n, edges);
+        s.set_forest_mode(ForestMode::Variable);
+        match start {
+            0 => s.init_plain(),
+            1 => s.init_greedy(),
+            _ => s.init_fractional_with(0),
+        }
+        let w = match s.solve_rest_with(0) {
+            Ok(m) => panic!("unexpected matching of cost {} (start {start})", m.cost),
+            Err(w) => w,
+        };
+        if let Err(e) = matching::verify_witness(n, edges, &w) {
+            panic!("bad witness {w:?} (start {start}): {e}");
+        }
+        stuck += s.stats.var_stuck;
+    }
+    stuck
+}
+
+#[test]
+fn variable_forest_finds_tutte_witnesses() {
+    let mut stuck = 0;
+    for k in [2, 4, 7, 30] {
+        let (n, e) = fig6_triangle(k);
+        stuck += witness_variable(n, &e);
+    }
+    let star: Edges = (1..6).map(|i| (0, i, i as i64)).collect();
+    stuck += witness_variable(6, &star);
+    // Two stars joined by an edge between their centres: still no perfect matching.
+    let mut two: Edges = (1..5).map(|i| (0, i, 3 * i as i64)).collect();
+    two.extend((6..10).map(|i| (5, i, i as i64)));
+    two.push((0, 5, 1));
+    stuck += witness_variable(10, &two);
+    eprintln!("stuck components found by the variable-δ forests: {stuck}");
+    // The forests themselves (not the single-tree searches) must have found them.
+    assert!(stuck >= 10, "stuck components {stuck}");
 }
 
 #[test]
@@ -218,7 +284,7 @@ fn nested_blossoms_agree_across_starts_and_with_brute_force() {
             let got = solve_verified(n, &e);
             assert_eq!(
                 other_starts(n, &e),
-                [got; 6],
+                [got; 8],
                 "depth {depth} variant {variant}"
             );
             if n <= 20 {
@@ -276,7 +342,7 @@ fn mid_size_random_graphs_agree_across_starts() {
             e.push((u, v, c));
         }
         let got = solve_verified(n, &e);
-        assert_eq!(other_starts(n, &e), [got; 6], "iteration {it}");
+        assert_eq!(other_starts(n, &e), [got; 8], "iteration {it}");
     }
 }
 
@@ -508,7 +574,7 @@ fn mesh_graph_costs_are_quad_badness() {
     let small = e.iter().filter(|&&(_, _, c)| c < 300).count();
     assert!(small > e.len() / 4, "{small} of {}", e.len());
     let got = solve_verified(n, &e);
-    assert_eq!(other_starts(n, &e), [got; 6]);
+    assert_eq!(other_starts(n, &e), [got; 8]);
 }
 
 #[test]
@@ -517,13 +583,13 @@ fn certificate_on_mesh_graph_1e5() {
     let (n, e) = mesh_graph(250, 200, &mut rng);
     assert_eq!(n, 100_000);
     let got = solve_verified(n, &e);
-    assert_eq!(other_starts(n, &e), [got; 6]);
+    assert_eq!(other_starts(n, &e), [got; 8]);
     // Delaunay meshes of the benchmark: near-ties (lattice) and poor quads (random).
     for kind in ["lattice", "random"] {
         let (n, e) = gen_matching_graph::delaunay_graph(kind, 100_000, 7).expect("mesh");
         assert!(n > 90_000 && n % 2 == 0);
         let got = solve_verified(n, &e);
-        assert_eq!(other_starts(n, &e), [got; 6]);
+        assert_eq!(other_starts(n, &e), [got; 8]);
     }
 }
 

@@ -17,8 +17,11 @@
 //! and then fractional-matching jump start (single-tree local searches, then a forest), then
 //! single-tree searches from the remaining exposed vertices (each tree with its own dual
 //! change, abandoned past a budget) and finally one alternating tree per still-exposed
-//! vertex, all grown together with lazy O(1) dual changes; one monotone radix heap of events
-//! (`+`→free edges, `+`↔`+` edges, `−` blossoms with zero dual) instead of rescans; persistent
+//! vertex, all grown together with lazy O(1) dual changes, each tree with its own dual change
+//! (Blossom V's variable δ: per-tree radix heaps of events — `+`→free edges, `+`↔`+` edges
+//! inside the tree, `−` blossoms with zero dual — and per-pair-of-trees heaps of the edges
+//! between trees, instead of rescans; or, selectable, one global dual change and one heap);
+//! persistent
 //! blossoms expanded only when their dual drops to zero; blossom membership through
 //! path-compressed shortcuts (no relabelling). No per-phase `O(n)` reset, no hash maps, `u32`
 //! indices, `O(n + m)` memory, vertices renumbered for cache locality.

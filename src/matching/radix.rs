@@ -74,6 +74,21 @@ impl<T: Copy> RadixHeap<T> {
         e
     }
 
+    /// The last extracted minimum (pushed keys are clamped to it).
+    pub fn floor(&self) -> u64 {
+        self.last
+    }
+
+    /// The minimum key, without changing the structure (a scan of the lowest non-empty
+    /// bucket).
+    pub fn peek_min(&self) -> Option<u64> {
+        if !self.buckets[0].is_empty() {
+            return Some(self.last);
+        }
+        let b = self.buckets.iter().find(|b| !b.is_empty())?;
+        b.iter().map(|e| e.0).min()
+    }
+
     /// Removes every entry and resets the minimum to 0.
     pub fn clear(&mut self) {
         for b in &mut self.buckets {
@@ -115,7 +130,9 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             h.push(last + (x >> 50), round);
             if round % 3 == 0 {
+                let min = h.peek_min();
                 if let Some((k, _)) = h.pop() {
+                    assert_eq!(min, Some(k));
                     assert!(k >= last);
                     last = k;
                     popped.push(k);
@@ -128,6 +145,7 @@ mod tests {
             popped.push(k);
         }
         assert_eq!(popped.len(), 2000);
+        assert_eq!(h.peek_min(), None);
         assert!(popped.windows(2).all(|w| w[0] <= w[1]));
     }
 }

@@ -15,7 +15,10 @@
 //! since vertex duals are free in the perfect-matching LP), so consecutive searches touch
 //! nearby memory; a search that needs too many grow steps is abandoned (its dual changes are
 //! kept). A *global* pass then grows the remaining trees together, so that they can meet
-//! half-way (on near-bipartite lattice meshes the last exposed vertices are far apart).
+//! half-way (on near-bipartite lattice meshes the last exposed vertices are far apart), in the
+//! solver's forest mode: variable δ (the `var` module, with `Kind::Frac`: a tight `+`–`+` edge
+//! inside a tree closes an odd cycle and a component that can move without bound is dissolved
+//! and left to the main phase) or one global `ε`.
 
 use super::{Solver, MINUS, NONE, PLUS};
 
@@ -24,9 +27,9 @@ const LOCAL_GROWS: usize = 64;
 
 /// Half-matched odd cycles: `id[v]` is the cycle of vertex `v` (or NONE), `list[c]` the
 /// vertices of cycle `c` in order (emptied when the cycle is resolved).
-struct Cycles {
-    id: Vec<u32>,
-    list: Vec<Vec<u32>>,
+pub(super) struct Cycles {
+    pub(super) id: Vec<u32>,
+    pub(super) list: Vec<Vec<u32>>,
 }
 
 impl Solver {
@@ -51,7 +54,10 @@ impl Solver {
         self.stats.phase_s[1] = t.elapsed().as_secs_f64();
         self.stats.phase_counts[1] = (self.stats.grows, self.stats.evals, self.stats.pops);
         let t = std::time::Instant::now();
-        self.fractional_global(&mut cy);
+        match self.forest_mode {
+            super::ForestMode::Global => self.fractional_global(&mut cy),
+            super::ForestMode::Variable => self.fractional_global_var(&mut cy),
+        }
         self.stats.phase_s[2] = t.elapsed().as_secs_f64();
         self.stats.phase_counts[2] = (self.stats.grows, self.stats.evals, self.stats.pops);
         for cycle in &cy.list {
@@ -93,7 +99,9 @@ impl Solver {
                 return;
             }
             let (x, w) = if pu { (u, v) } else { (v, u) };
-            if cy.id[w as usize] != NONE {
+            // A vertex on a half-matched cycle has no mate (tested first: `mate` is read
+            // by the grow step anyway, `cy.id` would be one more cache miss).
+            if self.mate[w as usize] == NONE && cy.id[w as usize] != NONE {
                 self.augment_into_cycle(cy, x, w);
                 return;
             }
@@ -112,7 +120,7 @@ impl Solver {
     }
 
     /// Tight `+`–`+` edge `(u, v)` inside one tree: the cycle becomes half-matched.
-    fn close_cycle(&mut self, cy: &mut Cycles, u: u32, v: u32) {
+    pub(super) fn close_cycle(&mut self, cy: &mut Cycles, u: u32, v: u32) {
         let cycle = self.odd_cycle(u, v);
         let c = cy.list.len() as u32;
         for &x in &cycle {
@@ -124,7 +132,7 @@ impl Solver {
 
     /// Tight edge from `+` vertex `x` to `w` on a half-matched cycle: augments into `w` and
     /// matches the rest of the cycle along its edges.
-    fn augment_into_cycle(&mut self, cy: &mut Cycles, x: u32, w: u32) {
+    pub(super) fn augment_into_cycle(&mut self, cy: &mut Cycles, x: u32, w: u32) {
         let c = cy.id[w as usize];
         self.augment_path(x, w);
         self.mate[w as usize] = x;
@@ -172,7 +180,7 @@ impl Solver {
                 }
             } else {
                 let (x, w) = if pu { (u, v) } else { (v, u) };
-                if cy.id[w as usize] != NONE {
+                if self.mate[w as usize] == NONE && cy.id[w as usize] != NONE {
                     let ta = self.nd[x as usize].tree;
                     self.augment_into_cycle(cy, x, w);
                     self.dissolve(ta);
