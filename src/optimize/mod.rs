@@ -436,19 +436,37 @@ fn run_surface(
     let small_planar = polish && l.planar && l.quads.len() < RESMOOTH_ALL_BELOW;
     // the state before the topology rounds, for the unsheared schedule
     let mut unsheared = (small_planar && opts.topology).then(|| (l.clone(), ops));
-    let ticks = if opts.topology {
-        topology_rounds(l, opts, &mut ops, &mut tm, tick, false)
-    } else {
-        1
-    };
+    let mut ticks = 1;
     if small_planar {
         // quality: small planar surfaces try three schedules and keep the best (see
         // `better` and the module docs): finishing with square targets (β = 0), with the
-        // aspect-keeping solve, and topology rounds each followed by a conformal solve
-        let mut plain = l.clone();
+        // aspect-keeping solve, and topology rounds each followed by a conformal solve.
+        // speed: the schedules are independent, so they run side by side (each is
+        // deterministic, so the kept one does not depend on the thread count)
         let mut plain_ops = ops;
-        finish(&mut plain, opts, &mut plain_ops, &mut tm, 0.0);
-        finish(l, opts, &mut ops, &mut tm, conformal::KEEP_ASPECT);
+        let (mut plain, ()) = rayon::join(
+            || {
+                if opts.topology {
+                    ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false);
+                }
+                let mut plain = l.clone();
+                let mut tp = StageTimer::new("optimize (square finish)", l.surface);
+                rayon::join(
+                    || finish(&mut plain, opts, &mut plain_ops, &mut tp, 0.0),
+                    || finish(l, opts, &mut ops, &mut tm, conformal::KEEP_ASPECT),
+                );
+                tp.done();
+                plain
+            },
+            || {
+                if let Some((u, u_ops)) = unsheared.as_mut() {
+                    let mut tu = StageTimer::new("optimize (conformal rounds)", u.surface);
+                    topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true);
+                    finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT);
+                    tu.done();
+                }
+            },
+        );
         let base = (plain.stats(), plain.tau_estimate());
         let mut best = (l.stats(), l.tau_estimate());
         if !better(&best, &base) {
@@ -457,8 +475,6 @@ fn run_surface(
             best = base;
         }
         if let Some((u, u_ops)) = unsheared.as_mut() {
-            topology_rounds(u, opts, u_ops, &mut tm, &|_| {}, true);
-            finish(u, opts, u_ops, &mut tm, conformal::KEEP_ASPECT);
             let cand = (u.stats(), u.tau_estimate());
             if better(&cand, &best) && better(&cand, &base) {
                 std::mem::swap(l, u);
@@ -466,6 +482,9 @@ fn run_surface(
             }
         }
     } else {
+        if opts.topology {
+            ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false);
+        }
         finish(l, opts, &mut ops, &mut tm, conformal::KEEP_ASPECT);
     }
     tick(1 + opts.max_rounds - ticks);
