@@ -246,20 +246,26 @@ impl PreparedReference {
     /// Prepares the triangles (3-node) of every surface of `reference` (in parallel).
     pub fn new(reference: &Mesh) -> Self {
         let nodes = FlatNodes::new(reference);
-        let mut tags: Vec<i32> = reference
-            .element_blocks
-            .iter()
-            .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3 && !b.is_empty())
-            .map(|b| b.entity_tag)
-            .collect();
-        tags.sort_unstable();
-        tags.dedup();
+        let tags = surface_tags(reference, etype::TRI3);
         let surfaces = tags
             .par_iter()
             .map(|&s| (s, surface_reference(reference, &nodes, s)))
             .collect();
         PreparedReference { nodes, surfaces }
     }
+}
+
+/// The surfaces of `mesh` with elements of type `element_type`, in increasing tag order.
+fn surface_tags(mesh: &Mesh, element_type: u32) -> Vec<i32> {
+    let mut tags: Vec<i32> = mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == element_type && !b.is_empty())
+        .map(|b| b.entity_tag)
+        .collect();
+    tags.sort_unstable();
+    tags.dedup();
+    tags
 }
 
 /// The reference triangles of surface `s` on compact point indices (first use order).
@@ -336,14 +342,7 @@ pub fn optimize_prepared(
     let mut tm = StageTimer::new("optimize setup", 0);
     let flat = FlatNodes::new(mesh);
     tm.lap("flat");
-    let mut surfaces: Vec<i32> = mesh
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4 && !b.is_empty())
-        .map(|b| b.entity_tag)
-        .collect();
-    surfaces.sort_unstable();
-    surfaces.dedup();
+    let surfaces = surface_tags(mesh, etype::QUAD4);
     let owner = node_owners(mesh, &flat, &surfaces)?;
     tm.lap("owners");
     let mut locals = Vec::with_capacity(surfaces.len());

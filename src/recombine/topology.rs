@@ -387,6 +387,13 @@ impl SurfaceTopo {
         if n >= PARALLEL_REGIONS {
             return self.regions_parallel();
         }
+        self.regions_serial()
+    }
+
+    /// [`SurfaceTopo::regions`] by one depth-first search (the numbering the parallel version
+    /// reproduces).
+    fn regions_serial(&self) -> (Vec<u32>, usize) {
+        let n = self.len();
         let mut id = vec![NONE; n];
         let mut count = 0u32;
         let mut stack = Vec::new();
@@ -507,32 +514,9 @@ mod tests {
         }
         let topo = SurfaceTopo { tris, nbr };
         let (par, count) = topo.regions_parallel();
-        // the serial search, forced
-        let serial = SurfaceTopo {
-            tris: topo.tris[..].to_vec(),
-            nbr: topo.nbr.clone(),
-        };
-        let mut id = vec![NONE; n];
-        let mut c = 0u32;
-        for s in 0..n {
-            if id[s] != NONE {
-                continue;
-            }
-            id[s] = c;
-            let mut stack = vec![s as u32];
-            while let Some(t) = stack.pop() {
-                for k in 0..3 {
-                    let u = serial.nbr[3 * t as usize + k];
-                    if u != NONE && id[u as usize] == NONE {
-                        id[u as usize] = c;
-                        stack.push(u);
-                    }
-                }
-            }
-            c += 1;
-        }
+        let (id, c) = topo.regions_serial();
         assert!(count > 100, "{count}");
-        assert_eq!(count, c as usize);
+        assert_eq!(count, c);
         assert_eq!(par, id);
         assert_eq!(topo.regions(), (id, count));
     }
