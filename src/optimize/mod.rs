@@ -448,6 +448,8 @@ fn run_surface(
                 if opts.topology {
                     ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false);
                 }
+                // the square finish starts from the state after the topology rounds
+                plain_ops = ops;
                 let mut plain = l.clone();
                 let mut tp = StageTimer::new("optimize (square finish)", l.surface);
                 rayon::join(
