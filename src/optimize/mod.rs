@@ -18,7 +18,8 @@
 //! pattern-search sweeps; 2 mean-η polish sweeps (4 under 20k quads), whose objective has a
 //! small size term for τ ([`polish`](self)).
 //!
-//! Planar surfaces under 20k quads (cheap) run three schedules and keep the best: the same
+//! Planar surfaces under 20k quads (cheap) whose mean η after the first smoothing is below
+//! [`ALTERNATIVES_BELOW`] run three schedules side by side and keep the best: the same
 //! with a square-target last conformal solve (β = 0), the plain one; the one above; and
 //! topology rounds each followed by the conformal solve, whose squarer quads let the next
 //! topology pass find more rotations and merges (measured on the 1e4 square with a hole:
@@ -432,7 +433,11 @@ fn run_surface(
     tm.lap("smooth");
     tick(1);
     let polish = opts.angle_sweeps > 0 && opts.smooth_iterations > 0;
-    let small_planar = polish && l.planar && l.quads.len() < RESMOOTH_ALL_BELOW;
+    // speed: surfaces already good after the first smoothing skip the alternative schedules
+    let small_planar = polish
+        && l.planar
+        && l.quads.len() < RESMOOTH_ALL_BELOW
+        && l.stats().eta_mean < ALTERNATIVES_BELOW;
     // the state before the topology rounds, for the unsheared schedule
     let mut unsheared = (small_planar && opts.topology).then(|| (l.clone(), ops));
     let mut ticks = 1;
@@ -682,6 +687,13 @@ const NEAR_SWEEPS_NUM: usize = 3;
 /// and measured on the 1e5-triangle cad_solid fixture (14 curved surfaces of 500 to 5,000
 /// quads) local re-smoothing alone loses 0.008 of η̄ (0.840 -> 0.831).
 const RESMOOTH_ALL_BELOW: usize = 20_000;
+
+/// Small planar surfaces try the alternative schedules (module docs) only when their mean η
+/// after the first smoothing is below this. Measured on the 1e4/1e5 fixtures: surfaces at
+/// 0.84 or more there (cad_solid 1e5's largest faces at 0.844-0.862, even_curves 1e5's
+/// 18k-quad face at 0.915) gained at most 0.0015 of η̄ from them, for most of their time;
+/// the surfaces that need them start at 0.70-0.84 (square_hole 1e4: 0.72, +0.007).
+const ALTERNATIVES_BELOW: f64 = 0.84;
 
 /// Nodes within `rings` quad rings of what a topological pass changed, given the quads,
 /// liveness and positions before it: nodes of quads that were rewritten, created or removed,
