@@ -19,12 +19,12 @@
 //! small size term for τ ([`polish`](self)).
 //!
 //! Planar surfaces under 20k quads (cheap) whose mean η after the first smoothing is below
-//! [`ALTERNATIVES_BELOW`] run three schedules side by side and keep the best: the same
+//! `ALTERNATIVES_BELOW` (0.84) run three schedules side by side and keep the best: the same
 //! with a square-target last conformal solve (β = 0), the plain one; the one above; and
 //! topology rounds each followed by the conformal solve, whose squarer quads let the next
 //! topology pass find more rotations and merges (measured on the 1e4 square with a hole:
 //! d4 83.5 -> 85.0 %, η̄ +0.005). The second, then the third, replaces the kept one only
-//! with a higher η̄, η_w at most 0.002 lower and τ ([`Local::tau_estimate`], against the
+//! with a higher η̄, η_w at most 0.002 lower and τ (`Local::tau_estimate`, against the
 //! reference size field at the nodes' current positions) at most 0.7 point lower than both
 //! the kept one and the plain one. More regular vertices follow a graded size field less
 //! well: the conformal rounds cost the 1e4 rectangle 1.5 points of τ (rejected) and the
