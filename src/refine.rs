@@ -1,4 +1,4 @@
-//! Uniform refinement (paper section 1 and Figure 2, after Borouchaki and Frey [3]; the
+//! Uniform refinement (paper section 1 and Figure 2, after Borouchaki and Frey, ref. 3; the
 //! rows `2h` and `4h` of Table I): every quad is split into four quads, every triangle into
 //! three quads, every 2-node line into two lines. Meshing the triangles at `2h` (or `4h`),
 //! recombining and refining once (twice) gives a mesh of size `h` whose new vertices are all
