@@ -8,6 +8,7 @@
 
 use crate::quality::eta::eta_signed_fast;
 use crate::quality::locate::TriSurface;
+use crate::quality::size::{inverse_linear_integral, tau_deviation};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -204,16 +205,10 @@ impl Local {
         for (quad, _) in self.quads.iter().zip(&self.alive).filter(|(_, &a)| a) {
             for k in 0..4 {
                 let (a, b) = (quad[k] as usize, quad[(k + 1) & 3] as usize);
-                let (ha, hb) = (h[a], h[b]);
-                // ∫ 1/h along the edge, h linear from ha to hb
-                let inv = if (hb - ha).abs() <= 1e-9 * (ha + hb) {
-                    2.0 / (ha + hb)
-                } else {
-                    (hb / ha).ln() / (hb - ha)
-                };
-                let lh = self.pos[a].distance(self.pos[b]) * inv;
+                // eq. 1 with h linear along the edge
+                let lh = self.pos[a].distance(self.pos[b]) * inverse_linear_integral(h[a], h[b]);
                 if lh.is_finite() && lh > 0.0 {
-                    sum += lh.min(1.0 / lh) - 1.0;
+                    sum += tau_deviation(lh);
                     n += 1;
                 }
             }

@@ -990,21 +990,12 @@ fn attach_reference(
     rnodes: &FlatNodes,
     size_scale: f64,
 ) {
-    let sref = sref.unwrap_or_else(SurfaceReference::empty);
-    let SurfaceReference {
-        mut pts,
-        mut tris,
-        nodal: ref_nodal,
-        incident,
-        compact_dense,
-        compact_sparse,
-    } = sref;
-    let maps = SurfaceReference {
-        compact_dense,
-        compact_sparse,
-        ..SurfaceReference::empty()
-    };
-    let compact = |id: u32| maps.compact(id);
+    let mut sref = sref.unwrap_or_else(SurfaceReference::empty);
+    let mut pts = std::mem::take(&mut sref.pts);
+    let mut tris = std::mem::take(&mut sref.tris);
+    let incident = std::mem::take(&mut sref.incident);
+    let ref_nodal = std::mem::take(&mut sref.nodal);
+    let compact = |id: u32| sref.compact(id);
     let own = tris.is_empty();
     if own {
         // quad edges are ~h; the split diagonals (√2 h) would inflate the mean: use the
@@ -1021,14 +1012,13 @@ fn attach_reference(
             tris.push([q[0], q[2], q[3]]);
         }
     }
-    let mut nodal = if own {
+    let nodal: Vec<f64> = if own {
         mean_incident_edge_length(&pts, tris.iter().map(|t| &t[..]))
     } else {
-        ref_nodal
+        let mut h = ref_nodal;
+        h.iter_mut().for_each(|h| *h *= size_scale);
+        h
     };
-    if !own {
-        nodal.iter_mut().for_each(|h| *h *= size_scale);
-    }
     // a node of the reference (same tag, same place) is located without a search
     let mut unmatched = Vec::new();
     if own {
