@@ -57,7 +57,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let path = args
         .get(1)
-        .ok_or("usage: solve_matching <file> [--stats]")?;
+        .ok_or("usage: solve_matching <file> [--stats] [--forest=global|variable]")?;
     let stats = args.iter().any(|a| a == "--stats");
     let forest = match args.iter().find_map(|a| a.strip_prefix("--forest=")) {
         None => None,

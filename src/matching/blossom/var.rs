@@ -250,26 +250,25 @@ impl Solver {
             }
             match self.var_dual() {
                 DualStep::Moved | DualStep::Retry => {}
-                DualStep::Stuck(trees) => match kind {
-                    _ if {
-                        self.stats.var_stuck += 1;
-                        false
-                    } => {}
-                    Kind::Main => {
-                        let mut inside = vec![false; k];
-                        for &t in &trees {
-                            inside[t as usize] = true;
+                DualStep::Stuck(trees) => {
+                    self.stats.var_stuck += 1;
+                    match kind {
+                        Kind::Main => {
+                            let mut inside = vec![false; k];
+                            for &t in &trees {
+                                inside[t as usize] = true;
+                            }
+                            break Err(self.stuck_witness_in(&|t| inside[t as usize]));
                         }
-                        break Err(self.stuck_witness_in(&|t| inside[t as usize]));
-                    }
-                    Kind::Frac(_) => {
-                        // Left to the main phase; their alternating structure is a matching.
-                        for &t in &trees {
-                            self.var_dissolve(t);
+                        Kind::Frac(_) => {
+                            // Left to the main phase; their alternating structure is a matching.
+                            for &t in &trees {
+                                self.var_dissolve(t);
+                            }
+                            self.push_freed();
                         }
-                        self.push_freed();
                     }
-                },
+                }
             }
         };
         self.var_on = false;
@@ -447,10 +446,7 @@ impl Solver {
             Dest::Tree(t, key) => {
                 debug_assert!(key >> 1 >= self.teps[t as usize]);
                 self.stats.pushes += 1;
-                self.var.tree[t as usize].push(key, e);
-                if key >> 1 == self.teps[t as usize] {
-                    self.mark_dirty(t);
-                }
+                self.var_push_tree(t, key, e);
             }
             Dest::Pair(p, w, k) => {
                 self.stats.pushes += 1;
@@ -462,7 +458,7 @@ impl Solver {
         }
     }
 
-    /// Pushes an expand event (key `(y << 1) | 1`) into tree `t`'s heap.
+    /// Pushes an event into tree `t`'s heap (marking the tree when it is due now).
     pub(super) fn var_push_tree(&mut self, t: u32, key: i64, ev: Event) {
         self.var.tree[t as usize].push(key, ev);
         if key >> 1 == self.teps[t as usize] {
@@ -545,14 +541,10 @@ impl Solver {
 
     /// Doubles every key of the variable-δ queues (with [`Solver::rescale`]).
     pub(super) fn var_rescale(&mut self) {
-        let dbl = |h: &mut Heap, flagged: bool| {
+        let dbl = |h: &mut Heap| {
             let mut v = std::mem::take(h).into_vec();
             for Reverse(en) in &mut v {
-                en.key = if flagged {
-                    ((en.key & !1) << 1) | (en.key & 1)
-                } else {
-                    en.key * 2
-                };
+                en.key *= 2;
             }
             *h = BinaryHeap::from(v);
         };
@@ -562,7 +554,7 @@ impl Solver {
         }
         for pair in &mut self.var.pairs {
             for h in &mut pair.h {
-                dbl(h, false);
+                dbl(h);
             }
         }
     }
@@ -659,13 +651,7 @@ impl Solver {
             while x != NONE {
                 d = d.min(self.var.own[x as usize]);
                 for &(o, p) in &self.var.tpairs[x as usize] {
-                    let ro = {
-                        let mut y = o;
-                        while self.var.uf[y as usize] != y {
-                            y = self.var.uf[y as usize];
-                        }
-                        y
-                    };
+                    let ro = uf_root(&self.var.uf, o);
                     let pr = &self.var.pairs[p as usize];
                     let s_pp = pr.min[PP];
                     let s_out = if pr.a == x { pr.min[1] } else { pr.min[2] };
@@ -718,13 +704,7 @@ impl Solver {
             for &(_, p) in &self.var.tpairs[t as usize] {
                 let pr = &self.var.pairs[p as usize];
                 if pr.a == t && pr.min[PP] != i64::MAX {
-                    let rb = {
-                        let mut y = pr.b;
-                        while self.var.uf[y as usize] != y {
-                            y = self.var.uf[y as usize];
-                        }
-                        y
-                    };
+                    let rb = uf_root(&self.var.uf, pr.b);
                     tight |= pr.min[PP] == d + self.var.cdelta[rb as usize];
                 }
             }
@@ -735,4 +715,13 @@ impl Solver {
         self.stats.var_split_rounds += split as usize;
         DualStep::Moved
     }
+}
+
+/// Root of `t` in the union-find forest `uf` (no compression: for loops that hold other
+/// borrows of the solver; [`Solver::uf_find`] compresses).
+fn uf_root(uf: &[u32], mut t: u32) -> u32 {
+    while uf[t as usize] != t {
+        t = uf[t as usize];
+    }
+    t
 }
