@@ -8,9 +8,9 @@
 //! - **Edge nodes.** Every edge of a line, triangle or quad gets one new node, shared by all
 //!   elements holding the edge, so the mesh stays conforming, across the curves that
 //!   surfaces share too. An edge of a line element is classified on that line's curve; an
-//!   edge without a line element whose two nodes are classified on the same curve (or on a
-//!   curve and a point bounding it) on that curve; any other edge on the first surface that
-//!   holds it.
+//!   edge whose two nodes are classified on the same curve without line elements (or on such
+//!   a curve and a point bounding it) on that curve; any other edge on the first surface
+//!   that holds it.
 //! - **Where a curve node goes.** Without the CAD, the curve is estimated from its own nodes:
 //!   the midpoint of segment `a b` is the four-point subdivision rule
 //!   `9/16 (a + b) − 1/16 (p + q)` with `p`, `q` the curve nodes before `a` and after `b`
@@ -351,6 +351,15 @@ fn check_supported(mesh: &Mesh) -> Result<(), RefineError> {
 /// and for every element edge, in block, element and local-edge order (the order
 /// [`refine`] walks them), the index of its edge in that list.
 fn edge_nodes(mesh: &Mesh, index: &NodeIndex) -> (Vec<EdgeNode>, Vec<u32>) {
+    // curves with line elements: their edges are those elements, nothing else lies on them
+    let mut lined: Vec<i32> = mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == etype::LINE2 && !b.is_empty())
+        .map(|b| b.entity_tag)
+        .collect();
+    lined.sort_unstable();
+    lined.dedup();
     // rank: 0 = a line element's curve, 1 = curve from node classification, 2 = a surface
     let mut all: Vec<((u64, u64), u8, EntityKey, u32)> = Vec::new();
     for b in &mesh.element_blocks {
@@ -370,7 +379,7 @@ fn edge_nodes(mesh: &Mesh, index: &NodeIndex) -> (Vec<EdgeNode>, Vec<u32>) {
             for j in 0..k {
                 let (a, c) = (el[j], el[(j + 1) % k]);
                 let slot = slot + j as u32;
-                match classified_curve(mesh, index, a, c) {
+                match classified_curve(mesh, index, &lined, a, c) {
                     Some(curve) => all.push((key(a, c), 1, (1, curve), slot)),
                     None => all.push((key(a, c), 2, (2, b.entity_tag), slot)),
                 }
@@ -389,9 +398,12 @@ fn edge_nodes(mesh: &Mesh, index: &NodeIndex) -> (Vec<EdgeNode>, Vec<u32>) {
     (edges, slot_edge)
 }
 
-/// The curve an edge lies on by node classification alone: both nodes on the same curve, or
-/// one on a curve and the other on a point bounding it.
-fn classified_curve(mesh: &Mesh, index: &NodeIndex, a: u64, b: u64) -> Option<i32> {
+/// The curve without line elements (not in the sorted `lined`) an edge lies on by node
+/// classification alone: both nodes on the same curve, or one on a curve and the other on a
+/// point bounding it (the rule of `recombine::topology`'s `CurveInfo::on_curve`). A curve
+/// with line elements holds only those: an edge across a surface between two of its nodes
+/// is the surface's.
+fn classified_curve(mesh: &Mesh, index: &NodeIndex, lined: &[i32], a: u64, b: u64) -> Option<i32> {
     let ent = |t: u64| {
         index.get(t).map(|r| {
             let blk = &mesh.node_blocks[r.block as usize];
@@ -403,11 +415,12 @@ fn classified_curve(mesh: &Mesh, index: &NodeIndex, a: u64, b: u64) -> Option<i3
         mesh.entity(1, curve)
             .is_some_and(|e| e.bounding.iter().any(|&p| p.abs() == point))
     };
-    match (ea, eb) {
+    let curve = match (ea, eb) {
         ((1, x), (1, y)) if x == y => Some(x),
         ((1, x), (0, p)) | ((0, p), (1, x)) if bounds(x, p) => Some(x),
         _ => None,
-    }
+    };
+    curve.filter(|c| lined.binary_search(c).is_err())
 }
 
 /// The mean parametric coordinates of the parent nodes that lie in node block `bi`, and
@@ -689,6 +702,53 @@ mod tests {
             .expect("curve 1 got a node block");
         assert_eq!(b.coords.len(), 1);
         assert!((DVec3::from_array(b.coords[0]) - mid).length() < 1e-15);
+    }
+
+    /// A square bounded by one curve whose four nodes are all on it: the diagonal joins two
+    /// nodes of that curve but is not one of its line elements, so its new node belongs to
+    /// the surface, not to the curve (which gets exactly its four segment midpoints).
+    #[test]
+    fn a_diagonal_between_nodes_of_an_outlined_curve_stays_in_the_surface() {
+        let mut m = build(
+            &[(
+                1,
+                1,
+                &[
+                    (1, [0.0, 0.0, 0.0]),
+                    (2, [1.0, 0.0, 0.0]),
+                    (3, [1.0, 1.0, 0.0]),
+                    (4, [0.0, 1.0, 0.0]),
+                ],
+            )],
+            &[
+                (
+                    1,
+                    1,
+                    etype::LINE2,
+                    &[(11, &[1, 2]), (12, &[2, 3]), (13, &[3, 4]), (14, &[4, 1])],
+                ),
+                (2, 1, etype::TRI3, &[(7, &[1, 2, 3]), (9, &[1, 3, 4])]),
+            ],
+        );
+        refine(&mut m).expect("refine");
+        assert!((check_planar(&m) - 1.0).abs() < 1e-12);
+        let block_of = |p: DVec3| {
+            m.node_blocks
+                .iter()
+                .find(|b| {
+                    b.coords
+                        .iter()
+                        .any(|c| (DVec3::from_array(*c) - p).length() < 1e-12)
+                })
+                .map(|b| (b.entity_dim, b.entity_tag))
+        };
+        assert_eq!(block_of(DVec3::new(0.5, 0.5, 0.0)), Some((2, 1)));
+        let curve = m
+            .node_blocks
+            .iter()
+            .find(|b| b.entity_dim == 1 && b.entity_tag == 1)
+            .expect("curve 1");
+        assert_eq!(curve.coords.len(), 8, "4 corners + 4 segment midpoints");
     }
 
     #[test]
