@@ -95,8 +95,12 @@ fn in_frame(f: (DVec3, DVec3), d: DVec3) -> C {
 }
 
 /// Solves for the smooth cross field (module docs). `coords` are indexed by the global node
-/// ids of `topo.tris`.
-pub(crate) fn smooth_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> CrossField {
+/// ids of `topo.tris`; `normals` are the triangles' `graph::triangle_normals`.
+pub(crate) fn smooth_cross_field(
+    topo: &SurfaceTopo,
+    coords: &[DVec3],
+    normals: &[DVec3],
+) -> CrossField {
     let n = topo.len();
     let frames: Vec<(DVec3, DVec3)> = topo.tris.iter().map(|&t| frame(coords, t)).collect();
     // transports s_tu per half-edge (3t + k) and the wall constraint per triangle
@@ -127,14 +131,14 @@ pub(crate) fn smooth_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> CrossF
     }
     if !fixed.iter().any(|&f| f) {
         // no usable wall: keep the nearest-wall field (a fixed global direction)
-        let t1 = super::graph::boundary_cross_field(topo, coords);
+        let t1 = super::graph::boundary_cross_field(topo, coords, normals);
         return CrossField {
             t1,
             weight: vec![1.0; n],
         };
     }
     // initial guess on the free triangles: the nearest-wall field
-    let bfs = super::graph::boundary_cross_field(topo, coords);
+    let bfs = super::graph::boundary_cross_field(topo, coords, normals);
     for t in 0..n {
         if !fixed[t] {
             z[t] = in_frame(frames[t], bfs[t]).pow4();
@@ -228,7 +232,7 @@ pub(crate) fn smooth_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> CrossF
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::recombine::graph::{boundary_cross_field, cross_cost};
+    use crate::recombine::graph::{boundary_cross_field, cross_cost, triangle_normals};
 
     /// A structured triangulation of `[0, 1]²` (`m × m` cells, each split in two) mapped by
     /// `f`, with its adjacency: edges used once are walls.
@@ -298,7 +302,7 @@ mod tests {
     #[test]
     fn the_field_of_an_axis_aligned_rectangle_is_the_axes() {
         let (topo, coords) = mesh(12, |x, y| DVec3::new(2.0 * x, y, 0.0));
-        let f = smooth_cross_field(&topo, &coords);
+        let f = smooth_cross_field(&topo, &coords, &triangle_normals(&topo, &coords));
         for (t, d) in f.t1.iter().enumerate() {
             assert!((d.length() - 1.0).abs() < 1e-9);
             assert!(d.x.abs().max(d.y.abs()) > 1.0 - 1e-9, "triangle {t}: {d:?}");
@@ -310,7 +314,7 @@ mod tests {
     fn the_field_follows_the_walls_and_turns_smoothly_between_them() {
         // bottom wall horizontal, top wall rising at atan(0.5) ≈ 26.6°, sides vertical
         let (topo, coords) = mesh(24, |x, y| DVec3::new(x, y * (1.0 + 0.5 * x), 0.0));
-        let f = smooth_cross_field(&topo, &coords);
+        let f = smooth_cross_field(&topo, &coords, &triangle_normals(&topo, &coords));
         let nrm = DVec3::Z;
         for t in 0..topo.len() {
             for k in 0..3 {
@@ -324,7 +328,7 @@ mod tests {
                 }
             }
         }
-        let bfs = boundary_cross_field(&topo, &coords);
+        let bfs = boundary_cross_field(&topo, &coords, &triangle_normals(&topo, &coords));
         let (smooth, nearest) = (max_jump(&topo, &f.t1), max_jump(&topo, &bfs));
         // the nearest-wall field jumps by the angle between the walls on the medial axis
         assert!(nearest > 0.3, "{nearest}");

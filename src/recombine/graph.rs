@@ -63,17 +63,21 @@ pub fn split_halves_cost(n: usize) -> i64 {
 /// unit tangent `t1` (with `t2 = n × t1`), the direction of the nearest wall edge in
 /// graph steps (multi-source breadth-first search from the triangles with a wall edge),
 /// carried from triangle to triangle by projection on each one's plane. Surfaces without
-/// walls get the projection of the x axis (or y where x is normal).
-pub(crate) fn boundary_cross_field(topo: &SurfaceTopo, coords: &[DVec3]) -> Vec<DVec3> {
+/// walls get the projection of the x axis (or y where x is normal). `normals` are the
+/// triangles' [`triangle_normals`].
+pub(crate) fn boundary_cross_field(
+    topo: &SurfaceTopo,
+    coords: &[DVec3],
+    normals: &[DVec3],
+) -> Vec<DVec3> {
     let n = topo.len();
     let mut t1 = vec![DVec3::ZERO; n];
     let mut queue: std::collections::VecDeque<u32> = std::collections::VecDeque::new();
     // unit normals up front, in parallel (the search below then reads one array)
-    let unit: Vec<DVec3> = topo
-        .tris
+    let unit: Vec<DVec3> = normals
         .par_iter()
         .with_min_len(4096)
-        .map(|&tri| tri_normal(coords, tri).normalize_or_zero())
+        .map(|nrm| nrm.normalize_or_zero())
         .collect();
     let unit_n = |t: usize| unit[t];
     let project = |d: DVec3, nrm: DVec3| (d - nrm * d.dot(nrm)).normalize_or_zero();
@@ -156,6 +160,15 @@ pub(crate) fn merged_quad(topo: &SurfaceTopo, t: usize, k: usize) -> [u32; 4] {
 pub(crate) fn tri_normal(c: &[DVec3], t: [u32; 3]) -> DVec3 {
     let (a, b, d) = (c[t[0] as usize], c[t[1] as usize], c[t[2] as usize]);
     (b - a).cross(d - a)
+}
+
+/// [`tri_normal`] of every triangle of `topo` (in parallel).
+pub(crate) fn triangle_normals(topo: &SurfaceTopo, coords: &[DVec3]) -> Vec<DVec3> {
+    topo.tris
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&tri| tri_normal(coords, tri))
+        .collect()
 }
 
 /// Corner quality below which a corner at a wall node makes a quad as bad as a folded one
@@ -372,23 +385,17 @@ pub(crate) fn build(
     let mut tm = crate::optimize::StageTimer::new("graph", 0);
     let walls = NodeSet::new(&wall_nodes(topo));
     let walls = &walls;
-    let normals: Vec<DVec3> = topo
-        .tris
-        .par_iter()
-        .with_min_len(4096)
-        .map(|&tri| tri_normal(coords, tri))
-        .collect();
-    let normals = &normals;
+    let normals = &triangle_normals(topo, coords);
     tm.lap("walls");
     let split_cost = split_halves_cost(n);
     let field = match (cross_w > 0.0, harmonic) {
         (false, _) => CrossField::default(),
         (true, false) => {
-            let t1 = boundary_cross_field(topo, coords);
+            let t1 = boundary_cross_field(topo, coords, normals);
             let weight = vec![1.0; t1.len()];
             CrossField { t1, weight }
         }
-        (true, true) => smooth_cross_field(topo, coords),
+        (true, true) => smooth_cross_field(topo, coords, normals),
     };
     let field = &field;
     tm.lap("cross field");
