@@ -105,24 +105,24 @@ pub(crate) fn boundary_cross_field(
         queue.push_back(0);
     }
     // speed: "t1 is set" (non-zero) as a bitmap, which stays in cache (t1 does not)
-    let mut set = vec![0u64; n.div_ceil(64)];
+    let mut set = NodeSet::with_len(n);
     for (t, d) in t1.iter().enumerate() {
         if *d != DVec3::ZERO {
-            set[t / 64] |= 1 << (t % 64);
+            set.insert(t as u32);
         }
     }
     while let Some(t) = queue.pop_front() {
         let t = t as usize;
         for k in 0..3 {
             let u = topo.nbr[3 * t + k];
-            if u == NONE || set[u as usize / 64] >> (u % 64) & 1 == 1 {
+            if u == NONE || set.contains(u) {
                 continue;
             }
             let d = project(t1[t], unit_n(u as usize));
             let val = if d == DVec3::ZERO { t1[t] } else { d };
             t1[u as usize] = val;
             if val != DVec3::ZERO {
-                set[u as usize / 64] |= 1 << (u % 64);
+                set.insert(u);
             }
             queue.push_back(u);
         }
@@ -219,7 +219,7 @@ pub(crate) fn edge_cost(
     cost
 }
 
-/// A set of global node ids as a bitmap (one bit per id up to the largest member).
+/// A set of ids (global node ids, or triangles) as a bitmap.
 pub(crate) struct NodeSet {
     bits: Vec<u64>,
 }
@@ -233,6 +233,19 @@ impl NodeSet {
             bits[i as usize / 64] |= 1 << (i % 64);
         }
         NodeSet { bits }
+    }
+
+    /// An empty set for ids below `n`.
+    pub fn with_len(n: usize) -> Self {
+        NodeSet {
+            bits: vec![0; n.div_ceil(64)],
+        }
+    }
+
+    /// Adds `id` (below the `with_len` bound).
+    #[inline]
+    pub fn insert(&mut self, id: u32) {
+        self.bits[id as usize / 64] |= 1 << (id % 64);
     }
 
     /// True when `id` is in the set.
