@@ -14,6 +14,10 @@ pub mod matching;
 pub mod mesh;
 pub mod msh;
 pub mod optimize;
+pub mod pipeline;
 pub mod quality;
 pub mod recombine;
 pub mod refine;
+pub mod validity;
+
+pub use pipeline::{quadrangulate, Error, Options, Progress, ProgressFn, Report, Stage};

@@ -10,7 +10,7 @@ use std::process::ExitCode;
 use std::time::Instant;
 
 use blossomquad::mesh::{Mesh, MshFormat, MshVersion};
-use blossomquad::{msh, optimize, quality, recombine, refine};
+use blossomquad::{msh, quality, recombine};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
 /// Turn Gmsh triangle surface meshes into all-quadrilateral meshes (Blossom-Quad).
@@ -114,6 +114,11 @@ struct RunArgs {
     /// Skip the whole optimization (smoothing and topology).
     #[arg(long)]
     no_optimize: bool,
+    /// Write the mesh even when some quads are not valid (a corner not strictly between 0
+    /// and 180 degrees, a zero-length edge) after the fallback, listing them as warnings;
+    /// without it such a mesh is refused (exit 1) and nothing is written.
+    #[arg(long)]
+    allow_invalid: bool,
     /// Allow the output to overwrite the input file.
     #[arg(long)]
     force: bool,
@@ -244,119 +249,68 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     let t_read = t0.elapsed().as_secs_f64();
     print_warnings(&mesh, &log);
 
-    let opts = recombine::RecombineOptions {
-        parity: match args.parity {
-            ParityArg::Repair => recombine::ParityMode::Repair,
-            ParityArg::Error => recombine::ParityMode::Error,
-        },
-        drop_volumes: args.drop_volumes,
-        verify: args.verify,
-        cross_field_weight: args.cross_field,
-        harmonic_cross_field: args.harmonic_cross_field,
-        ..Default::default()
+    let mut opts = blossomquad::Options::default();
+    opts.parity = match args.parity {
+        ParityArg::Repair => recombine::ParityMode::Repair,
+        ParityArg::Error => recombine::ParityMode::Error,
     };
-    let t1 = Instant::now();
-    let before = mesh.clone();
-    // the optimizer's reference triangulation depends on the triangles only: prepared on
-    // its own thread while the recombination runs (its matching is serial per surface)
-    let (report, prepared) = std::thread::scope(|sc| {
-        let prep =
-            (!args.no_optimize).then(|| sc.spawn(|| optimize::PreparedReference::new(&before)));
-        let report = recombine::recombine(&mut mesh, &opts);
-        (report, prep.map(|h| h.join()))
+    opts.drop_volumes = args.drop_volumes;
+    opts.verify = args.verify;
+    opts.cross_field_weight = args.cross_field;
+    opts.harmonic_cross_field = args.harmonic_cross_field;
+    opts.refine = args.refine;
+    opts.smooth = args.smooth;
+    opts.topology = !args.no_topology;
+    opts.optimize = !args.no_optimize;
+    opts.allow_invalid = args.allow_invalid;
+    let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{msg:10} {bar:40} {pos}/{len}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
     });
-    let report = report.map_err(|e| format!("{}: {e}", input.display()))?;
-    let prepared = match prepared {
-        Some(Ok(p)) => Some(p),
-        Some(Err(panic)) => std::panic::resume_unwind(panic),
-        None => None,
-    };
+    if let Some(b) = bar.clone() {
+        opts.progress = Some(blossomquad::ProgressFn(std::sync::Arc::new(
+            move |p: blossomquad::Progress| {
+                b.set_message(match p.stage {
+                    blossomquad::Stage::Recombine => "recombine",
+                    blossomquad::Stage::Refine => "refine",
+                    blossomquad::Stage::Optimize => "optimize",
+                    _ => "check",
+                });
+                b.set_length(p.total as u64);
+                b.set_position(p.done as u64);
+            },
+        )));
+    }
+    let result = blossomquad::quadrangulate(&mut mesh, &opts);
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let report = result.map_err(|e| format!("{}: {e}", input.display()))?;
     for line in &report.log {
         log.say(line);
-    }
-    let t_recombine = t1.elapsed().as_secs_f64();
-    let t_refine_start = Instant::now();
-    for level in 1..=args.refine {
-        let r = refine::refine(&mut mesh).map_err(|e| format!("{}: {e}", input.display()))?;
-        log.say(format!(
-            "refinement {level}: {} quads, {} line elements, {} new nodes",
-            r.quads, r.lines, r.nodes_added
-        ));
-    }
-    let t_refine = t_refine_start.elapsed().as_secs_f64();
-    // invariants after optimization are checked against the mesh it started from
-    let refined = (args.verify && args.refine > 0).then(|| mesh.clone());
-
-    let mut t_opt = 0.0;
-    if !args.no_optimize {
-        let t2 = Instant::now();
-        let mut oopts = optimize::OptimizeOptions::default();
-        // a refined mesh has 2^N times more nodes across: smoothing needs as many more
-        // sweeps to carry a move as far (measured: square_hole at 4h refined twice,
-        // eta_mean 0.827 with 5 sweeps, 0.846 with 20)
-        oopts.smooth_iterations = args
-            .smooth
-            .unwrap_or(oopts.smooth_iterations << args.refine);
-        oopts.topology = !args.no_topology;
-        oopts.reference_size_scale = 0.5f64.powi(i32::from(args.refine));
-        let show_bar = !quiet && std::io::stderr().is_terminal();
-        let bar = show_bar.then(|| {
-            let b = indicatif::ProgressBar::new(0);
-            b.set_style(
-                indicatif::ProgressStyle::with_template("optimizing {bar:40} {pos}/{len} surfaces")
-                    .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-            );
-            b
-        });
-        let progress = |done: usize, total: usize| {
-            if let Some(b) = &bar {
-                b.set_length(total as u64);
-                b.set_position(done as u64);
-            }
-        };
-        oopts.progress = Some(&progress);
-        let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(&before));
-        let orep = optimize::optimize_prepared(&mut mesh, prepared, &oopts)
-            .map_err(|e| format!("{}: {e}", input.display()))?;
-        if let Some(b) = bar {
-            b.finish_and_clear();
-        }
-        for s in &orep.surfaces {
-            log.say(format!(
-                "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",
-                s.surface,
-                s.before.eta_worst,
-                s.after.eta_worst,
-                s.before.eta_mean,
-                s.after.eta_mean,
-                s.after.quads
-            ));
-        }
-        t_opt = t2.elapsed().as_secs_f64();
-        if args.verify {
-            recombine::check_invariants(refined.as_ref().unwrap_or(&before), &mesh).map_err(
-                |e| {
-                    format!(
-                        "{}: invariant violated after optimization: {e}",
-                        input.display()
-                    )
-                },
-            )?;
-        }
     }
     let t3 = Instant::now();
     write(&mesh, &output, &args.format, &log)?;
     let t_write = t3.elapsed().as_secs_f64();
+    let times = &report.times;
     let refine_time = if args.refine > 0 {
-        format!(", refine {t_refine:.3} s")
+        format!(", refine {:.3} s", times.refine.as_secs_f64())
     } else {
         String::new()
     };
     log.say(format!(
-        "time: read {t_read:.3} s, recombine {t_recombine:.3} s{refine_time}, optimize {t_opt:.3} s, write {t_write:.3} s"
+        "time: read {t_read:.3} s, recombine {:.3} s{refine_time}, optimize {:.3} s, check {:.3} s, write {t_write:.3} s",
+        times.recombine.as_secs_f64(),
+        times.optimize.as_secs_f64(),
+        times.check.as_secs_f64(),
     ));
     let sum = |f: fn(&recombine::SurfaceReport) -> std::time::Duration| {
         report
+            .recombine
             .surfaces
             .iter()
             .map(f)

@@ -98,7 +98,7 @@ impl std::fmt::Display for RefineError {
 impl std::error::Error for RefineError {}
 
 /// What one level of refinement did.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
 pub struct RefineReport {
     /// New nodes (edge and face nodes).
     pub nodes_added: usize,
@@ -403,7 +403,13 @@ fn edge_nodes(mesh: &Mesh, index: &NodeIndex) -> (Vec<EdgeNode>, Vec<u32>) {
 /// point bounding it (the rule of `recombine::topology`'s `CurveInfo::on_curve`). A curve
 /// with line elements holds only those: an edge across a surface between two of its nodes
 /// is the surface's.
-fn classified_curve(mesh: &Mesh, index: &NodeIndex, lined: &[i32], a: u64, b: u64) -> Option<i32> {
+pub(crate) fn classified_curve(
+    mesh: &Mesh,
+    index: &NodeIndex,
+    lined: &[i32],
+    a: u64,
+    b: u64,
+) -> Option<i32> {
     let ent = |t: u64| {
         index.get(t).map(|r| {
             let blk = &mesh.node_blocks[r.block as usize];
@@ -425,7 +431,7 @@ fn classified_curve(mesh: &Mesh, index: &NodeIndex, lined: &[i32], a: u64, b: u6
 
 /// The mean parametric coordinates of the parent nodes that lie in node block `bi`, and
 /// whether all of them do (0 when none does).
-fn mean_params(
+pub(crate) fn mean_params(
     blocks: &[NodeBlock],
     index: &NodeIndex,
     bi: usize,

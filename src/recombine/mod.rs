@@ -124,6 +124,7 @@
 //! physical groups are identical.
 
 mod cross_field;
+mod fallback;
 mod graph;
 mod invariants;
 mod parity;
@@ -137,6 +138,7 @@ use rayon::prelude::*;
 use crate::mesh::{element_dim, etype, ElementBlock, Mesh};
 use topology::{CurveInfo, NodeTable, SurfaceTopo};
 
+pub use fallback::{split_triangles, FallbackSplit};
 pub use graph::{
     bad_extra_edge_cost, extra_edge_cost, split_halves_cost, COST_SCALE, FIXED_CORNER_MIN_ETA,
     HOPELESS_COST, MAX_REAL_COST,
@@ -145,7 +147,8 @@ pub use invariants::check_invariants;
 pub use parity::OddRegion;
 
 /// What to do with surfaces that have an odd number of triangles.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
 pub enum ParityMode {
     /// Split boundary segments so that every surface becomes even (default).
     #[default]
@@ -190,7 +193,7 @@ impl Default for RecombineOptions {
 }
 
 /// One parity split.
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
 pub struct ParitySplit {
     /// The curve that was split, when known.
     pub curve: Option<i32>,
@@ -203,7 +206,7 @@ pub struct ParitySplit {
 }
 
 /// Figures for one surface.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
 pub struct SurfaceReport {
     /// Surface entity tag.
     pub surface: i32,
@@ -236,7 +239,7 @@ pub struct SurfaceReport {
 }
 
 /// What [`recombine`] did.
-#[derive(Debug, Clone, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
 pub struct RecombineReport {
     /// One entry per surface that had triangles, by surface tag.
     pub surfaces: Vec<SurfaceReport>,

@@ -1,0 +1,466 @@
+//! The whole main job in one call: [`quadrangulate`] recombines every surface (with parity
+//! repair), optionally refines, optimizes, and checks every quad before it returns. This is
+//! what the `blossomquad IN -o OUT` command does between reading and writing.
+//!
+//! # The validity guarantee
+//! When [`quadrangulate`] returns `Ok`, every 4-node quad of every surface is valid in the
+//! sense of [`crate::validity`] (corners strictly between 0° and 180° about the input
+//! surface's normal, oriented like the input, no zero-length edge, no repeated node) and
+//! [`crate::recombine::check_invariants`] holds between the input and the result
+//! (conformity, no triangle left, curve nodes unmoved, planar areas, physical groups) —
+//! unless [`Options::allow_invalid`] is set, in which case the bad quads are listed in
+//! [`Report::invalid`] instead of failing.
+//!
+//! # The fallback
+//! When quads are not valid after a run, the input triangles around each bad quad (those
+//! holding one of its input nodes) are split into three quads each before the matching
+//! ([`crate::recombine::split_triangles`]), and the whole job runs again from the input.
+//! The set grows over up to [`FALLBACK_ROUNDS`] rounds (one more ring of triangles each
+//! round; the last round splits every triangle of a surface that still has a bad quad).
+//! A run whose quads are all valid the first time pays only for the check.
+
+use std::collections::HashSet;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use serde::{Deserialize, Serialize};
+
+use crate::mesh::{etype, Mesh};
+use crate::validity::BadQuad;
+use crate::{optimize, recombine, refine, validity};
+
+/// Rounds of the fallback after the first run: 1-ring, 2-ring, whole surfaces.
+pub const FALLBACK_ROUNDS: usize = 3;
+
+/// The stage a [`Progress`] report is about.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[non_exhaustive]
+pub enum Stage {
+    /// Parity, graphs, matching and quads.
+    Recombine,
+    /// Uniform refinement.
+    Refine,
+    /// Smoothing and topological optimization (`done`/`total` count surface steps).
+    Optimize,
+    /// The validity check.
+    Check,
+}
+
+/// A progress report: `done` of `total` steps of `stage` (total 0 when unknown).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+pub struct Progress {
+    /// The stage.
+    pub stage: Stage,
+    /// Steps done.
+    pub done: usize,
+    /// Steps in all.
+    pub total: usize,
+}
+
+/// A progress callback, called from any thread.
+#[derive(Clone)]
+pub struct ProgressFn(pub Arc<dyn Fn(Progress) + Send + Sync>);
+
+impl std::fmt::Debug for ProgressFn {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str("ProgressFn")
+    }
+}
+
+/// Options of [`quadrangulate`]; the defaults are the command line's.
+#[derive(Debug, Clone, Serialize, Deserialize)]
+#[serde(default)]
+#[non_exhaustive]
+pub struct Options {
+    /// What to do with surfaces that have an odd number of triangles.
+    pub parity: recombine::ParityMode,
+    /// Drop volume elements instead of refusing a volume mesh.
+    pub drop_volumes: bool,
+    /// Check the matching's optimality certificate too (the invariants and the validity of
+    /// every quad are always checked).
+    pub verify: bool,
+    /// Weight of the cross-field alignment cost (eq. 7), in [0, 5]; 0.05 by default.
+    pub cross_field_weight: f64,
+    /// Use the harmonic cross field instead of the nearest-wall one.
+    pub harmonic_cross_field: bool,
+    /// Uniform refinement levels after recombination (0–3).
+    pub refine: u8,
+    /// Smoothing sweeps per smoothing phase; `None`: 5 · 2^refine.
+    pub smooth: Option<usize>,
+    /// Apply the topological operators.
+    pub topology: bool,
+    /// Optimize at all (smoothing and topology).
+    pub optimize: bool,
+    /// Return `Ok` with the invalid quads listed in [`Report::invalid`] instead of failing.
+    pub allow_invalid: bool,
+    /// Progress callback.
+    #[serde(skip)]
+    pub progress: Option<ProgressFn>,
+}
+
+impl Default for Options {
+    fn default() -> Self {
+        Options {
+            parity: recombine::ParityMode::Repair,
+            drop_volumes: false,
+            verify: false,
+            cross_field_weight: 0.05,
+            harmonic_cross_field: false,
+            refine: 0,
+            smooth: None,
+            topology: true,
+            optimize: true,
+            allow_invalid: false,
+            progress: None,
+        }
+    }
+}
+
+/// Wall time of each stage, summed over fallback rounds.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Times {
+    /// Recombination (parity, graph, matching, quads, fallback splits).
+    pub recombine: Duration,
+    /// Refinement.
+    pub refine: Duration,
+    /// Optimization.
+    pub optimize: Duration,
+    /// Invariant and validity checks.
+    pub check: Duration,
+}
+
+/// What [`quadrangulate`] did.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Report {
+    /// The recombination of the final round.
+    pub recombine: recombine::RecombineReport,
+    /// One entry per refinement level.
+    pub refine: Vec<refine::RefineReport>,
+    /// The optimization of the final round (`None` without optimization).
+    pub optimize: Option<optimize::OptimizeReport>,
+    /// Fallback splits done before the final round's recombination (empty when the first
+    /// run was valid).
+    pub fallback: Option<recombine::FallbackSplit>,
+    /// Runs done (1 + fallback rounds).
+    pub rounds: usize,
+    /// Quads still invalid (only with [`Options::allow_invalid`]; empty otherwise).
+    pub invalid: Vec<BadQuad>,
+    /// Human-readable log lines, in order.
+    pub log: Vec<String>,
+    /// Wall times.
+    pub times: Times,
+}
+
+/// Why [`quadrangulate`] failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// Reading or writing an MSH file.
+    #[error(transparent)]
+    Msh(#[from] crate::msh::MshError),
+    /// Recombination refused or failed.
+    #[error(transparent)]
+    Recombine(#[from] recombine::RecombineError),
+    /// Refinement refused.
+    #[error(transparent)]
+    Refine(#[from] refine::RefineError),
+    /// Optimization failed.
+    #[error(transparent)]
+    Optimize(#[from] optimize::OptimizeError),
+    /// The result broke an invariant (a bug: please report it with the input).
+    #[error("internal check failed after {stage}: {detail}")]
+    Invariant {
+        /// The stage after which the check failed.
+        stage: &'static str,
+        /// What failed.
+        detail: String,
+    },
+    /// Some quads are not valid even after the fallback.
+    #[error("{}", invalid_message(.0))]
+    Invalid(Vec<BadQuad>),
+}
+
+fn invalid_message(bad: &[BadQuad]) -> String {
+    let mut surfaces: Vec<i32> = bad.iter().map(|b| b.surface).collect();
+    surfaces.sort_unstable();
+    surfaces.dedup();
+    let list: Vec<String> = surfaces.iter().map(|s| s.to_string()).collect();
+    let mut msg = format!(
+        "{} quad(s) on surface(s) {} are not valid even after splitting their triangles into quads; first: {}",
+        bad.len(),
+        list.join(", "),
+        bad.first().map(|b| b.to_string()).unwrap_or_default()
+    );
+    msg.push_str(" (rerun with --allow-invalid to write the mesh anyway)");
+    msg
+}
+
+/// Turns every surface's triangles into valid quads (see the module doc): recombination
+/// with parity repair, refinement, optimization, then the invariant and validity checks,
+/// with the fallback when quads are not valid. On error `mesh` is unchanged.
+pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
+    let input = std::mem::take(mesh);
+    let result = run_rounds(&input, opts);
+    match result {
+        Ok((out, report)) => {
+            *mesh = out;
+            Ok(report)
+        }
+        Err(e) => {
+            *mesh = input;
+            Err(e)
+        }
+    }
+}
+
+fn progress(opts: &Options, stage: Stage, done: usize, total: usize) {
+    if let Some(p) = &opts.progress {
+        (p.0)(Progress { stage, done, total });
+    }
+}
+
+fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
+    let mut times = Times::default();
+    let mut log = Vec::new();
+    let mut chosen: HashSet<u64> = HashSet::new();
+    let mut fallback = None;
+    for round in 0..=FALLBACK_ROUNDS {
+        let mut mesh = input.clone();
+        if !chosen.is_empty() {
+            let t = Instant::now();
+            let split = recombine::split_triangles(&mut mesh, &chosen);
+            log.push(format!(
+                "fallback round {round}: {} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
+                split.triangles_to_quads,
+                split
+                    .surfaces
+                    .iter()
+                    .map(|s| s.to_string())
+                    .collect::<Vec<_>>()
+                    .join(", "),
+                split.triangles_halved,
+                split.lines_split
+            ));
+            fallback = Some(split);
+            times.recombine += t.elapsed();
+        }
+        let (run, refined) = run_once(input, &mut mesh, opts, &mut times)?;
+        let t = Instant::now();
+        progress(opts, Stage::Check, 0, 1);
+        // refinement splits every boundary segment once more: its output is the baseline
+        recombine::check_invariants(refined.as_ref().unwrap_or(input), &mesh).map_err(
+            |detail| Error::Invariant {
+                stage: if opts.optimize {
+                    "optimization"
+                } else {
+                    "recombination"
+                },
+                detail,
+            },
+        )?;
+        let bad = validity::invalid_quads(input, &mesh);
+        progress(opts, Stage::Check, 1, 1);
+        times.check += t.elapsed();
+        let mut report = run;
+        report.log.splice(0..0, log.iter().cloned());
+        report.fallback = fallback.clone();
+        report.rounds = round + 1;
+        if bad.is_empty() {
+            report.times = times;
+            return Ok((mesh, report));
+        }
+        let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+        log.push(format!(
+            "round {}: {} quad(s) not valid on surface(s) {}: {}",
+            round + 1,
+            bad.len(),
+            sorted_list(&surfaces),
+            bad.iter()
+                .take(3)
+                .map(|b| b.to_string())
+                .collect::<Vec<_>>()
+                .join("; ")
+        ));
+        let more = fallback_triangles(input, &bad, &chosen, round);
+        if round == FALLBACK_ROUNDS || more.is_empty() {
+            if opts.allow_invalid {
+                report.log.push(format!(
+                    "warning: writing {} invalid quad(s) (--allow-invalid): {}",
+                    bad.len(),
+                    bad.iter()
+                        .map(|b| b.to_string())
+                        .collect::<Vec<_>>()
+                        .join("; ")
+                ));
+                report.invalid = bad;
+                report.times = times;
+                return Ok((mesh, report));
+            }
+            return Err(Error::Invalid(bad));
+        }
+        chosen.extend(more);
+    }
+    unreachable!("the last round returns")
+}
+
+fn sorted_list(s: &HashSet<i32>) -> String {
+    let mut v: Vec<i32> = s.iter().copied().collect();
+    v.sort_unstable();
+    v.iter()
+        .map(|x| x.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// The input triangles to split for the next round: round 0, those of the bad quad's
+/// surface holding one of its nodes; round 1, also those touching a node of an already
+/// chosen triangle of that surface; from round 2, every triangle of a surface with a bad
+/// quad. Only triangles not chosen yet.
+fn fallback_triangles(
+    input: &Mesh,
+    bad: &[BadQuad],
+    chosen: &HashSet<u64>,
+    round: usize,
+) -> HashSet<u64> {
+    let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+    let tri_blocks = || {
+        input.element_blocks.iter().filter(|b| {
+            b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
+        })
+    };
+    let mut out = HashSet::new();
+    if round + 1 >= FALLBACK_ROUNDS {
+        for b in tri_blocks() {
+            out.extend(b.tags.iter().copied().filter(|t| !chosen.contains(t)));
+        }
+        return out;
+    }
+    let mut near: HashSet<(i32, u64)> = bad
+        .iter()
+        .flat_map(|b| b.nodes.iter().map(move |&n| (b.surface, n)))
+        .collect();
+    let mut uncovered: HashSet<i32> = surfaces.clone();
+    for b in tri_blocks() {
+        for i in 0..b.len() {
+            let e = b.element(i);
+            if e.iter().any(|&n| near.contains(&(b.entity_tag, n))) {
+                uncovered.remove(&b.entity_tag);
+            }
+        }
+    }
+    if round >= 1 {
+        for b in tri_blocks() {
+            for i in 0..b.len() {
+                if chosen.contains(&b.tags[i]) {
+                    near.extend(b.element(i).iter().map(|&n| (b.entity_tag, n)));
+                }
+            }
+        }
+    }
+    for b in tri_blocks() {
+        for i in 0..b.len() {
+            let t = b.tags[i];
+            let whole = uncovered.contains(&b.entity_tag);
+            if !chosen.contains(&t)
+                && (whole
+                    || b.element(i)
+                        .iter()
+                        .any(|&n| near.contains(&(b.entity_tag, n))))
+            {
+                out.insert(t);
+            }
+        }
+    }
+    out
+}
+
+/// One run: recombine, refine, optimize (the reference triangulation prepared on its own
+/// thread meanwhile). Returns the report and, after a refinement, the refined mesh before
+/// optimization.
+fn run_once(
+    input: &Mesh,
+    mesh: &mut Mesh,
+    opts: &Options,
+    times: &mut Times,
+) -> Result<(Report, Option<Mesh>), Error> {
+    let ropts = recombine::RecombineOptions {
+        parity: opts.parity,
+        drop_volumes: opts.drop_volumes,
+        verify: opts.verify,
+        cross_field_weight: opts.cross_field_weight,
+        harmonic_cross_field: opts.harmonic_cross_field,
+        ..Default::default()
+    };
+    let t = Instant::now();
+    progress(opts, Stage::Recombine, 0, 1);
+    // the optimizer's reference depends on the input triangles only: prepared on its own
+    // thread while the recombination runs (its matching is serial per surface)
+    let (recombined, prep) = std::thread::scope(|sc| {
+        let prep = opts
+            .optimize
+            .then(|| sc.spawn(|| optimize::PreparedReference::new(input)));
+        let r = recombine::recombine(mesh, &ropts);
+        (r, prep.map(|h| h.join()))
+    });
+    let rreport = recombined?;
+    let prepared = match prep {
+        Some(Ok(p)) => Some(p),
+        Some(Err(panic)) => std::panic::resume_unwind(panic),
+        None => None,
+    };
+    progress(opts, Stage::Recombine, 1, 1);
+    times.recombine += t.elapsed();
+    let mut report = Report {
+        log: rreport.log.clone(),
+        recombine: rreport,
+        ..Default::default()
+    };
+
+    let t = Instant::now();
+    for level in 1..=opts.refine {
+        progress(
+            opts,
+            Stage::Refine,
+            usize::from(level - 1),
+            usize::from(opts.refine),
+        );
+        let r = refine::refine(mesh)?;
+        report.log.push(format!(
+            "refinement {level}: {} quads, {} line elements, {} new nodes",
+            r.quads, r.lines, r.nodes_added
+        ));
+        report.refine.push(r);
+    }
+    times.refine += t.elapsed();
+    let refined = (opts.refine > 0).then(|| mesh.clone());
+
+    if opts.optimize {
+        let t = Instant::now();
+        let mut oopts = optimize::OptimizeOptions::default();
+        // a refined mesh has 2^N times more nodes across: smoothing needs as many more
+        // sweeps to carry a move as far
+        oopts.smooth_iterations = opts
+            .smooth
+            .unwrap_or(oopts.smooth_iterations << opts.refine);
+        oopts.topology = opts.topology;
+        oopts.reference_size_scale = 0.5f64.powi(i32::from(opts.refine));
+        let cb = |done: usize, total: usize| progress(opts, Stage::Optimize, done, total);
+        oopts.progress = Some(&cb);
+        let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
+        let orep = optimize::optimize_prepared(mesh, prepared, &oopts)?;
+        for s in &orep.surfaces {
+            report.log.push(format!(
+                "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",
+                s.surface,
+                s.before.eta_worst,
+                s.after.eta_worst,
+                s.before.eta_mean,
+                s.after.eta_mean,
+                s.after.quads
+            ));
+        }
+        report.optimize = Some(orep);
+        times.optimize += t.elapsed();
+    }
+    Ok((report, refined))
+}

@@ -1,0 +1,522 @@
+//! The fallback that always gives valid quads where pairing triangles cannot: chosen
+//! triangles are split into three quads each (centroid and edge midpoints, the refinement
+//! rule of Figure 2 applied locally), before the matching runs on what is left.
+//!
+//! Splitting a triangle's edge at its midpoint also splits the element on the other side of
+//! that edge, whatever surface it belongs to, so the mesh stays conforming:
+//! - a triangle that would get two or three split edges joins the chosen set (its third edge
+//!   is split too), until no other triangle has more than one;
+//! - a triangle with one split edge becomes two triangles (as a parity split does);
+//! - a 2-node line element on a split edge becomes two lines;
+//! - a quad already in the file with one split edge becomes a quad and a triangle, with
+//!   more it becomes a fan of triangles (the matching then pairs them with their
+//!   neighbours).
+//!
+//! Every child of a split triangle is a convex quad (a corner of the triangle, two edge
+//! midpoints and the centroid), oriented like its parent; edge midpoints are chord
+//! midpoints, so planar areas and straight curves are unchanged. New edge nodes are
+//! classified like parity-split nodes: on the edge's curve (line element or node
+//! classification), else on the surface of the first triangle holding the edge; centroids on
+//! their triangle's surface. The first child of an element keeps its tag; the others and the
+//! new nodes get tags above the maximum.
+
+use std::collections::{BTreeMap, HashMap, HashSet};
+
+use glam::DVec3;
+
+use crate::mesh::{etype, ElementBlock, Mesh, NodeBlock};
+
+/// What [`split_triangles`] did.
+#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+pub struct FallbackSplit {
+    /// Triangles split into three quads (the chosen ones and those added to keep every
+    /// other triangle at one split edge at most).
+    pub triangles_to_quads: usize,
+    /// Neighbouring triangles split in two.
+    pub triangles_halved: usize,
+    /// Quads already in the file that were split (into a quad and a triangle, or a fan).
+    pub quads_split: usize,
+    /// Line elements split in two.
+    pub lines_split: usize,
+    /// New nodes.
+    pub nodes_added: usize,
+    /// Surfaces whose triangles were split into quads.
+    pub surfaces: Vec<i32>,
+}
+
+/// A new node: tag, classifying entity (dim, tag), position, parent nodes (for parametric
+/// coordinates).
+type NewNode = (u64, (i32, i32), DVec3, Vec<u64>);
+
+fn key(a: u64, b: u64) -> (u64, u64) {
+    (a.min(b), a.max(b))
+}
+
+/// Splits the 3-node triangles whose element tags are in `chosen` (and the ones the rule of
+/// the module doc adds) into three quads each. Tags that are not triangles are ignored.
+/// Triangles naming a missing node are left alone.
+pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit {
+    let mut report = FallbackSplit::default();
+    let index = mesh.node_index();
+    let pos = |t: u64| -> Option<DVec3> {
+        index
+            .get(t)
+            .map(|r| DVec3::from_array(mesh.node_blocks[r.block as usize].coords[r.index as usize]))
+    };
+    // every triangle, as (block, element), and the triangles at each edge
+    let mut tris: Vec<(usize, usize)> = Vec::new();
+    let mut at_edge: HashMap<(u64, u64), Vec<u32>> = HashMap::new();
+    let mut marked: Vec<bool> = Vec::new();
+    for (bi, b) in mesh.element_blocks.iter().enumerate() {
+        if b.element_type != etype::TRI3 || b.entity_dim != 2 {
+            continue;
+        }
+        for i in 0..b.len() {
+            let e = b.element(i);
+            if e.iter().any(|&t| pos(t).is_none()) {
+                continue;
+            }
+            let id = tris.len() as u32;
+            tris.push((bi, i));
+            marked.push(chosen.contains(&b.tags[i]));
+            for j in 0..3 {
+                at_edge
+                    .entry(key(e[j], e[(j + 1) % 3]))
+                    .or_default()
+                    .push(id);
+            }
+        }
+    }
+    let tri_nodes = |id: u32| -> [u64; 3] {
+        let (bi, i) = tris[id as usize];
+        let e = mesh.element_blocks[bi].element(i);
+        [e[0], e[1], e[2]]
+    };
+    // close the chosen set: no other triangle keeps two split edges
+    let mut split: HashSet<(u64, u64)> = HashSet::new();
+    let mut work: Vec<u32> = (0..tris.len() as u32)
+        .filter(|&t| marked[t as usize])
+        .collect();
+    while let Some(t) = work.pop() {
+        let n = tri_nodes(t);
+        for j in 0..3 {
+            let e = key(n[j], n[(j + 1) % 3]);
+            if !split.insert(e) {
+                continue;
+            }
+            for &o in at_edge.get(&e).map(|v| &v[..]).unwrap_or(&[]) {
+                if marked[o as usize] {
+                    continue;
+                }
+                let on = tri_nodes(o);
+                let count = (0..3)
+                    .filter(|&k| split.contains(&key(on[k], on[(k + 1) % 3])))
+                    .count();
+                if count >= 2 {
+                    marked[o as usize] = true;
+                    work.push(o);
+                }
+            }
+        }
+    }
+    if split.is_empty() {
+        return report;
+    }
+
+    // where each new edge node lives: a line element's curve, a classified curve, or the
+    // surface of the first triangle holding the edge
+    let mut owner: BTreeMap<(u64, u64), (i32, i32)> = BTreeMap::new();
+    for b in &mesh.element_blocks {
+        if b.element_type != etype::LINE2 {
+            continue;
+        }
+        for i in 0..b.len() {
+            let e = b.element(i);
+            let k = key(e[0], e[1]);
+            if split.contains(&k) {
+                owner.entry(k).or_insert((1, b.entity_tag));
+            }
+        }
+    }
+    let mut lined: Vec<i32> = mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == etype::LINE2 && !b.is_empty())
+        .map(|b| b.entity_tag)
+        .collect();
+    lined.sort_unstable();
+    lined.dedup();
+    let mut edges: Vec<(u64, u64)> = split.iter().copied().collect();
+    edges.sort_unstable();
+    for &e in &edges {
+        if owner.contains_key(&e) {
+            continue;
+        }
+        let o = match crate::refine::classified_curve(mesh, &index, &lined, e.0, e.1) {
+            Some(c) => (1, c),
+            None => {
+                let first = at_edge.get(&e).and_then(|v| v.first()).copied();
+                let s = first.map_or(0, |t| mesh.element_blocks[tris[t as usize].0].entity_tag);
+                (2, s)
+            }
+        };
+        owner.insert(e, o);
+    }
+    let mut next_node = mesh.max_node_tag() + 1;
+    let mut new_nodes: Vec<NewNode> = Vec::new();
+    let mut mid: HashMap<(u64, u64), u64> = HashMap::new();
+    for &e in &edges {
+        let (Some(a), Some(b)) = (pos(e.0), pos(e.1)) else {
+            continue;
+        };
+        let o = owner.get(&e).copied().unwrap_or((2, 0));
+        new_nodes.push((next_node, o, 0.5 * (a + b), vec![e.0, e.1]));
+        mid.insert(e, next_node);
+        next_node += 1;
+    }
+    let midpoint = |a: u64, b: u64| mid.get(&key(a, b)).copied();
+
+    // rewrite the element blocks
+    let mut next_elem = mesh.max_element_tag() + 1;
+    let mut fresh = || {
+        next_elem += 1;
+        next_elem - 1
+    };
+    let mut quads_of: BTreeMap<i32, ElementBlock> = BTreeMap::new();
+    let mut tri_marked: Vec<Vec<bool>> = mesh
+        .element_blocks
+        .iter()
+        .map(|b| {
+            vec![
+                false;
+                if b.element_type == etype::TRI3 {
+                    b.len()
+                } else {
+                    0
+                }
+            ]
+        })
+        .collect();
+    for (id, &(bi, i)) in tris.iter().enumerate() {
+        tri_marked[bi][i] = marked[id];
+    }
+    let mut blocks: Vec<ElementBlock> = Vec::with_capacity(mesh.element_blocks.len() + 1);
+    for (bi, b) in mesh.element_blocks.iter().enumerate() {
+        let k = b.nodes_per_element();
+        let handled = matches!(b.element_type, etype::TRI3 | etype::LINE2 | etype::QUAD4);
+        if !handled {
+            blocks.push(b.clone());
+            continue;
+        }
+        let mut out = ElementBlock {
+            entity_dim: b.entity_dim,
+            entity_tag: b.entity_tag,
+            element_type: b.element_type,
+            tags: Vec::with_capacity(b.len()),
+            nodes: Vec::with_capacity(b.nodes.len()),
+            partitions: b.partitions.as_ref().map(|_| Vec::new()),
+        };
+        let mut extra_tris: Vec<(u64, [u64; 3], Option<Vec<i32>>)> = Vec::new();
+        for i in 0..b.len() {
+            let e = b.element(i);
+            let part = b.partitions.as_ref().and_then(|p| p.get(i).cloned());
+            let push = |out: &mut ElementBlock, tag: u64, nodes: &[u64]| {
+                out.tags.push(tag);
+                out.nodes.extend_from_slice(nodes);
+                if let Some(p) = out.partitions.as_mut() {
+                    p.push(part.clone().unwrap_or_default());
+                }
+            };
+            match b.element_type {
+                etype::TRI3 if tri_marked[bi].get(i).copied().unwrap_or(false) => {
+                    let (Some(m), Some(c)) = (
+                        (0..3)
+                            .map(|j| midpoint(e[j], e[(j + 1) % 3]))
+                            .collect::<Option<Vec<u64>>>(),
+                        e.iter().map(|&t| pos(t)).sum::<Option<DVec3>>(),
+                    ) else {
+                        push(&mut out, b.tags[i], e);
+                        continue;
+                    };
+                    let centre = next_node;
+                    next_node += 1;
+                    new_nodes.push((centre, (2, b.entity_tag), c / 3.0, e.to_vec()));
+                    let q = quads_of
+                        .entry(b.entity_tag)
+                        .or_insert_with(|| ElementBlock {
+                            entity_dim: 2,
+                            entity_tag: b.entity_tag,
+                            element_type: etype::QUAD4,
+                            tags: Vec::new(),
+                            nodes: Vec::new(),
+                            partitions: b.partitions.as_ref().map(|_| Vec::new()),
+                        });
+                    for j in 0..3 {
+                        let tag = if j == 0 { b.tags[i] } else { fresh() };
+                        q.tags.push(tag);
+                        q.nodes
+                            .extend_from_slice(&[e[j], m[j], centre, m[(j + 2) % 3]]);
+                        if let Some(p) = q.partitions.as_mut() {
+                            p.push(part.clone().unwrap_or_default());
+                        }
+                    }
+                    report.triangles_to_quads += 1;
+                    if !report.surfaces.contains(&b.entity_tag) {
+                        report.surfaces.push(b.entity_tag);
+                    }
+                }
+                etype::TRI3 => {
+                    match (0..3).find_map(|j| midpoint(e[j], e[(j + 1) % 3]).map(|m| (j, m))) {
+                        Some((j, m)) => {
+                            let (x, y, z) = (e[j], e[(j + 1) % 3], e[(j + 2) % 3]);
+                            push(&mut out, b.tags[i], &[x, m, z]);
+                            push(&mut out, fresh(), &[m, y, z]);
+                            report.triangles_halved += 1;
+                        }
+                        None => push(&mut out, b.tags[i], e),
+                    }
+                }
+                etype::LINE2 => match midpoint(e[0], e[1]) {
+                    Some(m) => {
+                        push(&mut out, b.tags[i], &[e[0], m]);
+                        push(&mut out, fresh(), &[m, e[1]]);
+                        report.lines_split += 1;
+                    }
+                    None => push(&mut out, b.tags[i], e),
+                },
+                _ => {
+                    // a quad (4 nodes): its boundary with the midpoints of split edges
+                    debug_assert_eq!(k, 4);
+                    let mut ring: Vec<u64> = Vec::with_capacity(8);
+                    let mut first_mid = None;
+                    for j in 0..4 {
+                        ring.push(e[j]);
+                        if let Some(m) = midpoint(e[j], e[(j + 1) % 4]) {
+                            first_mid.get_or_insert(ring.len());
+                            ring.push(m);
+                        }
+                    }
+                    match (ring.len(), first_mid) {
+                        (4, _) | (_, None) => push(&mut out, b.tags[i], e),
+                        (5, Some(at)) => {
+                            // m between ring[at-1] and ring[at+1]: the quad m, ring[at+1],
+                            // ring[at+2], ring[at+3] and the triangle ring[at-1], m, ring[at+3]
+                            let r = |o: usize| ring[(at + o) % 5];
+                            push(&mut out, b.tags[i], &[r(0), r(1), r(2), r(3)]);
+                            extra_tris.push((fresh(), [r(4), r(0), r(3)], part.clone()));
+                            report.quads_split += 1;
+                        }
+                        (n, Some(apex)) => {
+                            // a fan of triangles from the first midpoint (a fan from a
+                            // corner would hold a flat triangle along a split edge)
+                            for f in 1..n - 1 {
+                                let t =
+                                    [ring[apex], ring[(apex + f) % n], ring[(apex + f + 1) % n]];
+                                let tag = if f == 1 { b.tags[i] } else { fresh() };
+                                extra_tris.push((tag, t, part.clone()));
+                            }
+                            report.quads_split += 1;
+                        }
+                    }
+                }
+            }
+        }
+        blocks.push(out);
+        if !extra_tris.is_empty() {
+            let mut t = ElementBlock {
+                entity_dim: b.entity_dim,
+                entity_tag: b.entity_tag,
+                element_type: etype::TRI3,
+                tags: Vec::new(),
+                nodes: Vec::new(),
+                partitions: b.partitions.as_ref().map(|_| Vec::new()),
+            };
+            for (tag, n, p) in extra_tris {
+                t.tags.push(tag);
+                t.nodes.extend_from_slice(&n);
+                if let Some(ps) = t.partitions.as_mut() {
+                    ps.push(p.unwrap_or_default());
+                }
+            }
+            blocks.push(t);
+        }
+    }
+    // the new quads join the surface's quad block (the first one), or follow its triangles
+    for (s, q) in quads_of {
+        let at_quads = blocks
+            .iter()
+            .position(|b| b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::QUAD4);
+        match at_quads {
+            Some(i) => {
+                let b = &mut blocks[i];
+                b.tags.extend_from_slice(&q.tags);
+                b.nodes.extend_from_slice(&q.nodes);
+                match (b.partitions.as_mut(), q.partitions) {
+                    (Some(p), Some(new)) => p.extend(new),
+                    (Some(p), None) => p.extend(q.tags.iter().map(|_| Vec::new())),
+                    (None, Some(new)) => {
+                        let mut all = vec![Vec::new(); b.tags.len() - new.len()];
+                        all.extend(new);
+                        b.partitions = Some(all);
+                    }
+                    (None, None) => {}
+                }
+            }
+            None => {
+                let after = blocks
+                    .iter()
+                    .rposition(|b| {
+                        b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::TRI3
+                    })
+                    .map_or(blocks.len(), |i| i + 1);
+                blocks.insert(after, q);
+            }
+        }
+    }
+    blocks.retain(|b| !b.is_empty() || b.element_type != etype::TRI3);
+
+    // the new nodes, into the blocks of their entities
+    report.nodes_added = new_nodes.len();
+    let mut block_of: HashMap<(i32, i32), usize> = HashMap::new();
+    for (bi, b) in mesh.node_blocks.iter().enumerate() {
+        block_of.entry((b.entity_dim, b.entity_tag)).or_insert(bi);
+    }
+    let mut node_blocks = mesh.node_blocks.clone();
+    for (tag, o, p, parents) in &new_nodes {
+        let bi = *block_of.entry(*o).or_insert_with(|| {
+            node_blocks.push(NodeBlock {
+                entity_dim: o.0,
+                entity_tag: o.1,
+                tags: Vec::new(),
+                coords: Vec::new(),
+                params: None,
+            });
+            node_blocks.len() - 1
+        });
+        let np = o.0.max(0) as usize;
+        let has_params = node_blocks[bi].params.is_some();
+        let uv = if has_params {
+            crate::refine::mean_params(&mesh.node_blocks, &index, bi, np, parents).0
+        } else {
+            Vec::new()
+        };
+        let blk = &mut node_blocks[bi];
+        blk.tags.push(*tag);
+        blk.coords.push(p.to_array());
+        if let Some(params) = blk.params.as_mut() {
+            params.extend_from_slice(&uv);
+        }
+    }
+    mesh.node_blocks = node_blocks;
+    mesh.element_blocks = blocks;
+    mesh.invalidate_element_data();
+    report.surfaces.sort_unstable();
+    report
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::Entity;
+
+    /// Two surfaces sharing the curve 2-3: surface 1 = triangles (1 2 3), (1 3 4);
+    /// surface 2 = triangle (2 5 3); the curve 2-3 has a line element.
+    fn two_surfaces() -> Mesh {
+        let mut m = Mesh::default();
+        for (dim, tag) in [(1, 7), (2, 1), (2, 2)] {
+            m.entities[dim as usize].push(Entity {
+                dim,
+                tag,
+                bbox: [0.0; 6],
+                physical_tags: Vec::new(),
+                bounding: Vec::new(),
+            });
+        }
+        m.node_blocks.push(NodeBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            tags: vec![1, 2, 3, 4, 5],
+            coords: vec![
+                [0., 0., 0.],
+                [1., 0., 0.],
+                [1., 1., 0.],
+                [0., 1., 0.],
+                [2., 0.5, 0.],
+            ],
+            params: None,
+        });
+        let block = |tag: i32, ty: u32, tags: Vec<u64>, nodes: Vec<u64>| ElementBlock {
+            entity_dim: if ty == etype::LINE2 { 1 } else { 2 },
+            entity_tag: tag,
+            element_type: ty,
+            tags,
+            nodes,
+            partitions: None,
+        };
+        m.element_blocks
+            .push(block(7, etype::LINE2, vec![10], vec![2, 3]));
+        m.element_blocks
+            .push(block(1, etype::TRI3, vec![1, 2], vec![1, 2, 3, 1, 3, 4]));
+        m.element_blocks
+            .push(block(2, etype::TRI3, vec![3], vec![2, 5, 3]));
+        m
+    }
+
+    #[test]
+    fn a_chosen_triangle_becomes_three_quads_and_its_neighbours_stay_conforming() {
+        let mut m = two_surfaces();
+        let r = split_triangles(&mut m, &HashSet::from([1]));
+        // triangle 1 has split edges 1-2, 2-3, 3-1; triangle 2 (1 3 4) gets one (1-3) and
+        // is halved; triangle 3 (2 5 3) gets one (2-3) and is halved; the line is split
+        assert_eq!(r.triangles_to_quads, 1);
+        assert_eq!(r.triangles_halved, 2);
+        assert_eq!(r.lines_split, 1);
+        assert_eq!(r.nodes_added, 4);
+        let quads: Vec<&ElementBlock> = m
+            .element_blocks
+            .iter()
+            .filter(|b| b.element_type == etype::QUAD4)
+            .collect();
+        assert_eq!(quads.len(), 1);
+        assert_eq!(quads[0].len(), 3);
+        assert_eq!(quads[0].tags[0], 1, "the first child keeps the tag");
+        // the midpoint of the curve segment is on the curve
+        let on_curve = m
+            .node_blocks
+            .iter()
+            .find(|b| b.entity_dim == 1 && b.entity_tag == 7)
+            .map(|b| b.coords.clone());
+        assert_eq!(on_curve, Some(vec![[1.0, 0.5, 0.0]]));
+        // conforming, oriented, boundaries split once, area kept: the recombination's own
+        // invariant check (which allows triangles only through `--allow-triangles`-like
+        // use, so compare the quads' validity and the rest separately)
+        let before = two_surfaces();
+        let msg = crate::recombine::check_invariants(&before, &m).unwrap_err();
+        assert!(msg.contains("still has 2 triangles"), "{msg}");
+        crate::optimize::check::check_surface_mesh(&{
+            let mut lined = m.clone();
+            lined
+                .element_blocks
+                .retain(|b| b.element_type != etype::LINE2);
+            lined
+        })
+        .unwrap();
+        // every new quad is valid about the input triangles
+        assert!(crate::validity::invalid_quads(&before, &m).is_empty());
+    }
+
+    #[test]
+    fn a_triangle_with_two_split_edges_joins_the_chosen_set() {
+        let mut m = two_surfaces();
+        // choosing both triangles of surface 1 splits all of their edges; the triangle of
+        // surface 2 has one split edge (2-3) only
+        let r = split_triangles(&mut m, &HashSet::from([1, 2]));
+        assert_eq!(r.triangles_to_quads, 2);
+        assert_eq!(r.triangles_halved, 1);
+        let mut m = two_surfaces();
+        // a square split on its diagonal: choosing (2 5 3) splits 2-3, which triangle 1 shares
+        let r = split_triangles(&mut m, &HashSet::from([3]));
+        assert_eq!((r.triangles_to_quads, r.triangles_halved), (1, 1));
+        assert_eq!(r.surfaces, vec![2]);
+    }
+}

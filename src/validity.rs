@@ -1,0 +1,344 @@
+//! The validity gate: what every quad written by [`crate::quadrangulate`] satisfies.
+//!
+//! A quad is **valid** when
+//! - its four nodes exist and are distinct;
+//! - no edge has zero length (below [`MIN_EDGE`] times the mesh's extent);
+//! - each corner angle is strictly between 0° and 180° (corner quality of eq. 3 above
+//!   [`MIN_CORNER_ETA`]), measured in 3D about the *input* surface's normal at that corner:
+//!   the area-weighted normal of the input faces of the same surface around the corner's
+//!   node, oriented like them. So a quad that turned over (inverted, or oriented against
+//!   the triangles it came from) fails at its corners, and so does a flat (180°) or reflex
+//!   corner. Nodes the input did not have (vertex duplications, parity and fallback splits,
+//!   refinement) take the mean input normal of the quad's other nodes, or, when none of its
+//!   nodes is an input node of that surface, the quad's own normal.
+//!
+//! [`invalid_quads`] lists every quad that is not valid; it shares no code with the
+//! recombination or the optimizer, which it checks.
+
+use glam::DVec3;
+use rayon::prelude::*;
+
+use crate::mesh::{etype, Mesh, NodeIndex};
+use crate::quality::eta::corner_eta;
+
+/// Smallest corner quality (eq. 3, one corner) counted as strictly inside (0°, 180°):
+/// angles within about 1e-4 degree of 0° or 180° are flat.
+pub const MIN_CORNER_ETA: f64 = 1e-6;
+
+/// Shortest edge counted as non-zero, relative to the diagonal of the mesh's bounding box.
+pub const MIN_EDGE: f64 = 1e-12;
+
+/// Why a quad is not valid.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+#[non_exhaustive]
+pub enum Defect {
+    /// A node tag that no node block holds.
+    MissingNode(u64),
+    /// The same node twice.
+    RepeatedNode(u64),
+    /// The edge from corner `corner` to the next has (near) zero length.
+    ZeroLengthEdge {
+        /// Index 0–3 of the edge's first corner.
+        corner: usize,
+    },
+    /// Corner `corner`'s angle, in degrees, is not strictly between 0 and 180 (about the
+    /// input surface's normal: negative or above 180 means turned over or reflex).
+    Corner {
+        /// Index 0–3 of the corner.
+        corner: usize,
+        /// The signed angle in degrees, in (−180, 180].
+        degrees: f64,
+    },
+}
+
+/// One quad that is not valid.
+#[derive(Debug, Clone, PartialEq, serde::Serialize)]
+pub struct BadQuad {
+    /// Surface entity tag.
+    pub surface: i32,
+    /// Element tag.
+    pub element: u64,
+    /// The quad's node tags.
+    pub nodes: [u64; 4],
+    /// What is wrong (the first defect found).
+    pub defect: Defect,
+}
+
+impl BadQuad {
+    /// The node tag the defect is at (the bad corner, the first node of a zero edge, or the
+    /// missing or repeated node).
+    pub fn node(&self) -> u64 {
+        match self.defect {
+            Defect::MissingNode(t) | Defect::RepeatedNode(t) => t,
+            Defect::ZeroLengthEdge { corner } | Defect::Corner { corner, .. } => self.nodes[corner],
+        }
+    }
+}
+
+impl std::fmt::Display for BadQuad {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let [a, b, c, d] = self.nodes;
+        write!(
+            f,
+            "surface {}, quad {} (nodes {a} {b} {c} {d}): ",
+            self.surface, self.element
+        )?;
+        match &self.defect {
+            Defect::MissingNode(t) => write!(f, "node {t} does not exist"),
+            Defect::RepeatedNode(t) => write!(f, "node {t} is used twice"),
+            Defect::ZeroLengthEdge { corner } => write!(
+                f,
+                "edge {}-{} has zero length",
+                self.nodes[*corner],
+                self.nodes[(corner + 1) % 4]
+            ),
+            Defect::Corner { corner, degrees } => write!(
+                f,
+                "the corner at node {} is not strictly between 0 and 180 degrees \
+                 ({degrees:.2} degrees about the input surface's normal: flat, reflex or \
+                 turned over)",
+                self.nodes[*corner]
+            ),
+        }
+    }
+}
+
+/// Every 4-node quad of `output` that is not valid (see the module doc), by surface tag
+/// then block order. `input` is the mesh the quads came from: its faces (triangles and
+/// quads) give the reference normals.
+pub fn invalid_quads(input: &Mesh, output: &Mesh) -> Vec<BadQuad> {
+    let out_index = output.node_index();
+    let in_index = input.node_index();
+    let extent = extent(output);
+    let min_edge = MIN_EDGE * extent;
+    let mut surfaces: Vec<i32> = output
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4 && !b.is_empty())
+        .map(|b| b.entity_tag)
+        .collect();
+    surfaces.sort_unstable();
+    surfaces.dedup();
+    surfaces
+        .par_iter()
+        .flat_map_iter(|&s| {
+            let normals = input_normals(input, &in_index, s);
+            let mut bad = Vec::new();
+            for b in output.element_blocks.iter().filter(|b| {
+                b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::QUAD4
+            }) {
+                for i in 0..b.len() {
+                    let e = b.element(i);
+                    let nodes = [e[0], e[1], e[2], e[3]];
+                    if let Some(defect) = check_quad(output, &out_index, &normals, nodes, min_edge)
+                    {
+                        bad.push(BadQuad {
+                            surface: s,
+                            element: b.tags[i],
+                            nodes,
+                            defect,
+                        });
+                    }
+                }
+            }
+            bad
+        })
+        .collect()
+}
+
+/// The diagonal of the bounding box of all nodes (1 for an empty mesh).
+fn extent(mesh: &Mesh) -> f64 {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for b in &mesh.node_blocks {
+        for c in &b.coords {
+            let p = DVec3::from_array(*c);
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    let d = (hi - lo).length();
+    if d.is_finite() && d > 0.0 {
+        d
+    } else {
+        1.0
+    }
+}
+
+/// Area-weighted normals of the input faces of surface `s` at their nodes, sorted by node
+/// tag.
+fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> Vec<(u64, DVec3)> {
+    let pos = |t: u64| {
+        index.get(t).map(|r| {
+            DVec3::from_array(input.node_blocks[r.block as usize].coords[r.index as usize])
+        })
+    };
+    let mut acc: Vec<(u64, DVec3)> = Vec::new();
+    for b in input.element_blocks.iter().filter(|b| {
+        b.entity_dim == 2
+            && b.entity_tag == s
+            && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
+    }) {
+        let k = b.nodes_per_element();
+        for i in 0..b.len() {
+            let e = b.element(i);
+            let Some(p) = e.iter().map(|&t| pos(t)).collect::<Option<Vec<DVec3>>>() else {
+                continue;
+            };
+            // twice the vector area (Newell), so a face's weight is its area
+            let mut n = DVec3::ZERO;
+            for j in 1..k - 1 {
+                n += (p[j] - p[0]).cross(p[j + 1] - p[0]);
+            }
+            for &t in e {
+                acc.push((t, n));
+            }
+        }
+    }
+    acc.sort_unstable_by_key(|x| x.0);
+    let mut out: Vec<(u64, DVec3)> = Vec::with_capacity(acc.len() / 3 + 1);
+    for (t, n) in acc {
+        match out.last_mut() {
+            Some(last) if last.0 == t => last.1 += n,
+            _ => out.push((t, n)),
+        }
+    }
+    out
+}
+
+/// The first defect of quad `q`, if any.
+fn check_quad(
+    mesh: &Mesh,
+    index: &NodeIndex,
+    normals: &[(u64, DVec3)],
+    q: [u64; 4],
+    min_edge: f64,
+) -> Option<Defect> {
+    let mut p = [DVec3::ZERO; 4];
+    for k in 0..4 {
+        let Some(r) = index.get(q[k]) else {
+            return Some(Defect::MissingNode(q[k]));
+        };
+        p[k] = DVec3::from_array(mesh.node_blocks[r.block as usize].coords[r.index as usize]);
+        if q[..k].contains(&q[k]) {
+            return Some(Defect::RepeatedNode(q[k]));
+        }
+    }
+    for k in 0..4 {
+        let len = (p[(k + 1) % 4] - p[k]).length();
+        if len.is_nan() || len <= min_edge {
+            return Some(Defect::ZeroLengthEdge { corner: k });
+        }
+    }
+    let normal_of = |t: u64| -> Option<DVec3> {
+        normals
+            .binary_search_by_key(&t, |x| x.0)
+            .ok()
+            .map(|i| normals[i].1.normalize_or_zero())
+            .filter(|n| *n != DVec3::ZERO)
+    };
+    let at: [Option<DVec3>; 4] = q.map(normal_of);
+    let known: DVec3 = at.iter().flatten().copied().sum();
+    let fallback = if known != DVec3::ZERO {
+        known.normalize()
+    } else {
+        (p[2] - p[0]).cross(p[3] - p[1]).normalize_or_zero()
+    };
+    for k in 0..4 {
+        let n = at[k].unwrap_or(fallback);
+        let a = p[(k + 1) % 4] - p[k];
+        let b = p[(k + 3) % 4] - p[k];
+        let s = n.dot(a.cross(b));
+        let c = a.dot(b);
+        let alpha = s.atan2(c);
+        let eta = corner_eta(alpha);
+        if eta.is_nan() || eta <= MIN_CORNER_ETA {
+            return Some(Defect::Corner {
+                corner: k,
+                degrees: alpha.to_degrees(),
+            });
+        }
+    }
+    None
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{ElementBlock, NodeBlock};
+
+    fn mesh(coords: &[[f64; 3]], etype_: u32, elems: &[&[u64]]) -> Mesh {
+        let mut m = Mesh::default();
+        m.node_blocks.push(NodeBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            tags: (1..=coords.len() as u64).collect(),
+            coords: coords.to_vec(),
+            params: None,
+        });
+        m.element_blocks.push(ElementBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            element_type: etype_,
+            tags: (1..=elems.len() as u64).collect(),
+            nodes: elems.iter().flat_map(|e| e.iter().copied()).collect(),
+            partitions: None,
+        });
+        m
+    }
+
+    const SQUARE: [[f64; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];
+
+    #[test]
+    fn a_square_is_valid_and_its_mirror_is_turned_over() {
+        let input = mesh(&SQUARE, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
+        let ok = mesh(&SQUARE, etype::QUAD4, &[&[1, 2, 3, 4]]);
+        assert!(invalid_quads(&input, &ok).is_empty());
+        let flipped = mesh(&SQUARE, etype::QUAD4, &[&[1, 4, 3, 2]]);
+        let bad = invalid_quads(&input, &flipped);
+        assert_eq!(bad.len(), 1);
+        assert!(matches!(bad[0].defect, Defect::Corner { degrees, .. } if degrees < 0.0));
+        assert!(
+            bad[0].to_string().contains("node 1 is not strictly"),
+            "{}",
+            bad[0]
+        );
+    }
+
+    #[test]
+    fn a_flat_corner_a_zero_edge_and_a_repeated_node_are_caught() {
+        // node 5 on the edge 1-2: the quad 1 5 2 3 has a 180-degree corner at 5
+        let mut c = SQUARE.to_vec();
+        c.push([0.5, 0.0, 0.0]);
+        let input = mesh(&c, etype::TRI3, &[&[1, 5, 3], &[5, 2, 3], &[1, 3, 4]]);
+        let flat = mesh(&c, etype::QUAD4, &[&[1, 5, 2, 3]]);
+        let bad = invalid_quads(&input, &flat);
+        assert_eq!(bad.len(), 1);
+        assert_eq!(bad[0].node(), 5);
+        // node 6 on top of node 2
+        c.push([1.0, 0.0, 0.0]);
+        let zero = mesh(&c, etype::QUAD4, &[&[1, 2, 6, 3]]);
+        assert!(matches!(
+            invalid_quads(&input, &zero)[0].defect,
+            Defect::ZeroLengthEdge { corner: 1 }
+        ));
+        let rep = mesh(&c, etype::QUAD4, &[&[1, 2, 3, 2]]);
+        assert_eq!(
+            invalid_quads(&input, &rep)[0].defect,
+            Defect::RepeatedNode(2)
+        );
+    }
+
+    #[test]
+    fn corners_on_a_curved_surface_use_the_input_normal() {
+        // a quad folded along its diagonal over a ridge, like two triangles of a cylinder:
+        // valid about the input normals; the same quad reversed is not
+        let c = [[0., 0., 0.], [1., 0., 0.3], [1., 1., 0.], [0., 1., 0.3]];
+        let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
+        assert!(invalid_quads(&input, &mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]])).is_empty());
+        assert_eq!(
+            invalid_quads(&input, &mesh(&c, etype::QUAD4, &[&[4, 3, 2, 1]])).len(),
+            1
+        );
+    }
+}
