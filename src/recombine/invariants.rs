@@ -1,9 +1,11 @@
 //! Invariants of recombination, checked from the two meshes alone. Deliberately simple
-//! (hash maps keyed by node tags) and sharing no code with the recombination itself.
+//! (sorted edge lists keyed by node tags, one surface at a time) and sharing no code with
+//! the recombination itself. It runs on every `quadrangulate` call, so it is linear-ish
+//! (sorting) and parallel over surfaces.
 
-use std::collections::{HashMap, HashSet};
+use rayon::prelude::*;
 
-use crate::mesh::{element_dim, etype, Mesh};
+use crate::mesh::{element_dim, etype, Mesh, NodeIndex};
 
 type Edge = (u64, u64);
 
@@ -11,53 +13,69 @@ fn undirected(a: u64, b: u64) -> Edge {
     (a.min(b), a.max(b))
 }
 
-/// Corner nodes of a 2D element of a supported type (tri3, quad4).
-fn faces_of(mesh: &Mesh, surface: i32) -> Vec<Vec<u64>> {
+fn has(sorted: &[Edge], e: &Edge) -> bool {
+    sorted.binary_search(e).is_ok()
+}
+
+/// Corner nodes of the 2D elements (tri3, quad4) of one surface.
+fn faces_of(mesh: &Mesh, surface: i32) -> Vec<&[u64]> {
     let mut out = Vec::new();
     for b in &mesh.element_blocks {
         if b.entity_dim != 2 || b.entity_tag != surface || element_dim(b.element_type) != Some(2) {
             continue;
         }
-        let k = match b.element_type {
-            etype::TRI3 => 3,
-            etype::QUAD4 => 4,
-            _ => continue,
-        };
+        if b.element_type != etype::TRI3 && b.element_type != etype::QUAD4 {
+            continue;
+        }
         for i in 0..b.len() {
-            out.push(b.element(i)[..k].to_vec());
+            out.push(b.element(i));
         }
     }
     out
 }
 
-fn edge_counts(faces: &[Vec<u64>]) -> HashMap<Edge, usize> {
-    let mut m = HashMap::new();
+/// Every undirected edge of `faces` with the number of faces using it, sorted.
+fn edge_counts(faces: &[&[u64]]) -> Vec<(Edge, u32)> {
+    let mut all: Vec<Edge> = Vec::with_capacity(faces.len() * 4);
     for f in faces {
         for i in 0..f.len() {
-            *m.entry(undirected(f[i], f[(i + 1) % f.len()])).or_insert(0) += 1;
+            all.push(undirected(f[i], f[(i + 1) % f.len()]));
         }
     }
-    m
+    all.par_sort_unstable();
+    let mut out: Vec<(Edge, u32)> = Vec::with_capacity(all.len() / 2 + 1);
+    for e in all {
+        match out.last_mut() {
+            Some((last, c)) if *last == e => *c += 1,
+            _ => out.push((e, 1)),
+        }
+    }
+    out
 }
 
-fn directed(faces: &[Vec<u64>]) -> HashSet<Edge> {
-    let mut s = HashSet::new();
+fn count_of(counts: &[(Edge, u32)], e: &Edge) -> u32 {
+    counts
+        .binary_search_by_key(e, |x| x.0)
+        .map_or(0, |i| counts[i].1)
+}
+
+/// Every directed edge of `faces`, sorted.
+fn directed(faces: &[&[u64]]) -> Vec<Edge> {
+    let mut s: Vec<Edge> = Vec::with_capacity(faces.len() * 4);
     for f in faces {
         for i in 0..f.len() {
-            s.insert((f[i], f[(i + 1) % f.len()]));
+            s.push((f[i], f[(i + 1) % f.len()]));
         }
     }
+    s.par_sort_unstable();
+    s.dedup();
     s
 }
 
-fn coords(mesh: &Mesh) -> HashMap<u64, [f64; 3]> {
-    let mut m = HashMap::new();
-    for b in &mesh.node_blocks {
-        for (t, c) in b.tags.iter().zip(&b.coords) {
-            m.insert(*t, *c);
-        }
-    }
-    m
+fn coord(mesh: &Mesh, index: &NodeIndex, t: u64) -> Option<[f64; 3]> {
+    index
+        .get(t)
+        .map(|r| mesh.node_blocks[r.block as usize].coords[r.index as usize])
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -88,6 +106,13 @@ fn vector_area(poly: &[[f64; 3]]) -> [f64; 3] {
     s
 }
 
+fn nodes_text(f: &[u64]) -> String {
+    f.iter()
+        .map(|t| t.to_string())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
 /// Checks what recombination promises, comparing the mesh `before` with the result `after`:
 ///
 /// - no 3-node triangle is left on any surface; no face repeats a node;
@@ -103,7 +128,8 @@ fn vector_area(poly: &[[f64; 3]]) -> [f64; 3] {
 ///   the direction opposite to the one the surface's triangles used);
 /// - entities and physical groups are identical.
 ///
-/// Returns the first violation found, with the surface and nodes involved.
+/// Returns the first violation found (the lowest surface tag first), in words, with the
+/// surface and nodes involved.
 pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
     if before.entities != after.entities {
         return Err("entities (or their physical groups) changed".into());
@@ -120,21 +146,21 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
             ));
         }
     }
-    let cb = coords(before);
-    let ca = coords(after);
-    let new_node = |t: u64| !cb.contains_key(&t);
+    let ib = before.node_index();
+    let ia = after.node_index();
+    let new_node = |t: u64| ib.get(t).is_none();
     // curve and point nodes unmoved
     for b in &before.node_blocks {
         if b.entity_dim > 1 {
             continue;
         }
         for (t, c) in b.tags.iter().zip(&b.coords) {
-            match ca.get(t) {
-                Some(x) if x == c => {}
+            match coord(after, &ia, *t) {
+                Some(x) if x == *c => {}
                 Some(x) => {
                     return Err(format!(
-                        "node {t} on entity ({}, {}) moved from {c:?} to {x:?}",
-                        b.entity_dim, b.entity_tag
+                        "node {t} on entity ({}, {}) moved from ({}, {}, {}) to ({}, {}, {})",
+                        b.entity_dim, b.entity_tag, c[0], c[1], c[2], x[0], x[1], x[2]
                     ))
                 }
                 None => {
@@ -147,16 +173,18 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
         }
     }
     // line elements: kept or split in two at a new node
-    let lines = |m: &Mesh| -> HashSet<Edge> {
-        let mut s = HashSet::new();
+    let lines = |m: &Mesh| -> Vec<Edge> {
+        let mut s = Vec::new();
         for b in &m.element_blocks {
             if b.element_type == etype::LINE2 {
                 for i in 0..b.len() {
                     let e = b.element(i);
-                    s.insert(undirected(e[0], e[1]));
+                    s.push(undirected(e[0], e[1]));
                 }
             }
         }
+        s.par_sort_unstable();
+        s.dedup();
         s
     };
     let lb = lines(before);
@@ -171,160 +199,203 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
         .collect();
     surfaces.sort_unstable();
     surfaces.dedup();
-    for s in surfaces {
-        let fb = faces_of(before, s);
-        let fa = faces_of(after, s);
-        for f in &fa {
-            let mut sorted = f.clone();
-            sorted.sort_unstable();
-            sorted.dedup();
-            if sorted.len() != f.len() {
-                return Err(format!("surface {s}: face {f:?} repeats a node"));
-            }
+    let results: Vec<Result<(), String>> = surfaces
+        .par_iter()
+        .map(|&s| check_surface(before, after, &ib, &ia, &lb, s))
+        .collect();
+    results.into_iter().collect()
+}
+
+/// The per-surface part of [`check_invariants`].
+fn check_surface(
+    before: &Mesh,
+    after: &Mesh,
+    ib: &NodeIndex,
+    ia: &NodeIndex,
+    lb: &[Edge],
+    s: i32,
+) -> Result<(), String> {
+    let new_node = |t: u64| ib.get(t).is_none();
+    let fb = faces_of(before, s);
+    let fa = faces_of(after, s);
+    for f in &fa {
+        let mut sorted = f.to_vec();
+        sorted.sort_unstable();
+        sorted.dedup();
+        if sorted.len() != f.len() {
+            return Err(format!(
+                "surface {s}: the face with nodes {} repeats a node",
+                nodes_text(f)
+            ));
         }
-        let eb = edge_counts(&fb);
-        let ea = edge_counts(&fa);
-        if let Some((e, c)) = ea
+    }
+    let eb = edge_counts(&fb);
+    let ea = edge_counts(&fa);
+    if let Some((e, c)) = ea
+        .iter()
+        .find(|(e, c)| *c > 2 && count_of(&eb, e) <= 2)
+    {
+        return Err(format!(
+            "surface {s}: the edge {}-{} is shared by {c} faces",
+            e.0, e.1
+        ));
+    }
+    let boundary = |counts: &[(Edge, u32)]| -> Vec<Edge> {
+        counts
             .iter()
-            .find(|(e, &c)| c > 2 && eb.get(e).copied().unwrap_or(0) <= 2)
-        {
-            return Err(format!("surface {s}: edge {e:?} is shared by {c} faces"));
+            .filter(|(_, c)| *c == 1)
+            .map(|(e, _)| *e)
+            .collect()
+    };
+    let bb = boundary(&eb);
+    let ba = boundary(&ea);
+    check_split_sets(&bb, &ba, &new_node, &format!("surface {s} boundary edges"))?;
+    // the nodes next to each node along the edges of `after` (both directions), for the
+    // halves of a split segment
+    let mut nbr: Vec<Edge> = Vec::with_capacity(2 * ea.len());
+    for ((x, y), _) in &ea {
+        nbr.push((*x, *y));
+        nbr.push((*y, *x));
+    }
+    nbr.par_sort_unstable();
+    let split_present = |e: &Edge| -> bool {
+        let from = nbr.partition_point(|x| x.0 < e.0);
+        nbr[from..]
+            .iter()
+            .take_while(|x| x.0 == e.0)
+            .any(|&(_, m)| new_node(m) && count_of(&ea, &undirected(m, e.1)) > 0)
+    };
+    for e in lb.iter().filter(|e| count_of(&eb, e) > 0) {
+        if count_of(&ea, e) == 0 && !split_present(e) {
+            return Err(format!(
+                "surface {s}: the curve segment {}-{} is no longer an edge",
+                e.0, e.1
+            ));
         }
-        let bb: HashSet<Edge> = eb
-            .iter()
-            .filter(|(_, &c)| c == 1)
-            .map(|(e, _)| *e)
-            .collect();
-        let ba: HashSet<Edge> = ea
-            .iter()
-            .filter(|(_, &c)| c == 1)
-            .map(|(e, _)| *e)
-            .collect();
-        check_split_sets(&bb, &ba, &new_node, &format!("surface {s} boundary edges"))?;
-        for e in lb.iter().filter(|e| eb.contains_key(e)) {
-            if !ea.contains_key(e) && !split_present(e, &ea, &new_node) {
+    }
+    // orientation
+    let db = directed(&fb);
+    for f in &fa {
+        for i in 0..f.len() {
+            let (p, q) = (f[i], f[(i + 1) % f.len()]);
+            if has(&db, &(q, p)) && !has(&db, &(p, q)) {
                 return Err(format!(
-                    "surface {s}: curve segment {e:?} is no longer an edge"
+                    "surface {s}: the face with nodes {} runs edge {p}->{q} against the orientation of the input triangles",
+                    nodes_text(f)
                 ));
             }
         }
-        // orientation
-        let db = directed(&fb);
-        for f in &fa {
-            for i in 0..f.len() {
-                let (p, q) = (f[i], f[(i + 1) % f.len()]);
-                if db.contains(&(q, p)) && !db.contains(&(p, q)) {
-                    return Err(format!(
-                        "surface {s}: face {f:?} runs edge {p}->{q} against the orientation of the input triangles"
-                    ));
-                }
-            }
+    }
+    // planar area
+    let pts = |f: &[u64], m: &Mesh, idx: &NodeIndex| -> Option<Vec<[f64; 3]>> {
+        f.iter().map(|&t| coord(m, idx, t)).collect()
+    };
+    let mut total = [0.0; 3];
+    let mut polys_b = Vec::with_capacity(fb.len());
+    for f in &fb {
+        let p = pts(f, before, ib).ok_or_else(|| {
+            format!(
+                "surface {s}: the input face with nodes {} has an unknown node",
+                nodes_text(f)
+            )
+        })?;
+        let a = vector_area(&p);
+        for k in 0..3 {
+            total[k] += a[k];
         }
-        // planar area
-        let pts = |f: &Vec<u64>, m: &HashMap<u64, [f64; 3]>| -> Option<Vec<[f64; 3]>> {
-            f.iter().map(|t| m.get(t).copied()).collect()
-        };
-        let mut total = [0.0; 3];
-        let mut polys_b = Vec::new();
-        for f in &fb {
-            let p = pts(f, &cb)
-                .ok_or_else(|| format!("surface {s}: input face {f:?} has an unknown node"))?;
-            let a = vector_area(&p);
-            for k in 0..3 {
-                total[k] += a[k];
-            }
-            polys_b.push(p);
-        }
-        let norm = dot(total, total).sqrt();
-        if norm == 0.0 {
-            continue;
-        }
-        let n = total.map(|x| x / norm);
-        let o = polys_b
-            .first()
-            .and_then(|p| p.first())
-            .copied()
-            .unwrap_or([0.0; 3]);
-        let extent = polys_b
-            .iter()
-            .flatten()
-            .map(|p| dot(sub(*p, o), sub(*p, o)).sqrt())
-            .fold(0.0, f64::max);
-        let planar = polys_b
-            .iter()
-            .flatten()
-            .all(|p| dot(sub(*p, o), n).abs() <= 1e-10 * extent.max(f64::MIN_POSITIVE));
-        if !planar {
-            continue;
-        }
-        let mut area_after = 0.0;
-        for f in &fa {
-            let p = pts(f, &ca)
-                .ok_or_else(|| format!("surface {s}: output face {f:?} has an unknown node"))?;
-            area_after += dot(vector_area(&p), n);
-        }
-        let area_before = dot(total, n);
-        if ((area_after - area_before) / area_before).abs() > 1e-9 {
-            return Err(format!(
-                "surface {s}: planar area changed from {} to {}",
-                area_before / 2.0,
-                area_after / 2.0
-            ));
-        }
+        polys_b.push(p);
+    }
+    let norm = dot(total, total).sqrt();
+    if norm == 0.0 {
+        return Ok(());
+    }
+    let n = total.map(|x| x / norm);
+    let o = polys_b
+        .first()
+        .and_then(|p| p.first())
+        .copied()
+        .unwrap_or([0.0; 3]);
+    let extent = polys_b
+        .iter()
+        .flatten()
+        .map(|p| dot(sub(*p, o), sub(*p, o)).sqrt())
+        .fold(0.0, f64::max);
+    let planar = polys_b
+        .iter()
+        .flatten()
+        .all(|p| dot(sub(*p, o), n).abs() <= 1e-10 * extent.max(f64::MIN_POSITIVE));
+    if !planar {
+        return Ok(());
+    }
+    let mut area_after = 0.0;
+    for f in &fa {
+        let p = pts(f, after, ia).ok_or_else(|| {
+            format!(
+                "surface {s}: the output face with nodes {} has an unknown node",
+                nodes_text(f)
+            )
+        })?;
+        area_after += dot(vector_area(&p), n);
+    }
+    let area_before = dot(total, n);
+    if ((area_after - area_before) / area_before).abs() > 1e-9 {
+        return Err(format!(
+            "surface {s}: planar area changed from {} to {}",
+            area_before / 2.0,
+            area_after / 2.0
+        ));
     }
     Ok(())
 }
 
-/// `{a, m}` and `{m, b}` both in `set` for some new node `m`.
-fn split_present(e: &Edge, set: &HashMap<Edge, usize>, new_node: &dyn Fn(u64) -> bool) -> bool {
-    set.keys().any(|&(x, y)| {
-        let m = if x == e.0 || x == e.1 {
-            y
-        } else if y == e.0 || y == e.1 {
-            x
-        } else {
-            return false;
-        };
-        let other = if x == m { y } else { x };
-        let far = if other == e.0 { e.1 } else { e.0 };
-        new_node(m) && set.contains_key(&undirected(m, far))
-    })
-}
-
 /// `after` equals `before` where some edges `{a, b}` are replaced by `{a, m}`, `{m, b}` with
-/// `m` a new node.
+/// `m` a new node. Both lists sorted and deduplicated.
 fn check_split_sets(
-    before: &HashSet<Edge>,
-    after: &HashSet<Edge>,
+    before: &[Edge],
+    after: &[Edge],
     new_node: &dyn Fn(u64) -> bool,
     what: &str,
 ) -> Result<(), String> {
-    // pair up the halves through their new node
-    let mut halves: HashMap<u64, Vec<u64>> = HashMap::new();
-    for &(x, y) in after.difference(before) {
+    // the halves, as (new node, far end), sorted: pairs of them rebuild a split edge
+    let mut halves: Vec<(u64, u64)> = Vec::new();
+    for &(x, y) in after.iter().filter(|e| !has(before, e)) {
         match (new_node(x), new_node(y)) {
-            (true, false) => halves.entry(x).or_default().push(y),
-            (false, true) => halves.entry(y).or_default().push(x),
-            _ => return Err(format!("{what}: edge {:?} is new", (x, y))),
+            (true, false) => halves.push((x, y)),
+            (false, true) => halves.push((y, x)),
+            _ => return Err(format!("{what}: the edge {x}-{y} is new")),
         }
     }
-    let mut rebuilt: HashSet<Edge> = HashSet::new();
-    for (m, ends) in &halves {
-        if ends.len() != 2 {
+    halves.sort_unstable();
+    let mut rebuilt: Vec<Edge> = Vec::with_capacity(halves.len() / 2);
+    let mut i = 0;
+    while i < halves.len() {
+        let m = halves[i].0;
+        let j = halves[i..].partition_point(|h| h.0 == m) + i;
+        if j - i != 2 {
             return Err(format!(
                 "{what}: new node {m} is on {} of them, not 2",
-                ends.len()
+                j - i
             ));
         }
-        rebuilt.insert(undirected(ends[0], ends[1]));
+        rebuilt.push(undirected(halves[i].1, halves[i + 1].1));
+        i = j;
     }
-    for e in before.difference(after) {
-        if !rebuilt.remove(e) {
-            return Err(format!("{what}: edge {e:?} disappeared"));
+    rebuilt.sort_unstable();
+    let mut used = vec![false; rebuilt.len()];
+    for e in before.iter().filter(|e| !has(after, e)) {
+        // a split edge may be rebuilt once
+        let from = rebuilt.partition_point(|r| r < e);
+        match (from..rebuilt.len()).find(|&k| rebuilt[k] == *e && !used[k]) {
+            Some(k) => used[k] = true,
+            None => return Err(format!("{what}: the edge {}-{} disappeared", e.0, e.1)),
         }
     }
-    if let Some(e) = rebuilt.iter().next() {
-        return Err(format!("{what}: split edge {e:?} was not one of them"));
+    if let Some(k) = used.iter().position(|u| !u) {
+        let e = rebuilt[k];
+        return Err(format!(
+            "{what}: the split edge {}-{} was not one of them",
+            e.0, e.1
+        ));
     }
     Ok(())
 }
