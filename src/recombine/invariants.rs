@@ -231,10 +231,7 @@ fn check_surface(
     }
     let eb = edge_counts(&fb);
     let ea = edge_counts(&fa);
-    if let Some((e, c)) = ea
-        .iter()
-        .find(|(e, c)| *c > 2 && count_of(&eb, e) <= 2)
-    {
+    if let Some((e, c)) = ea.iter().find(|(e, c)| *c > 2 && count_of(&eb, e) <= 2) {
         return Err(format!(
             "surface {s}: the edge {}-{} is shared by {c} faces",
             e.0, e.1

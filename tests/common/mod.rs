@@ -39,26 +39,22 @@ pub fn test_size(fixture: &str) -> f64 {
     }
 }
 
-/// The real-world MSH corpus: `$BLOSSOMQUAD_CORPUS`, else
-/// `<crate>/../shared/corpus/real-msh`, else `/work/shared/corpus/real-msh`.
-/// Panics with a clear message when none exists.
-pub fn corpus_dir() -> PathBuf {
-    if let Some(dir) = std::env::var_os("BLOSSOMQUAD_CORPUS") {
-        return PathBuf::from(dir);
+/// The real-world MSH corpus: `$BLOSSOMQUAD_CORPUS`, else `<crate>/../shared/corpus/real-msh`.
+/// `None`, after printing one line saying the tests that need it are skipped, when neither
+/// exists (a clone with nothing beside it); CI has it.
+pub fn corpus_dir() -> Option<PathBuf> {
+    let dir = match std::env::var_os("BLOSSOMQUAD_CORPUS") {
+        Some(dir) => PathBuf::from(dir),
+        None => repo_dir().join("../shared/corpus/real-msh"),
+    };
+    if dir.is_dir() {
+        return Some(dir);
     }
-    let candidates = [
-        repo_dir().join("../shared/corpus/real-msh"),
-        PathBuf::from("/work/shared/corpus/real-msh"),
-    ];
-    for dir in candidates {
-        if dir.is_dir() {
-            return dir;
-        }
-    }
-    panic!(
-        "MSH corpus not found: set BLOSSOMQUAD_CORPUS to the real-msh directory \
-         (tried <crate>/../shared/corpus/real-msh and /work/shared/corpus/real-msh)"
+    println!(
+        "skipped: the real MSH corpus is not at {} (set BLOSSOMQUAD_CORPUS to run this test)",
+        dir.display()
     );
+    None
 }
 
 /// The `.msh` files directly inside `dir`, sorted.
