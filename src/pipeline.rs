@@ -15,8 +15,9 @@
 //! When quads are not valid after a run, the input triangles around each bad quad (those
 //! holding one of its input nodes) are split into three quads each before the matching
 //! ([`crate::recombine::split_triangles`]), and the whole job runs again from the input.
-//! The set grows over up to [`FALLBACK_ROUNDS`] rounds (one more ring of triangles each
-//! round; the last round splits every triangle of a surface that still has a bad quad).
+//! The set grows over up to [`FALLBACK_ROUNDS`] rounds (one more ring of triangles in the
+//! second round; from the third on, every triangle of each surface that still has a bad
+//! quad).
 //! A run whose quads are all valid the first time pays only for the check.
 
 use std::collections::HashSet;
@@ -29,8 +30,11 @@ use crate::mesh::{etype, Mesh};
 use crate::validity::BadQuad;
 use crate::{optimize, recombine, refine, validity};
 
-/// Rounds of the fallback after the first run: 1-ring, 2-ring, whole surfaces.
-pub const FALLBACK_ROUNDS: usize = 3;
+/// Rounds of the fallback after the first run at most: 1-ring, 2-ring, then whole surfaces
+/// (the edge splits of a surface split into quads halve the triangles of its neighbours
+/// along shared curves, which may in turn need their whole surface split; every round
+/// adds triangles, and a surface split whole has no halved triangle left).
+pub const FALLBACK_ROUNDS: usize = 8;
 
 /// The stage a [`Progress`] report is about.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
@@ -312,10 +316,10 @@ fn sorted_list(s: &HashSet<i32>) -> String {
         .join(", ")
 }
 
-/// The input triangles to split for the next round: round 0, those of the bad quad's
-/// surface holding one of its nodes; round 1, also those touching a node of an already
-/// chosen triangle of that surface; from round 2, every triangle of a surface with a bad
-/// quad. Only triangles not chosen yet.
+/// The input triangles to split for the next round: after the first run, those of the bad
+/// quad's surface holding one of its nodes (the whole surface when none does); after the
+/// second, also those touching a node of an already chosen triangle of that surface; then
+/// every triangle of a surface with a bad quad. Only triangles not chosen yet.
 fn fallback_triangles(
     input: &Mesh,
     bad: &[BadQuad],
@@ -329,7 +333,7 @@ fn fallback_triangles(
         })
     };
     let mut out = HashSet::new();
-    if round + 1 >= FALLBACK_ROUNDS {
+    if round >= 2 {
         for b in tri_blocks() {
             out.extend(b.tags.iter().copied().filter(|t| !chosen.contains(t)));
         }
