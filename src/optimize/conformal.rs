@@ -29,6 +29,7 @@
 //! signed η lowered; otherwise nothing moves.
 
 use super::local::Local;
+use super::valid::VALID_ETA;
 use crate::quality::eta::eta_signed_fast;
 use glam::DVec3;
 use rayon::prelude::*;
@@ -42,6 +43,17 @@ pub(crate) const MAX_ITERATIONS: usize = 100;
 /// +0.1 to +0.2 point on most; β = 0.5 gains a little more η̄ at 1e4 but loses η_w
 /// (even_curves 1e5 0.596 -> 0.592), β = 1 (aspect fully kept) loses τ (−0.7 point).
 pub(crate) const KEEP_ASPECT: f64 = 0.3;
+
+/// Rounds of reverting the nodes of quads a step made invalid before the step is rejected
+/// (0: any such quad rejects the step).
+fn revert_rounds() -> usize {
+    std::env::var("BQ_REVERT")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(REVERT_ROUNDS)
+}
+
+const REVERT_ROUNDS: usize = 4;
 
 /// Relative residual at which the solve stops.
 pub(crate) const TOLERANCE: f64 = 1e-3;
@@ -348,6 +360,10 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
     };
     let before = eval(&l.pos);
     let base: f64 = before.iter().sum();
+    // a valid quad stays valid (η above VALID_ETA, valid.rs); an invalid one (a hopeless
+    // corner, or a fold the topology pass did not remove) must not get worse
+    let worse = |b: f64, a: f64| if b > VALID_ETA { a <= VALID_ETA } else { a < b };
+    let revert = revert_rounds();
     let mut trial = l.pos.clone();
     for step in [1.0, 0.5, 0.25] {
         for v in 0..n {
@@ -356,14 +372,29 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
                 trial[v] = l.pos[v] + u * (step * dv.0) + w * (step * dv.1);
             }
         }
-        let after = eval(&trial);
-        // a valid quad stays valid; an invalid one (a hopeless corner, or a fold the
-        // topology pass did not remove) must not get worse
-        let inverts = before
-            .iter()
-            .zip(&after)
-            .any(|(&b, &a)| if b > 0.0 { a <= 0.0 } else { a < b });
-        if !inverts && after.iter().sum::<f64>() > base {
+        let mut after = eval(&trial);
+        let mut round = 0;
+        let ok = loop {
+            let bad: Vec<usize> = (0..live.len())
+                .filter(|&i| worse(before[i], after[i]))
+                .collect();
+            if bad.is_empty() {
+                break true;
+            }
+            if round == revert {
+                break false;
+            }
+            round += 1;
+            // validity: the nodes of the quads the step spoilt go back (their neighbours
+            // are checked again in the next round)
+            for &i in &bad {
+                for &v in &l.quads[live[i] as usize] {
+                    trial[v as usize] = l.pos[v as usize];
+                }
+            }
+            after = eval(&trial);
+        };
+        if ok && after.iter().sum::<f64>() > base {
             l.pos = trial;
             return free.iter().filter(|&&f| f).count();
         }
@@ -432,7 +463,8 @@ mod tests {
             let mut ops = crate::optimize::OperationCounts::default();
             let mut tm = crate::optimize::StageTimer::new("optimize", 0);
             crate::optimize::smooth::smooth(&mut l, opts.smooth_iterations, opts.diagonal_weight);
-            crate::optimize::topology_rounds(&mut l, &opts, &mut ops, &mut tm, &|_| {}, false);
+            let mut gate = crate::optimize::valid::Gate::new(&l);
+            crate::optimize::topology_rounds(&mut l, &opts, &mut ops, &mut tm, &|_| {}, false, &mut gate);
             let mut square = l.clone();
             let mut aspect = l;
             let walls: Vec<(usize, DVec3)> = (0..aspect.pos.len())
@@ -478,7 +510,8 @@ mod tests {
                 opts.smooth_iterations,
                 opts.diagonal_weight,
             );
-            crate::optimize::topology_rounds(&mut plain, &opts, &mut ops, &mut tm, &|_| {}, false);
+            let mut gate = crate::optimize::valid::Gate::new(&plain);
+            crate::optimize::topology_rounds(&mut plain, &opts, &mut ops, &mut tm, &|_| {}, false, &mut gate);
             crate::optimize::finish(&mut plain, &opts, &mut ops, &mut tm, 0.0);
             let base = plain.stats();
             let mut chosen = l;
