@@ -463,7 +463,16 @@ fn run_surface(
                 let mut plain_gate = gate.clone();
                 let mut tp = StageTimer::new("optimize (square finish)", l.surface);
                 rayon::join(
-                    || finish(&mut plain, opts, &mut plain_ops, &mut tp, 0.0, &mut plain_gate),
+                    || {
+                        finish(
+                            &mut plain,
+                            opts,
+                            &mut plain_ops,
+                            &mut tp,
+                            0.0,
+                            &mut plain_gate,
+                        )
+                    },
                     || {
                         finish(
                             l,
@@ -505,7 +514,14 @@ fn run_surface(
         if opts.topology {
             ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
         }
-        finish(l, opts, &mut ops, &mut tm, conformal::KEEP_ASPECT, &mut gate);
+        finish(
+            l,
+            opts,
+            &mut ops,
+            &mut tm,
+            conformal::KEEP_ASPECT,
+            &mut gate,
+        );
     }
     // validity: every schedule ends in a state its gate passed; check the kept one against
     // the start (rolls back to the start, the matching's quads, if it does not pass)

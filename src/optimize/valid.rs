@@ -167,11 +167,6 @@ impl Gate {
             .collect()
     }
 
-    /// True when `l` has no invalid quad besides the inherited ones.
-    pub fn passes(&self, l: &Local) -> bool {
-        self.new_invalid(l).is_empty()
-    }
-
     /// Checks `l` after a stage: a state that passes becomes the one to roll back to
     /// (`keep`: store a copy, else only note it); one that fails is replaced by the last
     /// one that passed (or the start). Returns true when `l` passed.
