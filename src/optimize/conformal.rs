@@ -475,8 +475,16 @@ mod tests {
                 .filter(|&v| aspect.fixed[v])
                 .map(|v| (v, aspect.pos[v]))
                 .collect();
-            crate::optimize::finish(&mut square, &opts, &mut ops, &mut tm, 0.0);
-            crate::optimize::finish(&mut aspect, &opts, &mut ops, &mut tm, KEEP_ASPECT);
+            let mut square_gate = gate.clone();
+            crate::optimize::finish(&mut square, &opts, &mut ops, &mut tm, 0.0, &mut square_gate);
+            crate::optimize::finish(
+                &mut aspect,
+                &opts,
+                &mut ops,
+                &mut tm,
+                KEEP_ASPECT,
+                &mut gate,
+            );
             let (ms, _) = mean_and_worst(&square);
             let (ma, _) = mean_and_worst(&aspect);
             for (v, p) in walls {
@@ -524,7 +532,7 @@ mod tests {
                 false,
                 &mut gate,
             );
-            crate::optimize::finish(&mut plain, &opts, &mut ops, &mut tm, 0.0);
+            crate::optimize::finish(&mut plain, &opts, &mut ops, &mut tm, 0.0, &mut gate);
             let base = plain.stats();
             let mut chosen = l;
             let rep = crate::optimize::run_surface(&mut chosen, &opts, &|_| {});

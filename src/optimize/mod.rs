@@ -38,6 +38,17 @@
 //! Measured on a 1e6-triangle rectangle (2 cores, shared machine): CPU time
 //! about 3x lower than the schedule that re-smoothed every node in every round.
 //!
+//! **Validity** ([`valid`](self)): every operator accepts a change only if each quad it
+//! touches stays valid (corners strictly inside (0°, 180°) about the reference normal, with
+//! a small tolerance, no collapsed edge), or, if the matching left it invalid, gets no
+//! worse: doublet collapse, quad-vertex merge, edge rotation and the cleanup's sequences
+//! check the quads they write; the smoothing, pattern-search and polish moves check quad by
+//! quad when the star holds an invalid or hopeless quad (else keeping the star's worst key
+//! is enough); the conformal solve puts back the nodes of the quads its step spoilt. After
+//! every stage a gate compares the surface with its start: a quad invalid that was not
+//! invalid (as the same nodes) at the start sends the surface back to the last state that
+//! passed (the start, the matching's quads, at worst).
+//!
 //! **Invariant:** nodes classified on points and curves, nodes on the boundary of a
 //! surface's quads and nodes used by any element that is not a quad of the surface being
 //! optimized never move and are never removed. Quads keep their orientation and the mesh

@@ -219,6 +219,72 @@ impl Gate {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::optimize::cleanup::tests::local_of;
+    use crate::optimize::synth;
+
+    /// A 4 × 4 grid of unit squares and its centre node (free).
+    fn grid() -> (Local, u32) {
+        let s = synth::quad_grid(4, 4, 4.0, 4.0);
+        let (_, l) = local_of(&synth::to_mesh(&s));
+        let v = (0..l.pos.len() as u32)
+            .find(|&v| l.pos[v as usize].distance(DVec3::new(2.0, 2.0, 0.0)) < 1e-12)
+            .expect("centre node");
+        assert!(!l.fixed[v as usize]);
+        (l, v)
+    }
+
+    #[test]
+    fn straight_folded_and_collapsed_quads_are_invalid() {
+        let (mut l, v) = grid();
+        assert!(invalid_quads(&l).is_empty());
+        // onto the edge between two neighbours: two quads get a corner of 180° up to
+        // float noise, which a bare `η > 0` test lets through
+        let c = l.pos[v as usize];
+        l.pos[v as usize] = DVec3::new(2.0, 1.0 + 1e-13, 0.0).lerp(c, 1e-9);
+        assert!(!invalid_quads(&l).is_empty());
+        // past it: folded
+        l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
+        assert!(!invalid_quads(&l).is_empty());
+        // onto a neighbour: an edge of length 0
+        l.pos[v as usize] = DVec3::new(2.0, 1.0, 0.0);
+        assert!(!invalid_quads(&l).is_empty());
+        // a small move keeps every quad valid
+        l.pos[v as usize] = c + DVec3::new(0.2, -0.1, 0.0);
+        assert!(invalid_quads(&l).is_empty());
+    }
+
+    #[test]
+    fn the_gate_rolls_back_to_the_last_state_that_passed() {
+        let (mut l, v) = grid();
+        let mut gate = Gate::new(&l);
+        let start = l.pos[v as usize];
+        // a stage that moves the node a little: passes, and becomes the state to keep
+        let moved = start + DVec3::new(0.1, 0.05, 0.0);
+        l.pos[v as usize] = moved;
+        assert!(gate.check(&mut l, true, "test"));
+        // a stage that folds two quads: rolled back to the moved state
+        l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
+        assert!(!gate.check(&mut l, true, "test"));
+        assert_eq!(l.pos[v as usize], moved);
+        assert_eq!(gate.rollbacks, 1);
+        // a quad removed by a stage that left an invalid one comes back too
+        let quads = l.quads.clone();
+        l.alive[0] = false;
+        l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
+        assert!(!gate.check(&mut l, false, "test"));
+        assert!(l.alive[0] && l.quads == quads);
+    }
+
+    #[test]
+    fn quads_invalid_at_the_start_are_inherited_not_new() {
+        let (mut l, v) = grid();
+        l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
+        let bad = invalid_quads(&l);
+        assert!(!bad.is_empty());
+        let mut gate = Gate::new(&l);
+        assert!(gate.new_invalid(&l).is_empty());
+        assert!(gate.check(&mut l, true, "test"));
+    }
 
     #[test]
     fn the_valid_key_is_the_key_of_the_valid_eta() {
