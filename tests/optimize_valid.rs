@@ -198,8 +198,8 @@ fn islands_stay_valid(size: f64, seed: u64) -> (f64, f64) {
     (worst, mean)
 }
 
-/// ~1.3e4 triangles; seeds 1 and 5 are domains where the optimizer used to make quads
-/// invalid (a straight corner at a wall node, an inverted quad at an island corner).
+/// ~1.3e4 triangles; on seed 1 the optimizer used to make a quad invalid (a straight
+/// corner at an island wall node, η = 0 up to float noise).
 #[test]
 fn the_island_domain_at_1e4_triangles_stays_valid_after_optimization() {
     for seed in [1, 5, 11] {
@@ -207,8 +207,8 @@ fn the_island_domain_at_1e4_triangles_stays_valid_after_optimization() {
     }
 }
 
-/// ~1.1e5 triangles (about 10 s in release): `cargo test --release --test optimize_valid
-/// -- --ignored`.
+/// ~1.1e5 triangles (about 100 s in release for the three seeds, meshing and checker
+/// included): `cargo test --release --test optimize_valid -- --ignored`.
 #[test]
 #[ignore]
 fn the_island_domain_at_1e5_triangles_stays_valid_after_optimization() {

@@ -65,7 +65,8 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
             return false;
         }
         let s = n.dot(a.cross(b));
-        if !(s > 0.0) {
+        // NaN fails too
+        if s.is_nan() || s <= 0.0 {
             return false;
         }
         worst = worst.max(a.dot(b).abs() / s);
