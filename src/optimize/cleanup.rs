@@ -35,6 +35,7 @@
 //! over the edges per round, so O(n) per round for a fixed depth.
 
 use super::local::{slot, Local, NONE};
+use super::valid;
 use glam::DVec3;
 use rayon::prelude::*;
 use std::f64::consts::FRAC_PI_2;
@@ -59,8 +60,10 @@ const REACH_RINGS: usize = 4;
 /// Energy of a fixed node whose corners would be wider than [`MAX_FIXED_CORNER`].
 const WIDE_CORNER_PENALTY: i32 = 16;
 
-/// Smallest signed η (eq. 3) of a quad created by a rotation, before smoothing.
-const MIN_ETA: f64 = 0.0;
+/// Smallest signed η (eq. 3) of a quad created by a rotation, before smoothing (and the
+/// quad must be valid, see [`valid`](super::valid): with 0 here, straight corners of
+/// float-noise-positive η were kept).
+const MIN_ETA: f64 = valid::VALID_ETA;
 
 /// Boundary angle of every node (sum of its quads' corner angles; 2π inside) and its ideal
 /// valence: 4 for free nodes; for fixed nodes the angle in right angles, rounded, at least 1.
@@ -431,14 +434,24 @@ impl<'a> Topo<'a> {
             .collect();
         quads.sort_unstable();
         quads.dedup();
-        let mut moved: Vec<u32> = quads
+        let invalid: Vec<u32> = quads
             .iter()
-            .filter(|&&q| self.l.quality(q) <= MIN_ETA)
+            .copied()
+            .filter(|&q| self.l.quality(q) <= MIN_ETA || !valid::valid(self.l, q))
+            .collect();
+        if invalid.is_empty() {
+            return true;
+        }
+        // validity: an invalid quad without a free node cannot be repaired by moving nodes
+        // (measured on the island domain: quads of four wall nodes around a sharp island
+        // corner were kept, reflex or straight)
+        let mut moved: Vec<u32> = invalid
+            .iter()
             .flat_map(|&q| self.l.quads[q as usize])
             .filter(|&w| !self.l.fixed[w as usize])
             .collect();
         if moved.is_empty() {
-            return true;
+            return false;
         }
         moved.sort_unstable();
         moved.dedup();
@@ -465,10 +478,11 @@ impl<'a> Topo<'a> {
             }
         }
         let thr = RELOCATED_MIN_ETA;
-        let mut ok = quads.iter().all(|&q| self.l.quality(q) > thr);
+        let good = |l: &Local, q: u32| l.quality(q) > thr && valid::valid(l, q);
+        let mut ok = quads.iter().all(|&q| good(self.l, q));
         for &w in &moved {
             self.around(w, |q| {
-                ok = ok && self.l.quality(q) > thr;
+                ok = ok && good(self.l, q);
             });
         }
         ok

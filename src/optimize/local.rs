@@ -6,6 +6,7 @@
 //! it. Fixed nodes (on curves, points, the boundary, or used by any element that is not a
 //! quad of this surface) never move and are never removed.
 
+use super::valid::VALID_KEY;
 use crate::quality::eta::eta_signed_fast;
 use crate::quality::locate::TriSurface;
 use crate::quality::size::{inverse_linear_integral, tau_deviation};
@@ -308,6 +309,8 @@ pub(crate) struct StarEval<'a> {
     nrm: [DVec3; STAR_MAX],
     /// |a·b| / (n·(a×b)) at the opposite corner, or −1 when that corner is not valid.
     opp: [f64; STAR_MAX],
+    /// The star holds a hopeless quad (left out of the keys, see [`StarEval::keeps_valid`]).
+    has_hopeless: bool,
 }
 
 impl<'a> StarEval<'a> {
@@ -324,6 +327,9 @@ impl<'a> StarEval<'a> {
             pts: [[DVec3::ZERO; 3]; STAR_MAX],
             nrm: [DVec3::ZERO; STAR_MAX],
             opp: [0.0; STAR_MAX],
+            has_hopeless: star
+                .iter()
+                .any(|&q| l.hopeless.get(q as usize) == Some(&true)),
         };
         if star.len() > STAR_MAX {
             return e;
@@ -446,6 +452,31 @@ impl<'a> StarEval<'a> {
             return shape_key(&[p, b, c, d], self.nrm[i]);
         }
         1.0 / (1.0 + worst)
+    }
+
+    /// True when a move of `v` whose star's worst key (without hopeless quads) is `min0`
+    /// at the current position must also pass [`StarEval::keeps_valid`]: the star holds a
+    /// hopeless quad, or a quad below [`VALID_KEY`]. Otherwise a move that keeps every
+    /// key at least `min0` keeps every quad valid.
+    #[inline]
+    pub fn needs_guard(&self, min0: f64) -> bool {
+        self.has_hopeless || min0 < VALID_KEY
+    }
+
+    /// Validity of a move of `v` from `x0` to `p` quad by quad, hopeless quads included: a
+    /// quad valid at `x0` (key at least [`VALID_KEY`]) stays so, any other quad's key does
+    /// not drop. (A star-wide worst key that does not drop lets an invalid quad that
+    /// improves hide a valid one turned invalid.)
+    pub fn keeps_valid(&self, x0: DVec3, p: DVec3) -> bool {
+        self.l.star(self.v).iter().all(|&q| {
+            let k0 = self.l.key_with(q, self.v, x0);
+            let k1 = self.l.key_with(q, self.v, p);
+            if k0 >= VALID_KEY {
+                k1 >= VALID_KEY
+            } else {
+                k1 >= k0
+            }
+        })
     }
 
     /// True when the star is held (see [`StarEval::new`]): [`StarEval::worst_cot`] works.

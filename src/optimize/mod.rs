@@ -38,6 +38,17 @@
 //! Measured on a 1e6-triangle rectangle (2 cores, shared machine): CPU time
 //! about 3x lower than the schedule that re-smoothed every node in every round.
 //!
+//! **Validity** ([`valid`](self)): every operator accepts a change only if each quad it
+//! touches stays valid (corners strictly inside (0°, 180°) about the reference normal, with
+//! a small tolerance, no collapsed edge), or, if the matching left it invalid, gets no
+//! worse: doublet collapse, quad-vertex merge, edge rotation and the cleanup's sequences
+//! check the quads they write; the smoothing, pattern-search and polish moves check quad by
+//! quad when the star holds an invalid or hopeless quad (else keeping the star's worst key
+//! is enough); the conformal solve puts back the nodes of the quads its step spoilt. After
+//! every stage a gate compares the surface with its start: a quad invalid that was not
+//! invalid (as the same nodes) at the start sends the surface back to the last state that
+//! passed (the start, the matching's quads, at worst).
+//!
 //! **Invariant:** nodes classified on points and curves, nodes on the boundary of a
 //! surface's quads and nodes used by any element that is not a quad of the surface being
 //! optimized never move and are never removed. Quads keep their orientation and the mesh
@@ -52,6 +63,7 @@ mod polish;
 mod smooth;
 pub mod synth;
 mod topo;
+mod valid;
 
 pub mod check;
 
@@ -425,11 +437,14 @@ fn run_surface(
     let mut tm = StageTimer::new("optimize", l.surface);
     l.build_adjacency();
     let before = l.stats();
+    // validity: the start state and its invalid quads (valid.rs)
+    let mut gate = valid::Gate::new(l);
     tm.lap("adj+stats");
     let mut ops = OperationCounts {
         smoothing_moves: smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
         ..Default::default()
     };
+    gate.check(l, true, "smoothing");
     tm.lap("smooth");
     tick(1);
     let polish = opts.angle_sweeps > 0 && opts.smooth_iterations > 0;
@@ -439,7 +454,7 @@ fn run_surface(
         && l.quads.len() < RESMOOTH_ALL_BELOW
         && l.stats().eta_mean < ALTERNATIVES_BELOW;
     // the state before the topology rounds, for the unsheared schedule
-    let mut unsheared = (small_planar && opts.topology).then(|| (l.clone(), ops));
+    let mut unsheared = (small_planar && opts.topology).then(|| (l.clone(), ops, gate.clone()));
     let mut ticks = 1;
     if small_planar {
         // quality: small planar surfaces try three schedules and keep the best (see
@@ -451,24 +466,43 @@ fn run_surface(
         let (mut plain, ()) = rayon::join(
             || {
                 if opts.topology {
-                    ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false);
+                    ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
                 }
                 // the square finish starts from the state after the topology rounds
                 plain_ops = ops;
                 let mut plain = l.clone();
+                let mut plain_gate = gate.clone();
                 let mut tp = StageTimer::new("optimize (square finish)", l.surface);
                 rayon::join(
-                    || finish(&mut plain, opts, &mut plain_ops, &mut tp, 0.0),
-                    || finish(l, opts, &mut ops, &mut tm, conformal::KEEP_ASPECT),
+                    || {
+                        finish(
+                            &mut plain,
+                            opts,
+                            &mut plain_ops,
+                            &mut tp,
+                            0.0,
+                            &mut plain_gate,
+                        )
+                    },
+                    || {
+                        finish(
+                            l,
+                            opts,
+                            &mut ops,
+                            &mut tm,
+                            conformal::KEEP_ASPECT,
+                            &mut gate,
+                        )
+                    },
                 );
                 tp.done();
                 plain
             },
             || {
-                if let Some((u, u_ops)) = unsheared.as_mut() {
+                if let Some((u, u_ops, u_gate)) = unsheared.as_mut() {
                     let mut tu = StageTimer::new("optimize (conformal rounds)", u.surface);
-                    topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true);
-                    finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT);
+                    topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
+                    finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT, u_gate);
                     tu.done();
                 }
             },
@@ -480,7 +514,7 @@ fn run_surface(
             ops = plain_ops;
             best = base;
         }
-        if let Some((u, u_ops)) = unsheared.as_mut() {
+        if let Some((u, u_ops, _)) = unsheared.as_mut() {
             let cand = (u.stats(), u.tau_estimate());
             if better(&cand, &best) && better(&cand, &base) {
                 std::mem::swap(l, u);
@@ -489,10 +523,20 @@ fn run_surface(
         }
     } else {
         if opts.topology {
-            ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false);
+            ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
         }
-        finish(l, opts, &mut ops, &mut tm, conformal::KEEP_ASPECT);
+        finish(
+            l,
+            opts,
+            &mut ops,
+            &mut tm,
+            conformal::KEEP_ASPECT,
+            &mut gate,
+        );
     }
+    // validity: every schedule ends in a state its gate passed; check the kept one against
+    // the start (rolls back to the start, the matching's quads, if it does not pass)
+    gate.check(l, false, "optimization");
     tick(1 + opts.max_rounds - ticks);
     let after = l.stats();
     tm.lap("stats");
@@ -532,6 +576,7 @@ fn topology_rounds(
     tm: &mut StageTimer,
     tick: &(dyn Fn(usize) + Sync),
     unshear: bool,
+    gate: &mut valid::Gate,
 ) -> usize {
     let mut ticks = 1;
     // speed: around the changes of a topology pass on a large surface, 3/5 of the sweeps
@@ -563,6 +608,7 @@ fn topology_rounds(
         if unshear {
             ops.smoothing_moves += conformal::unshear(l, conformal::KEEP_ASPECT);
         }
+        gate.check(l, true, "topology round");
         tick(1);
         ticks += 1;
     }
@@ -577,18 +623,22 @@ fn finish(
     ops: &mut OperationCounts,
     tm: &mut StageTimer,
     keep_aspect: f64,
+    gate: &mut valid::Gate,
 ) {
     // quality: undo global shear the node-by-node smoothers cannot (conformal.rs)
     if opts.angle_sweeps > 0 && opts.smooth_iterations > 0 {
         ops.smoothing_moves += conformal::unshear(l, keep_aspect);
+        gate.check(l, true, "conformal solve");
         tm.lap("conformal");
     }
     // quality: lift the worst quads (max-min) first; the pattern search after it keeps
     // every star's worst key, so η_w stays
     if opts.angle_sweeps > 0 {
         ops.smoothing_moves += smooth::polish_worst(l, 4);
+        gate.check(l, true, "max-min polish");
         tm.lap("polish_worst");
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
+        gate.check(l, true, "pattern search");
         tm.lap("angles");
     }
     // then maximize the mean η, the worst of every star kept (polish.rs)
@@ -599,6 +649,7 @@ fn finish(
             polish::MEAN_SWEEPS
         };
         ops.smoothing_moves += polish::polish_mean(l, sweeps);
+        gate.check(l, true, "mean polish");
         tm.lap("polish_mean");
     }
 }

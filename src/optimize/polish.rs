@@ -107,6 +107,11 @@ fn mean_node(l: &Local, v: u32, size_weight: f64) -> Option<(DVec3, u32)> {
         Some((max, sum))
     };
     let (max0, sum0) = eval(x0)?;
+    // validity: a star whose worst quad is below the valid key is left to the max-min
+    // polish (keeping the worst cotangent would not keep its other quads valid)
+    if max0 > 1.0 / super::valid::VALID_KEY - 1.0 {
+        return None;
+    }
     // the size term (module docs), on stars whose worst quad is not poor
     let mut edges = [(DVec3::ZERO, 0.0); MAX_SIZE_EDGES];
     let mut ne = 0;
@@ -312,7 +317,16 @@ mod tests {
             let mut ops = crate::optimize::OperationCounts::default();
             let mut tm = crate::optimize::StageTimer::new("optimize", 0);
             crate::optimize::smooth::smooth(&mut l, opts.smooth_iterations, opts.diagonal_weight);
-            crate::optimize::topology_rounds(&mut l, &opts, &mut ops, &mut tm, &|_| {}, false);
+            let mut gate = crate::optimize::valid::Gate::new(&l);
+            crate::optimize::topology_rounds(
+                &mut l,
+                &opts,
+                &mut ops,
+                &mut tm,
+                &|_| {},
+                false,
+                &mut gate,
+            );
             for (k, w) in [0.0, SIZE_WEIGHT].into_iter().enumerate() {
                 let mut p = l.clone();
                 p.build_adjacency();

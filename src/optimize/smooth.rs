@@ -153,9 +153,10 @@ fn propose_centroid(l: &Local, v: u32, diag: f64) -> Option<(DVec3, u32)> {
     }
     let star = StarEval::new(l, v);
     let old = star.min_key(x0);
+    let guard = star.needs_guard(old);
     for t in [1.0, 0.5, 0.25] {
         let (cand, tri) = l.project(v, x0 + step * t);
-        if star.all_at_least(cand, old) {
+        if star.all_at_least(cand, old) && (!guard || star.keeps_valid(x0, cand)) {
             return Some((cand, tri));
         }
     }
@@ -190,9 +191,13 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
     if min0 >= 0.7 {
         return None;
     }
+    let guard = star.needs_guard(min0);
     pattern_search8(l, v, &[0.15, 0.05, 0.015], best_sum, |ps| {
-        star.min_sum8(ps)
-            .map(|(min, sum)| (min >= min0).then_some(sum))
+        let r = star.min_sum8(ps);
+        std::array::from_fn(|j| {
+            let (min, sum) = r[j];
+            (min >= min0 && (!guard || star.keeps_valid(x0, ps[j]))).then_some(sum)
+        })
     })
 }
 
@@ -268,12 +273,15 @@ const POLISH_BELOW: f64 = 1.0 / (1.0 + 0.726_542_528_005_360_9);
 /// (key below [`POLISH_BELOW`]) to the trial position that most raises its star's worst key.
 fn propose_worst(l: &Local, v: u32) -> Option<(DVec3, u32)> {
     let star = StarEval::new(l, v);
-    let min0 = star.min_key(l.pos[v as usize]);
+    let x0 = l.pos[v as usize];
+    let min0 = star.min_key(x0);
     if min0 >= POLISH_BELOW {
         return None;
     }
+    let guard = star.needs_guard(min0);
     pattern_search8(l, v, &[0.1, 0.03, 0.01, 0.003], min0, |ps| {
-        star.min_sum8(ps).map(|(min, _)| Some(min))
+        let r = star.min_sum8(ps);
+        std::array::from_fn(|j| (!guard || star.keeps_valid(x0, ps[j])).then_some(r[j].0))
     })
 }
 

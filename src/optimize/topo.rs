@@ -29,6 +29,7 @@
 
 use super::cleanup::{ideal_valence, MAX_FIXED_CORNER};
 use super::local::{rotate_to, slot, Local};
+use super::valid::{self, quad_valid};
 use super::OperationCounts;
 use glam::DVec3;
 
@@ -144,7 +145,9 @@ fn doublet_collapse(l: &mut Local, v: u32, dirty: &mut [bool]) -> bool {
     }
     let merged = [a, b, c, d];
     let n = l.quad_normal(q1) + l.quad_normal(q2);
-    if crate::quality::eta_signed_fast(&merged.map(|w| l.pos[w as usize]), n) <= 0.0 {
+    // validity: the merged quad must be valid (no corner within VALID_ETA of straight, no
+    // collapsed edge), not only of positive η
+    if !quad_valid(l, &merged, n) {
         return false;
     }
     l.quads[q1 as usize] = merged;
@@ -277,7 +280,7 @@ fn try_merge(
             .iter()
             .map(|&o| l.quality(o))
             .fold(f64::INFINITY, f64::min);
-        if new_min > 0.0 && new_min >= old_min {
+        if new_min > 0.0 && new_min >= old_min && others.iter().all(|&o| valid::valid(l, o)) {
             l.tri[a as usize] = tri;
             l.alive[q as usize] = false;
             l.removed[c as usize] = true;
@@ -377,6 +380,11 @@ fn edge_rotation(
         let topological = gain > 0;
         let geometric = old_min < 0.2 && new_min > old_min + 0.2;
         if new_min <= 0.0 || !(topological || geometric) {
+            continue;
+        }
+        // validity: both new quads valid (a float-noise-positive straight corner at a
+        // wall node is not)
+        if !quad_valid(l, &qa, n) || !quad_valid(l, &qb, n) {
             continue;
         }
         if best.is_none_or(|(g, m, _)| (gain, new_min) > (g, m)) {

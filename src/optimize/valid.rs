@@ -1,0 +1,297 @@
+//! What "valid" means for the optimizer, and the per-surface gate that rolls back to the
+//! last valid state.
+//!
+//! A quad is **valid** when its four nodes are distinct, every corner turns positively about
+//! the reference normal (the plane's normal on planar surfaces, the sum of the nodes'
+//! reference normals on curved ones, so a quad turned over scores invalid), no corner is
+//! within [`VALID_ETA`] of straight or folded (corner angles strictly inside about
+//! (0.06°, 179.94°): the tolerance keeps float-noise-positive straight corners out), and no
+//! edge is shorter than [`MIN_EDGE_REL`] times the target size at its ends.
+//!
+//! Every operator accepts a change only if each quad it touches is valid afterwards, or was
+//! already invalid before and is not made worse (quads the matching left invalid, e.g. a
+//! single triangle pair at a sharp wall corner, which no node move can fix). On top of that,
+//! [`Gate`] (`run_surface`) checks whole states: the optimizer may end with no invalid quad
+//! other than those it was given; if it does, the surface goes back to its last checked
+//! state that passed (the state after a stage), and in the end to the input itself.
+
+use super::local::Local;
+use glam::DVec3;
+use rayon::prelude::*;
+
+/// Smallest signed η (eq. 3) of a valid quad: a corner within 0.09° of 0° or 180° fails.
+pub(crate) const VALID_ETA: f64 = 1e-3;
+
+/// [`VALID_ETA`] as a [`shape_key`](super::local::shape_key): `1 / (1 + cot(VALID_ETA·π/2))`.
+pub(crate) const VALID_KEY: f64 = 1.568_334_083_280_948e-3;
+
+/// Shortest edge of a valid quad, relative to the mean target size of its two ends.
+pub(crate) const MIN_EDGE_REL: f64 = 1e-3;
+
+/// The reference normal of quad `q` for validity: the plane's on planar surfaces, else the
+/// sum of its nodes' reference normals (not the quad's own normal, which turns over with it).
+pub(crate) fn reference_normal(l: &Local, q: u32) -> DVec3 {
+    let quad = &l.quads[q as usize];
+    if l.planar {
+        l.nrm[quad[0] as usize]
+    } else {
+        l.quad_normal(q)
+    }
+}
+
+/// True when the quad `nodes` at the current positions is valid about `normal` (module
+/// docs).
+pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
+    for i in 0..4 {
+        for j in i + 1..4 {
+            if nodes[i] == nodes[j] {
+                return false;
+            }
+        }
+    }
+    let n = normal.normalize_or_zero();
+    if n == DVec3::ZERO {
+        return false;
+    }
+    let p = nodes.map(|v| l.pos[v as usize]);
+    let mut worst = 0.0_f64;
+    for k in 0..4 {
+        let a = p[(k + 1) & 3] - p[k];
+        let b = p[(k + 3) & 3] - p[k];
+        let (va, vb) = (nodes[k] as usize, nodes[(k + 1) & 3] as usize);
+        let h = 0.5 * (l.h[va] + l.h[vb]);
+        let len = a.length();
+        if !(len.is_finite() && len > MIN_EDGE_REL * h) {
+            return false;
+        }
+        let s = n.dot(a.cross(b));
+        // NaN fails too
+        if s.is_nan() || s <= 0.0 {
+            return false;
+        }
+        worst = worst.max(a.dot(b).abs() / s);
+    }
+    1.0 / (1.0 + worst) >= VALID_KEY
+}
+
+/// True when alive quad `q` is valid (module docs).
+pub(crate) fn valid(l: &Local, q: u32) -> bool {
+    quad_valid(l, &l.quads[q as usize], reference_normal(l, q))
+}
+
+/// The alive quads that are not valid, by increasing index.
+pub(crate) fn invalid_quads(l: &Local) -> Vec<u32> {
+    (0..l.quads.len() as u32)
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter(|&q| l.alive[q as usize] && !valid(l, q))
+        .collect()
+}
+
+/// One surface's nodes and quads at a moment, to roll back to.
+#[derive(Clone)]
+struct State {
+    pos: Vec<DVec3>,
+    nrm: Vec<DVec3>,
+    tri: Vec<u32>,
+    removed: Vec<bool>,
+    quads: Vec<[u32; 4]>,
+    alive: Vec<bool>,
+}
+
+impl State {
+    fn of(l: &Local) -> Self {
+        State {
+            pos: l.pos.clone(),
+            nrm: l.nrm.clone(),
+            tri: l.tri.clone(),
+            removed: l.removed.clone(),
+            quads: l.quads.clone(),
+            alive: l.alive.clone(),
+        }
+    }
+
+    fn restore(self, l: &mut Local) {
+        l.pos = self.pos;
+        l.nrm = self.nrm;
+        l.tri = self.tri;
+        l.removed = self.removed;
+        l.quads = self.quads;
+        l.alive = self.alive;
+        l.build_adjacency();
+    }
+}
+
+/// The validity gate of one surface (module docs): the quads invalid at the start (sorted
+/// node lists: the optimizer may keep them, not create others), the start state and the
+/// last state that passed [`Gate::check`].
+#[derive(Clone)]
+pub(crate) struct Gate {
+    inherited: Vec<[u32; 4]>,
+    start: Option<State>,
+    last: Option<State>,
+    /// Checks that failed (states rolled back).
+    pub rollbacks: usize,
+}
+
+fn sorted(q: [u32; 4]) -> [u32; 4] {
+    let mut s = q;
+    s.sort_unstable();
+    s
+}
+
+impl Gate {
+    /// Records the start state of `l` and its invalid quads.
+    pub fn new(l: &Local) -> Self {
+        let mut inherited: Vec<[u32; 4]> = invalid_quads(l)
+            .into_iter()
+            .map(|q| sorted(l.quads[q as usize]))
+            .collect();
+        inherited.sort_unstable();
+        Gate {
+            inherited,
+            start: Some(State::of(l)),
+            last: None,
+            rollbacks: 0,
+        }
+    }
+
+    /// The invalid quads of `l` that the start did not have (as the same node set).
+    pub fn new_invalid(&self, l: &Local) -> Vec<u32> {
+        invalid_quads(l)
+            .into_iter()
+            .filter(|&q| {
+                self.inherited
+                    .binary_search(&sorted(l.quads[q as usize]))
+                    .is_err()
+            })
+            .collect()
+    }
+
+    /// Checks `l` after a stage: a state that passes becomes the one to roll back to
+    /// (`keep`: store a copy, else only note it); one that fails is replaced by the last
+    /// one that passed (or the start). Returns true when `l` passed.
+    /// `stage` names the stage for the log (`BLOSSOMQUAD_STAGE_TIMES` set: one line on
+    /// stderr per rollback).
+    pub fn check(&mut self, l: &mut Local, keep: bool, stage: &str) -> bool {
+        let bad = self.new_invalid(l);
+        if bad.is_empty() {
+            if keep {
+                self.last = Some(State::of(l));
+                // the start is needed only until a later state passed
+                self.start = None;
+            }
+            return true;
+        }
+        if std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some() {
+            let show: Vec<String> = bad
+                .iter()
+                .take(4)
+                .map(|&q| {
+                    let t = l.quads[q as usize].map(|v| l.tags[v as usize]);
+                    format!("{} {} {} {}", t[0], t[1], t[2], t[3])
+                })
+                .collect();
+            eprintln!(
+                "surface {}: the {stage} left {} invalid quad(s) (nodes {}); rolled back",
+                l.surface,
+                bad.len(),
+                show.join(", ")
+            );
+        }
+        self.rollbacks += 1;
+        self.roll_back(l);
+        false
+    }
+
+    /// Puts `l` back into the last state that passed (the start if none).
+    pub fn roll_back(&mut self, l: &mut Local) {
+        let s = match self.last.clone() {
+            Some(s) => s,
+            None => match self.start.clone() {
+                Some(s) => s,
+                None => return,
+            },
+        };
+        s.restore(l);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optimize::cleanup::tests::local_of;
+    use crate::optimize::synth;
+
+    /// A 4 × 4 grid of unit squares and its centre node (free).
+    fn grid() -> (Local, u32) {
+        let s = synth::quad_grid(4, 4, 4.0, 4.0);
+        let (_, l) = local_of(&synth::to_mesh(&s));
+        let v = (0..l.pos.len() as u32)
+            .find(|&v| l.pos[v as usize].distance(DVec3::new(2.0, 2.0, 0.0)) < 1e-12)
+            .expect("centre node");
+        assert!(!l.fixed[v as usize]);
+        (l, v)
+    }
+
+    #[test]
+    fn straight_folded_and_collapsed_quads_are_invalid() {
+        let (mut l, v) = grid();
+        assert!(invalid_quads(&l).is_empty());
+        // onto the edge between two neighbours: two quads get a corner of 180° up to
+        // float noise, which a bare `η > 0` test lets through
+        let c = l.pos[v as usize];
+        l.pos[v as usize] = DVec3::new(2.0, 1.0 + 1e-13, 0.0).lerp(c, 1e-9);
+        assert!(!invalid_quads(&l).is_empty());
+        // past it: folded
+        l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
+        assert!(!invalid_quads(&l).is_empty());
+        // onto a neighbour: an edge of length 0
+        l.pos[v as usize] = DVec3::new(2.0, 1.0, 0.0);
+        assert!(!invalid_quads(&l).is_empty());
+        // a small move keeps every quad valid
+        l.pos[v as usize] = c + DVec3::new(0.2, -0.1, 0.0);
+        assert!(invalid_quads(&l).is_empty());
+    }
+
+    #[test]
+    fn the_gate_rolls_back_to_the_last_state_that_passed() {
+        let (mut l, v) = grid();
+        let mut gate = Gate::new(&l);
+        let start = l.pos[v as usize];
+        // a stage that moves the node a little: passes, and becomes the state to keep
+        let moved = start + DVec3::new(0.1, 0.05, 0.0);
+        l.pos[v as usize] = moved;
+        assert!(gate.check(&mut l, true, "test"));
+        // a stage that folds two quads: rolled back to the moved state
+        l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
+        assert!(!gate.check(&mut l, true, "test"));
+        assert_eq!(l.pos[v as usize], moved);
+        assert_eq!(gate.rollbacks, 1);
+        // a quad removed by a stage that left an invalid one comes back too
+        let quads = l.quads.clone();
+        l.alive[0] = false;
+        l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
+        assert!(!gate.check(&mut l, false, "test"));
+        assert!(l.alive[0] && l.quads == quads);
+    }
+
+    #[test]
+    fn quads_invalid_at_the_start_are_inherited_not_new() {
+        let (mut l, v) = grid();
+        l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
+        let bad = invalid_quads(&l);
+        assert!(!bad.is_empty());
+        let mut gate = Gate::new(&l);
+        assert!(gate.new_invalid(&l).is_empty());
+        assert!(gate.check(&mut l, true, "test"));
+    }
+
+    #[test]
+    fn the_valid_key_is_the_key_of_the_valid_eta() {
+        let cot = ((1.0 - VALID_ETA) * std::f64::consts::FRAC_PI_2).tan();
+        let key = 1.0 / (1.0 + cot);
+        assert!((key - VALID_KEY).abs() < 1e-15, "{key}");
+        assert!((super::super::local::key_to_eta(VALID_KEY) - VALID_ETA).abs() < 1e-12);
+    }
+}
