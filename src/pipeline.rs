@@ -248,7 +248,10 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
             fallback = Some(split);
             times.recombine += t.elapsed();
         }
-        let (run, refined) = run_once(input, &mut mesh, opts, &mut times)?;
+        // after a first invalid run, keep the mesh before optimization: a surface the
+        // optimizer leaves invalid gets it back
+        let keep = round > 0 && opts.optimize;
+        let (mut run, refined, unoptimized) = run_once(input, &mut mesh, opts, keep, &mut times)?;
         let t = Instant::now();
         progress(opts, Stage::Check, 0, 1);
         // refinement splits every boundary segment once more: its output is the baseline
@@ -262,7 +265,21 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
                 detail,
             },
         )?;
-        let bad = validity::invalid_quads(input, &mesh);
+        let mut bad = validity::invalid_quads(input, &mesh);
+        if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
+            let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+            let back = revert_surfaces(&mut mesh, pre, &surfaces);
+            if validity::invalid_quads(input, &back).is_empty()
+                && recombine::check_invariants(refined.as_ref().unwrap_or(input), &back).is_ok()
+            {
+                run.log.push(format!(
+                    "surface(s) {}: optimization undone (it left a quad that is not valid)",
+                    sorted_list(&surfaces)
+                ));
+                mesh = back;
+                bad.clear();
+            }
+        }
         progress(opts, Stage::Check, 1, 1);
         times.check += t.elapsed();
         let mut report = run;
@@ -305,6 +322,31 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         chosen.extend(more);
     }
     unreachable!("the last round returns")
+}
+
+/// `mesh` with the quads and the surface-classified nodes of `surfaces` taken from `pre`
+/// (the same mesh before optimization: the optimizer moves and removes only nodes inside a
+/// surface, and changes only its quads).
+fn revert_surfaces(mesh: &Mesh, pre: &Mesh, surfaces: &HashSet<i32>) -> Mesh {
+    let mut out = mesh.clone();
+    let ours = |dim: i32, tag: i32| dim == 2 && surfaces.contains(&tag);
+    for (dst, src) in [(&mut out.node_blocks, &pre.node_blocks)] {
+        dst.retain(|b| !ours(b.entity_dim, b.entity_tag));
+        dst.extend(
+            src.iter()
+                .filter(|b| ours(b.entity_dim, b.entity_tag))
+                .cloned(),
+        );
+    }
+    out.element_blocks
+        .retain(|b| !(ours(b.entity_dim, b.entity_tag) && b.element_type == etype::QUAD4));
+    out.element_blocks.extend(
+        pre.element_blocks
+            .iter()
+            .filter(|b| ours(b.entity_dim, b.entity_tag) && b.element_type == etype::QUAD4)
+            .cloned(),
+    );
+    out
 }
 
 fn sorted_list(s: &HashSet<i32>) -> String {
@@ -379,14 +421,16 @@ fn fallback_triangles(
 }
 
 /// One run: recombine, refine, optimize (the reference triangulation prepared on its own
-/// thread meanwhile). Returns the report and, after a refinement, the refined mesh before
-/// optimization.
+/// thread meanwhile). Returns the report, after a refinement the refined mesh before
+/// optimization, and with `keep_unoptimized` the mesh before optimization.
+#[allow(clippy::type_complexity)]
 fn run_once(
     input: &Mesh,
     mesh: &mut Mesh,
     opts: &Options,
+    keep_unoptimized: bool,
     times: &mut Times,
-) -> Result<(Report, Option<Mesh>), Error> {
+) -> Result<(Report, Option<Mesh>, Option<Mesh>), Error> {
     let ropts = recombine::RecombineOptions {
         parity: opts.parity,
         drop_volumes: opts.drop_volumes,
@@ -437,6 +481,7 @@ fn run_once(
     }
     times.refine += t.elapsed();
     let refined = (opts.refine > 0).then(|| mesh.clone());
+    let unoptimized = keep_unoptimized.then(|| mesh.clone());
 
     if opts.optimize {
         let t = Instant::now();
@@ -466,5 +511,5 @@ fn run_once(
         report.optimize = Some(orep);
         times.optimize += t.elapsed();
     }
-    Ok((report, refined))
+    Ok((report, refined, unoptimized))
 }
