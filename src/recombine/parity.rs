@@ -44,7 +44,7 @@ pub(crate) struct Plan {
     pub unsolved: Vec<OddRegion>,
 }
 
-struct Group {
+pub(crate) struct Group {
     curve: Option<i32>,
     sig: Vec<u32>,
     /// (no ear beside it, length, a, b) of the best segment so far.
@@ -120,7 +120,7 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
             .filter(|r| r.len() % 2 == 1)
             .map(|r| r[0].1)
             .collect();
-        if sig.is_empty() || sig.len() > 2 || blocked.binary_search(&key).is_ok() {
+        if sig.is_empty() || blocked.binary_search(&key).is_ok() {
             continue;
         }
         let (a, b) = ((key >> 32) as u32, key as u32);
@@ -160,28 +160,12 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
             list[id].best = (no_ear, len, a, b);
         }
     }
-    // region graph: region-region groups are edges, one-region groups join the ground node
-    let ground = nr as u32;
-    let mut adj: Vec<Vec<(u32, usize)>> = vec![Vec::new(); nr + 1];
-    for (g, grp) in list.iter().enumerate() {
-        let (u, v) = if grp.sig.len() == 2 {
-            (grp.sig[0], grp.sig[1])
-        } else {
-            (grp.sig[0], ground)
-        };
-        adj[u as usize].push((v, g));
-        adj[v as usize].push((u, g));
-    }
-    let odd_ids: Vec<u32> = (0..nr as u32)
-        .filter(|&r| size[r as usize] % 2 == 1)
+    let odd_in: Vec<bool> = size.iter().map(|s| s % 2 == 1).collect();
+    let (mut chosen, unsolved_ids) = solve_groups(&list, &odd_in);
+    let unsolved: Vec<OddRegion> = unsolved_ids
+        .into_iter()
+        .map(|r| odd_of(r as usize))
         .collect();
-    let (mut chosen, unsolved) = match min_tjoin(&adj, &odd_ids, ground) {
-        Some(c) => (c, Vec::new()),
-        None => {
-            let (c, u) = tree_tjoin(&adj, &size, ground);
-            (c, u.into_iter().map(|r| odd_of(r as usize)).collect())
-        }
-    };
     // a group chosen twice cancels out
     chosen.sort_unstable();
     let keep: Vec<usize> = chosen
@@ -448,9 +432,9 @@ pub(crate) fn add_node(
 /// [`min_tjoin`] or some cannot be paired): odd parity is pushed from the leaves to the root
 /// of each tree; a root left odd is fixed through a ground group reached along the tree.
 /// Returns the chosen groups (with repeats) and the roots that stay odd.
-fn tree_tjoin(adj: &[Vec<(u32, usize)>], size: &[usize], ground: u32) -> (Vec<usize>, Vec<u32>) {
-    let nr = size.len();
-    let mut parity: Vec<bool> = size.iter().map(|s| s % 2 == 1).collect();
+fn tree_tjoin(adj: &[Vec<(u32, usize)>], odd: &[bool], ground: u32) -> (Vec<usize>, Vec<u32>) {
+    let nr = odd.len();
+    let mut parity: Vec<bool> = odd.to_vec();
     parity.push(false);
     let mut seen = vec![false; nr + 1];
     let mut chosen: Vec<usize> = Vec::new();
@@ -590,4 +574,179 @@ fn min_tjoin(adj: &[Vec<(u32, usize)>], odd: &[u32], ground: u32) -> Option<Vec<
         }
     }
     Some(chosen)
+}
+
+/// Chooses groups (with repeats, which cancel) whose splits make every region even, given
+/// each group's flipped regions (`sig`) and the odd regions. Returns the choice and the odd
+/// regions left that no choice can fix (empty exactly when the GF(2) system "the chosen
+/// groups flip every odd region an odd number of times and every even one an even number"
+/// is solvable).
+///
+/// Groups flipping one or two regions are the edges of the region graph (a one-region
+/// group joins its region to the ground). Inside one connected component of that graph any
+/// even set of odd regions can be fixed along paths, and any set at all when the component
+/// holds the ground; so the only constraint is one parity bit per ungrounded component.
+/// Groups flipping three or more regions (curves shared by 3+ surfaces) change those bits:
+/// a small GF(2) system (rows: ungrounded components, columns: such groups), solved by
+/// Gaussian elimination, picks the ones to split; their flips are applied, and the region
+/// graph's minimum T-join fixes the rest with the fewest splits.
+pub(crate) fn solve_groups(list: &[Group], odd_in: &[bool]) -> (Vec<usize>, Vec<u32>) {
+    let nr = odd_in.len();
+    let ground = nr as u32;
+    // components of the region graph
+    let mut uf: Vec<u32> = (0..=nr as u32).collect();
+    fn find(uf: &mut [u32], mut x: u32) -> u32 {
+        while uf[x as usize] != x {
+            let p = uf[uf[x as usize] as usize];
+            uf[x as usize] = p;
+            x = p;
+        }
+        x
+    }
+    let mut adj: Vec<Vec<(u32, usize)>> = vec![Vec::new(); nr + 1];
+    for (g, grp) in list.iter().enumerate() {
+        let (u, v) = match grp.sig.len() {
+            1 => (grp.sig[0], ground),
+            2 => (grp.sig[0], grp.sig[1]),
+            _ => continue,
+        };
+        adj[u as usize].push((v, g));
+        adj[v as usize].push((u, g));
+        let (ru, rv) = (find(&mut uf, u), find(&mut uf, v));
+        if ru != rv {
+            uf[ru as usize] = rv;
+        }
+    }
+    let ground_root = find(&mut uf, ground);
+    let comp: Vec<u32> = (0..nr as u32).map(|r| find(&mut uf, r)).collect();
+    // dense numbering of the ungrounded components
+    let mut row_of = vec![NONE; nr + 1];
+    let mut n_rows = 0usize;
+    for &c in &comp {
+        if c != ground_root && row_of[c as usize] == NONE {
+            row_of[c as usize] = n_rows as u32;
+            n_rows += 1;
+        }
+    }
+    let mut rhs = vec![false; n_rows];
+    for r in 0..nr {
+        let row = row_of[comp[r] as usize];
+        if odd_in[r] && row != NONE {
+            rhs[row as usize] ^= true;
+        }
+    }
+    let mut odd = odd_in.to_vec();
+    let mut chosen: Vec<usize> = Vec::new();
+    if rhs.iter().any(|&b| b) {
+        // columns: groups flipping 3+ regions, by the ungrounded components they flip
+        let mut cols: Vec<(usize, Vec<u32>)> = Vec::new();
+        for (g, grp) in list.iter().enumerate() {
+            if grp.sig.len() < 3 {
+                continue;
+            }
+            let mut rows: Vec<u32> = grp
+                .sig
+                .iter()
+                .map(|&r| row_of[comp[r as usize] as usize])
+                .filter(|&x| x != NONE)
+                .collect();
+            rows.sort_unstable();
+            let rows: Vec<u32> = rows
+                .chunk_by(|a, b| a == b)
+                .filter(|c| c.len() % 2 == 1)
+                .map(|c| c[0])
+                .collect();
+            if !rows.is_empty() {
+                cols.push((g, rows));
+            }
+        }
+        let x = gf2_solve(n_rows, &cols.iter().map(|c| c.1.clone()).collect::<Vec<_>>(), &rhs);
+        for (j, (g, _)) in cols.iter().enumerate() {
+            if x[j] {
+                chosen.push(*g);
+                for &r in &list[*g].sig {
+                    odd[r as usize] ^= true;
+                }
+            }
+        }
+    }
+    // components still odd cannot be fixed: their odd regions are reported, and left out of
+    // the T-join (one per component would make it impossible)
+    let mut left = vec![false; n_rows];
+    for r in 0..nr {
+        let row = row_of[comp[r] as usize];
+        if odd[r] && row != NONE {
+            left[row as usize] ^= true;
+        }
+    }
+    let mut unsolved: Vec<u32> = Vec::new();
+    for r in 0..nr {
+        let row = row_of[comp[r] as usize];
+        if row != NONE && left[row as usize] && odd[r] {
+            unsolved.push(r as u32);
+            odd[r] = false;
+        }
+    }
+    let odd_ids: Vec<u32> = (0..nr as u32).filter(|&r| odd[r as usize]).collect();
+    match min_tjoin(&adj, &odd_ids, ground) {
+        Some(c) => chosen.extend(c),
+        None => {
+            let (c, u) = tree_tjoin(&adj, &odd, ground);
+            chosen.extend(c);
+            unsolved.extend(u);
+        }
+    }
+    unsolved.sort_unstable();
+    unsolved.dedup();
+    (chosen, unsolved)
+}
+
+/// Solves `A x = b` over GF(2) by Gaussian elimination; `cols[j]` lists the rows where
+/// column `j` has a 1. Free variables are 0. When the system is inconsistent, the returned
+/// `x` satisfies the rows it can (the caller checks what is left).
+fn gf2_solve(n_rows: usize, cols: &[Vec<u32>], b: &[bool]) -> Vec<bool> {
+    let nc = cols.len();
+    let words = (nc + 1).div_ceil(64);
+    let mut m = vec![0u64; n_rows * words];
+    for (j, c) in cols.iter().enumerate() {
+        for &r in c {
+            m[r as usize * words + j / 64] ^= 1 << (j % 64);
+        }
+    }
+    for (r, &v) in b.iter().enumerate() {
+        if v {
+            m[r * words + nc / 64] ^= 1 << (nc % 64);
+        }
+    }
+    let bit = |m: &[u64], r: usize, j: usize| (m[r * words + j / 64] >> (j % 64)) & 1 == 1;
+    let mut pivot_row = 0;
+    let mut pivots: Vec<(usize, usize)> = Vec::new();
+    for j in 0..nc {
+        let Some(p) = (pivot_row..n_rows).find(|&r| bit(&m, r, j)) else {
+            continue;
+        };
+        if p != pivot_row {
+            for w in 0..words {
+                m.swap(p * words + w, pivot_row * words + w);
+            }
+        }
+        for r in 0..n_rows {
+            if r != pivot_row && bit(&m, r, j) {
+                for w in 0..words {
+                    let v = m[pivot_row * words + w];
+                    m[r * words + w] ^= v;
+                }
+            }
+        }
+        pivots.push((pivot_row, j));
+        pivot_row += 1;
+        if pivot_row == n_rows {
+            break;
+        }
+    }
+    let mut x = vec![false; nc];
+    for (r, j) in pivots {
+        x[j] = bit(&m, r, nc);
+    }
+    x
 }
