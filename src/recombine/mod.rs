@@ -257,7 +257,7 @@ pub struct RecombineReport {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum RecombineError {
     /// Volume elements are present (recombining their boundary would break conformity).
-    #[error("the mesh has {count} volume elements (volumes {volumes:?}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone")]
+    #[error("the mesh has {count} volume elements (volumes {}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone", list_tags(.volumes))]
     VolumeElements {
         /// Number of volume elements.
         count: usize,
@@ -321,11 +321,13 @@ pub enum RecombineError {
         /// The full explanation.
         message: String,
     },
-    /// Odd regions that no segment split can fix.
-    #[error("cannot make these triangle regions even (no splittable boundary segment: closed, periodic or bordered by quads): {regions:?}")]
+    /// Odd regions that no combination of segment splits can fix.
+    #[error("{message}")]
     ParityUnsolvable {
         /// The regions.
         regions: Vec<OddRegion>,
+        /// The explanation, in plain words.
+        message: String,
     },
     /// No perfect matching even with extra edges.
     #[error("surface {surface}: no perfect matching of its {triangles} triangles even with extra edges (Tutte witness: removing {witness} triangles leaves {odd_components} odd components); the triangulation cannot be recombined into quads as is")]
@@ -425,14 +427,14 @@ pub fn recombine(
                 retriangulate(mesh, &[surface], &mut report);
                 retriangulated.push(surface);
             }
-            Err(RecombineError::ParityUnsolvable { regions }) => {
+            Err(RecombineError::ParityUnsolvable { regions, message }) => {
                 let fix: Vec<i32> = regions
                     .iter()
                     .map(|r| r.surface)
                     .filter(|&s| has_quads(mesh, s) && !retriangulated.contains(&s))
                     .collect();
                 if fix.is_empty() {
-                    return Err(RecombineError::ParityUnsolvable { regions });
+                    return Err(RecombineError::ParityUnsolvable { regions, message });
                 }
                 retriangulate(mesh, &fix, &mut report);
                 retriangulated.extend(fix);
@@ -487,9 +489,7 @@ fn parity_stage(
         return Err(odd_parity_error(&plan));
     }
     if !plan.unsolved.is_empty() {
-        return Err(RecombineError::ParityUnsolvable {
-            regions: plan.unsolved,
-        });
+        return Err(parity::unsolvable_error(&plan));
     }
     let splits = parity::apply(mesh, &nodes, &plan.choices)?;
     for o in &plan.odd {
@@ -502,16 +502,25 @@ fn parity_stage(
         ));
     }
     for s in &splits {
-        report.log.push(format!(
-            "parity repair: split segment {}-{} of {} at its midpoint (new node {}), flipping surface(s) {:?}",
-            s.segment.0,
-            s.segment.1,
-            s.curve
-                .map(|c| format!("curve {c}"))
-                .unwrap_or_else(|| "a boundary without curve data".into()),
-            s.new_node,
-            s.surfaces
-        ));
+        let place = match (s.curve, s.surfaces.is_empty()) {
+            (Some(c), _) => format!("curve {c}"),
+            (None, true) => "a quad strip".into(),
+            (None, false) => "a boundary without curve data".into(),
+        };
+        report.log.push(if s.surfaces.is_empty() {
+            format!(
+                "parity repair: split segment {}-{} of {place} at its midpoint (new node {}) with the split above (its periodic image or the quad strip it runs through)",
+                s.segment.0, s.segment.1, s.new_node
+            )
+        } else {
+            format!(
+                "parity repair: split segment {}-{} of {place} at its midpoint (new node {}), flipping surface(s) {}",
+                s.segment.0,
+                s.segment.1,
+                s.new_node,
+                list_tags(&s.surfaces)
+            )
+        });
     }
     report.parity_splits.extend(splits);
     mesh.invalidate_element_data();
@@ -520,7 +529,7 @@ fn parity_stage(
     let work = surface_work(mesh, &nodes, &curves)?;
     let again = parity::plan(mesh, &nodes, &work);
     if !again.odd.is_empty() {
-        return Err(RecombineError::ParityUnsolvable { regions: again.odd });
+        return Err(parity::still_odd_error(&again.odd));
     }
     Ok((nodes, work))
 }
@@ -629,7 +638,8 @@ fn check_input(
         mesh.element_blocks
             .retain(|b| element_dim(b.element_type) != Some(3));
         mesh.warnings.push(format!(
-            "dropped {count} volume elements (volumes {volumes:?}); the volume entities are kept"
+            "dropped {count} volume elements (volumes {}); the volume entities are kept",
+            list_tags(&volumes)
         ));
         report.dropped_volume_elements = count;
         report.log.push(format!("dropped {count} volume elements"));
@@ -728,8 +738,22 @@ fn surface_work(
         .collect()
 }
 
+/// `1, 2, 3`: entity tags for messages.
+pub(crate) fn list_tags(tags: &[i32]) -> String {
+    tags.iter()
+        .map(|t| t.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
-    let mut curves: Vec<Option<i32>> = plan.choices.iter().map(|c| c.curve).collect();
+    // the curves the repair would split (with the periodic images and quad strips it
+    // splits along): the same plan, so the advice and the repair agree
+    let mut curves: Vec<Option<i32>> = plan
+        .choices
+        .iter()
+        .flat_map(|c| std::iter::once(c.curve).chain(c.with.iter().filter_map(|w| w.2.map(Some))))
+        .collect();
     curves.sort_unstable();
     curves.dedup();
     let mut msg = String::from(
@@ -752,10 +776,15 @@ fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
         ));
     }
     let named: Vec<String> = curves.iter().flatten().map(|c| c.to_string()).collect();
+    if !plan.unsolved.is_empty() {
+        msg.push_str(&parity::unsolvable_message(&plan.unsolved, &plan.isolated));
+        msg.push('\n');
+    }
     if !named.is_empty() {
         msg.push_str(&format!(
-            "changing the number of nodes on curve(s) {} by one fixes them\n",
-            named.join(", ")
+            "changing the number of nodes on curve(s) {} by one fixes {}\n",
+            named.join(", "),
+            if plan.unsolved.is_empty() { "them" } else { "the others" }
         ));
     }
     if curves.contains(&None) {
