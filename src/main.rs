@@ -321,6 +321,8 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         if let Some(b) = bar {
             b.finish_and_clear();
         }
+        // periodic slave surfaces follow their optimized masters
+        recombine::sync_periodic(&mut mesh).map_err(|e| format!("{}: {e}", input.display()))?;
         for s in &orep.surfaces {
             log.say(format!(
                 "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",

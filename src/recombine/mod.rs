@@ -127,6 +127,7 @@ mod cross_field;
 mod graph;
 mod invariants;
 mod parity;
+mod periodic;
 mod post;
 mod topology;
 
@@ -274,13 +275,15 @@ pub enum RecombineError {
         /// How many.
         count: usize,
     },
-    /// A surface with triangles is periodic.
-    #[error("surface {surface} is periodic ($Periodic link to surface {master}); periodic surfaces are not supported for now")]
+    /// A periodic surface whose mesh is not the image of its master's.
+    #[error("surface {surface} is periodic (a copy of surface {master} in the $Periodic section) but {reason}, so its master's quads cannot be copied onto it; remesh it with Gmsh's periodic meshing (`Periodic Surface` or `gmsh.model.mesh.setPeriodic`)")]
     PeriodicSurface {
-        /// The surface.
+        /// The slave surface.
         surface: i32,
-        /// The other surface of the link.
+        /// Its master surface.
         master: i32,
+        /// What does not match, in plain words.
+        reason: String,
     },
     /// An element block whose node list does not match its element count (a bug in whatever
     /// built the mesh).
@@ -449,7 +452,14 @@ pub fn recombine(
             .filter(|s| s.surfaces.contains(&w.tag))
             .count();
     }
+    let periodic_corr = periodic::correspondence(mesh)?;
     write_back(mesh, &nodes, &work, &results);
+    let mapped = periodic::map_slaves(mesh, Some(&periodic_corr))?;
+    if mapped > 0 {
+        report.log.push(format!(
+            "{mapped} periodic surface(s) got the image of their master's quads"
+        ));
+    }
     mesh.invalidate_element_data();
     for r in &results {
         let s = &r.report;
@@ -464,6 +474,14 @@ pub fn recombine(
     }
     report.time_total = start.elapsed();
     Ok(report)
+}
+
+/// Makes every periodic slave surface the image of its master again (elements and interior
+/// node positions, through the `$Periodic` node pairs and affine transform): run it after
+/// anything that changed the master surfaces (the optimizer). Returns the number of slave
+/// surfaces mapped.
+pub fn sync_periodic(mesh: &mut Mesh) -> Result<usize, RecombineError> {
+    periodic::map_slaves(mesh, None)
 }
 
 /// Steps 2–3: topology of every surface, then parity repair (one round, checked).
@@ -644,14 +662,11 @@ fn check_input(
         report.dropped_volume_elements = count;
         report.log.push(format!("dropped {count} volume elements"));
     }
-    let mut has_tris: Vec<i32> = Vec::new();
     for b in &mesh.element_blocks {
         if element_dim(b.element_type) != Some(2) || b.is_empty() {
             continue;
         }
-        if b.element_type == etype::TRI3 {
-            has_tris.push(b.entity_tag);
-        } else if b.element_type != etype::QUAD4 {
+        if b.element_type != etype::TRI3 && b.element_type != etype::QUAD4 {
             return Err(RecombineError::UnsupportedSurfaceElements {
                 surface: b.entity_tag,
                 element_type: b.element_type,
@@ -659,27 +674,22 @@ fn check_input(
             });
         }
     }
-    for p in mesh.periodic.iter().filter(|p| p.dim == 2) {
-        for (s, m) in [(p.tag, p.master_tag), (p.master_tag, p.tag)] {
-            if has_tris.contains(&s) {
-                return Err(RecombineError::PeriodicSurface {
-                    surface: s,
-                    master: m,
-                });
-            }
-        }
-    }
+    // periodic slave surfaces get their master's quads (periodic.rs); the check that each
+    // is the image of its master runs after parity repair
     Ok(())
 }
 
 /// Surface tags with 3-node triangles, in first-appearance order.
 fn surface_tags(mesh: &Mesh) -> Vec<i32> {
+    // periodic slaves are not recombined: they get the image of their master
+    let slaves = periodic::slave_surfaces(mesh);
     let mut tags: Vec<i32> = Vec::new();
     for b in &mesh.element_blocks {
         if b.element_type == etype::TRI3
             && b.entity_dim == 2
             && !b.is_empty()
             && !tags.contains(&b.entity_tag)
+            && !slaves.contains(&b.entity_tag)
         {
             tags.push(b.entity_tag);
         }
