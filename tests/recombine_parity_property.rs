@@ -30,7 +30,13 @@ struct Model {
 fn model(rng: &mut Rng) -> Model {
     let n_points = 4 + (rng.next_f64() * 3.0) as usize;
     let pts: Vec<[f64; 3]> = (0..n_points)
-        .map(|_| [rng.next_f64() * 10.0, rng.next_f64() * 10.0, rng.next_f64() * 10.0])
+        .map(|_| {
+            [
+                rng.next_f64() * 10.0,
+                rng.next_f64() * 10.0,
+                rng.next_f64() * 10.0,
+            ]
+        })
         .collect();
     let mut all = Vec::new();
     for a in 0..n_points {
@@ -68,7 +74,11 @@ fn model(rng: &mut Rng) -> Model {
             let tag = c as i32 + 1;
             b.entity(1, tag, &[x as i32 + 1, -(y as i32 + 1)], &[]);
             let k = 1 + (rng.next_f64() * 3.0) as usize;
-            let bend = [rng.next_f64() - 0.5, rng.next_f64() - 0.5, rng.next_f64() - 0.5];
+            let bend = [
+                rng.next_f64() - 0.5,
+                rng.next_f64() - 0.5,
+                rng.next_f64() - 0.5,
+            ];
             let mut nodes = vec![point_node[x]];
             for j in 1..k {
                 let s = j as f64 / k as f64;
@@ -94,7 +104,12 @@ fn model(rng: &mut Rng) -> Model {
             curve_of[&(t[1], t[2])],
             curve_of[&(t[0], t[2])],
         ];
-        b.entity(2, tag, &[cs[0] as i32 + 1, cs[1] as i32 + 1, -(cs[2] as i32 + 1)], &[]);
+        b.entity(
+            2,
+            tag,
+            &[cs[0] as i32 + 1, cs[1] as i32 + 1, -(cs[2] as i32 + 1)],
+            &[],
+        );
         // boundary cycle t0 -> t1 -> t2 -> t0
         let mut ring: Vec<u64> = curve_nodes[cs[0]].clone();
         ring.pop();
@@ -131,7 +146,7 @@ fn solvable(m: &Model) -> bool {
                 .iter()
                 .map(|&c| m.segments[c] + ((set >> c) & 1) as usize)
                 .sum();
-            n % 2 == 0
+            n.is_multiple_of(2)
         })
     })
 }
@@ -175,7 +190,10 @@ fn repair_succeeds_exactly_when_the_parity_system_is_solvable() {
             );
             // the only brace is in the .geo example `Transfinite Curve{...}`
             let plain = message.replace("Transfinite Curve{...}", "");
-            assert!(!plain.contains('{') && !plain.contains("OddRegion"), "{message}");
+            assert!(
+                !plain.contains('{') && !plain.contains("OddRegion"),
+                "{message}"
+            );
         }
         let mut out = m.mesh.clone();
         match recombine(&mut out, &verify_opts()) {
@@ -204,6 +222,12 @@ fn repair_succeeds_exactly_when_the_parity_system_is_solvable() {
     // a surface's triangle count has the parity of its curves' segment counts, so these
     // models are always solvable (giving every odd curve one more segment works): the
     // oracle agrees, and the refusal branch above only guards the message
-    assert!(ok + refused == 400 && ok > 300, "ok {ok}, refused {refused}");
-    assert!(odd_models > 100 && three_way > 30, "{odd_models} {three_way}");
+    assert!(
+        ok + refused == 400 && ok > 300,
+        "ok {ok}, refused {refused}"
+    );
+    assert!(
+        odd_models > 100 && three_way > 30,
+        "{odd_models} {three_way}"
+    );
 }

@@ -794,7 +794,11 @@ fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
         msg.push_str(&format!(
             "changing the number of nodes on curve(s) {} by one fixes {}\n",
             named.join(", "),
-            if plan.unsolved.is_empty() { "them" } else { "the others" }
+            if plan.unsolved.is_empty() {
+                "them"
+            } else {
+                "the others"
+            }
         ));
     }
     if curves.contains(&None) {

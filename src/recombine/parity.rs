@@ -197,7 +197,14 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
     }
     let odd_in: Vec<bool> = size.iter().map(|s| s % 2 == 1).collect();
     let (mut chosen, mut unsolved_ids) = solve_groups(&list, &odd_in);
-    if !unsolved_ids.is_empty() && !blocked.is_empty() {
+    // a mixed surface left odd is retriangulated and recombined whole (see `recombine`),
+    // which gives better quads than a chord through its own quads; chords are for triangle
+    // surfaces bordered by other surfaces' quads (structured `Layers`/`Recombine` faces)
+    let mixed = |r: u32| {
+        let s = region_surface[r as usize].0;
+        work.iter().any(|w| w.tag == s && w.quads_kept > 0)
+    };
+    if !unsolved_ids.is_empty() && !blocked.is_empty() && !unsolved_ids.iter().any(|&r| mixed(r)) {
         // segments bordered by quads: the split runs through the quad strip (chord) that
         // starts there, splitting each quad into two, until it leaves the quads
         // a chord edge is on a curve when a line element holds it or both ends are
@@ -225,9 +232,9 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
         );
         let mut by_sig: HashMap<Vec<u32>, usize> = HashMap::new();
         for ch in chords {
-            let sig = ch
-                .iter()
-                .fold(Vec::new(), |acc, e| xor_sorted(&acc, &sig_of(edge_key(e.0, e.1))));
+            let sig = ch.iter().fold(Vec::new(), |acc, e| {
+                xor_sorted(&acc, &sig_of(edge_key(e.0, e.1)))
+            });
             if sig.is_empty() {
                 continue;
             }
@@ -310,7 +317,10 @@ fn describe(o: &OddRegion) -> String {
     } else {
         String::new()
     };
-    format!("surface {}{region} has {} triangles (odd)", o.surface, o.triangles)
+    format!(
+        "surface {}{region} has {} triangles (odd)",
+        o.surface, o.triangles
+    )
 }
 
 /// Why the odd regions `unsolved` cannot be made even, in plain words.
@@ -510,7 +520,11 @@ pub(crate) fn apply(
             set.push(((ta, tb), tag));
             report.push(ParitySplit {
                 curve,
-                surfaces: if i == 0 { c.surfaces.clone() } else { Vec::new() },
+                surfaces: if i == 0 {
+                    c.surfaces.clone()
+                } else {
+                    Vec::new()
+                },
                 segment: (ta, tb),
                 new_node: tag,
             });
@@ -887,7 +901,11 @@ pub(crate) fn solve_groups(list: &[Group], odd_in: &[bool]) -> (Vec<usize>, Vec<
                 cols.push((g, rows));
             }
         }
-        let x = gf2_solve(n_rows, &cols.iter().map(|c| c.1.clone()).collect::<Vec<_>>(), &rhs);
+        let x = gf2_solve(
+            n_rows,
+            &cols.iter().map(|c| c.1.clone()).collect::<Vec<_>>(),
+            &rhs,
+        );
         for (j, (g, _)) in cols.iter().enumerate() {
             if x[j] {
                 chosen.push(*g);
@@ -997,10 +1015,13 @@ fn xor_sorted(x: &[u32], y: &[u32]) -> Vec<u32> {
     out
 }
 
+/// Sorted `(from, to)` node pairs (global ids).
+type NodeMap = Vec<(u32, u32)>;
+
 /// The `$Periodic` links between curves, as node maps both ways (global ids).
 pub(crate) struct PeriodicCurves {
-    /// Per link: (slave curve, master curve, slave → master sorted, master → slave sorted).
-    links: Vec<(i32, i32, Vec<(u32, u32)>, Vec<(u32, u32)>)>,
+    /// Per link: (slave curve, master curve, slave → master, master → slave).
+    links: Vec<(i32, i32, NodeMap, NodeMap)>,
     /// Every curve in some link, sorted.
     curves: Vec<i32>,
 }
@@ -1034,9 +1055,8 @@ impl PeriodicCurves {
     /// through a chain of links), as `(curve, a', b')`; `None` when some link lacks the
     /// correspondence of an end node (the split could not be mirrored).
     fn images(&self, c: i32, a: u32, b: u32) -> Option<Vec<(i32, u32, u32)>> {
-        let look = |m: &[(u32, u32)], x: u32| {
-            m.binary_search_by_key(&x, |p| p.0).ok().map(|i| m[i].1)
-        };
+        let look =
+            |m: &[(u32, u32)], x: u32| m.binary_search_by_key(&x, |p| p.0).ok().map(|i| m[i].1);
         let mut seen = vec![(c, a, b)];
         let mut head = 0;
         while head < seen.len() {
@@ -1178,5 +1198,60 @@ fn link_periodic_splits(mesh: &mut Mesh, split_sets: &[Vec<((u64, u64), u64)>]) 
             }
         }
         link.node_pairs.extend(add);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unsolvable_message_is_plain_words() {
+        let o = OddRegion {
+            surface: 2,
+            region: (0, 1),
+            triangles: 117,
+        };
+        let p = OddRegion {
+            surface: 5,
+            region: (1, 3),
+            triangles: 9,
+        };
+        let msg = unsolvable_message(&[o.clone(), p], &[true, false]);
+        assert!(msg.contains("surface 2 has 117 triangles (odd)"), "{msg}");
+        assert!(msg.contains("surface 5 (region 2 of 3"), "{msg}");
+        assert!(!msg.contains('{') && !msg.contains("OddRegion"), "{msg}");
+        let e = still_odd_error(&[o]).to_string();
+        assert!(!e.contains('{') && e.contains("surface 2 has 117"), "{e}");
+    }
+
+    #[test]
+    fn gf2_solve_handles_three_way_columns() {
+        // rows: 3 components; columns flip {0,1,2} and {0,1}: only their sum flips {2}
+        let cols = vec![vec![0, 1, 2], vec![0, 1]];
+        let flips = |x: &[bool]| {
+            let mut got = [false; 3];
+            for (j, c) in cols.iter().enumerate() {
+                if x[j] {
+                    for &r in c {
+                        got[r as usize] ^= true;
+                    }
+                }
+            }
+            got
+        };
+        assert_eq!(
+            flips(&gf2_solve(3, &cols, &[false, false, true])),
+            [false, false, true]
+        );
+        assert_eq!(
+            flips(&gf2_solve(3, &cols, &[true, true, false])),
+            [true, true, false]
+        );
+        // {0} alone is out of reach: whatever is returned leaves some row wrong
+        assert_ne!(
+            flips(&gf2_solve(3, &cols, &[true, false, false])),
+            [true, false, false]
+        );
     }
 }

@@ -136,9 +136,8 @@ fn transform(mesh: &Mesh, li: usize) -> Result<Box<dyn Fn(DVec3) -> DVec3>, Stri
     }
     let idx = mesh.node_index();
     let pos = |t: u64| {
-        idx.get(t).map(|r| {
-            DVec3::from_array(mesh.node_blocks[r.block as usize].coords[r.index as usize])
-        })
+        idx.get(t)
+            .map(|r| DVec3::from_array(mesh.node_blocks[r.block as usize].coords[r.index as usize]))
     };
     let pairs: Vec<(DVec3, DVec3)> = link
         .node_pairs
@@ -195,8 +194,7 @@ pub(crate) fn map_slaves(
         let (mut same, mut opp) = (0usize, 0usize);
         for (_, f) in &slave {
             for j in 0..f.len() {
-                let (Some(&a), Some(&b)) = (s2m.get(&f[j]), s2m.get(&f[(j + 1) % f.len()]))
-                else {
+                let (Some(&a), Some(&b)) = (s2m.get(&f[j]), s2m.get(&f[(j + 1) % f.len()])) else {
                     continue;
                 };
                 let (fw, bw) = (has((a, b)), has((b, a)));
