@@ -6,8 +6,10 @@
 //! 1. **Checks.** Volume elements → [`RecombineError::VolumeElements`] unless
 //!    [`RecombineOptions::drop_volumes`] (then they are dropped with a warning; volume entities
 //!    are kept). Surface elements other than tri3/quad4 (tri6, quad9 …) →
-//!    [`RecombineError::UnsupportedSurfaceElements`]. A surface with triangles that is in a
-//!    `$Periodic` link → [`RecombineError::PeriodicSurface`].
+//!    [`RecombineError::UnsupportedSurfaceElements`]. A periodic slave surface (`$Periodic`
+//!    link of dimension 2) is not recombined: after step 8 it gets the image of its master's
+//!    quads (`periodic.rs`); it is refused ([`RecombineError::PeriodicSurface`]) only when
+//!    its triangles are not the image of its master's.
 //! 2. **Topology** (per surface, in parallel). Nodes get dense global `u32` ids; each
 //!    surface's half-edges are sorted by `u64` edge key (an LSD radix sort of key and
 //!    half-edge packed in one `u64`; no hash maps). An edge shared by two triangles of the
@@ -31,19 +33,36 @@
 //!    the same region on both sides flips nothing. Segments are grouped by (curve, flipped
 //!    regions) — the curve from the line element, or from node classification, or none for
 //!    files without curve data — and the choice of groups is a GF(2) system over the
-//!    group–region incidence. Seen as a graph (regions are nodes, a group flipping two
-//!    regions is an edge, a group flipping one region joins it to a "ground" node), a
-//!    solution is a T-join with T = the odd regions. The fewest splits are found exactly: a
+//!    group–region incidence (`parity::solve_groups`). Groups flipping one or two regions
+//!    are the edges of a region graph (a one-region group joins its region to a "ground"
+//!    node). Inside one connected component of that graph any even set of odd regions can
+//!    be fixed along paths, and any set when the component holds the ground, so the only
+//!    constraint left is one parity bit per ungrounded component; groups flipping three or
+//!    more regions (curves shared by 3+ surfaces) change those bits, and a small GF(2)
+//!    system (rows: ungrounded components, columns: those groups) solved by Gaussian
+//!    elimination picks the ones to split. The system is solvable exactly when some set of
+//!    curve node-count changes makes every region even, and `--parity error` reports the
+//!    same plan. The rest is a T-join with T = the odd regions, found with the fewest
+//!    splits: a
 //!    minimum-cost perfect matching ([`crate::matching`]) pairs the odd regions with each
 //!    other (cost = shortest-path length in the region graph) or with the ground (each odd
 //!    region has a ground twin at its distance to the nearest outer-boundary group; twins pair
 //!    with each other at cost 0), and the groups along each pair's shortest path are split
 //!    (a group used twice cancels). Two odd surfaces sharing a curve are fixed by one split
-//!    of that curve; a closed shell (no ground) always has an even number of odd regions, so
-//!    it is always solvable. (Beyond 1500 odd regions, or when no pairing exists, a
-//!    spanning-forest T-join is used instead, and regions it cannot fix are reported.)
-//!    Groups flipping three or more regions (non-manifold curves) and segments of periodic
-//!    curves or next to quads are never split. In each chosen group the longest segment is
+//!    of that curve. (Beyond 1500 odd regions, or when no pairing exists, a spanning-forest
+//!    T-join is used instead.)
+//!    A segment of a periodic curve is split together with its images on every curve linked
+//!    to it (through chains of `$Periodic` curve links), at their chord midpoints (which
+//!    correspond through an affine transform), and the new node pairs are added to the curve
+//!    links and to the surface links that pair the segments' ends; the group flips the
+//!    regions of all those segments. A segment bordered by a quad (of another surface:
+//!    `Layers`/`Recombine` faces) is split through the quad chord that starts there: every
+//!    edge reached by stepping to the opposite edge of each quad is split at its midpoint,
+//!    each quad of the chord becomes two quads, and the triangles at the chord's far end
+//!    are split like any parity split (chords that would cross a quad both ways or touch a
+//!    periodic curve are not used). Chords are tried only when the plain splits cannot fix
+//!    every region and the odd surface has no quads of its own (a mixed surface is
+//!    retriangulated instead, below). In each chosen group the longest segment is
 //!    split — preferring segments whose triangles are not *ears* nor next to one (an ear has
 //!    two wall edges: a split
 //!    half would have the other half as its only neighbour, forcing a 180° "quad") — at its
@@ -116,7 +135,13 @@
 //!    reuses the element tag of one of its triangles** (the first in input order for a plain
 //!    merge; `t1` and `tk` for the two quads of an edge swap or a vertex duplication), so no
 //!    element tag is invented. New nodes get tags above the maximum. Element data sections
-//!    are invalidated.
+//!    are invalidated. Then every periodic slave surface's elements are replaced by the image
+//!    of its master's through the `$Periodic` node pairs (`periodic.rs`; each slave quad
+//!    keeps the tag of the slave image of its master quad's triangle; master nodes without a
+//!    counterpart, e.g. from vertex duplication, get a slave node at their image through the
+//!    link's affine transform, and the pair is added). [`sync_periodic`] does the same after
+//!    optimization (the CLI runs it), moving the slave's interior nodes to the images of the
+//!    optimized master's, so the output stays periodic.
 //!
 //! **Invariant** (checked by [`check_invariants`], which shares no code with the above): no
 //! triangle is left on a surface, the mesh is conforming, boundaries and curve nodes are
