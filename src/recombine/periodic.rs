@@ -19,15 +19,27 @@ use glam::DVec3;
 use super::RecombineError;
 use crate::mesh::{etype, ElementBlock, Mesh, NodeBlock};
 
-/// `(link index, slave, master)` of every surface link whose slave has surface elements.
+/// `(link index, slave, master)` of every surface link whose slave has surface elements,
+/// a master that is itself a slave coming before the links that copy from it.
 pub(crate) fn slave_links(mesh: &Mesh) -> Vec<(usize, i32, i32)> {
-    mesh.periodic
+    let mut todo: Vec<(usize, i32, i32)> = mesh
+        .periodic
         .iter()
         .enumerate()
         .filter(|(_, l)| l.dim == 2 && l.tag != l.master_tag)
         .filter(|(_, l)| has_faces(mesh, l.tag))
         .map(|(i, l)| (i, l.tag, l.master_tag))
-        .collect()
+        .collect();
+    let mut out = Vec::with_capacity(todo.len());
+    while !todo.is_empty() {
+        // links whose master is not waiting to be copied itself (a cycle: take the first)
+        let ready = todo
+            .iter()
+            .position(|l| !todo.iter().any(|o| o.1 == l.2))
+            .unwrap_or(0);
+        out.push(todo.remove(ready));
+    }
+    out
 }
 
 /// Slave surfaces left out of the recombination (they get the image of their master).
