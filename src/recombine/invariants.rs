@@ -133,8 +133,11 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
                 Some(x) if x == c => {}
                 Some(x) => {
                     return Err(format!(
-                        "node {t} on entity ({}, {}) moved from {c:?} to {x:?}",
-                        b.entity_dim, b.entity_tag
+                        "node {t} on entity ({}, {}) moved from {} to {}",
+                        b.entity_dim,
+                        b.entity_tag,
+                        point(c),
+                        point(x)
                     ))
                 }
                 None => {
@@ -179,7 +182,10 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
             sorted.sort_unstable();
             sorted.dedup();
             if sorted.len() != f.len() {
-                return Err(format!("surface {s}: face {f:?} repeats a node"));
+                return Err(format!(
+                    "surface {s}: face with nodes {} repeats a node",
+                    nodes(f)
+                ));
             }
         }
         let eb = edge_counts(&fb);
@@ -188,7 +194,10 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
             .iter()
             .find(|(e, &c)| c > 2 && eb.get(e).copied().unwrap_or(0) <= 2)
         {
-            return Err(format!("surface {s}: edge {e:?} is shared by {c} faces"));
+            return Err(format!(
+                "surface {s}: edge {} is shared by {c} faces",
+                edge(e)
+            ));
         }
         let bb: HashSet<Edge> = eb
             .iter()
@@ -204,7 +213,8 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
         for e in lb.iter().filter(|e| eb.contains_key(e)) {
             if !ea.contains_key(e) && !split_present(e, &ea, &new_node) {
                 return Err(format!(
-                    "surface {s}: curve segment {e:?} is no longer an edge"
+                    "surface {s}: curve segment {} is no longer an edge",
+                    edge(e)
                 ));
             }
         }
@@ -215,7 +225,8 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
                 let (p, q) = (f[i], f[(i + 1) % f.len()]);
                 if db.contains(&(q, p)) && !db.contains(&(p, q)) {
                     return Err(format!(
-                        "surface {s}: face {f:?} runs edge {p}->{q} against the orientation of the input triangles"
+                        "surface {s}: face with nodes {} runs edge {p}-{q} against the orientation of the input triangles",
+                        nodes(f)
                     ));
                 }
             }
@@ -227,8 +238,12 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
         let mut total = [0.0; 3];
         let mut polys_b = Vec::new();
         for f in &fb {
-            let p = pts(f, &cb)
-                .ok_or_else(|| format!("surface {s}: input face {f:?} has an unknown node"))?;
+            let p = pts(f, &cb).ok_or_else(|| {
+                format!(
+                    "surface {s}: input face with nodes {} has an unknown node",
+                    nodes(f)
+                )
+            })?;
             let a = vector_area(&p);
             for k in 0..3 {
                 total[k] += a[k];
@@ -259,8 +274,12 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
         }
         let mut area_after = 0.0;
         for f in &fa {
-            let p = pts(f, &ca)
-                .ok_or_else(|| format!("surface {s}: output face {f:?} has an unknown node"))?;
+            let p = pts(f, &ca).ok_or_else(|| {
+                format!(
+                    "surface {s}: output face with nodes {} has an unknown node",
+                    nodes(f)
+                )
+            })?;
             area_after += dot(vector_area(&p), n);
         }
         let area_before = dot(total, n);
@@ -305,7 +324,7 @@ fn check_split_sets(
         match (new_node(x), new_node(y)) {
             (true, false) => halves.entry(x).or_default().push(y),
             (false, true) => halves.entry(y).or_default().push(x),
-            _ => return Err(format!("{what}: edge {:?} is new", (x, y))),
+            _ => return Err(format!("{what}: edge {x}-{y} is new")),
         }
     }
     let mut rebuilt: HashSet<Edge> = HashSet::new();
@@ -320,11 +339,32 @@ fn check_split_sets(
     }
     for e in before.difference(after) {
         if !rebuilt.remove(e) {
-            return Err(format!("{what}: edge {e:?} disappeared"));
+            return Err(format!("{what}: edge {} disappeared", edge(e)));
         }
     }
     if let Some(e) = rebuilt.iter().next() {
-        return Err(format!("{what}: split edge {e:?} was not one of them"));
+        return Err(format!(
+            "{what}: split edge {} was not one of them",
+            edge(e)
+        ));
     }
     Ok(())
+}
+
+/// "nodes 1 2 3" for messages.
+fn nodes(f: &[u64]) -> String {
+    f.iter()
+        .map(|t| t.to_string())
+        .collect::<Vec<_>>()
+        .join(" ")
+}
+
+/// "3-4" for messages.
+fn edge(e: &(u64, u64)) -> String {
+    format!("{}-{}", e.0, e.1)
+}
+
+/// "(x, y, z)" for messages.
+fn point(p: &[f64; 3]) -> String {
+    format!("({}, {}, {})", p[0], p[1], p[2])
 }
