@@ -497,6 +497,8 @@ fn run_once(
         oopts.progress = Some(&cb);
         let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
         let orep = optimize::optimize_prepared(mesh, prepared, &oopts)?;
+        // periodic slave surfaces follow their optimized masters
+        recombine::sync_periodic(mesh)?;
         for s in &orep.surfaces {
             report.log.push(format!(
                 "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",

@@ -304,9 +304,17 @@ fn high_order_and_periodic_surfaces_are_refused() {
         e,
         RecombineError::PeriodicSurface {
             surface: 1,
-            master: 5
+            master: 5,
+            ..
         }
     ));
+    // a slave that is not the image of its master is refused, in plain words
+    let msg = e.to_string();
+    assert!(
+        msg.contains("surface 1 is periodic") && msg.contains("its master 0"),
+        "{msg}"
+    );
+    assert!(!msg.contains('{'), "{msg}");
 }
 
 #[test]

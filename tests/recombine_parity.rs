@@ -261,3 +261,115 @@ fn parity_split_interpolates_parametric_coordinates() {
     }
     check_invariants(&before, &m).unwrap();
 }
+
+/// Two odd fan surfaces bounded only by periodic curves (curve 1 is the periodic image of
+/// curve 2, curve 3 of curve 4, a translation by 5 in z): the only repair splits a segment
+/// of a periodic curve together with its image, and pairs the two new nodes.
+#[test]
+fn periodic_curves_are_split_with_their_images() {
+    use blossomquad::mesh::PeriodicLink;
+    let mut b = Builder::new();
+    let ring = |z: f64| -> Vec<[f64; 3]> {
+        // curve A: 2 segments from (0,0) to (4,0), bent; curve B: 3 segments back over the
+        // top (5 boundary segments: 5 triangles)
+        vec![
+            [0.0, 0.0, z],
+            [2.0, -0.5, z],
+            [4.0, 0.0, z],
+            [3.0, 2.5, z],
+            [0.8, 2.5, z],
+        ]
+    };
+    let mut pairs: Vec<Vec<(u64, u64)>> = vec![Vec::new(), Vec::new()];
+    let mut tags_by_z: Vec<Vec<u64>> = Vec::new();
+    for (s, z) in [(1, 0.0), (2, 5.0)] {
+        let (pa, pb) = (2 * s - 1, 2 * s); // points of this copy
+        let (ca, cb) = if s == 1 { (1, 3) } else { (2, 4) };
+        b.entity(0, pa, &[], &[]);
+        b.entity(0, pb, &[], &[]);
+        b.entity(1, ca, &[pa, -pb], &[]);
+        b.entity(1, cb, &[pb, -pa], &[]);
+        b.entity(2, s, &[ca, cb], &[]);
+        let r = ring(z);
+        let n: Vec<u64> = r
+            .iter()
+            .enumerate()
+            .map(|(i, p)| match i {
+                0 => b.node(0, pa, *p),
+                2 => b.node(0, pb, *p),
+                1 => b.node(1, ca, *p),
+                _ => b.node(1, cb, *p),
+            })
+            .collect();
+        b.line(ca, n[0], n[1]);
+        b.line(ca, n[1], n[2]);
+        for i in 2..5 {
+            b.line(cb, n[i], n[(i + 1) % 5]);
+        }
+        let c = b.node(2, s, [2.0, 1.0, z]);
+        for i in 0..5 {
+            b.tri(s, [c, n[i], n[(i + 1) % 5]]);
+        }
+        tags_by_z.push(n);
+    }
+    let (lo, hi) = (&tags_by_z[0], &tags_by_z[1]);
+    pairs[0].extend([(lo[0], hi[0]), (lo[1], hi[1]), (lo[2], hi[2])]);
+    pairs[1].extend([
+        (lo[2], hi[2]),
+        (lo[3], hi[3]),
+        (lo[4], hi[4]),
+        (lo[0], hi[0]),
+    ]);
+    let shift = vec![
+        1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, -5.0, 0.0, 0.0, 0.0, 1.0,
+    ];
+    for (slave, master, p) in [(1, 2, &pairs[0]), (3, 4, &pairs[1])] {
+        b.mesh.periodic.push(PeriodicLink {
+            dim: 1,
+            tag: slave,
+            master_tag: master,
+            affine: Some(shift.clone()),
+            node_pairs: p.clone(),
+        });
+    }
+    let before = b.mesh;
+    // --parity error names a curve pair, and the repair does it
+    let mut e = before.clone();
+    let err = recombine(
+        &mut e,
+        &RecombineOptions {
+            parity: ParityMode::Error,
+            ..Default::default()
+        },
+    )
+    .unwrap_err();
+    assert!(err.to_string().contains("by one fixes them"), "{err}");
+    let mut m = before.clone();
+    let r = recombine(&mut m, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 2, "{:?}", r.log);
+    let (s0, s1) = (&r.parity_splits[0], &r.parity_splits[1]);
+    let curves = [s0.curve.unwrap(), s1.curve.unwrap()];
+    assert!(curves == [1, 2] || curves == [2, 1] || curves == [3, 4] || curves == [4, 3]);
+    let link = m
+        .periodic
+        .iter()
+        .find(|l| l.tag == curves[0].min(curves[1]))
+        .unwrap();
+    let new_pair = link
+        .node_pairs
+        .iter()
+        .find(|p| p.0 == s0.new_node || p.0 == s1.new_node)
+        .expect("new nodes paired");
+    assert!(new_pair.1 == s0.new_node || new_pair.1 == s1.new_node);
+    let pos = |t: u64| {
+        m.node_blocks
+            .iter()
+            .find_map(|b| b.tags.iter().position(|&x| x == t).map(|i| b.coords[i]))
+            .unwrap()
+    };
+    let (ps, pm) = (pos(new_pair.0), pos(new_pair.1));
+    assert!((ps[0] - pm[0]).abs() < 1e-12 && (ps[1] - pm[1]).abs() < 1e-12);
+    assert!((pm[2] - ps[2] - 5.0).abs() < 1e-12);
+    assert_eq!(count(&m, etype::TRI3), 0);
+    check_invariants(&before, &m).unwrap();
+}

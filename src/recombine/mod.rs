@@ -6,8 +6,10 @@
 //! 1. **Checks.** Volume elements → [`RecombineError::VolumeElements`] unless
 //!    [`RecombineOptions::drop_volumes`] (then they are dropped with a warning; volume entities
 //!    are kept). Surface elements other than tri3/quad4 (tri6, quad9 …) →
-//!    [`RecombineError::UnsupportedSurfaceElements`]. A surface with triangles that is in a
-//!    `$Periodic` link → [`RecombineError::PeriodicSurface`].
+//!    [`RecombineError::UnsupportedSurfaceElements`]. A periodic slave surface (`$Periodic`
+//!    link of dimension 2) is not recombined: after step 8 it gets the image of its master's
+//!    quads (`periodic.rs`); it is refused ([`RecombineError::PeriodicSurface`]) only when
+//!    its triangles are not the image of its master's.
 //! 2. **Topology** (per surface, in parallel). Nodes get dense global `u32` ids; each
 //!    surface's half-edges are sorted by `u64` edge key (an LSD radix sort of key and
 //!    half-edge packed in one `u64`; no hash maps). An edge shared by two triangles of the
@@ -31,19 +33,36 @@
 //!    the same region on both sides flips nothing. Segments are grouped by (curve, flipped
 //!    regions) — the curve from the line element, or from node classification, or none for
 //!    files without curve data — and the choice of groups is a GF(2) system over the
-//!    group–region incidence. Seen as a graph (regions are nodes, a group flipping two
-//!    regions is an edge, a group flipping one region joins it to a "ground" node), a
-//!    solution is a T-join with T = the odd regions. The fewest splits are found exactly: a
+//!    group–region incidence (`parity::solve_groups`). Groups flipping one or two regions
+//!    are the edges of a region graph (a one-region group joins its region to a "ground"
+//!    node). Inside one connected component of that graph any even set of odd regions can
+//!    be fixed along paths, and any set when the component holds the ground, so the only
+//!    constraint left is one parity bit per ungrounded component; groups flipping three or
+//!    more regions (curves shared by 3+ surfaces) change those bits, and a small GF(2)
+//!    system (rows: ungrounded components, columns: those groups) solved by Gaussian
+//!    elimination picks the ones to split. The system is solvable exactly when some set of
+//!    curve node-count changes makes every region even, and `--parity error` reports the
+//!    same plan. The rest is a T-join with T = the odd regions, found with the fewest
+//!    splits: a
 //!    minimum-cost perfect matching ([`crate::matching`]) pairs the odd regions with each
 //!    other (cost = shortest-path length in the region graph) or with the ground (each odd
 //!    region has a ground twin at its distance to the nearest outer-boundary group; twins pair
 //!    with each other at cost 0), and the groups along each pair's shortest path are split
 //!    (a group used twice cancels). Two odd surfaces sharing a curve are fixed by one split
-//!    of that curve; a closed shell (no ground) always has an even number of odd regions, so
-//!    it is always solvable. (Beyond 1500 odd regions, or when no pairing exists, a
-//!    spanning-forest T-join is used instead, and regions it cannot fix are reported.)
-//!    Groups flipping three or more regions (non-manifold curves) and segments of periodic
-//!    curves or next to quads are never split. In each chosen group the longest segment is
+//!    of that curve. (Beyond 1500 odd regions, or when no pairing exists, a spanning-forest
+//!    T-join is used instead.)
+//!    A segment of a periodic curve is split together with its images on every curve linked
+//!    to it (through chains of `$Periodic` curve links), at their chord midpoints (which
+//!    correspond through an affine transform), and the new node pairs are added to the curve
+//!    links and to the surface links that pair the segments' ends; the group flips the
+//!    regions of all those segments. A segment bordered by a quad (of another surface:
+//!    `Layers`/`Recombine` faces) is split through the quad chord that starts there: every
+//!    edge reached by stepping to the opposite edge of each quad is split at its midpoint,
+//!    each quad of the chord becomes two quads, and the triangles at the chord's far end
+//!    are split like any parity split (chords that would cross a quad both ways or touch a
+//!    periodic curve are not used). Chords are tried only when the plain splits cannot fix
+//!    every region and the odd surface has no quads of its own (a mixed surface is
+//!    retriangulated instead, below). In each chosen group the longest segment is
 //!    split — preferring segments whose triangles are not *ears* nor next to one (an ear has
 //!    two wall edges: a split
 //!    half would have the other half as its only neighbour, forcing a 180° "quad") — at its
@@ -116,7 +135,13 @@
 //!    reuses the element tag of one of its triangles** (the first in input order for a plain
 //!    merge; `t1` and `tk` for the two quads of an edge swap or a vertex duplication), so no
 //!    element tag is invented. New nodes get tags above the maximum. Element data sections
-//!    are invalidated.
+//!    are invalidated. Then every periodic slave surface's elements are replaced by the image
+//!    of its master's through the `$Periodic` node pairs (`periodic.rs`; each slave quad
+//!    keeps the tag of the slave image of its master quad's triangle; master nodes without a
+//!    counterpart, e.g. from vertex duplication, get a slave node at their image through the
+//!    link's affine transform, and the pair is added). [`sync_periodic`] does the same after
+//!    optimization (the CLI runs it), moving the slave's interior nodes to the images of the
+//!    optimized master's, so the output stays periodic.
 //!
 //! **Invariant** (checked by [`check_invariants`], which shares no code with the above): no
 //! triangle is left on a surface, the mesh is conforming, boundaries and curve nodes are
@@ -128,6 +153,7 @@ mod fallback;
 mod graph;
 mod invariants;
 mod parity;
+mod periodic;
 mod post;
 mod topology;
 
@@ -260,7 +286,7 @@ pub struct RecombineReport {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum RecombineError {
     /// Volume elements are present (recombining their boundary would break conformity).
-    #[error("the mesh has {count} volume elements (volumes {volumes:?}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone")]
+    #[error("the mesh has {count} volume elements (volumes {}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone", list_tags(.volumes))]
     VolumeElements {
         /// Number of volume elements.
         count: usize,
@@ -277,13 +303,15 @@ pub enum RecombineError {
         /// How many.
         count: usize,
     },
-    /// A surface with triangles is periodic.
-    #[error("surface {surface} is periodic ($Periodic link to surface {master}); periodic surfaces are not supported for now")]
+    /// A periodic surface whose mesh is not the image of its master's.
+    #[error("surface {surface} is periodic (a copy of surface {master} in the $Periodic section) but {reason}, so its master's quads cannot be copied onto it; remesh it with Gmsh's periodic meshing (`Periodic Surface` or `gmsh.model.mesh.setPeriodic`)")]
     PeriodicSurface {
-        /// The surface.
+        /// The slave surface.
         surface: i32,
-        /// The other surface of the link.
+        /// Its master surface.
         master: i32,
+        /// What does not match, in plain words.
+        reason: String,
     },
     /// An element block whose node list does not match its element count (a bug in whatever
     /// built the mesh).
@@ -324,11 +352,13 @@ pub enum RecombineError {
         /// The full explanation.
         message: String,
     },
-    /// Odd regions that no segment split can fix.
-    #[error("cannot make these triangle regions even (no splittable boundary segment: closed, periodic or bordered by quads): {regions:?}")]
+    /// Odd regions that no combination of segment splits can fix.
+    #[error("{message}")]
     ParityUnsolvable {
         /// The regions.
         regions: Vec<OddRegion>,
+        /// The explanation, in plain words.
+        message: String,
     },
     /// No perfect matching even with extra edges.
     #[error("surface {surface}: no perfect matching of its {triangles} triangles even with extra edges (Tutte witness: removing {witness} triangles leaves {odd_components} odd components); the triangulation cannot be recombined into quads as is")]
@@ -428,14 +458,14 @@ pub fn recombine(
                 retriangulate(mesh, &[surface], &mut report);
                 retriangulated.push(surface);
             }
-            Err(RecombineError::ParityUnsolvable { regions }) => {
+            Err(RecombineError::ParityUnsolvable { regions, message }) => {
                 let fix: Vec<i32> = regions
                     .iter()
                     .map(|r| r.surface)
                     .filter(|&s| has_quads(mesh, s) && !retriangulated.contains(&s))
                     .collect();
                 if fix.is_empty() {
-                    return Err(RecombineError::ParityUnsolvable { regions });
+                    return Err(RecombineError::ParityUnsolvable { regions, message });
                 }
                 retriangulate(mesh, &fix, &mut report);
                 retriangulated.extend(fix);
@@ -450,7 +480,14 @@ pub fn recombine(
             .filter(|s| s.surfaces.contains(&w.tag))
             .count();
     }
+    let periodic_corr = periodic::correspondence(mesh)?;
     write_back(mesh, &nodes, &work, &results);
+    let mapped = periodic::map_slaves(mesh, Some(&periodic_corr))?;
+    if mapped > 0 {
+        report.log.push(format!(
+            "{mapped} periodic surface(s) got the image of their master's quads"
+        ));
+    }
     mesh.invalidate_element_data();
     for r in &results {
         let s = &r.report;
@@ -465,6 +502,14 @@ pub fn recombine(
     }
     report.time_total = start.elapsed();
     Ok(report)
+}
+
+/// Makes every periodic slave surface the image of its master again (elements and interior
+/// node positions, through the `$Periodic` node pairs and affine transform): run it after
+/// anything that changed the master surfaces (the optimizer). Returns the number of slave
+/// surfaces mapped.
+pub fn sync_periodic(mesh: &mut Mesh) -> Result<usize, RecombineError> {
+    periodic::map_slaves(mesh, None)
 }
 
 /// Steps 2–3: topology of every surface, then parity repair (one round, checked).
@@ -490,9 +535,7 @@ fn parity_stage(
         return Err(odd_parity_error(&plan));
     }
     if !plan.unsolved.is_empty() {
-        return Err(RecombineError::ParityUnsolvable {
-            regions: plan.unsolved,
-        });
+        return Err(parity::unsolvable_error(&plan));
     }
     let splits = parity::apply(mesh, &nodes, &plan.choices)?;
     for o in &plan.odd {
@@ -505,16 +548,25 @@ fn parity_stage(
         ));
     }
     for s in &splits {
-        report.log.push(format!(
-            "parity repair: split segment {}-{} of {} at its midpoint (new node {}), flipping surface(s) {:?}",
-            s.segment.0,
-            s.segment.1,
-            s.curve
-                .map(|c| format!("curve {c}"))
-                .unwrap_or_else(|| "a boundary without curve data".into()),
-            s.new_node,
-            s.surfaces
-        ));
+        let place = match (s.curve, s.surfaces.is_empty()) {
+            (Some(c), _) => format!("curve {c}"),
+            (None, true) => "a quad strip".into(),
+            (None, false) => "a boundary without curve data".into(),
+        };
+        report.log.push(if s.surfaces.is_empty() {
+            format!(
+                "parity repair: split segment {}-{} of {place} at its midpoint (new node {}) with the split above (its periodic image or the quad strip it runs through)",
+                s.segment.0, s.segment.1, s.new_node
+            )
+        } else {
+            format!(
+                "parity repair: split segment {}-{} of {place} at its midpoint (new node {}), flipping surface(s) {}",
+                s.segment.0,
+                s.segment.1,
+                s.new_node,
+                list_tags(&s.surfaces)
+            )
+        });
     }
     report.parity_splits.extend(splits);
     mesh.invalidate_element_data();
@@ -523,7 +575,7 @@ fn parity_stage(
     let work = surface_work(mesh, &nodes, &curves)?;
     let again = parity::plan(mesh, &nodes, &work);
     if !again.odd.is_empty() {
-        return Err(RecombineError::ParityUnsolvable { regions: again.odd });
+        return Err(parity::still_odd_error(&again.odd));
     }
     Ok((nodes, work))
 }
@@ -632,19 +684,17 @@ fn check_input(
         mesh.element_blocks
             .retain(|b| element_dim(b.element_type) != Some(3));
         mesh.warnings.push(format!(
-            "dropped {count} volume elements (volumes {volumes:?}); the volume entities are kept"
+            "dropped {count} volume elements (volumes {}); the volume entities are kept",
+            list_tags(&volumes)
         ));
         report.dropped_volume_elements = count;
         report.log.push(format!("dropped {count} volume elements"));
     }
-    let mut has_tris: Vec<i32> = Vec::new();
     for b in &mesh.element_blocks {
         if element_dim(b.element_type) != Some(2) || b.is_empty() {
             continue;
         }
-        if b.element_type == etype::TRI3 {
-            has_tris.push(b.entity_tag);
-        } else if b.element_type != etype::QUAD4 {
+        if b.element_type != etype::TRI3 && b.element_type != etype::QUAD4 {
             return Err(RecombineError::UnsupportedSurfaceElements {
                 surface: b.entity_tag,
                 element_type: b.element_type,
@@ -652,27 +702,22 @@ fn check_input(
             });
         }
     }
-    for p in mesh.periodic.iter().filter(|p| p.dim == 2) {
-        for (s, m) in [(p.tag, p.master_tag), (p.master_tag, p.tag)] {
-            if has_tris.contains(&s) {
-                return Err(RecombineError::PeriodicSurface {
-                    surface: s,
-                    master: m,
-                });
-            }
-        }
-    }
+    // periodic slave surfaces get their master's quads (periodic.rs); the check that each
+    // is the image of its master runs after parity repair
     Ok(())
 }
 
 /// Surface tags with 3-node triangles, in first-appearance order.
 fn surface_tags(mesh: &Mesh) -> Vec<i32> {
+    // periodic slaves are not recombined: they get the image of their master
+    let slaves = periodic::slave_surfaces(mesh);
     let mut tags: Vec<i32> = Vec::new();
     for b in &mesh.element_blocks {
         if b.element_type == etype::TRI3
             && b.entity_dim == 2
             && !b.is_empty()
             && !tags.contains(&b.entity_tag)
+            && !slaves.contains(&b.entity_tag)
         {
             tags.push(b.entity_tag);
         }
@@ -731,8 +776,22 @@ fn surface_work(
         .collect()
 }
 
+/// `1, 2, 3`: entity tags for messages.
+pub(crate) fn list_tags(tags: &[i32]) -> String {
+    tags.iter()
+        .map(|t| t.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
 fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
-    let mut curves: Vec<Option<i32>> = plan.choices.iter().map(|c| c.curve).collect();
+    // the curves the repair would split (with the periodic images and quad strips it
+    // splits along): the same plan, so the advice and the repair agree
+    let mut curves: Vec<Option<i32>> = plan
+        .choices
+        .iter()
+        .flat_map(|c| std::iter::once(c.curve).chain(c.with.iter().filter_map(|w| w.2.map(Some))))
+        .collect();
     curves.sort_unstable();
     curves.dedup();
     let mut msg = String::from(
@@ -755,10 +814,19 @@ fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
         ));
     }
     let named: Vec<String> = curves.iter().flatten().map(|c| c.to_string()).collect();
+    if !plan.unsolved.is_empty() {
+        msg.push_str(&parity::unsolvable_message(&plan.unsolved, &plan.isolated));
+        msg.push('\n');
+    }
     if !named.is_empty() {
         msg.push_str(&format!(
-            "changing the number of nodes on curve(s) {} by one fixes them\n",
-            named.join(", ")
+            "changing the number of nodes on curve(s) {} by one fixes {}\n",
+            named.join(", "),
+            if plan.unsolved.is_empty() {
+                "them"
+            } else {
+                "the others"
+            }
         ));
     }
     if curves.contains(&None) {
