@@ -496,9 +496,18 @@ fn run_once(
         let cb = |done: usize, total: usize| progress(opts, Stage::Optimize, done, total);
         oopts.progress = Some(&cb);
         let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
+        // periodic surfaces keep the matching's quads (master and slave stay images of
+        // each other, node for node)
+        let mut periodic: Vec<i32> = mesh
+            .periodic
+            .iter()
+            .filter(|p| p.dim == 2)
+            .flat_map(|p| [p.tag, p.master_tag])
+            .collect();
+        periodic.sort_unstable();
+        periodic.dedup();
+        oopts.skip = &periodic;
         let orep = optimize::optimize_prepared(mesh, prepared, &oopts)?;
-        // periodic slave surfaces follow their optimized masters
-        recombine::sync_periodic(mesh)?;
         for s in &orep.surfaces {
             report.log.push(format!(
                 "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",

@@ -101,6 +101,8 @@ pub struct OptimizeOptions<'a> {
     pub reference_size_scale: f64,
     /// Called with (steps done, total steps) as surfaces progress, from any thread.
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
+    /// Surfaces left as they are (their nodes count as shared, so neighbours keep them).
+    pub skip: &'a [i32],
 }
 
 impl Default for OptimizeOptions<'_> {
@@ -117,6 +119,7 @@ impl Default for OptimizeOptions<'_> {
             angle_sweeps: 2,
             reference_size_scale: 1.0,
             progress: None,
+            skip: &[],
         }
     }
 }
@@ -131,6 +134,7 @@ impl std::fmt::Debug for OptimizeOptions<'_> {
             .field("angle_sweeps", &self.angle_sweeps)
             .field("reference_size_scale", &self.reference_size_scale)
             .field("progress", &self.progress.is_some())
+            .field("skip", &self.skip)
             .finish()
     }
 }
@@ -361,6 +365,9 @@ pub fn optimize_prepared(
     let mut locals = Vec::with_capacity(surfaces.len());
     let mut scratch = vec![NONE; flat.coords.len()];
     for (si, &s) in surfaces.iter().enumerate() {
+        if opts.skip.contains(&s) {
+            continue;
+        }
         locals.push(extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?);
     }
     tm.lap("extract");
