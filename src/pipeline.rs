@@ -228,6 +228,9 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
     let mut log = Vec::new();
     let mut chosen: HashSet<u64> = HashSet::new();
     let mut fallback = None;
+    // without optimization: surfaces optimized all the same because their matching left
+    // quads that are not valid (vertex duplications fold quads until smoothed)
+    let mut force: HashSet<i32> = HashSet::new();
     for round in 0..=FALLBACK_ROUNDS {
         let mut mesh = input.clone();
         if !chosen.is_empty() {
@@ -250,8 +253,9 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         }
         // after a first invalid run, keep the mesh before optimization: a surface the
         // optimizer leaves invalid gets it back
-        let keep = round > 0 && opts.optimize;
-        let (mut run, refined, unoptimized) = run_once(input, &mut mesh, opts, keep, &mut times)?;
+        let keep = round > 0 && (opts.optimize || !force.is_empty());
+        let (mut run, refined, unoptimized) =
+            run_once(input, &mut mesh, opts, &force, keep, &mut times)?;
         let t = Instant::now();
         progress(opts, Stage::Check, 0, 1);
         // refinement splits every boundary segment once more: its output is the baseline
@@ -268,7 +272,7 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         let mut bad = validity::invalid_quads(input, &mesh);
         if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
             let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
-            let back = revert_surfaces(&mut mesh, pre, &surfaces);
+            let back = revert_surfaces(&mesh, pre, &surfaces);
             if validity::invalid_quads(input, &back).is_empty()
                 && recombine::check_invariants(refined.as_ref().unwrap_or(input), &back).is_ok()
             {
@@ -302,6 +306,21 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
                 .collect::<Vec<_>>()
                 .join("; ")
         ));
+        if !opts.optimize {
+            let mut new: Vec<i32> = surfaces.difference(&force).copied().collect();
+            if !new.is_empty() {
+                new.sort_unstable();
+                log.push(format!(
+                    "surface(s) {}: optimized after all, to make the matching's quads valid",
+                    new.iter()
+                        .map(|s| s.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", ")
+                ));
+                force.extend(new);
+                continue;
+            }
+        }
         let more = fallback_triangles(input, &bad, &chosen, round);
         if round == FALLBACK_ROUNDS || more.is_empty() {
             if opts.allow_invalid {
@@ -330,14 +349,14 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
 fn revert_surfaces(mesh: &Mesh, pre: &Mesh, surfaces: &HashSet<i32>) -> Mesh {
     let mut out = mesh.clone();
     let ours = |dim: i32, tag: i32| dim == 2 && surfaces.contains(&tag);
-    for (dst, src) in [(&mut out.node_blocks, &pre.node_blocks)] {
-        dst.retain(|b| !ours(b.entity_dim, b.entity_tag));
-        dst.extend(
-            src.iter()
-                .filter(|b| ours(b.entity_dim, b.entity_tag))
-                .cloned(),
-        );
-    }
+    out.node_blocks
+        .retain(|b| !ours(b.entity_dim, b.entity_tag));
+    out.node_blocks.extend(
+        pre.node_blocks
+            .iter()
+            .filter(|b| ours(b.entity_dim, b.entity_tag))
+            .cloned(),
+    );
     out.element_blocks
         .retain(|b| !(ours(b.entity_dim, b.entity_tag) && b.element_type == etype::QUAD4));
     out.element_blocks.extend(
@@ -420,7 +439,8 @@ fn fallback_triangles(
     out
 }
 
-/// One run: recombine, refine, optimize (the reference triangulation prepared on its own
+/// One run: recombine, refine, optimize (all surfaces, or without
+/// [`Options::optimize`] those in `force`; the reference triangulation prepared on its own
 /// thread meanwhile). Returns the report, after a refinement the refined mesh before
 /// optimization, and with `keep_unoptimized` the mesh before optimization.
 #[allow(clippy::type_complexity)]
@@ -428,6 +448,7 @@ fn run_once(
     input: &Mesh,
     mesh: &mut Mesh,
     opts: &Options,
+    force: &HashSet<i32>,
     keep_unoptimized: bool,
     times: &mut Times,
 ) -> Result<(Report, Option<Mesh>, Option<Mesh>), Error> {
@@ -444,8 +465,7 @@ fn run_once(
     // the optimizer's reference depends on the input triangles only: prepared on its own
     // thread while the recombination runs (its matching is serial per surface)
     let (recombined, prep) = std::thread::scope(|sc| {
-        let prep = opts
-            .optimize
+        let prep = (opts.optimize || !force.is_empty())
             .then(|| sc.spawn(|| optimize::PreparedReference::new(input)));
         let r = recombine::recombine(mesh, &ropts);
         (r, prep.map(|h| h.join()))
@@ -483,7 +503,7 @@ fn run_once(
     let refined = (opts.refine > 0).then(|| mesh.clone());
     let unoptimized = keep_unoptimized.then(|| mesh.clone());
 
-    if opts.optimize {
+    if opts.optimize || !force.is_empty() {
         let t = Instant::now();
         let mut oopts = optimize::OptimizeOptions::default();
         // a refined mesh has 2^N times more nodes across: smoothing needs as many more
@@ -504,6 +524,15 @@ fn run_once(
             .filter(|p| p.dim == 2)
             .flat_map(|p| [p.tag, p.master_tag])
             .collect();
+        if !opts.optimize {
+            // only the surfaces in `force`
+            periodic.extend(
+                mesh.element_blocks
+                    .iter()
+                    .filter(|b| b.entity_dim == 2 && !force.contains(&b.entity_tag))
+                    .map(|b| b.entity_tag),
+            );
+        }
         periodic.sort_unstable();
         periodic.dedup();
         oopts.skip = &periodic;
