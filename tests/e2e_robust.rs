@@ -18,7 +18,57 @@ use std::sync::Mutex;
 /// (model:variant, reason) pairs expected to fail until the fixes of issue 11 land;
 /// `*` as the variant covers all three. They still run and their outcome is printed
 /// (a line saying to remove the entry when one passes), but they do not fail the test.
-const KNOWN_FAILING: &[(&str, &str)] = &[];
+const KNOWN_FAILING: &[(&str, &str)] = &[
+    (
+        "bgmesh_aniso:*",
+        "a quad with a 180-degree corner (eta = 0)",
+    ),
+    (
+        "bool_union_box_sphere:*",
+        "a quad with a 180-degree corner (eta = 0)",
+    ),
+    (
+        "chamfer_thin:*",
+        "quads with a 180-degree corner on chamfer strips",
+    ),
+    (
+        "cone_sharp:*",
+        "parity refusal at the cone's seam; repeated-node quads without line elements",
+    ),
+    (
+        "embedded_curves:*",
+        "a quad with a 180-degree corner (eta = 0)",
+    ),
+    (
+        "fillet_tiny:*",
+        "quads with a 180-degree corner on fillet strips",
+    ),
+    (
+        "islands:*",
+        "flat quad; the optimizer makes a reflex corner",
+    ),
+    (
+        "many_faces_bosses:*",
+        "smoothing moves nodes off small cylinders, quads flip",
+    ),
+    ("periodic_occ_box:*", "periodic surfaces refused"),
+    ("periodic_rve:*", "periodic surfaces refused"),
+    ("periodic_surface:*", "periodic surfaces refused"),
+    (
+        "reentrant_corners:*",
+        "quads with a 180-degree corner (eta = 0)",
+    ),
+    ("revolve_occ:*", "a quad with a 180-degree corner (eta = 0)"),
+    (
+        "step_assembly:*",
+        "parity refusal though --parity error names a fix",
+    ),
+    ("thin_annulus:*", "quads with a flat or reflex corner"),
+    (
+        "tiny_triangle:*",
+        "single-triangle surface: parity split gives a flat quad",
+    ),
+];
 
 /// The three variants: name and the Gmsh options selecting it.
 const VARIANTS: [(&str, &[(&str, &str)]); 3] = [
@@ -103,15 +153,16 @@ fn mesh_model(name: &str, size: &str, options: &[(&str, &str)], out: &Path) -> R
 
 /// Runs one (model, variant): Ok(()) when the tool exits 0 and the checker accepts
 /// the output, Err(description) otherwise.
-fn run_one(model: &Model, variant: &str, options: &[(&str, &str)], dir: &Path) -> Result<(), String> {
+fn run_one(
+    model: &Model,
+    variant: &str,
+    options: &[(&str, &str)],
+    dir: &Path,
+) -> Result<(), String> {
     let input = dir.join(format!("{}-{variant}.msh", model.name));
     let output = dir.join(format!("{}-{variant}.quads.msh", model.name));
     mesh_model(&model.name, &model.coarse, options, &input)?;
-    let (code, _, stderr) = blossomquad_run([
-        input.as_os_str(),
-        "-o".as_ref(),
-        output.as_os_str(),
-    ]);
+    let (code, _, stderr) = blossomquad_run([input.as_os_str(), "-o".as_ref(), output.as_os_str()]);
     match code {
         Some(0) => {}
         Some(1) => return Err(format!("refused: {}", stderr.trim())),
@@ -162,10 +213,11 @@ fn every_corpus_model_recombines_into_valid_quads() {
                     break;
                 };
                 let result = run_one(model, variant, options, dir.path());
-                results
-                    .lock()
-                    .expect("results lock")
-                    .push((model.name.clone(), variant.to_string(), result));
+                results.lock().expect("results lock").push((
+                    model.name.clone(),
+                    variant.to_string(),
+                    result,
+                ));
             });
         }
     });
