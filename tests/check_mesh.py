@@ -53,7 +53,8 @@ code. Checks (names as in the JSON report):
                     corner node tags and what is wrong. The JSON also gives
                     quad_eta_min (the worst quad quality eta, paper eq. 3, from the 3D
                     corner angles) and how many quads have eta < 0.1.
-  periodic          when INPUT has $Periodic links: each slave entity keeps its link
+  periodic          when INPUT has $Periodic links (read from the files' own text, as
+                    Gmsh's reader fills in missing pairs): each slave entity keeps its link
                     (same master, same affine transform); every OUTPUT node on a slave
                     entity has a master node; each pair matches through the affine
                     transform within 1e-6 of the model size; input pairs whose slave
@@ -139,6 +140,43 @@ def is_msh2(path):
     return at >= 0 and head[at + len(b"$MeshFormat"):].lstrip().startswith(b"2")
 
 
+def read_periodic_section(path):
+    """The $Periodic links of an ASCII MSH 2.2 or 4.1 file (or any MSH 2 file, whose
+    $Periodic section is text), read from the file itself: Gmsh's reader rebuilds
+    missing node pairs and moves slave nodes onto their masters' images, so its API
+    cannot tell whether the file is complete. {(dim, tag): (master, [(slave, master)],
+    affine)}; None for a binary MSH 4 file."""
+    with open(path, "rb") as f:
+        data = f.read()
+    at = data.find(b"$MeshFormat")
+    header = data[at:at + 64].split(b"\n")[1].split() if at >= 0 else []
+    if len(header) >= 2 and not header[0].startswith(b"2") and header[1] != b"0":
+        return None
+    start = data.find(b"\n$Periodic")
+    links = {}
+    if start < 0:
+        return links
+    end = data.find(b"$EndPeriodic", start)
+    lines = [l.strip() for l in data[start:end].decode("ascii", "replace").split("\n")[2:] if l.strip()]
+    i = 1
+    while i < len(lines):
+        dim, tag, master = (int(x) for x in lines[i].split()[:3])
+        i += 1
+        affine = []
+        first = lines[i].split()
+        if first[0] == "Affine":  # MSH 2.2
+            affine = [float(x) for x in first[1:]]
+            i += 1
+        elif len(first) > 1 or not header or not header[0].startswith(b"2"):  # MSH 4.1: count, values
+            affine = [float(x) for x in first[1:]]
+            i += 1
+        count = int(lines[i])
+        pairs = [tuple(int(x) for x in lines[i + 1 + k].split()[:2]) for k in range(count)]
+        i += 1 + count
+        links[(dim, tag)] = (master, pairs, affine)
+    return links
+
+
 def load(path):
     """Reads PATH with Gmsh; returns a Mesh (with .errors filled on failure)."""
     mesh = Mesh()
@@ -181,14 +219,18 @@ def load(path):
                 mesh.lines.setdefault(tag, []).extend((e[0], e[1]) for e in elements)
             if etype in VOLUME_TYPES:
                 mesh.volume_elements += len(elements)
-    for dim, tag in gmsh.model.getEntities():
-        try:
-            master, snodes, mnodes, affine = gmsh.model.mesh.getPeriodicNodes(dim, tag)
-        except Exception:  # no periodic information for this entity
-            continue
-        if int(master) != tag and len(snodes) > 0:
-            pairs = [(int(a), int(b)) for a, b in zip(plain(snodes), plain(mnodes))]
-            mesh.periodic[(dim, tag)] = (int(master), pairs, [float(x) for x in plain(affine)])
+    links = read_periodic_section(path)
+    if links is None:  # binary MSH 4.1: ask Gmsh (which may fill in missing pairs itself)
+        links = {}
+        for dim, tag in gmsh.model.getEntities():
+            try:
+                master, snodes, mnodes, affine = gmsh.model.mesh.getPeriodicNodes(dim, tag)
+            except Exception:  # no periodic information for this entity
+                continue
+            if int(master) != tag and len(snodes) > 0:
+                pairs = [(int(a), int(b)) for a, b in zip(plain(snodes), plain(mnodes))]
+                links[(dim, tag)] = (int(master), pairs, [float(x) for x in plain(affine)])
+    mesh.periodic = links
     mesh.msh2 = is_msh2(path)
     if mesh.msh2:
         # MSH 2 writes an element once per physical group of its entity and Gmsh's

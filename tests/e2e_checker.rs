@@ -182,10 +182,26 @@ fn check_texts(input: &str, output: &str) -> common::CheckReport {
     check_mesh(&a, &b, &[])
 }
 
+/// The split itself is accepted (boundary and line elements agree), but the two quads
+/// around centre node 4, the only interior node, share it with valence 2: their corners
+/// there add up to 360 degrees, so one is reflex and quad_valid rejects it.
 #[test]
 fn checker_accepts_a_parity_split_on_the_segment() {
     let report = check_texts(ODD_TRIANGLE, &repaired_triangle("0.5 0 0", true));
-    assert!(report.ok, "{}", report.report);
+    for check in [
+        "boundary",
+        "curve_edges",
+        "fixed_nodes",
+        "area",
+        "orientation",
+    ] {
+        assert!(
+            report.report.contains(&format!("\"{check}\": true")),
+            "{check}: {}",
+            report.report
+        );
+    }
+    assert_bad_quad(&report, "reflex corner at node 4");
 }
 
 #[test]
@@ -199,4 +215,85 @@ fn checker_rejects_a_split_node_off_the_segment() {
 fn checker_rejects_a_split_missing_from_the_line_elements() {
     let report = check_texts(ODD_TRIANGLE, &repaired_triangle("0.5 0 0", false));
     assert_violation(&report, "boundary");
+}
+
+/// Asserts a `quad_valid` violation whose message names the element and `what`.
+fn assert_bad_quad(report: &common::CheckReport, what: &str) {
+    assert_violation(report, "quad_valid");
+    assert!(
+        report.report.contains("element ") && report.report.contains(what),
+        "expected a bad quad ({what}) named by element and nodes: {}",
+        report.report
+    );
+}
+
+#[test]
+fn checker_rejects_a_flat_corner_on_a_planar_surface() {
+    let report = broken("structured_plate", "flat-corner");
+    assert_bad_quad(&report, "flat corner at node");
+    // The quad keeps its orientation and the surface its area: only quad_valid sees it.
+    assert!(
+        report.report.contains("\"orientation\": true"),
+        "{}",
+        report.report
+    );
+}
+
+#[test]
+fn checker_rejects_a_flat_corner_on_a_curved_surface() {
+    assert_bad_quad(
+        &broken("structured_shell", "flat-corner"),
+        "flat corner at node",
+    );
+}
+
+#[test]
+fn checker_rejects_a_reflex_corner() {
+    for name in ["structured_plate", "structured_shell"] {
+        assert_bad_quad(&broken(name, "reflex-corner"), "reflex corner at node");
+    }
+}
+
+#[test]
+fn checker_rejects_a_zero_length_edge() {
+    assert_bad_quad(&broken("structured_plate", "zero-edge"), "zero-length edge");
+}
+
+/// The triangle mesh of `corpus/periodic_curves.geo` (curves periodic in x and y), and
+/// a mutated copy of it; both checked with triangles allowed.
+fn periodic_reports(what: &str) -> (common::CheckReport, common::CheckReport) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let geo = repo_dir().join("corpus/periodic_curves.geo");
+    let tri = dir.path().join("periodic.msh");
+    generate_geo(&geo, &tri, Variant::Msh41Ascii, 0.2, &[]);
+    let bad = dir.path().join("bad.msh");
+    mutate(&tri, &bad, what);
+    (
+        check_mesh(&tri, &tri, &["--allow-triangles"]),
+        check_mesh(&tri, &bad, &["--allow-triangles"]),
+    )
+}
+
+#[test]
+fn checker_rejects_lost_periodic_links() {
+    let (same, report) = periodic_reports("periodic-dropped");
+    assert!(same.ok, "{}", same.report);
+    assert!(
+        same.report.contains("\"periodic\": true"),
+        "{}",
+        same.report
+    );
+    assert_violation(&report, "periodic");
+    assert!(report.report.contains("link to"), "{}", report.report);
+}
+
+#[test]
+fn checker_rejects_a_slave_node_without_its_master() {
+    let (_, report) = periodic_reports("periodic-unpaired");
+    assert_violation(&report, "periodic");
+    assert!(
+        report.report.contains("without a master node"),
+        "{}",
+        report.report
+    );
 }
