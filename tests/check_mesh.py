@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Independent invariant checker for blossomquad outputs.
 
-Usage: check_mesh.py INPUT.msh OUTPUT.msh [--allow-dropped-volumes] [--allow-triangles] [--refined=N]
+Usage: check_mesh.py INPUT.msh OUTPUT.msh [--allow-dropped-volumes] [--allow-triangles] [--refined=N] [--no-quad-validity]
 
 INPUT is the triangle mesh given to blossomquad, OUTPUT its result. Both are read
 with Gmsh's own reader (the `gmsh` Python module); nothing here uses blossomquad's
@@ -52,7 +52,8 @@ code. Checks (names as in the JSON report):
                     length. Each bad quad is reported with its surface, element tag,
                     corner node tags and what is wrong. The JSON also gives
                     quad_eta_min (the worst quad quality eta, paper eq. 3, from the 3D
-                    corner angles) and how many quads have eta < 0.1.
+                    corner angles) and how many quads have eta < 0.1. Skipped with
+                    --no-quad-validity (e.g. for raw matchings before optimization).
   periodic          when INPUT has $Periodic links (read from the files' own text, as
                     Gmsh's reader fills in missing pairs): each slave entity keeps its link
                     (same master, same affine transform); every OUTPUT node on a slave
@@ -418,7 +419,7 @@ class NearestTriangle:
                 return best
 
 
-def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0):
+def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0, no_quad_validity=False):
     rep = Report()
     rep.quad_stats = QuadStats()
     scale = scale_of(inp)
@@ -516,7 +517,8 @@ def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0):
                     ok = all(uses_out.get(p) == 2 for p in pieces)
                     rep.check("curve_edges", ok, f"surface {surface}: embedded segment {e} lost")
         check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, bnd_in)
-        check_quads(rep, surface, in_faces, out_faces, inp, out, scale, rep.quad_stats)
+        if not no_quad_validity:
+            check_quads(rep, surface, in_faces, out_faces, inp, out, scale, rep.quad_stats)
     check_periodic(rep, inp, out, scale)
     # Surfaces sharing an input boundary edge must still share it, split the same way.
     mismatched = [(e, chains) for e, chains in sorted(shared_splits.items())
@@ -770,7 +772,7 @@ def main(argv):
         print(__doc__.splitlines()[2], file=sys.stderr)
         return 2
     refined = int(refined[-1]) if refined else 0
-    unknown = flags - {"--allow-dropped-volumes", "--allow-triangles"}
+    unknown = flags - {"--allow-dropped-volumes", "--allow-triangles", "--no-quad-validity"}
     if len(args) != 2 or unknown:
         print(__doc__.splitlines()[2], file=sys.stderr)
         return 2
@@ -785,7 +787,8 @@ def main(argv):
         print(_dumps({"ok": False, "input": args[0], "output": args[1],
                           "checks": {"loads": False}, "violations": [f"loads: {m}" for m in out.errors[:5]]}))
         return 1
-    rep, quads, tris = check(inp, out, "--allow-dropped-volumes" in flags, "--allow-triangles" in flags, refined)
+    rep, quads, tris = check(inp, out, "--allow-dropped-volumes" in flags, "--allow-triangles" in flags, refined,
+                             "--no-quad-validity" in flags)
     rep.checks["loads"] = True
     ok = all(rep.checks.values())
     print(_dumps({
