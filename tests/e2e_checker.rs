@@ -297,3 +297,45 @@ fn checker_rejects_a_slave_node_without_its_master() {
         report.report
     );
 }
+
+/// Two one-triangle surfaces sharing the edge 2-3, no curve entity nor line element
+/// (as MSH 2.2 written with `Mesh.SaveAll = 0` has none), and outputs where the edge
+/// is split by node 5 in surface 1 only, or in both.
+const TWO_SURFACES: &str = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n\
+$Entities\n0 0 2 0\n1 0 0 0 1 1 0 0 0\n2 1 0 0 2 1 0 0 0\n$EndEntities\n\
+$Nodes\n2 4 1 4\n2 1 0 3\n1\n2\n3\n0 0 0\n1 0 0\n1 1 0\n2 2 0 1\n4\n2 0.5 0\n$EndNodes\n\
+$Elements\n2 2 1 2\n2 1 2 1\n1 1 2 3\n2 2 2 1\n2 2 4 3\n$EndElements\n";
+
+fn two_surfaces_split(both: bool) -> String {
+    let second = if both {
+        "2 2 3 1\n2 2 4 3 5\n"
+    } else {
+        "2 2 2 1\n2 2 4 3\n"
+    };
+    format!(
+        "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n\
+$Entities\n0 0 2 0\n1 0 0 0 1 1 0 0 0\n2 1 0 0 2 1 0 0 0\n$EndEntities\n\
+$Nodes\n2 5 1 5\n2 1 0 4\n1\n2\n3\n5\n0 0 0\n1 0 0\n1 1 0\n1 0.5 0\n2 2 0 1\n4\n2 0.5 0\n$EndNodes\n\
+$Elements\n2 2 1 2\n2 1 3 1\n1 1 2 5 3\n{second}$EndElements\n"
+    )
+}
+
+#[test]
+fn checker_rejects_a_shared_edge_split_on_one_side_only() {
+    let report = check_texts(TWO_SURFACES, &two_surfaces_split(false));
+    assert_violation(&report, "shared_edges");
+    assert!(
+        report.report.contains("surface 1: [5], surface 2: kept"),
+        "{}",
+        report.report
+    );
+    // Split alike on both sides: the surfaces still conform (the quads themselves have
+    // a flat corner at node 5, which quad_valid reports).
+    let report = check_texts(TWO_SURFACES, &two_surfaces_split(true));
+    assert!(
+        report.report.contains("\"shared_edges\": true"),
+        "{}",
+        report.report
+    );
+    assert_bad_quad(&report, "flat corner at node 5");
+}
