@@ -5,4 +5,5 @@ DefineConstant[size = 2];
 Box(1) = {0, 0, 0, 1, 1, 1};
 c() = Chamfer{1}{1}{1}{0.3};
 Mesh.MeshSizeMax = size;
+Mesh.MeshSizeMin = size;
 Physical Surface("all") = Surface{:};

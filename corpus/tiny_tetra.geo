@@ -11,4 +11,5 @@ Curve Loop(3) = {2, 6, -5}; Plane Surface(3) = {3};
 Curve Loop(4) = {3, 4, -6}; Plane Surface(4) = {4};
 Box(1) = {2, 0, 0, 1, 0.5, 0.3};
 Mesh.MeshSizeMax = size;
+Mesh.MeshSizeMin = size;
 Physical Surface("all") = Surface{:};
