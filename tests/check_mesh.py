@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Independent invariant checker for blossomquad outputs.
 
-Usage: check_mesh.py INPUT.msh OUTPUT.msh [--allow-dropped-volumes] [--allow-triangles] [--refined=N]
+Usage: check_mesh.py INPUT.msh OUTPUT.msh [--allow-dropped-volumes] [--allow-triangles] [--refined=N] [--no-quad-validity]
 
 INPUT is the triangle mesh given to blossomquad, OUTPUT its result. Both are read
 with Gmsh's own reader (the `gmsh` Python module); nothing here uses blossomquad's
@@ -22,6 +22,9 @@ code. Checks (names as in the JSON report):
                     2^N (2^(N+1) after a parity split) pieces whose new nodes lie
                     within a tenth of the segment's length of it (new curve nodes
                     follow the curve).
+  shared_edges      an input boundary edge shared by several surfaces is kept, or split
+                    by the same node, in all of them (the surfaces stay conforming
+                    whether or not line elements mark the curve).
   curve_edges       every input line element (1D) survives, kept or split the
                     same way; every input segment inside a surface (embedded
                     curve) is still an edge used twice there.
@@ -39,6 +42,25 @@ code. Checks (names as in the JSON report):
                     surface: on a planar surface its normal agrees with the
                     input's average normal; on a curved surface with the normal
                     of the nearest input triangle.
+
+  quad_valid        every output quad is valid, measured in 3D against the surface
+                    normal of the input triangles it came from (those whose nodes are
+                    all among the quad's, else those sharing an edge or a node with
+                    it, else the nearest): its four corners strictly between 0 and
+                    180 degrees (positive sine about that normal), its normal agrees
+                    with that normal (oriented like the input), and no edge has zero
+                    length. Each bad quad is reported with its surface, element tag,
+                    corner node tags and what is wrong. The JSON also gives
+                    quad_eta_min (the worst quad quality eta, paper eq. 3, from the 3D
+                    corner angles) and how many quads have eta < 0.1. Skipped with
+                    --no-quad-validity (e.g. for raw matchings before optimization).
+  periodic          when INPUT has $Periodic links (read from the files' own text, as
+                    Gmsh's reader fills in missing pairs): each slave entity keeps its link
+                    (same master, same affine transform); every OUTPUT node on a slave
+                    entity has a master node; each pair matches through the affine
+                    transform within 1e-6 of the model size; input pairs whose slave
+                    node survives are unchanged; and when the input's slave surface
+                    faces are images of the master's, so are the output's.
 
 Prints one JSON line and exits 0 when every check passes, 1 on any violation,
 2 on usage errors or when INPUT cannot be read.
@@ -89,6 +111,9 @@ class Mesh:
         self.with_elements = set()  # entities that carry elements
         self.msh2 = False
         self.errors = []
+        self.face_tags = {}  # (surface tag, sorted node tuple) -> element tag
+        self.periodic = {}  # (dim, tag) -> (master tag, [(slave node, master node)], affine or [])
+        self.entity_nodes = {}  # (dim, tag) -> node tags classified on that entity
 
 
 def _dedup(elements):
@@ -116,6 +141,43 @@ def is_msh2(path):
     return at >= 0 and head[at + len(b"$MeshFormat"):].lstrip().startswith(b"2")
 
 
+def read_periodic_section(path):
+    """The $Periodic links of an ASCII MSH 2.2 or 4.1 file (or any MSH 2 file, whose
+    $Periodic section is text), read from the file itself: Gmsh's reader rebuilds
+    missing node pairs and moves slave nodes onto their masters' images, so its API
+    cannot tell whether the file is complete. {(dim, tag): (master, [(slave, master)],
+    affine)}; None for a binary MSH 4 file."""
+    with open(path, "rb") as f:
+        data = f.read()
+    at = data.find(b"$MeshFormat")
+    header = data[at:at + 64].split(b"\n")[1].split() if at >= 0 else []
+    if len(header) >= 2 and not header[0].startswith(b"2") and header[1] != b"0":
+        return None
+    start = data.find(b"\n$Periodic")
+    links = {}
+    if start < 0:
+        return links
+    end = data.find(b"$EndPeriodic", start)
+    lines = [l.strip() for l in data[start:end].decode("ascii", "replace").split("\n")[2:] if l.strip()]
+    i = 1
+    while i < len(lines):
+        dim, tag, master = (int(x) for x in lines[i].split()[:3])
+        i += 1
+        affine = []
+        first = lines[i].split()
+        if first[0] == "Affine":  # MSH 2.2
+            affine = [float(x) for x in first[1:]]
+            i += 1
+        elif len(first) > 1 or not header or not header[0].startswith(b"2"):  # MSH 4.1: count, values
+            affine = [float(x) for x in first[1:]]
+            i += 1
+        count = int(lines[i])
+        pairs = [tuple(int(x) for x in lines[i + 1 + k].split()[:2]) for k in range(count)]
+        i += 1 + count
+        links[(dim, tag)] = (master, pairs, affine)
+    return links
+
+
 def load(path):
     """Reads PATH with Gmsh; returns a Mesh (with .errors filled on failure)."""
     mesh = Mesh()
@@ -139,20 +201,37 @@ def load(path):
             mesh.nodes[t] = (coords[3 * i], coords[3 * i + 1], coords[3 * i + 2])
             mesh.node_dim.setdefault(t, dim)
             mesh.node_dim[t] = min(mesh.node_dim[t], dim)
-        types, _, node_tags = gmsh.model.mesh.getElements(dim, tag)
+        mesh.entity_nodes[(dim, tag)] = [int(t) for t in tags]
+        types, elem_tags, node_tags = gmsh.model.mesh.getElements(dim, tag)
         types, node_tags = plain(types), [plain(n) for n in node_tags]
+        elem_tags = [plain(e) for e in elem_tags]
         if len(types) > 0:
             mesh.with_elements.add((dim, tag))
-        for etype, conn in zip(types, node_tags):
+        for etype, conn, etags in zip(types, node_tags, elem_tags):
             _, edim, _, nnodes, _, ncorner = gmsh.model.mesh.getElementProperties(etype)
             conn = [int(n) for n in conn]
             elements = [tuple(conn[i:i + nnodes][:ncorner]) for i in range(0, len(conn), nnodes)]
+            if dim == 2:
+                for e, t in zip(elements, etags):
+                    mesh.face_tags.setdefault((tag, tuple(sorted(e))), int(t))
             if dim == 2 and (etype in TRIANGLE_TYPES or etype in QUAD_TYPES):
                 mesh.faces.setdefault(tag, []).extend((etype, e) for e in elements)
             elif dim == 1 and edim == 1:
                 mesh.lines.setdefault(tag, []).extend((e[0], e[1]) for e in elements)
             if etype in VOLUME_TYPES:
                 mesh.volume_elements += len(elements)
+    links = read_periodic_section(path)
+    if links is None:  # binary MSH 4.1: ask Gmsh (which may fill in missing pairs itself)
+        links = {}
+        for dim, tag in gmsh.model.getEntities():
+            try:
+                master, snodes, mnodes, affine = gmsh.model.mesh.getPeriodicNodes(dim, tag)
+            except Exception:  # no periodic information for this entity
+                continue
+            if int(master) != tag and len(snodes) > 0:
+                pairs = [(int(a), int(b)) for a, b in zip(plain(snodes), plain(mnodes))]
+                links[(dim, tag)] = (int(master), pairs, [float(x) for x in plain(affine)])
+    mesh.periodic = links
     mesh.msh2 = is_msh2(path)
     if mesh.msh2:
         # MSH 2 writes an element once per physical group of its entity and Gmsh's
@@ -340,8 +419,9 @@ class NearestTriangle:
                 return best
 
 
-def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0):
+def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0, no_quad_validity=False):
     rep = Report()
+    rep.quad_stats = QuadStats()
     scale = scale_of(inp)
 
     # Entities and physical groups.
@@ -394,6 +474,7 @@ def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0):
                   f"{len(extra)} unexpected (e.g. {extra[:3]})")
 
     line_segments = {key(a, b) for segs in inp.lines.values() for a, b in segs}
+    shared_splits = {}  # input boundary edge -> {surface: inner nodes of its output chain}
     quads = 0
     tris_left = 0
     for surface, in_faces in sorted(inp.faces.items()):
@@ -414,6 +495,9 @@ def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0):
         bnd_in = {e for e, n in uses_in.items() if n == 1}
         bnd_out = {e for e, n in uses_out.items() if n == 1}
         missing, extra, splits = match_split(bnd_in, bnd_out, inp, out, 1e-6, refined)
+        for e in bnd_in:
+            if e not in missing:
+                shared_splits.setdefault(e, {})[surface] = splits.get(e, ())
         rep.check("boundary", not missing and not extra,
                   f"surface {surface}: {len(missing)} input boundary edges lost (e.g. {missing[:3]}), "
                   f"{len(extra)} new boundary edges (e.g. {extra[:3]})")
@@ -433,6 +517,18 @@ def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0):
                     ok = all(uses_out.get(p) == 2 for p in pieces)
                     rep.check("curve_edges", ok, f"surface {surface}: embedded segment {e} lost")
         check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, bnd_in)
+        if not no_quad_validity:
+            check_quads(rep, surface, in_faces, out_faces, inp, out, scale, rep.quad_stats)
+    check_periodic(rep, inp, out, scale)
+    # Surfaces sharing an input boundary edge must still share it, split the same way.
+    mismatched = [(e, chains) for e, chains in sorted(shared_splits.items())
+                  if len(chains) > 1 and len(set(chains.values())) > 1]
+    for e, chains in mismatched[:3]:
+        rep.check("shared_edges", False,
+                  f"edge {e} shared by surfaces {sorted(chains)} is split differently: "
+                  + ", ".join(f"surface {t}: {list(c) or 'kept'}" for t, c in sorted(chains.items())))
+    rep.check("shared_edges", not mismatched,
+              f"{len(mismatched)} edges shared by several surfaces no longer match")
     for surface in out.faces:
         rep.check("entities", surface in inp.faces or any(e == (2, surface) for e in inp.entities),
                   f"faces on unknown surface {surface}")
@@ -485,6 +581,189 @@ def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, 
               f"surface {surface} ({'planar' if planar else 'curved'}): {flipped} faces flipped or degenerate")
 
 
+def unit(v):
+    n = norm(v)
+    return (v[0] / n, v[1] / n, v[2] / n) if n > 0.0 else (0.0, 0.0, 0.0)
+
+
+def add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+class QuadStats:
+    """Per-quad validity figures over the whole output (for the JSON report)."""
+
+    def __init__(self):
+        self.checked = 0
+        self.bad = 0
+        self.eta_min = None
+        self.below_01 = 0
+
+
+# Corners whose sine (measured against the surface normal) is at most this are flat,
+# reflex or degenerate (eta = 0).
+SIN_TOL = 1e-9
+
+
+def check_quads(rep, surface, in_faces, out_faces, inp, out, scale, stats):
+    """Validity of every output quad of one surface, measured in 3D against the surface
+    normal of the input: each of the four corners strictly between 0 and 180 degrees
+    (positive sine about the reference normal), the quad oriented like the input faces
+    (its normal agrees with the reference normal), no zero-length edge. The reference
+    normal is the mean unit normal of the input faces (triangles or quads) the quad came
+    from: those whose nodes are all among the quad's, else those sharing an edge (two
+    nodes) with it, else a node, else the input face with the nearest centroid. Also
+    computes the quad quality eta (paper eq. 3) from the 3D corner angles."""
+    in_normals = []
+    by_node = {}
+    for i, (_, f) in enumerate(in_faces):
+        if not all(n in inp.nodes for n in f):
+            in_normals.append((0.0, 0.0, 0.0))
+            continue
+        in_normals.append(unit(polygon_normal([inp.nodes[n] for n in f])))
+        for n in f:
+            by_node.setdefault(n, []).append(i)
+    finder = None
+    zero = 1e-12 * scale
+    for etype, f in out_faces:
+        if etype not in QUAD_TYPES or len(f) != 4 or len(set(f)) != 4 or not all(n in out.nodes for n in f):
+            continue  # faces_valid reports these
+        stats.checked += 1
+        pts = [out.nodes[n] for n in f]
+        # reference normal
+        shared = {}
+        for n in f:
+            for i in by_node.get(n, ()):
+                shared[i] = shared.get(i, 0) + 1
+        ref = (0.0, 0.0, 0.0)
+        for need in ("all", 2, 1):
+            for i, c in shared.items():
+                k = len(in_faces[i][1])
+                if (need == "all" and c == k) or (need != "all" and c >= need):
+                    ref = add(ref, in_normals[i])
+            if norm(ref) > 0.0:
+                break
+        if norm(ref) == 0.0:
+            if finder is None:
+                cents = [tuple(sum(inp.nodes[n][j] for n in g) / len(g) for j in range(3))
+                         if all(n in inp.nodes for n in g) else (0.0, 0.0, 0.0) for _, g in in_faces]
+                finder = NearestTriangle(cents, in_normals) if cents else None
+            if finder is not None:
+                c = tuple(sum(p[j] for p in pts) / 4.0 for j in range(3))
+                t = finder.nearest(c)
+                if t is not None:
+                    ref = in_normals[t]
+        ref = unit(ref)
+        problems = []
+        for i in range(4):
+            if norm(sub(pts[(i + 1) % 4], pts[i])) <= zero:
+                problems.append(f"zero-length edge {f[i]}-{f[(i + 1) % 4]}")
+        if dot(polygon_normal(pts), ref) <= 0.0:
+            problems.append("inverted (normal opposite to the input triangles')")
+        worst = 0.0
+        for i in range(4):
+            e1 = sub(pts[(i + 1) % 4], pts[i])
+            e2 = sub(pts[i - 1], pts[i])
+            l1, l2 = norm(e1), norm(e2)
+            if l1 <= zero or l2 <= zero:
+                worst = math.inf
+                continue
+            sine = dot(cross(e1, e2), ref) / (l1 * l2)
+            if sine <= SIN_TOL:
+                angle = math.degrees(math.acos(max(-1.0, min(1.0, dot(e1, e2) / (l1 * l2)))))
+                kind = "reflex" if sine < -SIN_TOL else "flat"
+                problems.append(f"{kind} corner at node {f[i]} "
+                                f"({angle:.4g} deg in 3D, sine {sine:.3g} about the surface normal)")
+                worst = math.inf
+            else:
+                alpha = math.acos(max(-1.0, min(1.0, dot(e1, e2) / (l1 * l2))))
+                worst = max(worst, abs(math.pi / 2 - alpha))
+        eta = max(0.0, 1.0 - 2.0 / math.pi * worst) if worst != math.inf else 0.0
+        stats.eta_min = eta if stats.eta_min is None else min(stats.eta_min, eta)
+        if eta < 0.1:
+            stats.below_01 += 1
+        if problems:
+            stats.bad += 1
+            tag = out.face_tags.get((surface, tuple(sorted(f))), "?")
+            rep.check("quad_valid", False,
+                      f"surface {surface} element {tag} nodes {list(f)}: " + "; ".join(problems))
+    rep.check("quad_valid", True)
+
+
+def apply_affine(affine, p):
+    return tuple(affine[4 * r] * p[0] + affine[4 * r + 1] * p[1] + affine[4 * r + 2] * p[2] + affine[4 * r + 3]
+                 for r in range(3))
+
+
+def periodic_faces_match(mesh, surface, master, node_map):
+    """(images that are master faces, slave faces) of `surface` mapped through node_map."""
+    master_faces = {tuple(sorted(f)) for _, f in mesh.faces.get(master, [])}
+    slave_faces = mesh.faces.get(surface, [])
+    hits = 0
+    for _, f in slave_faces:
+        image = [node_map.get(n) for n in f]
+        if None not in image and tuple(sorted(image)) in master_faces:
+            hits += 1
+    return hits, len(slave_faces)
+
+
+def check_periodic(rep, inp, out, scale):
+    """The input's $Periodic links are kept complete: every slave entity still has its
+    master and affine transform; every output node classified on a slave entity has a
+    master node; every (slave, master) pair maps through the affine transform within
+    1e-6 of the model size; input pairs whose slave node survives are unchanged; and
+    when the input's slave surface faces are images of the master's, so are the output's."""
+    if not inp.periodic:
+        return
+    tol = 1e-6 * scale
+    in_map = {}
+    out_map = {}
+    for (dim, tag), (_, pairs, _) in inp.periodic.items():
+        in_map.update(pairs)
+    for (dim, tag), (_, pairs, _) in out.periodic.items():
+        out_map.update(pairs)
+    for (dim, tag), (master, pairs, affine) in sorted(inp.periodic.items()):
+        name = ["point", "curve", "surface", "volume"][dim]
+        link = out.periodic.get((dim, tag))
+        if link is None:
+            if (dim, tag) in out.entities and out.entity_nodes.get((dim, tag)):
+                rep.check("periodic", False, f"{name} {tag}: periodic link to {name} {master} lost")
+            continue
+        omaster, opairs, oaffine = link
+        if omaster != master:
+            rep.check("periodic", False, f"{name} {tag}: master {master} became {omaster}")
+            continue
+        if affine and oaffine and any(abs(a - b) > 1e-9 * max(1.0, abs(a)) for a, b in zip(affine, oaffine)):
+            rep.check("periodic", False, f"{name} {tag}: affine transform changed")
+        paired = dict(opairs)
+        missing = [n for n in out.entity_nodes.get((dim, tag), []) if n not in paired]
+        rep.check("periodic", not missing,
+                  f"{name} {tag}: {len(missing)} nodes without a master node (e.g. {missing[:5]})")
+        absent = [(a, b) for a, b in opairs if a not in out.nodes or b not in out.nodes]
+        rep.check("periodic", not absent, f"{name} {tag}: pairs naming missing nodes (e.g. {absent[:3]})")
+        changed = [(a, b, paired.get(a)) for a, b in pairs if a in out.nodes and paired.get(a) != b]
+        rep.check("periodic", not changed,
+                  f"{name} {tag}: input pairs (slave, master, now) changed or dropped (e.g. {changed[:3]})")
+        if oaffine and len(oaffine) >= 12:
+            off = []
+            for a, b in opairs:
+                if a in out.nodes and b in out.nodes:
+                    d = norm(sub(apply_affine(oaffine, out.nodes[b]), out.nodes[a]))
+                    if d > tol:
+                        off.append((a, b, d))
+            rep.check("periodic", not off,
+                      f"{name} {tag}: {len(off)} node pairs do not match through the affine transform "
+                      f"(e.g. slave, master, distance {off[:3]})")
+        if dim == 2:
+            hits_in, n_in = periodic_faces_match(inp, tag, master, in_map)
+            if n_in > 0 and hits_in == n_in:
+                hits, n = periodic_faces_match(out, tag, master, out_map)
+                rep.check("periodic", hits == n and n > 0,
+                          f"surface {tag}: {n - hits} of its {n} faces are not images of master surface "
+                          f"{master}'s faces (the input's were)")
+    rep.check("periodic", True)
+
+
 def main(argv):
     args = [a for a in argv[1:] if not a.startswith("--")]
     flags = {a for a in argv[1:] if a.startswith("--") and not a.startswith("--refined=")}
@@ -493,7 +772,7 @@ def main(argv):
         print(__doc__.splitlines()[2], file=sys.stderr)
         return 2
     refined = int(refined[-1]) if refined else 0
-    unknown = flags - {"--allow-dropped-volumes", "--allow-triangles"}
+    unknown = flags - {"--allow-dropped-volumes", "--allow-triangles", "--no-quad-validity"}
     if len(args) != 2 or unknown:
         print(__doc__.splitlines()[2], file=sys.stderr)
         return 2
@@ -508,7 +787,8 @@ def main(argv):
         print(_dumps({"ok": False, "input": args[0], "output": args[1],
                           "checks": {"loads": False}, "violations": [f"loads: {m}" for m in out.errors[:5]]}))
         return 1
-    rep, quads, tris = check(inp, out, "--allow-dropped-volumes" in flags, "--allow-triangles" in flags, refined)
+    rep, quads, tris = check(inp, out, "--allow-dropped-volumes" in flags, "--allow-triangles" in flags, refined,
+                             "--no-quad-validity" in flags)
     rep.checks["loads"] = True
     ok = all(rep.checks.values())
     print(_dumps({
@@ -520,6 +800,11 @@ def main(argv):
         "triangles_left": tris,
         "input_nodes": len(inp.nodes),
         "output_nodes": len(out.nodes),
+        "quads_checked": rep.quad_stats.checked,
+        "bad_quads": rep.quad_stats.bad,
+        "quad_eta_min": rep.quad_stats.eta_min,
+        "quads_eta_below_0.1": rep.quad_stats.below_01,
+        "periodic_links": len(inp.periodic),
         "checks": rep.checks,
         "violations": rep.violations,
     }, sort_keys=False))

@@ -182,10 +182,26 @@ fn check_texts(input: &str, output: &str) -> common::CheckReport {
     check_mesh(&a, &b, &[])
 }
 
+/// The split itself is accepted (boundary and line elements agree), but the two quads
+/// around centre node 4, the only interior node, share it with valence 2: their corners
+/// there add up to 360 degrees, so one is reflex and quad_valid rejects it.
 #[test]
 fn checker_accepts_a_parity_split_on_the_segment() {
     let report = check_texts(ODD_TRIANGLE, &repaired_triangle("0.5 0 0", true));
-    assert!(report.ok, "{}", report.report);
+    for check in [
+        "boundary",
+        "curve_edges",
+        "fixed_nodes",
+        "area",
+        "orientation",
+    ] {
+        assert!(
+            report.report.contains(&format!("\"{check}\": true")),
+            "{check}: {}",
+            report.report
+        );
+    }
+    assert_bad_quad(&report, "reflex corner at node 4");
 }
 
 #[test]
@@ -199,4 +215,127 @@ fn checker_rejects_a_split_node_off_the_segment() {
 fn checker_rejects_a_split_missing_from_the_line_elements() {
     let report = check_texts(ODD_TRIANGLE, &repaired_triangle("0.5 0 0", false));
     assert_violation(&report, "boundary");
+}
+
+/// Asserts a `quad_valid` violation whose message names the element and `what`.
+fn assert_bad_quad(report: &common::CheckReport, what: &str) {
+    assert_violation(report, "quad_valid");
+    assert!(
+        report.report.contains("element ") && report.report.contains(what),
+        "expected a bad quad ({what}) named by element and nodes: {}",
+        report.report
+    );
+}
+
+#[test]
+fn checker_rejects_a_flat_corner_on_a_planar_surface() {
+    let report = broken("structured_plate", "flat-corner");
+    assert_bad_quad(&report, "flat corner at node");
+    // The quad keeps its orientation and the surface its area: only quad_valid sees it.
+    assert!(
+        report.report.contains("\"orientation\": true"),
+        "{}",
+        report.report
+    );
+}
+
+#[test]
+fn checker_rejects_a_flat_corner_on_a_curved_surface() {
+    assert_bad_quad(
+        &broken("structured_shell", "flat-corner"),
+        "flat corner at node",
+    );
+}
+
+#[test]
+fn checker_rejects_a_reflex_corner() {
+    for name in ["structured_plate", "structured_shell"] {
+        assert_bad_quad(&broken(name, "reflex-corner"), "reflex corner at node");
+    }
+}
+
+#[test]
+fn checker_rejects_a_zero_length_edge() {
+    assert_bad_quad(&broken("structured_plate", "zero-edge"), "zero-length edge");
+}
+
+/// The triangle mesh of `corpus/periodic_curves.geo` (curves periodic in x and y), and
+/// a mutated copy of it; both checked with triangles allowed.
+fn periodic_reports(what: &str) -> (common::CheckReport, common::CheckReport) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let geo = repo_dir().join("corpus/periodic_curves.geo");
+    let tri = dir.path().join("periodic.msh");
+    generate_geo(&geo, &tri, Variant::Msh41Ascii, 0.2, &[]);
+    let bad = dir.path().join("bad.msh");
+    mutate(&tri, &bad, what);
+    (
+        check_mesh(&tri, &tri, &["--allow-triangles"]),
+        check_mesh(&tri, &bad, &["--allow-triangles"]),
+    )
+}
+
+#[test]
+fn checker_rejects_lost_periodic_links() {
+    let (same, report) = periodic_reports("periodic-dropped");
+    assert!(same.ok, "{}", same.report);
+    assert!(
+        same.report.contains("\"periodic\": true"),
+        "{}",
+        same.report
+    );
+    assert_violation(&report, "periodic");
+    assert!(report.report.contains("link to"), "{}", report.report);
+}
+
+#[test]
+fn checker_rejects_a_slave_node_without_its_master() {
+    let (_, report) = periodic_reports("periodic-unpaired");
+    assert_violation(&report, "periodic");
+    assert!(
+        report.report.contains("without a master node"),
+        "{}",
+        report.report
+    );
+}
+
+/// Two one-triangle surfaces sharing the edge 2-3, no curve entity nor line element
+/// (as MSH 2.2 written with `Mesh.SaveAll = 0` has none), and outputs where the edge
+/// is split by node 5 in surface 1 only, or in both.
+const TWO_SURFACES: &str = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n\
+$Entities\n0 0 2 0\n1 0 0 0 1 1 0 0 0\n2 1 0 0 2 1 0 0 0\n$EndEntities\n\
+$Nodes\n2 4 1 4\n2 1 0 3\n1\n2\n3\n0 0 0\n1 0 0\n1 1 0\n2 2 0 1\n4\n2 0.5 0\n$EndNodes\n\
+$Elements\n2 2 1 2\n2 1 2 1\n1 1 2 3\n2 2 2 1\n2 2 4 3\n$EndElements\n";
+
+fn two_surfaces_split(both: bool) -> String {
+    let second = if both {
+        "2 2 3 1\n2 2 4 3 5\n"
+    } else {
+        "2 2 2 1\n2 2 4 3\n"
+    };
+    format!(
+        "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n\
+$Entities\n0 0 2 0\n1 0 0 0 1 1 0 0 0\n2 1 0 0 2 1 0 0 0\n$EndEntities\n\
+$Nodes\n2 5 1 5\n2 1 0 4\n1\n2\n3\n5\n0 0 0\n1 0 0\n1 1 0\n1 0.5 0\n2 2 0 1\n4\n2 0.5 0\n$EndNodes\n\
+$Elements\n2 2 1 2\n2 1 3 1\n1 1 2 5 3\n{second}$EndElements\n"
+    )
+}
+
+#[test]
+fn checker_rejects_a_shared_edge_split_on_one_side_only() {
+    let report = check_texts(TWO_SURFACES, &two_surfaces_split(false));
+    assert_violation(&report, "shared_edges");
+    assert!(
+        report.report.contains("surface 1: [5], surface 2: kept"),
+        "{}",
+        report.report
+    );
+    // Split alike on both sides: the surfaces still conform (the quads themselves have
+    // a flat corner at node 5, which quad_valid reports).
+    let report = check_texts(TWO_SURFACES, &two_surfaces_split(true));
+    assert!(
+        report.report.contains("\"shared_edges\": true"),
+        "{}",
+        report.report
+    );
+    assert_bad_quad(&report, "flat corner at node 5");
 }

@@ -1,5 +1,5 @@
 //! The optimizer never turns a valid quad invalid (issue 11, deliverable 3): on the island
-//! domain of `corpus/islands.py` (an ocean-like rectangle with 60 small polygonal islands,
+//! domain of `corpus/island_domain.py` (an ocean-like rectangle with 60 small polygonal islands,
 //! meshed by Gmsh) and, as a property, on random planar domains with holes.
 //!
 //! "Invalid" here: a corner within 0.09° of straight or folded about the input's normal
@@ -123,7 +123,7 @@ fn validity(m: &Mesh, normal: DVec3) -> Validity {
 /// Meshes the island domain (`seed`) at `size` into `dir`.
 fn island_mesh(dir: &Path, size: f64, seed: u64) -> PathBuf {
     let out = dir.join(format!("islands-{seed}-{size}.msh"));
-    let script = repo_dir().join("corpus/islands.py");
+    let script = repo_dir().join("corpus/island_domain.py");
     let res = run(Command::new(python_exe()).arg(script).arg(&out).args([
         "--size",
         &size.to_string(),
@@ -132,7 +132,7 @@ fn island_mesh(dir: &Path, size: f64, seed: u64) -> PathBuf {
     ]));
     assert!(
         res.status.success(),
-        "islands.py failed: {}",
+        "island_domain.py failed: {}",
         String::from_utf8_lossy(&res.stderr)
     );
     out
