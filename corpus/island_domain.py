@@ -7,7 +7,7 @@ and sharp corners), meshed with triangles by Gmsh (`gmsh -2` equivalent) under a
 distance-based size field: small near the islands, large far from them.
 
 Usage:
-  islands.py OUT.msh [--size S] [--seed N] [--islands K] [--min-radius R]
+  island_domain.py OUT.msh [--size S] [--seed N] [--islands K] [--min-radius R]
              [--format 41|22] [--binary]
 
 `--size` scales every target size; the triangle count grows like 1 / size^2:

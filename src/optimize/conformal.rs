@@ -46,7 +46,7 @@ pub(crate) const KEEP_ASPECT: f64 = 0.3;
 
 /// Rounds of reverting the nodes of quads a step made invalid (or worse, if invalid
 /// already) to their positions before the solve, before the step is rejected. Measured on
-/// island domains (corpus/islands.py, 1.3e4 triangles, sharper variants): rejecting the
+/// island domains (corpus/island_domain.py, 1.3e4 triangles, sharper variants): rejecting the
 /// whole step at the first such quad ends with η̄ 0.766-0.808 where reverting ends with
 /// 0.800-0.811 (the same on the 1.1e5 domain, 0.857).
 const REVERT_ROUNDS: usize = 4;
