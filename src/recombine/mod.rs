@@ -125,6 +125,7 @@
 
 mod cross_field;
 mod graph;
+mod input;
 mod invariants;
 mod parity;
 mod post;
@@ -296,6 +297,17 @@ pub enum RecombineError {
         nodes: usize,
         /// Elements in the block.
         elements: usize,
+    },
+    /// A surface element no recombination can turn into valid quads (a repeated node, a
+    /// non-finite or overflowing coordinate, zero area, a duplicate, a fold).
+    #[error("surface {surface}, element {element}: {problem}; the surface cannot be recombined into valid quads")]
+    InvalidElement {
+        /// Surface entity tag.
+        surface: i32,
+        /// Element tag.
+        element: u64,
+        /// What is wrong, in words.
+        problem: String,
     },
     /// An element refers to a node that does not exist.
     #[error(
@@ -649,6 +661,7 @@ fn check_input(
             });
         }
     }
+    input::check_surface_elements(mesh)?;
     for p in mesh.periodic.iter().filter(|p| p.dim == 2) {
         for (s, m) in [(p.tag, p.master_tag), (p.master_tag, p.tag)] {
             if has_tris.contains(&s) {
