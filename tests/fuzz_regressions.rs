@@ -232,3 +232,22 @@ fn duplicate_triangle_is_refused() {
 fn plain_grid_still_recombines_validly() {
     assert_valid_planar_result(&grid_text(0.0, 0.0, 1.0, &[], &[]));
 }
+
+/// Fuzz finding: an edge shared by three triangles of one surface (two triangles of a
+/// mesh renumbered onto a neighbouring node); parity repair split it, giving the halves
+/// three faces each, which `check_invariants` rejects (exit 0 without `--verify`).
+#[test]
+fn edge_shared_by_three_triangles_of_a_surface_is_refused() {
+    // the 2 x 2 grid plus a third triangle on edge 5-6 (an interior edge), out of plane
+    let text = grid_text(0.0, 0.0, 1.0, &["28 1.5 1.5 1"], &["20 2 2 10 1 5 6 28"]);
+    assert_refused(
+        &text,
+        &[
+            "surface 1",
+            "element",
+            "edge 5-6",
+            "3 triangles",
+            "non-manifold",
+        ],
+    );
+}

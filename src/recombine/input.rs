@@ -8,6 +8,8 @@
 //!   products of coordinate differences overflow ([`MAX_COORDINATE`]);
 //! - a triangle of zero area (its nodes coincide or are collinear, to rounding);
 //! - two triangles with the same three nodes;
+//! - an edge shared by three or more triangles of one surface (non-manifold: a parity
+//!   split of it gives edges that no conforming recombination has);
 //! - a fold: two triangles sharing an edge, consistently oriented, whose normals point
 //!   in opposite directions (one is flipped over the other; on a planar surface, an
 //!   inverted triangle).
@@ -193,7 +195,23 @@ fn check_surface(
         while j < half.len() && half[j].0 == half[i].0 && half[j].1 == half[i].1 {
             j += 1;
         }
-        if let [a, b] = &half[i..j] {
+        let run = &half[i..j];
+        if run.len() > 2 {
+            let t = &tris[run[2].3 as usize];
+            return Err(invalid(
+                surface,
+                t.1,
+                format!(
+                    "its edge {}-{} is shared by {} triangles of the surface (non-manifold; triangles {}, {}, ...)",
+                    run[0].0,
+                    run[0].1,
+                    run.len(),
+                    tris[run[0].3 as usize].1,
+                    tris[run[1].3 as usize].1
+                ),
+            ));
+        }
+        if let [a, b] = run {
             let (ta, tb) = (&tris[a.3 as usize], &tris[b.3 as usize]);
             if a.2 != b.2 && dot(ta.2, tb.2) < FOLDED {
                 return Err(invalid(
