@@ -251,3 +251,48 @@ fn edge_shared_by_three_triangles_of_a_surface_is_refused() {
         ],
     );
 }
+
+/// Fuzz finding: a MSH 4.1 block of triangles on a curve entity (`1 5 2 ...`) was read;
+/// recombination only looks at surface entities, so the triangles were written back
+/// unchanged with exit 0. The reader now refuses the block, naming section and line.
+#[test]
+fn triangle_block_on_a_curve_entity_is_refused_by_the_reader() {
+    let text = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n\
+        $Nodes\n1 4 1 4\n2 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n$EndNodes\n\
+        $Elements\n2 4 1 4\n2 1 2 2\n1 1 2 3\n2 1 3 4\n1 5 2 2\n3 1 2 3\n4 1 3 4\n$EndElements\n";
+    assert_refused(
+        text,
+        &["$Elements", "line 21", "dimension 2", "dimension 1"],
+    );
+}
+
+/// Fuzz finding: one triangle of the rectangle renumbered onto other nodes so that it
+/// runs an edge in the same direction as its neighbour (it overlaps them, and leaves a
+/// hole): the optimizer moved the nodes of that edge and the planar area changed, exit 0.
+#[test]
+fn inconsistently_oriented_triangles_are_refused() {
+    // triangle 2 of the grid, (1, 5, 4), flipped to (1, 4, 5)
+    let text =
+        grid_text(0.0, 0.0, 1.0, &[], &[]).replace("\n2 2 2 10 1 1 5 4\n", "\n2 2 2 10 1 1 4 5\n");
+    assert!(
+        text.contains("\n2 2 2 10 1 1 4 5\n"),
+        "the element line was not replaced"
+    );
+    assert_refused(
+        &text,
+        &["surface 1", "element", "same direction", "orientation"],
+    );
+}
+
+/// Fuzz finding: the coarse sphere seed with node 27 moved to y ≈ 6e11 (and a few
+/// triangles renumbered). The needles reaching that node made the curved surface pass for
+/// planar in the invariant check (nodes within 1e-10 of the extent of a plane), and
+/// smoothing then changed its "planar" area: exit 0 without `--verify`. Needles that thin
+/// (height below ~1e-9 of their length) are refused.
+#[test]
+fn sphere_with_a_node_moved_6e11_away_is_refused() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/sphere_with_far_node.msh");
+    let text = std::fs::read_to_string(&path).expect("read the finding");
+    assert_refused(&text, &["surface 1", "element", "no area"]);
+}

@@ -10,6 +10,9 @@
 //! - two triangles with the same three nodes;
 //! - an edge shared by three or more triangles of one surface (non-manifold: a parity
 //!   split of it gives edges that no conforming recombination has);
+//! - two triangles running their common edge in the same direction (inconsistent
+//!   orientation: a flipped or overlapping triangle; the optimizer would move the nodes
+//!   of such an edge as if the surface continued across it);
 //! - a fold: two triangles sharing an edge, consistently oriented, whose normals point
 //!   in opposite directions (one is flipped over the other; on a planar surface, an
 //!   inverted triangle).
@@ -24,8 +27,12 @@ use crate::mesh::{etype, Mesh};
 pub(crate) const MAX_COORDINATE: f64 = 1e60;
 
 /// Below this `|(b − a) × (c − a)| / (|ab|² + |bc|² + |ca|²)` a triangle has no area
-/// (an equilateral triangle has √3/6 ≈ 0.29; a triangle with a 10⁻⁹ rad corner ≈ 10⁻⁹).
-const ZERO_AREA: f64 = 1e-13;
+/// the tool resolves (an equilateral triangle has √3/6 ≈ 0.29; a needle of height `h` and
+/// length `L` about `h / 2L`). The invariant check treats a surface as planar when its
+/// nodes are within 10⁻¹⁰ of its extent of a plane, so a curved surface with a needle
+/// reaching 10¹⁰ times its size away passed for planar and failed the area check after
+/// smoothing (a fuzz finding); such needles are refused here.
+const ZERO_AREA: f64 = 1e-9;
 
 /// Two adjacent triangles whose unit normals have a dot product below this are folded
 /// onto each other (a turn of more than ~172° across their common edge).
@@ -213,6 +220,18 @@ fn check_surface(
         }
         if let [a, b] = run {
             let (ta, tb) = (&tris[a.3 as usize], &tris[b.3 as usize]);
+            if a.2 == b.2 {
+                return Err(invalid(
+                    surface,
+                    tb.1,
+                    format!(
+                        "the triangle runs its edge {}-{} in the same direction as triangle {} (inconsistent orientation: one of them is flipped, or they overlap)",
+                        a.2,
+                        if a.2 == a.0 { a.1 } else { a.0 },
+                        ta.1
+                    ),
+                ));
+            }
             if a.2 != b.2 && dot(ta.2, tb.2) < FOLDED {
                 return Err(invalid(
                     surface,

@@ -299,7 +299,8 @@ pub enum RecombineError {
         elements: usize,
     },
     /// A surface element no recombination can turn into valid quads (a repeated node, a
-    /// non-finite or overflowing coordinate, zero area, a duplicate, a non-manifold edge, a fold).
+    /// non-finite or overflowing coordinate, zero area, a duplicate, a non-manifold edge, an
+    /// inconsistent orientation, a fold).
     #[error("surface {surface}, element {element}: {problem}; the surface cannot be recombined into valid quads")]
     InvalidElement {
         /// Surface entity tag.
