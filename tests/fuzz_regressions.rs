@@ -296,3 +296,31 @@ fn sphere_with_a_node_moved_6e11_away_is_refused() {
     let text = std::fs::read_to_string(&path).expect("read the finding");
     assert_refused(&text, &["surface 1", "element", "no area"]);
 }
+
+/// Fuzz finding: a node tag of 2^64 − 1 made the first new node's tag (one above the
+/// largest) overflow in parity repair (`attempt to add with overflow` in
+/// `src/recombine/parity.rs`; a wrapped tag 0 in a release build).
+#[test]
+fn node_tag_at_the_top_of_the_u64_range_is_refused() {
+    let text = grid_text(
+        0.0,
+        0.0,
+        1.0,
+        &["18446744073709551615 2.5 0.5 0"],
+        &["20 2 2 10 1 3 18446744073709551615 6"],
+    );
+    assert_refused(&text, &["node tag 18446744073709551615", "too large"]);
+}
+
+/// The same for an element tag.
+#[test]
+fn element_tag_at_the_top_of_the_u64_range_is_refused() {
+    let text = grid_text(
+        0.0,
+        0.0,
+        1.0,
+        &["28 2.5 0.5 0"],
+        &["18446744073709551615 2 2 10 1 3 28 6"],
+    );
+    assert_refused(&text, &["element tag 18446744073709551615", "too large"]);
+}

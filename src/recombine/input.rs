@@ -64,6 +64,28 @@ fn invalid(surface: i32, element: u64, problem: String) -> RecombineError {
     }
 }
 
+/// Largest node or element tag accepted: new nodes and elements (parity splits, vertex
+/// duplications, refinement) are numbered above the largest tag, which must not overflow.
+pub(crate) const MAX_TAG: u64 = 1 << 62;
+
+/// Refuses node and element tags above [`MAX_TAG`] (a fuzz finding: a tag of 2⁶⁴ − 1 made
+/// the first new tag overflow).
+pub(crate) fn check_tag_room(mesh: &Mesh) -> Result<(), RecombineError> {
+    for (what, tag) in [
+        ("node", mesh.max_node_tag()),
+        ("element", mesh.max_element_tag()),
+    ] {
+        if tag > MAX_TAG {
+            return Err(RecombineError::TagTooLarge {
+                what,
+                tag,
+                max: MAX_TAG,
+            });
+        }
+    }
+    Ok(())
+}
+
 /// Checks every 3-node triangle and 4-node quad of every surface (see the module doc).
 /// Unknown nodes are left to the later stages, which name them.
 pub(crate) fn check_surface_elements(mesh: &Mesh) -> Result<(), RecombineError> {
@@ -148,7 +170,7 @@ fn check_surface(
                     + dot(sub(p[2], p[1]), sub(p[2], p[1]))
                     + dot(sub(p[0], p[2]), sub(p[0], p[2]));
                 let area2 = dot(n, n).sqrt();
-                if !(area2 > ZERO_AREA * scale) {
+                if area2.is_nan() || area2 <= ZERO_AREA * scale {
                     return Err(invalid(
                         surface,
                         tag,

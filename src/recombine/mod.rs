@@ -310,6 +310,17 @@ pub enum RecombineError {
         /// What is wrong, in words.
         problem: String,
     },
+    /// A node or element tag so large that the tags recombination gives new nodes and
+    /// elements (above the largest) would overflow.
+    #[error("{what} tag {tag} is too large: recombination numbers its new {what}s above the largest tag, and tags up to {max} are supported")]
+    TagTooLarge {
+        /// "node" or "element".
+        what: &'static str,
+        /// The tag.
+        tag: u64,
+        /// The largest supported tag.
+        max: u64,
+    },
     /// An element refers to a node that does not exist.
     #[error(
         "element {element} on entity ({dim}, {entity}) refers to node {node}, which does not exist"
@@ -662,6 +673,7 @@ fn check_input(
             });
         }
     }
+    input::check_tag_room(mesh)?;
     input::check_surface_elements(mesh)?;
     for p in mesh.periodic.iter().filter(|p| p.dim == 2) {
         for (s, m) in [(p.tag, p.master_tag), (p.master_tag, p.tag)] {
