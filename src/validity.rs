@@ -19,11 +19,14 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::mesh::{etype, Mesh, NodeIndex};
-use crate::quality::eta::corner_eta;
 
 /// Smallest corner quality (eq. 3, one corner) counted as strictly inside (0°, 180°):
 /// angles within about 1e-4 degree of 0° or 180° are flat.
 pub const MIN_CORNER_ETA: f64 = 1e-6;
+
+/// tan ε with ε the angle whose corner quality is [`MIN_CORNER_ETA`].
+static MIN_TAN: std::sync::LazyLock<f64> =
+    std::sync::LazyLock::new(|| (MIN_CORNER_ETA * std::f64::consts::FRAC_PI_2).tan());
 
 /// Shortest edge counted as non-zero, relative to the diagonal of the mesh's bounding box.
 pub const MIN_EDGE: f64 = 1e-12;
@@ -122,7 +125,7 @@ pub fn invalid_quads(input: &Mesh, output: &Mesh) -> Vec<BadQuad> {
     surfaces
         .par_iter()
         .flat_map_iter(|&s| {
-            let normals = input_normals(input, &in_index, s);
+            let normals = Normals::new(input_normals(input, &in_index, s));
             let mut bad = Vec::new();
             for b in output.element_blocks.iter().filter(|b| {
                 b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::QUAD4
@@ -165,6 +168,37 @@ fn extent(mesh: &Mesh) -> f64 {
     }
 }
 
+/// The input normals of one surface by node tag: a table indexed by tag when the surface's
+/// nodes are a good share of the tag range, else sorted pairs.
+enum Normals {
+    Dense(Vec<DVec3>),
+    Sorted(Vec<(u64, DVec3)>),
+}
+
+impl Normals {
+    fn new(pairs: Vec<(u64, DVec3)>) -> Self {
+        let max = pairs.last().map_or(0, |p| p.0);
+        if max <= 32 * pairs.len() as u64 + 1024 {
+            let mut dense = vec![DVec3::ZERO; max as usize + 1];
+            for (t, n) in pairs {
+                dense[t as usize] = n;
+            }
+            Normals::Dense(dense)
+        } else {
+            Normals::Sorted(pairs)
+        }
+    }
+
+    /// The unit normal at node `t`, when the input has one there.
+    fn get(&self, t: u64) -> Option<DVec3> {
+        let n = match self {
+            Normals::Dense(d) => d.get(t as usize).copied(),
+            Normals::Sorted(p) => p.binary_search_by_key(&t, |x| x.0).ok().map(|i| p[i].1),
+        }?;
+        Some(n.normalize_or_zero()).filter(|n| *n != DVec3::ZERO)
+    }
+}
+
 /// Area-weighted normals of the input faces of surface `s` at their nodes, sorted by node
 /// tag.
 fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> Vec<(u64, DVec3)> {
@@ -182,9 +216,16 @@ fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> Vec<(u64, DVec3)> {
         let k = b.nodes_per_element();
         for i in 0..b.len() {
             let e = b.element(i);
-            let Some(p) = e.iter().map(|&t| pos(t)).collect::<Option<Vec<DVec3>>>() else {
+            let mut p = [DVec3::ZERO; 4];
+            if e.iter().zip(p.iter_mut()).any(|(&t, x)| match pos(t) {
+                Some(v) => {
+                    *x = v;
+                    false
+                }
+                None => true,
+            }) {
                 continue;
-            };
+            }
             // twice the vector area (Newell), so a face's weight is its area
             let mut n = DVec3::ZERO;
             for j in 1..k - 1 {
@@ -210,7 +251,7 @@ fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> Vec<(u64, DVec3)> {
 fn check_quad(
     mesh: &Mesh,
     index: &NodeIndex,
-    normals: &[(u64, DVec3)],
+    normals: &Normals,
     q: [u64; 4],
     min_edge: f64,
 ) -> Option<Defect> {
@@ -230,14 +271,7 @@ fn check_quad(
             return Some(Defect::ZeroLengthEdge { corner: k });
         }
     }
-    let normal_of = |t: u64| -> Option<DVec3> {
-        normals
-            .binary_search_by_key(&t, |x| x.0)
-            .ok()
-            .map(|i| normals[i].1.normalize_or_zero())
-            .filter(|n| *n != DVec3::ZERO)
-    };
-    let at: [Option<DVec3>; 4] = q.map(normal_of);
+    let at: [Option<DVec3>; 4] = q.map(|t| normals.get(t));
     let known: DVec3 = at.iter().flatten().copied().sum();
     let fallback = if known != DVec3::ZERO {
         known.normalize()
@@ -250,12 +284,12 @@ fn check_quad(
         let b = p[(k + 3) % 4] - p[k];
         let s = n.dot(a.cross(b));
         let c = a.dot(b);
-        let alpha = s.atan2(c);
-        let eta = corner_eta(alpha);
-        if eta.is_nan() || eta <= MIN_CORNER_ETA {
+        // α = atan2(s, c) is inside (ε, π − ε) exactly when s > |c| tan ε
+        let inside = s > c.abs() * *MIN_TAN;
+        if !inside {
             return Some(Defect::Corner {
                 corner: k,
-                degrees: alpha.to_degrees(),
+                degrees: s.atan2(c).to_degrees(),
             });
         }
     }

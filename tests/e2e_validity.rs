@@ -103,12 +103,13 @@ fn a_triangle_fan_with_a_flat_boundary_node_is_recombined_validly() {
 }
 
 #[test]
-fn a_degenerate_input_triangle_is_refused_naming_the_surface_or_written_with_allow_invalid() {
-    // a zero-area triangle (three collinear nodes) in a strip: no split of it gives a
-    // valid quad
+fn a_nearly_flat_input_corner_is_refused_naming_the_surface_or_written_with_allow_invalid() {
+    // a triangle whose corner at the boundary node 2 is 180 degrees less 1e-5: a real
+    // triangle (not refused as degenerate), but every quad holding that corner is flat to
+    // 1e-7, and node 2 is on the boundary, so nothing can fix it
     let coords = vec![
         [0.0, 0.0, 0.0],
-        [1.0, 0.0, 0.0],
+        [1.0, -1e-7, 0.0],
         [2.0, 0.0, 0.0],
         [1.0, 1.0, 0.0],
     ];
@@ -131,10 +132,10 @@ fn a_degenerate_input_triangle_is_refused_naming_the_surface_or_written_with_all
 fn the_cli_refuses_an_invalid_result_and_writes_nothing_unless_allowed() {
     let dir = tempfile::tempdir().expect("temp dir");
     let input = dir.path().join("flat.msh");
-    // MSH 2.2: the strip above, with a zero-area triangle
+    // MSH 2.2: the strip above, with its nearly flat triangle
     write(
         &input,
-        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 2 0 0\n4 1 1 0\n$EndNodes\n\
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 -1e-7 0\n3 2 0 0\n4 1 1 0\n$EndNodes\n\
          $Elements\n2\n1 2 2 1 1 1 2 3\n2 2 2 1 1 1 3 4\n$EndElements\n",
     );
     let output = dir.path().join("out.msh");

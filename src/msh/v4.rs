@@ -6,7 +6,9 @@
 use super::error::{ErrorKind, Fail, PResult};
 use super::scan::{f64s_into, u64_at, Bin, Text};
 use super::tags::TagSet;
-use crate::mesh::{element_node_count, ElementBlock, Entity, Mesh, NodeBlock, PeriodicLink};
+use crate::mesh::{
+    element_dim, element_node_count, ElementBlock, Entity, Mesh, NodeBlock, PeriodicLink,
+};
 
 /// Number of parametric values per node for a block on an entity of dimension `dim`.
 fn param_count(parametric: bool, dim: i32) -> usize {
@@ -348,6 +350,21 @@ fn unknown_type(pos: usize, binary: bool, ty: i64) -> Fail {
     Fail::new(pos, binary, ErrorKind::UnknownElementType(ty))
 }
 
+/// An element block's type must have its entity's dimension (a block of triangles on a
+/// curve would be neither recombined nor kept as the curve's).
+fn check_block_dim(pos: usize, binary: bool, ty: u32, entity_dim: i32) -> PResult<()> {
+    match element_dim(ty) {
+        Some(d) if d != entity_dim => Err(Fail::new(
+            pos,
+            binary,
+            ErrorKind::Invalid(format!(
+                "elements of type {ty} have dimension {d}, but the block's entity has dimension {entity_dim}"
+            )),
+        )),
+        _ => Ok(()),
+    }
+}
+
 /// `$Elements` (ASCII). 4.1: `numBlocks numElements minTag maxTag`, per block `entityDim
 /// entityTag elementType numElements`, then one line per element: `tag node…`. 4.0: no
 /// min/max, block header `entityTag entityDim ...`.
@@ -369,6 +386,7 @@ pub(crate) fn elements_ascii(
             .and_then(element_node_count)
             .ok_or_else(|| unknown_type(tpos, false, ty as i64))?;
         let n = t.count("number of elements in block", 2 * (k as u64 + 1))?;
+        check_block_dim(tpos, false, ty as u32, entity_dim)?;
         let mut tags = Vec::with_capacity(n);
         let mut nodes = Vec::with_capacity(n * k);
         for _ in 0..n {
@@ -421,6 +439,7 @@ pub(crate) fn elements_binary(b: &mut Bin, mesh: &mut Mesh, index: Option<&TagSe
             .ok_or_else(|| unknown_type(tpos, true, ty as i64))?;
         let w = 8 * (1 + k as u64);
         let n = b.count("number of elements in block", w)?;
+        check_block_dim(tpos, true, ty as u32, entity_dim)?;
         let base = b.p;
         let raw = b.take(w * n as u64, "element data")?;
         let mut tags = Vec::with_capacity(n);

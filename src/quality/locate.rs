@@ -223,10 +223,25 @@ impl Grid {
         if cell.is_nan() || cell <= 0.0 || !cell.is_finite() {
             cell = 1.0;
         }
-        // Cap the cell count at a few per triangle.
-        let dims_for = |c: f64| [0, 1, 2].map(|i| ((ext[i] / c).floor() as usize + 1).max(1));
+        // Cap the cell count at a few per triangle. Cells per axis are counted in floating
+        // point and clamped before the cast (an extent that overflows or dwarfs the cell,
+        // e.g. coordinates near 1e306, must not overflow the integer arithmetic), and the
+        // product saturates.
+        let cap = 4 * tris.len() + 64;
+        let dims_for = |c: f64| {
+            [0, 1, 2].map(|i| {
+                let n = (ext[i] / c).floor();
+                if n.is_nan() || n <= 0.0 {
+                    1
+                } else {
+                    // +∞ clamps to the cap too
+                    (n.min(cap as f64) as usize).saturating_add(1)
+                }
+            })
+        };
+        let count_of = |d: [usize; 3]| d[0].saturating_mul(d[1]).saturating_mul(d[2]);
         let mut dims = dims_for(cell);
-        while dims[0] * dims[1] * dims[2] > 4 * tris.len() + 64 {
+        while count_of(dims) > cap {
             cell *= 1.5;
             dims = dims_for(cell);
         }
@@ -429,6 +444,27 @@ mod tests {
             assert!(w.point.distance(expect) < 1e-9, "walk {p} -> {}", w.point);
             let sum: f64 = h.bary.iter().sum();
             assert!((sum - 1.0).abs() < 1e-12);
+        }
+    }
+
+    /// Fuzzing found `attempt to add with overflow` in the grid's cell count when the
+    /// coordinates span ~1e306 (the extent overflows to infinity): building and querying
+    /// must neither overflow nor loop.
+    #[test]
+    fn huge_and_overflowing_extents_build_a_grid() {
+        for big in [1e17, 1e154, 1e306, f64::MAX] {
+            let pts = vec![
+                DVec3::new(-big, 0.0, 0.0),
+                DVec3::new(big, 0.0, 0.0),
+                DVec3::new(0.0, big, 0.0),
+                DVec3::new(0.0, 1.0, 0.0),
+                DVec3::new(1.0, 1.0, 0.0),
+            ];
+            let s = TriSurface::new(pts, vec![[0, 1, 2], [0, 3, 4]]);
+            assert!(s.grid.dims.iter().all(|&d| d >= 1));
+            assert!(s.grid.dims.iter().product::<usize>() <= 4 * 2 + 64);
+            // a query answers (any triangle) or not, without a panic
+            let _ = s.closest(DVec3::new(0.5, 0.5, 0.0));
         }
     }
 }

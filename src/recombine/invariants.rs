@@ -72,6 +72,40 @@ fn directed(faces: &[&[u64]]) -> Vec<Edge> {
     s
 }
 
+/// Sorted directed edges with, when node tags are compact, the start of each node's run
+/// (a lookup is then two nearby reads instead of a binary search over the whole list).
+struct Directed {
+    edges: Vec<Edge>,
+    start: Vec<u32>,
+}
+
+impl Directed {
+    fn new(edges: Vec<Edge>) -> Self {
+        let max = edges.last().map_or(0, |e| e.0);
+        let mut start = Vec::new();
+        if max <= 8 * edges.len() as u64 + 1024 {
+            start = vec![0u32; max as usize + 2];
+            for e in &edges {
+                start[e.0 as usize + 1] += 1;
+            }
+            for i in 1..start.len() {
+                start[i] += start[i - 1];
+            }
+        }
+        Directed { edges, start }
+    }
+
+    fn contains(&self, p: u64, q: u64) -> bool {
+        if self.start.is_empty() {
+            return has(&self.edges, &(p, q));
+        }
+        match (self.start.get(p as usize), self.start.get(p as usize + 1)) {
+            (Some(&a), Some(&b)) => self.edges[a as usize..b as usize].iter().any(|e| e.1 == q),
+            _ => false,
+        }
+    }
+}
+
 fn coord(mesh: &Mesh, index: &NodeIndex, t: u64) -> Option<[f64; 3]> {
     index
         .get(t)
@@ -247,23 +281,28 @@ fn check_surface(
     let bb = boundary(&eb);
     let ba = boundary(&ea);
     check_split_sets(&bb, &ba, &new_node, &format!("surface {s} boundary edges"))?;
-    // the nodes next to each node along the edges of `after` (both directions), for the
-    // halves of a split segment
-    let mut nbr: Vec<Edge> = Vec::with_capacity(2 * ea.len());
-    for ((x, y), _) in &ea {
-        nbr.push((*x, *y));
-        nbr.push((*y, *x));
-    }
-    nbr.par_sort_unstable();
-    let split_present = |e: &Edge| -> bool {
-        let from = nbr.partition_point(|x| x.0 < e.0);
-        nbr[from..]
-            .iter()
-            .take_while(|x| x.0 == e.0)
-            .any(|&(_, m)| new_node(m) && count_of(&ea, &undirected(m, e.1)) > 0)
-    };
-    for e in lb.iter().filter(|e| count_of(&eb, e) > 0) {
-        if count_of(&ea, e) == 0 && !split_present(e) {
+    // curve segments of `before` that are no longer edges must be split in two at a new
+    // node (found through the nodes next to each node along the edges of `after`, built
+    // only when some segment is missing)
+    let missing: Vec<&Edge> = lb
+        .iter()
+        .filter(|e| count_of(&eb, e) > 0 && count_of(&ea, e) == 0)
+        .collect();
+    if !missing.is_empty() {
+        let mut nbr: Vec<Edge> = Vec::with_capacity(2 * ea.len());
+        for ((x, y), _) in &ea {
+            nbr.push((*x, *y));
+            nbr.push((*y, *x));
+        }
+        nbr.par_sort_unstable();
+        let split_present = |e: &Edge| -> bool {
+            let from = nbr.partition_point(|x| x.0 < e.0);
+            nbr[from..]
+                .iter()
+                .take_while(|x| x.0 == e.0)
+                .any(|&(_, m)| new_node(m) && count_of(&ea, &undirected(m, e.1)) > 0)
+        };
+        if let Some(e) = missing.into_iter().find(|e| !split_present(e)) {
             return Err(format!(
                 "surface {s}: the curve segment {}-{} is no longer an edge",
                 e.0, e.1
@@ -271,11 +310,11 @@ fn check_surface(
         }
     }
     // orientation
-    let db = directed(&fb);
+    let db = Directed::new(directed(&fb));
     for f in &fa {
         for i in 0..f.len() {
             let (p, q) = (f[i], f[(i + 1) % f.len()]);
-            if has(&db, &(q, p)) && !has(&db, &(p, q)) {
+            if db.contains(q, p) && !db.contains(p, q) {
                 return Err(format!(
                     "surface {s}: the face with nodes {} runs edge {p}->{q} against the orientation of the input triangles",
                     nodes_text(f)
@@ -286,6 +325,14 @@ fn check_surface(
     // planar area
     let pts = |f: &[u64], m: &Mesh, idx: &NodeIndex| -> Option<Vec<[f64; 3]>> {
         f.iter().map(|&t| coord(m, idx, t)).collect()
+    };
+    // the same without an allocation per face (faces have 3 or 4 nodes)
+    let pts4 = |f: &[u64], m: &Mesh, idx: &NodeIndex| -> Option<([[f64; 3]; 4], usize)> {
+        let mut p = [[0.0; 3]; 4];
+        for (x, &t) in p.iter_mut().zip(f) {
+            *x = coord(m, idx, t)?;
+        }
+        Some((p, f.len().min(4)))
     };
     let mut total = [0.0; 3];
     let mut polys_b = Vec::with_capacity(fb.len());
@@ -326,13 +373,13 @@ fn check_surface(
     }
     let mut area_after = 0.0;
     for f in &fa {
-        let p = pts(f, after, ia).ok_or_else(|| {
+        let p = pts4(f, after, ia).ok_or_else(|| {
             format!(
                 "surface {s}: the output face with nodes {} has an unknown node",
                 nodes_text(f)
             )
         })?;
-        area_after += dot(vector_area(&p), n);
+        area_after += dot(vector_area(&p.0[..p.1]), n);
     }
     let area_before = dot(total, n);
     if ((area_after - area_before) / area_before).abs() > 1e-9 {

@@ -151,6 +151,7 @@
 mod cross_field;
 mod fallback;
 mod graph;
+mod input;
 mod invariants;
 mod parity;
 mod periodic;
@@ -327,6 +328,29 @@ pub enum RecombineError {
         nodes: usize,
         /// Elements in the block.
         elements: usize,
+    },
+    /// A surface element no recombination can turn into valid quads (a repeated node, a
+    /// non-finite or overflowing coordinate, zero area, a duplicate, a non-manifold edge, an
+    /// inconsistent orientation, a fold).
+    #[error("surface {surface}, element {element}: {problem}; the surface cannot be recombined into valid quads")]
+    InvalidElement {
+        /// Surface entity tag.
+        surface: i32,
+        /// Element tag.
+        element: u64,
+        /// What is wrong, in words.
+        problem: String,
+    },
+    /// A node or element tag so large that the tags recombination gives new nodes and
+    /// elements (above the largest) would overflow.
+    #[error("{what} tag {tag} is too large: recombination numbers its new {what}s above the largest tag, and tags up to {max} are supported")]
+    TagTooLarge {
+        /// "node" or "element".
+        what: &'static str,
+        /// The tag.
+        tag: u64,
+        /// The largest supported tag.
+        max: u64,
     },
     /// An element refers to a node that does not exist.
     #[error(
@@ -702,6 +726,8 @@ fn check_input(
             });
         }
     }
+    input::check_tag_room(mesh)?;
+    input::check_surface_elements(mesh)?;
     // periodic slave surfaces get their master's quads (periodic.rs); the check that each
     // is the image of its master runs after parity repair
     Ok(())

@@ -1,0 +1,339 @@
+//! Regression tests for the findings of the pipeline fuzz target (`fuzz/`, run with
+//! `scripts/fuzz.sh pipeline SECONDS`): degenerate or hostile input never gives exit 0
+//! with a broken mesh. Each input is the minimized class of a finding, inline; each test
+//! asserts either exit 1 with one plain-words error line naming the surface and element,
+//! or exit 0 with a mesh whose quads are all valid.
+
+use assert_cmd::Command;
+use std::path::Path;
+
+fn blossomquad() -> Command {
+    Command::cargo_bin("blossomquad").expect("the blossomquad binary is built")
+}
+
+/// A MSH 2.2 file from node lines (`tag x y z`) and element lines.
+fn msh22(nodes: &[&str], elements: &[&str]) -> String {
+    format!(
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n{}\n{}\n$EndNodes\n$Elements\n{}\n{}\n$EndElements\n",
+        nodes.len(),
+        nodes.join("\n"),
+        elements.len(),
+        elements.join("\n")
+    )
+}
+
+/// Runs `blossomquad IN -o OUT` (with `--verify` when asked) on `text`; returns (exit
+/// code, stderr, output path). Refusals are checked without `--verify`, as a user runs it
+/// (the findings exited 0 there).
+fn run(dir: &Path, text: &str, verify: bool) -> (i32, String, std::path::PathBuf) {
+    let input = dir.join("in.msh");
+    let output = dir.join("out.msh");
+    std::fs::write(&input, text).expect("write input");
+    let out = blossomquad()
+        .arg(&input)
+        .arg("-o")
+        .arg(&output)
+        .args(verify.then_some("--verify"))
+        .arg("--quiet")
+        .output()
+        .expect("run blossomquad");
+    let code = out.status.code().unwrap_or(-1);
+    (
+        code,
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+        output,
+    )
+}
+
+/// Exit 1, one error line in plain words (no panic, no Rust `Debug` output) containing
+/// every word of `words`, and no output file.
+fn assert_refused(text: &str, words: &[&str]) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (code, err, output) = run(dir.path(), text, false);
+    assert_eq!(code, 1, "expected exit 1, stderr:\n{err}");
+    assert!(!err.contains("panicked"), "panic:\n{err}");
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "one error line expected:\n{err}");
+    let line = lines[0];
+    assert!(line.starts_with("blossomquad: error: "), "{line}");
+    assert!(line.contains("in.msh"), "the file is not named: {line}");
+    for bad in ["{", "}", "Some(", "[", "]"] {
+        assert!(!line.contains(bad), "Debug-like output {bad:?} in: {line}");
+    }
+    for w in words {
+        assert!(line.contains(w), "{w:?} missing from: {line}");
+    }
+    assert!(!output.exists(), "an output file was written");
+}
+
+/// Exit 0 and every quad of the output valid in the xy plane: four distinct nodes and
+/// every corner strictly convex counterclockwise (the input triangles' orientation).
+fn assert_valid_planar_result(text: &str) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (code, err, output) = run(dir.path(), text, true);
+    assert_eq!(code, 0, "expected exit 0, stderr:\n{err}");
+    let mesh = blossomquad::msh::read_file(&output).expect("output reads back");
+    let index = mesh.node_index();
+    let xy = |t: u64| {
+        let r = index.get(t).expect("quad node exists");
+        let c = mesh.node_blocks[r.block as usize].coords[r.index as usize];
+        [c[0], c[1]]
+    };
+    let mut quads = 0;
+    for b in &mesh.element_blocks {
+        assert_ne!(b.element_type, 2, "a triangle is left");
+        if b.element_type != 3 {
+            continue;
+        }
+        for i in 0..b.len() {
+            let q = b.element(i);
+            let mut s = q.to_vec();
+            s.sort_unstable();
+            s.dedup();
+            assert_eq!(s.len(), 4, "quad {q:?} repeats a node");
+            for k in 0..4 {
+                let (p, n, m) = (xy(q[k]), xy(q[(k + 1) % 4]), xy(q[(k + 3) % 4]));
+                let a = [n[0] - p[0], n[1] - p[1]];
+                let c = [m[0] - p[0], m[1] - p[1]];
+                let cross = a[0] * c[1] - a[1] * c[0];
+                let scale = (a[0].hypot(a[1])) * (c[0].hypot(c[1]));
+                assert!(
+                    cross > 1e-9 * scale,
+                    "quad {q:?}: corner at node {} not strictly between 0 and 180 degrees",
+                    q[k]
+                );
+            }
+            quads += 1;
+        }
+    }
+    assert!(quads > 0, "no quad written");
+}
+
+/// A 2 x 2 grid of squares (8 triangles, counterclockwise) on surface 1, with its corners
+/// and sides as line elements, scaled by `h` and moved by `(x0, y0)`.
+fn grid_text(x0: f64, y0: f64, h: f64, extra_nodes: &[&str], extra_elements: &[&str]) -> String {
+    let mut nodes = Vec::new();
+    for j in 0..3 {
+        for i in 0..3 {
+            let tag = j * 3 + i + 1;
+            nodes.push(format!(
+                "{tag} {:e} {:e} 0",
+                x0 + h * i as f64,
+                y0 + h * j as f64
+            ));
+        }
+    }
+    let id = |i: usize, j: usize| j * 3 + i + 1;
+    let mut elements = Vec::new();
+    let mut tag = 1;
+    for j in 0..2 {
+        for i in 0..2 {
+            let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+            elements.push(format!("{tag} 2 2 10 1 {a} {b} {c}"));
+            elements.push(format!("{} 2 2 10 1 {a} {c} {d}", tag + 1));
+            tag += 2;
+        }
+    }
+    let mut nodes: Vec<&str> = nodes.iter().map(String::as_str).collect();
+    nodes.extend_from_slice(extra_nodes);
+    let mut elements: Vec<&str> = elements.iter().map(String::as_str).collect();
+    elements.extend_from_slice(extra_elements);
+    msh22(&nodes, &elements)
+}
+
+/// The issue's finding: element line `2 2 2 10 1 28 5 28`, a triangle naming node 28
+/// twice, gave a quad repeating a node with exit 0.
+#[test]
+fn triangle_with_repeated_node_is_refused() {
+    let text = grid_text(0.0, 0.0, 1.0, &["28 5 5 0"], &["20 2 2 10 1 28 5 28"]);
+    assert_refused(
+        &text,
+        &["surface 1", "element 20", "node 28 twice", "triangle"],
+    );
+}
+
+/// The same class for a quad already in the file (kept as is, so it would be written).
+#[test]
+fn quad_with_repeated_node_is_refused() {
+    let text = grid_text(0.0, 0.0, 1.0, &["28 5 5 0"], &["20 3 2 10 1 3 28 5 28"]);
+    assert_refused(&text, &["surface 1", "element 20", "node 28 twice", "quad"]);
+}
+
+/// Fuzz finding: one node moved to ~1e250 overflowed the quality and area computations
+/// (and, near 1e306, the locator grid's integer cell count: `attempt to add with
+/// overflow` in `src/quality/locate.rs`).
+#[test]
+fn coordinate_near_1e306_is_refused() {
+    let text = grid_text(0.0, 0.0, 1.0, &[], &[]).replace("\n5 1e0 1e0 0\n", "\n5 1e306 1e0 0\n");
+    assert!(
+        text.contains("\n5 1e306 "),
+        "the node line was not replaced"
+    );
+    assert_refused(&text, &["surface 1", "element", "node 5", "1e306"]);
+}
+
+/// Fuzz finding: a node far from a unit-sized surface (x ≈ -9.8e28) makes needle
+/// triangles whose area is lost to rounding: the planar area check failed after
+/// optimization with exit 0. Such a triangle has no area in double precision.
+#[test]
+fn needle_triangle_with_far_node_is_refused() {
+    let text = grid_text(0.0, 0.0, 1.0, &[], &[]).replace("\n3 2e0 0e0 0\n", "\n3 -9.8e28 0.8 0\n");
+    assert!(
+        text.contains("\n3 -9.8e28 "),
+        "the node line was not replaced"
+    );
+    assert_refused(&text, &["surface 1", "element", "no area"]);
+}
+
+/// Coordinates near 1e17 with unit spacing collapse (1e17 + 1 == 1e17 in double
+/// precision): the triangles have no area, and the area was lost after recombination.
+#[test]
+fn coordinates_near_1e17_that_collapse_are_refused() {
+    let text = grid_text(1e17, 1e17, 1.0, &[], &[]);
+    assert_refused(&text, &["surface 1", "element", "no area"]);
+}
+
+/// Far from the origin but with a spacing the doubles resolve: recombined validly.
+#[test]
+fn coordinates_near_1e17_with_resolved_spacing_recombine_validly() {
+    let text = grid_text(1e17, -1e17, 1e4, &[], &[]);
+    assert_valid_planar_result(&text);
+}
+
+/// Fuzz finding class: overlapping (inverted) triangles in a planar surface; a fan whose
+/// centre lies outside its square folds two triangles over the others.
+#[test]
+fn folded_triangles_are_refused() {
+    let text = msh22(
+        &["1 0 0 0", "2 1 0 0", "3 1 1 0", "4 0 1 0", "5 1.5 0.5 0"],
+        &[
+            "1 2 2 10 1 1 2 5",
+            "2 2 2 10 1 2 3 5",
+            "3 2 2 10 1 3 4 5",
+            "4 2 2 10 1 4 1 5",
+        ],
+    );
+    assert_refused(&text, &["surface 1", "element 2", "folded", "triangle 1"]);
+}
+
+/// Two triangles with the same nodes (one reversed): every edge is then shared by three
+/// faces after recombination.
+#[test]
+fn duplicate_triangle_is_refused() {
+    let text = grid_text(0.0, 0.0, 1.0, &[], &["20 2 2 10 1 5 2 1"]);
+    assert_refused(
+        &text,
+        &["surface 1", "element 20", "same nodes", "triangle 1"],
+    );
+}
+
+/// The fixes refuse only what cannot be recombined: the plain grid still works.
+#[test]
+fn plain_grid_still_recombines_validly() {
+    assert_valid_planar_result(&grid_text(0.0, 0.0, 1.0, &[], &[]));
+}
+
+/// Fuzz finding: an edge shared by three triangles of one surface (two triangles of a
+/// mesh renumbered onto a neighbouring node); parity repair split it, giving the halves
+/// three faces each, which `check_invariants` rejects (exit 0 without `--verify`).
+#[test]
+fn edge_shared_by_three_triangles_of_a_surface_is_refused() {
+    // the 2 x 2 grid plus a third triangle on edge 5-6 (an interior edge), out of plane
+    let text = grid_text(0.0, 0.0, 1.0, &["28 1.5 1.5 1"], &["20 2 2 10 1 5 6 28"]);
+    assert_refused(
+        &text,
+        &[
+            "surface 1",
+            "element",
+            "edge 5-6",
+            "3 triangles",
+            "non-manifold",
+        ],
+    );
+}
+
+/// Fuzz finding: a MSH 4.1 block of triangles on a curve entity (`1 5 2 ...`) was read;
+/// recombination only looks at surface entities, so the triangles were written back
+/// unchanged with exit 0. The reader now refuses the block, naming section and line.
+#[test]
+fn triangle_block_on_a_curve_entity_is_refused_by_the_reader() {
+    let text = "$MeshFormat\n4.1 0 8\n$EndMeshFormat\n\
+        $Nodes\n1 4 1 4\n2 1 0 4\n1\n2\n3\n4\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n$EndNodes\n\
+        $Elements\n2 4 1 4\n2 1 2 2\n1 1 2 3\n2 1 3 4\n1 5 2 2\n3 1 2 3\n4 1 3 4\n$EndElements\n";
+    assert_refused(
+        text,
+        &["$Elements", "line 21", "dimension 2", "dimension 1"],
+    );
+}
+
+/// Fuzz finding: one triangle of the rectangle renumbered onto other nodes so that it
+/// runs an edge in the same direction as its neighbour (it overlaps them, and leaves a
+/// hole): the optimizer moved the nodes of that edge and the planar area changed, exit 0.
+#[test]
+fn inconsistently_oriented_triangles_are_refused() {
+    // triangle 2 of the grid, (1, 5, 4), flipped to (1, 4, 5)
+    let text =
+        grid_text(0.0, 0.0, 1.0, &[], &[]).replace("\n2 2 2 10 1 1 5 4\n", "\n2 2 2 10 1 1 4 5\n");
+    assert!(
+        text.contains("\n2 2 2 10 1 1 4 5\n"),
+        "the element line was not replaced"
+    );
+    assert_refused(
+        &text,
+        &["surface 1", "element", "same direction", "orientation"],
+    );
+}
+
+/// Open fuzz finding: the coarse sphere seed with node 27 moved to y ≈ 6e11 (and a few
+/// triangles renumbered). The needles reaching that node (height 3.5e-13 of their size,
+/// thinner than legitimate slivers only by a factor of 6) make the curved surface pass for
+/// planar in `check_invariants` (nodes within 1e-10 of the extent of a plane), and
+/// smoothing then changes its "planar" area: exit 0 without `--verify`. Either outcome is
+/// acceptable: exit 1 in plain words, or exit 0 with the invariants holding.
+#[test]
+#[ignore = "open finding: needs a planarity test in check_invariants that a far node cannot fool"]
+fn sphere_with_a_node_moved_6e11_away_gives_no_broken_mesh() {
+    // the second file: the same class on the rectangle (4.1 seed, a curve node moved to
+    // x ≈ 2.8e11 and another to z = 99.1), found after 1.29e6 runs
+    for name in ["sphere_with_far_node.msh", "rectangle_with_far_node.msh"] {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/fuzz")
+            .join(name);
+        let text = std::fs::read_to_string(&path).expect("read the finding");
+        let dir = tempfile::tempdir().expect("temp dir");
+        let (code, err, _) = run(dir.path(), &text, true);
+        assert!(!err.contains("panicked"), "{name}: panic:\n{err}");
+        assert!(
+            code == 0 || (code == 1 && !err.contains("invariant")),
+            "{name}: exit {code} with:\n{err}"
+        );
+    }
+}
+
+/// Fuzz finding: a node tag of 2^64 − 1 made the first new node's tag (one above the
+/// largest) overflow in parity repair (`attempt to add with overflow` in
+/// `src/recombine/parity.rs`; a wrapped tag 0 in a release build).
+#[test]
+fn node_tag_at_the_top_of_the_u64_range_is_refused() {
+    let text = grid_text(
+        0.0,
+        0.0,
+        1.0,
+        &["18446744073709551615 2.5 0.5 0"],
+        &["20 2 2 10 1 3 18446744073709551615 6"],
+    );
+    assert_refused(&text, &["node tag 18446744073709551615", "too large"]);
+}
+
+/// The same for an element tag.
+#[test]
+fn element_tag_at_the_top_of_the_u64_range_is_refused() {
+    let text = grid_text(
+        0.0,
+        0.0,
+        1.0,
+        &["28 2.5 0.5 0"],
+        &["18446744073709551615 2 2 10 1 3 28 6"],
+    );
+    assert_refused(&text, &["element tag 18446744073709551615", "too large"]);
+}
