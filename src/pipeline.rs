@@ -306,7 +306,7 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
                 .collect::<Vec<_>>()
                 .join("; ")
         ));
-        if !opts.optimize {
+        if !opts.optimize && round < FALLBACK_ROUNDS {
             let mut new: Vec<i32> = surfaces.difference(&force).copied().collect();
             if !new.is_empty() {
                 new.sort_unstable();
@@ -340,7 +340,11 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         }
         chosen.extend(more);
     }
-    unreachable!("the last round returns")
+    // every path of the last round returns; this is only a guard
+    Err(Error::Invariant {
+        stage: "the fallback",
+        detail: "no round left".into(),
+    })
 }
 
 /// `mesh` with the quads and the surface-classified nodes of `surfaces` taken from `pre`

@@ -352,14 +352,7 @@ fn check_supported(mesh: &Mesh) -> Result<(), RefineError> {
 /// [`refine`] walks them), the index of its edge in that list.
 fn edge_nodes(mesh: &Mesh, index: &NodeIndex) -> (Vec<EdgeNode>, Vec<u32>) {
     // curves with line elements: their edges are those elements, nothing else lies on them
-    let mut lined: Vec<i32> = mesh
-        .element_blocks
-        .iter()
-        .filter(|b| b.element_type == etype::LINE2 && !b.is_empty())
-        .map(|b| b.entity_tag)
-        .collect();
-    lined.sort_unstable();
-    lined.dedup();
+    let lined = lined_curves(mesh);
     // rank: 0 = a line element's curve, 1 = curve from node classification, 2 = a surface
     let mut all: Vec<((u64, u64), u8, EntityKey, u32)> = Vec::new();
     for b in &mesh.element_blocks {
@@ -396,6 +389,19 @@ fn edge_nodes(mesh: &Mesh, index: &NodeIndex) -> (Vec<EdgeNode>, Vec<u32>) {
         slot_edge[slot as usize] = (edges.len() - 1) as u32;
     }
     (edges, slot_edge)
+}
+
+/// The tags of the curves that hold 2-node line elements, sorted.
+pub(crate) fn lined_curves(mesh: &Mesh) -> Vec<i32> {
+    let mut lined: Vec<i32> = mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == etype::LINE2 && !b.is_empty())
+        .map(|b| b.entity_tag)
+        .collect();
+    lined.sort_unstable();
+    lined.dedup();
+    lined
 }
 
 /// The curve without line elements (not in the sorted `lined`) an edge lies on by node

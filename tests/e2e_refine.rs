@@ -21,13 +21,22 @@ fn quads(path: &std::path::Path) -> f64 {
 /// Recombines `fixture` without optimization, without and with `--refine levels`, and with
 /// refinement and optimization; checks the last output independently and returns the quad
 /// counts of the first two.
-fn refine_fixture(fixture: &str, variant: Variant, levels: u32) -> (f64, f64) {
+fn refine_fixture(fixture: &str, variant: Variant, levels: u32) -> (f64, f64, bool) {
     let dir = tempfile::tempdir().expect("temp dir");
     let input = generate(fixture, variant, dir.path(), test_size(fixture), &[]);
     let n = levels.to_string();
     let plain = dir.path().join("plain.msh");
-    let (code, err) = recombine(&input, &plain, &["--no-optimize"]);
+    let (code, _, err) = common::blossomquad_run([
+        input.as_os_str(),
+        "-o".as_ref(),
+        plain.as_os_str(),
+        "--no-optimize".as_ref(),
+        "--verify".as_ref(),
+    ]);
     assert_eq!(code, Some(0), "{fixture}: {err}");
+    // a surface whose matching leaves folded quads is optimized all the same (the validity
+    // guarantee), which may merge quads: the count is then no longer the matching's
+    let forced = err.contains("optimized after all");
     let split = dir.path().join("split.msh");
     let (code, err) = recombine(&input, &split, &["--no-optimize", "--refine", &n]);
     assert_eq!(code, Some(0), "{fixture}: {err}");
@@ -43,13 +52,17 @@ fn refine_fixture(fixture: &str, variant: Variant, levels: u32) -> (f64, f64) {
         "{fixture}: checker accepted --refined={} on a mesh refined {levels} time(s)",
         levels + 1
     );
-    (quads(&plain), quads(&split))
+    (quads(&plain), quads(&split), forced)
 }
 
 #[test]
 fn refine_once_on_every_fixture() {
     for fixture in common::FIXTURES {
-        let (plain, refined) = refine_fixture(fixture, Variant::Msh41Binary, 1);
+        let (plain, refined, forced) = refine_fixture(fixture, Variant::Msh41Binary, 1);
+        if forced {
+            println!("{fixture}: some surface was optimized for validity; quad count not compared");
+            continue;
+        }
         assert_eq!(
             refined,
             4.0 * plain,
@@ -60,7 +73,8 @@ fn refine_once_on_every_fixture() {
 
 #[test]
 fn refine_twice_square_hole_msh22() {
-    let (plain, refined) = refine_fixture("square_hole", Variant::Msh22Ascii, 2);
+    let (plain, refined, forced) = refine_fixture("square_hole", Variant::Msh22Ascii, 2);
+    assert!(!forced, "square_hole needed no forced optimization");
     assert_eq!(refined, 16.0 * plain, "quads {plain} -> {refined}");
 }
 

@@ -143,14 +143,7 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
             }
         }
     }
-    let mut lined: Vec<i32> = mesh
-        .element_blocks
-        .iter()
-        .filter(|b| b.element_type == etype::LINE2 && !b.is_empty())
-        .map(|b| b.entity_tag)
-        .collect();
-    lined.sort_unstable();
-    lined.dedup();
+    let lined = crate::refine::lined_curves(mesh);
     let mut edges: Vec<(u64, u64)> = split.iter().copied().collect();
     edges.sort_unstable();
     for &e in &edges {
