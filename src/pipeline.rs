@@ -462,6 +462,8 @@ fn run_once(
         verify: opts.verify,
         cross_field_weight: opts.cross_field_weight,
         harmonic_cross_field: opts.harmonic_cross_field,
+        // the fallback's edge-split nodes (tags above the input's) are split nodes too
+        split_nodes_from: Some(input.max_node_tag() + 1),
         ..Default::default()
     };
     let t = Instant::now();

@@ -1,5 +1,6 @@
-//! The whole pipeline on arbitrary bytes: read → recombine (default options, parity repair)
-//! → optimize. Whenever every stage returns Ok, the result must pass the library's own
+//! The whole pipeline on arbitrary bytes: read → `quadrangulate` (default options: parity
+//! repair, optimization, the validity gate and the fallback). Whenever it returns Ok, the
+//! result must pass the library's own
 //! `recombine::check_invariants` against the mesh as read, and every quad must be valid:
 //! four distinct nodes, no zero-length edge, and every corner strictly between 0° and 180°
 //! measured in 3D about the normal of the input triangles at that corner (which also means
@@ -14,7 +15,7 @@ use std::collections::HashMap;
 use std::sync::OnceLock;
 
 use blossomquad::mesh::{etype, Mesh};
-use blossomquad::{msh, optimize, recombine};
+use blossomquad::{msh, recombine};
 use libfuzzer_sys::fuzz_target;
 
 const MAX_BYTES: usize = 64 * 1024;
@@ -167,12 +168,8 @@ fuzz_target!(|data: &[u8]| {
         return;
     }
     let before = mesh.clone();
-    let opts = recombine::RecombineOptions::default();
-    if recombine::recombine(&mut mesh, &opts).is_err() {
-        return;
-    }
-    let oopts = optimize::OptimizeOptions::default();
-    if optimize::optimize(&mut mesh, &before, &oopts).is_err() {
+    // what the command line does: recombine, optimize, the validity gate and the fallback
+    if blossomquad::quadrangulate(&mut mesh, &blossomquad::Options::default()).is_err() {
         return;
     }
     if let Err(e) = recombine::check_invariants(&before, &mesh) {

@@ -292,33 +292,6 @@ pub(crate) fn wall_nodes(topo: &SurfaceTopo) -> Vec<u32> {
     out
 }
 
-/// `split_nodes` (sorted) together with every wall node that exactly two triangles of the
-/// surface hold: merging those two gives a quad whose corner there is the wall's own angle,
-/// so on a straight wall (a node between two collinear segments, made by parity repair, by
-/// the fallback's edge splits, or by the mesher) they are split halves in all but name.
-fn split_like_nodes(topo: &SurfaceTopo, walls: &NodeSet, split_nodes: &[u32]) -> Vec<u32> {
-    let mut at: Vec<u32> = topo
-        .tris
-        .iter()
-        .flatten()
-        .copied()
-        .filter(|&v| walls.contains(v))
-        .collect();
-    at.sort_unstable();
-    let mut out: Vec<u32> = split_nodes.to_vec();
-    let mut i = 0;
-    while i < at.len() {
-        let j = at[i..].partition_point(|&x| x == at[i]) + i;
-        if j - i == 2 {
-            out.push(at[i]);
-        }
-        i = j;
-    }
-    out.sort_unstable();
-    out.dedup();
-    out
-}
-
 /// [`crate::quality::eta_signed`] with one `atan2` instead of four: the corner with the largest deviation
 /// `|π/2 − α_k|` is found from the sines of the angles first. With `α ∈ (−π, π]`, corners
 /// with `α < −π/2` deviate by more than `π` and more the larger `sin α` is; all others
@@ -426,7 +399,6 @@ pub(crate) fn build(
     let walls = NodeSet::new(&wall_nodes(topo));
     let walls = &walls;
     let normals = &triangle_normals(topo, coords);
-    let split_nodes = &split_like_nodes(topo, walls, split_nodes);
     tm.lap("walls");
     let split_cost = split_halves_cost(n);
     let field = match (cross_w > 0.0, harmonic) {

@@ -204,6 +204,10 @@ pub struct RecombineOptions {
     /// With `cross_field_weight` > 0: use the smooth (harmonic) cross field of
     /// `cross_field.rs` instead of the nearest-wall one (off by default; see the README).
     pub harmonic_cross_field: bool,
+    /// Nodes with a tag at least this are split nodes like parity repair's (the halves of a
+    /// triangle split there cost [`split_halves_cost`] to merge back): the pipeline's
+    /// fallback sets it to the first tag its edge splits used. `None`: parity splits only.
+    pub split_nodes_from: Option<u64>,
 }
 
 impl Default for RecombineOptions {
@@ -215,6 +219,7 @@ impl Default for RecombineOptions {
             extra_edges: true,
             cross_field_weight: 0.0,
             harmonic_cross_field: false,
+            split_nodes_from: None,
         }
     }
 }
@@ -466,6 +471,10 @@ pub fn recombine(
                 .iter()
                 .filter_map(|s| nodes.id(s.new_node))
                 .collect();
+            if let Some(from) = opts.split_nodes_from {
+                split_nodes.extend((0..n_global).filter(|&i| nodes.tags[i as usize] >= from));
+                split_nodes.dedup();
+            }
             split_nodes.sort_unstable();
             let split_nodes = &split_nodes;
             let results: Result<Vec<SurfaceResult>, RecombineError> = work
