@@ -10,7 +10,8 @@
 //!   the triangles it came from) fails at its corners, and so does a flat (180°) or reflex
 //!   corner. Nodes the input did not have (vertex duplications, parity and fallback splits,
 //!   refinement) take the mean input normal of the quad's other nodes, or, when none of its
-//!   nodes is an input node of that surface, the quad's own normal.
+//!   nodes is an input node of that surface, the surface's whole area-weighted normal
+//!   (exact on planar surfaces; the quad's own normal only when the surface has none).
 //!
 //! [`invalid_quads`] lists every quad that is not valid; it shares no code with the
 //! recombination or the optimizer, which it checks.
@@ -125,7 +126,11 @@ pub fn invalid_quads(input: &Mesh, output: &Mesh) -> Vec<BadQuad> {
     surfaces
         .par_iter()
         .flat_map_iter(|&s| {
-            let normals = Normals::new(input_normals(input, &in_index, s));
+            let pairs = input_normals(input, &in_index, s);
+            // the whole surface's area-weighted normal: the reference of a quad none of whose
+            // nodes the input has (exact on planar surfaces)
+            let whole: DVec3 = pairs.iter().map(|p| p.1).sum::<DVec3>().normalize_or_zero();
+            let normals = Normals::new(pairs);
             let mut bad = Vec::new();
             for b in output.element_blocks.iter().filter(|b| {
                 b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::QUAD4
@@ -133,7 +138,8 @@ pub fn invalid_quads(input: &Mesh, output: &Mesh) -> Vec<BadQuad> {
                 for i in 0..b.len() {
                     let e = b.element(i);
                     let nodes = [e[0], e[1], e[2], e[3]];
-                    if let Some(defect) = check_quad(output, &out_index, &normals, nodes, min_edge)
+                    if let Some(defect) =
+                        check_quad(output, &out_index, &normals, whole, nodes, min_edge)
                     {
                         bad.push(BadQuad {
                             surface: s,
@@ -252,6 +258,7 @@ fn check_quad(
     mesh: &Mesh,
     index: &NodeIndex,
     normals: &Normals,
+    whole: DVec3,
     q: [u64; 4],
     min_edge: f64,
 ) -> Option<Defect> {
@@ -275,6 +282,8 @@ fn check_quad(
     let known: DVec3 = at.iter().flatten().copied().sum();
     let fallback = if known != DVec3::ZERO {
         known.normalize()
+    } else if whole != DVec3::ZERO {
+        whole
     } else {
         (p[2] - p[0]).cross(p[3] - p[1]).normalize_or_zero()
     };

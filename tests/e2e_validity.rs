@@ -157,3 +157,29 @@ fn the_cli_refuses_an_invalid_result_and_writes_nothing_unless_allowed() {
     assert!(stderr.contains("warning: writing"), "{stderr}");
     assert!(output.exists());
 }
+
+/// Fuzz finding: a hexagon fan whose one triangle is on surface 0 and the five others on
+/// surface 1, without curve data. The fallback ends with quads none of whose nodes the input
+/// had; they must be valid about the surface's normal, and the independent checker agrees.
+#[test]
+fn a_fan_of_two_odd_surfaces_without_curves_gets_valid_quads() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = dir.path().join("fan.msh");
+    write(
+        &input,
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n7\n1 0 0 0\n2 1 0 0\n3 0.5 0.866 0\n\
+         4 -0.5 0.866 0\n5 -1 0 0\n6 -0.5 -0.866 0\n7 0.5 -0.866 0\n$EndNodes\n$Elements\n6\n\
+         1 2 2 10 1 1 2 3\n2 2 2 10 0 1 3 4\n3 2 2 10 1 1 4 5\n4 2 2 10 1 1 5 6\n\
+         5 2 2 10 1 1 6 7\n6 2 2 10 1 1 7 2\n$EndElements\n",
+    );
+    let output = dir.path().join("out.msh");
+    let (code, _, stderr) = blossomquad_run([
+        input.as_os_str(),
+        "-o".as_ref(),
+        output.as_os_str(),
+        "--verify".as_ref(),
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let report = check_mesh(&input, &output, &[]);
+    assert!(report.ok, "{}", report.report);
+}

@@ -116,6 +116,15 @@ fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
             for n in known.iter().flatten() {
                 mean = add(mean, *n);
             }
+            if norm(mean) == 0.0 {
+                // no node of the quad is an input node of the surface (the fallback's centre
+                // and edge nodes): the surface's summed input normal
+                for ((ts, _), n) in &normal {
+                    if *ts == s {
+                        mean = add(mean, *n);
+                    }
+                }
+            }
             for k in 0..4 {
                 let e = sub(p[(k + 1) % 4], p[k]);
                 if norm(e) == 0.0 {
