@@ -185,14 +185,10 @@ pub enum Error {
 }
 
 fn invalid_message(bad: &[BadQuad]) -> String {
-    let mut surfaces: Vec<i32> = bad.iter().map(|b| b.surface).collect();
-    surfaces.sort_unstable();
-    surfaces.dedup();
-    let list: Vec<String> = surfaces.iter().map(|s| s.to_string()).collect();
     let mut msg = format!(
         "{} quad(s) on surface(s) {} are not valid even after splitting their triangles into quads; first: {}",
         bad.len(),
-        list.join(", "),
+        sorted_list(bad.iter().map(|b| &b.surface)),
         bad.first().map(|b| b.to_string()).unwrap_or_default()
     );
     msg.push_str(" (rerun with --allow-invalid to write the mesh anyway)");
@@ -239,12 +235,7 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
             log.push(format!(
                 "fallback round {round}: {} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
                 split.triangles_to_quads,
-                split
-                    .surfaces
-                    .iter()
-                    .map(|s| s.to_string())
-                    .collect::<Vec<_>>()
-                    .join(", "),
+                sorted_list(&split.surfaces),
                 split.triangles_halved,
                 split.lines_split
             ));
@@ -307,15 +298,11 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
                 .join("; ")
         ));
         if !opts.optimize && round < FALLBACK_ROUNDS {
-            let mut new: Vec<i32> = surfaces.difference(&force).copied().collect();
+            let new: Vec<i32> = surfaces.difference(&force).copied().collect();
             if !new.is_empty() {
-                new.sort_unstable();
                 log.push(format!(
                     "surface(s) {}: optimized after all, to make the matching's quads valid",
-                    new.iter()
-                        .map(|s| s.to_string())
-                        .collect::<Vec<_>>()
-                        .join(", ")
+                    sorted_list(&new)
                 ));
                 force.extend(new);
                 continue;
@@ -372,9 +359,11 @@ fn revert_surfaces(mesh: &Mesh, pre: &Mesh, surfaces: &HashSet<i32>) -> Mesh {
     out
 }
 
-fn sorted_list(s: &HashSet<i32>) -> String {
-    let mut v: Vec<i32> = s.iter().copied().collect();
+/// Surface tags in increasing order, without repeats, as "1, 4, 7".
+fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String {
+    let mut v: Vec<i32> = tags.into_iter().copied().collect();
     v.sort_unstable();
+    v.dedup();
     v.iter()
         .map(|x| x.to_string())
         .collect::<Vec<_>>()
