@@ -456,19 +456,7 @@ mod tests {
             let (_, mut l) = local_of(&m);
             // the state the solve sees in the pipeline: smoothed, topology done
             let opts = crate::optimize::OptimizeOptions::default();
-            let mut ops = crate::optimize::OperationCounts::default();
-            let mut tm = crate::optimize::StageTimer::new("optimize", 0);
-            crate::optimize::smooth::smooth(&mut l, opts.smooth_iterations, opts.diagonal_weight);
-            let mut gate = crate::optimize::valid::Gate::new(&l);
-            crate::optimize::topology_rounds(
-                &mut l,
-                &opts,
-                &mut ops,
-                &mut tm,
-                &|_| {},
-                false,
-                &mut gate,
-            );
+            let (mut ops, mut tm, mut gate) = crate::optimize::after_topology_rounds(&mut l, &opts);
             let mut square = l.clone();
             let mut aspect = l;
             let walls: Vec<(usize, DVec3)> = (0..aspect.pos.len())
@@ -515,23 +503,8 @@ mod tests {
             let (_, l) = local_of(&synth::to_mesh(&quads));
             let opts = crate::optimize::OptimizeOptions::default();
             let mut plain = l.clone();
-            let mut ops = crate::optimize::OperationCounts::default();
-            let mut tm = crate::optimize::StageTimer::new("optimize", 0);
-            crate::optimize::smooth::smooth(
-                &mut plain,
-                opts.smooth_iterations,
-                opts.diagonal_weight,
-            );
-            let mut gate = crate::optimize::valid::Gate::new(&plain);
-            crate::optimize::topology_rounds(
-                &mut plain,
-                &opts,
-                &mut ops,
-                &mut tm,
-                &|_| {},
-                false,
-                &mut gate,
-            );
+            let (mut ops, mut tm, mut gate) =
+                crate::optimize::after_topology_rounds(&mut plain, &opts);
             crate::optimize::finish(&mut plain, &opts, &mut ops, &mut tm, 0.0, &mut gate);
             let base = plain.stats();
             let mut chosen = l;

@@ -572,6 +572,21 @@ const ETA_W_SLACK: f64 = 0.002;
 /// conformal-rounds schedule, the 1e4 rectangle's costs 1.5).
 const TAU_SLACK: f64 = 0.7;
 
+/// Tests: `l` in the state the last stages see in the pipeline (the first smoothing and the
+/// topology rounds done), with the counts, timer and gate those stages continue with.
+#[cfg(test)]
+pub(crate) fn after_topology_rounds(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+) -> (OperationCounts, StageTimer, valid::Gate) {
+    let mut ops = OperationCounts::default();
+    let mut tm = StageTimer::new("optimize", 0);
+    smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight);
+    let mut gate = valid::Gate::new(l);
+    topology_rounds(l, opts, &mut ops, &mut tm, &|_| {}, false, &mut gate);
+    (ops, tm, gate)
+}
+
 /// Up to `opts.max_rounds` rounds of (topology pass, smoothing near the changes), each
 /// followed by the conformal solve when `unshear` (the next pass then judges rotations and
 /// merges on squarer quads and finds more: d4 +1.5 point on the 1e4 square with a hole).

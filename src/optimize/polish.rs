@@ -314,19 +314,7 @@ mod tests {
                 l.quads.iter().map(|q| &q[..]),
             );
             let opts = crate::optimize::OptimizeOptions::default();
-            let mut ops = crate::optimize::OperationCounts::default();
-            let mut tm = crate::optimize::StageTimer::new("optimize", 0);
-            crate::optimize::smooth::smooth(&mut l, opts.smooth_iterations, opts.diagonal_weight);
-            let mut gate = crate::optimize::valid::Gate::new(&l);
-            crate::optimize::topology_rounds(
-                &mut l,
-                &opts,
-                &mut ops,
-                &mut tm,
-                &|_| {},
-                false,
-                &mut gate,
-            );
+            crate::optimize::after_topology_rounds(&mut l, &opts);
             for (k, w) in [0.0, SIZE_WEIGHT].into_iter().enumerate() {
                 let mut p = l.clone();
                 p.build_adjacency();
