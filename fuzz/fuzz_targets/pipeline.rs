@@ -3,8 +3,10 @@
 //! result must pass the library's own
 //! `recombine::check_invariants` against the mesh as read, and every quad must be valid:
 //! four distinct nodes, no zero-length edge, and every corner strictly between 0° and 180°
-//! measured in 3D about the normal of the input triangles at that corner (which also means
-//! the quad is oriented like them). Anything else is a finding (a panic).
+//! measured in 3D about the area-weighted normal of the input triangles at that corner
+//! (which also means the quad is oriented like them). That is the definition of
+//! `blossomquad::validity`, written again here independently so that the gate itself is
+//! checked. Anything else is a finding (a panic).
 //!
 //! With the environment variable `FUZZ_INVARIANTS_ONLY=1` only `check_invariants` is
 //! asserted (to fuzz for invariant violations while quads with a flat corner, which a later
@@ -63,7 +65,7 @@ fn coords(mesh: &Mesh) -> HashMap<u64, V> {
 fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
     let cb = coords(before);
     let ca = coords(after);
-    // per (surface, node): sum of the unit normals of the input triangles at the node
+    // per (surface, node): the area-weighted normal of the input triangles at the node
     let mut normal: HashMap<(i32, u64), V> = HashMap::new();
     for b in before
         .element_blocks
@@ -76,15 +78,15 @@ fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
             else {
                 continue;
             };
+            // twice the triangle's vector area: the sum at a node is the area-weighted
+            // normal, the definition of `blossomquad::validity`
             let n = cross(sub(p1, p0), sub(p2, p0));
-            let l = norm(n);
-            if !(l > 0.0 && l.is_finite()) {
+            if !n.iter().all(|x| x.is_finite()) {
                 continue;
             }
-            let u = n.map(|x| x / l);
             for &v in &t[..3] {
                 let e = normal.entry((b.entity_tag, v)).or_insert([0.0; 3]);
-                *e = add(*e, u);
+                *e = add(*e, n);
             }
         }
     }
@@ -111,7 +113,15 @@ fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
             }
             // the quad's own reference normal: the input normals at its nodes (a node added
             // by parity repair has none; its quad's other nodes give it)
-            let known: Vec<Option<V>> = q.iter().map(|&v| normal.get(&(s, v)).copied()).collect();
+            // (unit normals; a node whose faces cancel out has none)
+            let known: Vec<Option<V>> = q
+                .iter()
+                .map(|&v| {
+                    let n = normal.get(&(s, v)).copied()?;
+                    let l = norm(n);
+                    (l > 0.0 && l.is_finite()).then(|| n.map(|x| x / l))
+                })
+                .collect();
             let mut mean = [0.0; 3];
             for n in known.iter().flatten() {
                 mean = add(mean, *n);
