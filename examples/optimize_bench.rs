@@ -173,10 +173,10 @@ fn files_mode(quads: &str, reference: &str, reps: usize, opts: &OptimizeOptions)
     let mut mesh = input.clone();
     for _ in 0..reps.max(1) {
         mesh = input.clone();
-        let (t, c) = (Instant::now(), optimize::cpu_seconds());
+        let (t, c) = (Instant::now(), blossomquad::profile::cpu_seconds());
         optimize::optimize(&mut mesh, &tri_mesh, opts).expect("optimize");
         best = best.min(t.elapsed().as_secs_f64());
-        best_cpu = best_cpu.min(optimize::cpu_seconds() - c);
+        best_cpu = best_cpu.min(blossomquad::profile::cpu_seconds() - c);
     }
     optimize::check::check_surface_mesh(&mesh).expect("invariants");
     let size = SizeField::Reference(ReferenceSize::from_mesh(&tri_mesh).expect("reference"));

@@ -40,19 +40,6 @@ fn parse(text: &str) -> Result<Graph, String> {
     Ok((n as usize, edges))
 }
 
-/// CPU time (user + system) of this process so far, from `/proc/self/stat` (Linux, 10 ms
-/// ticks); 0 elsewhere. On a shared machine it is steadier than wall time.
-fn cpu_seconds() -> f64 {
-    let Ok(stat) = std::fs::read_to_string("/proc/self/stat") else {
-        return 0.0;
-    };
-    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
-    let rest = stat.rsplit_once(')').map_or("", |r| r.1);
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let tick = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
-    (tick(11) + tick(12)) / 100.0
-}
-
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let path = args
@@ -71,7 +58,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     drop(text);
     let parse_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
-    let c1 = cpu_seconds();
+    let c1 = blossomquad::profile::cpu_seconds();
     let mut solver = matching::blossom::Solver::new(n, &edges);
     if let Some(mode) = forest {
         solver.set_forest_mode(mode);
@@ -93,7 +80,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         matching::solve(n, &edges)
     };
     let time_s = t1.elapsed().as_secs_f64();
-    let cpu_s = cpu_seconds() - c1;
+    let cpu_s = blossomquad::profile::cpu_seconds() - c1;
     match result {
         Ok(m) => {
             let t2 = Instant::now();

@@ -26,6 +26,7 @@ pub mod mesh;
 pub mod msh;
 pub mod optimize;
 pub mod pipeline;
+pub mod profile;
 pub mod quality;
 pub mod recombine;
 pub mod refine;

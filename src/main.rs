@@ -237,6 +237,76 @@ fn run(cli: Cli) -> Result<(), String> {
     }
 }
 
+/// The developer hooks the environment asks for: `BLOSSOMQUAD_STAGE_TIMES` (set: stage
+/// times and optimizer rollbacks on stderr, one line each) and `BLOSSOMQUAD_DUMP_GRAPHS=DIR`
+/// (each surface's matching graph as `DIR/surface-TAG.txt`: a line `n m`, then `u v cost`
+/// per edge, the input format of `examples/solve_matching`).
+fn trace_from_env() -> Option<blossomquad::profile::Trace> {
+    use blossomquad::profile::{Trace, TraceEvent};
+    let times = std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some();
+    let graphs = std::env::var_os("BLOSSOMQUAD_DUMP_GRAPHS").map(PathBuf::from);
+    if !times && graphs.is_none() {
+        return None;
+    }
+    Some(Trace::new(move |e: &TraceEvent<'_>| match e {
+        TraceEvent::StageTimes {
+            group,
+            surface,
+            laps,
+        } if times => {
+            let cpu: f64 = laps.iter().map(|x| x.1).sum();
+            let wall: f64 = laps.iter().map(|x| x.2).sum();
+            let s: Vec<String> = laps
+                .iter()
+                .map(|(n, c, w)| format!("{n} {c:.2}/{w:.2}"))
+                .collect();
+            eprintln!(
+                "{group} surface {surface} cpu/wall ({cpu:.2}/{wall:.2} s): {}",
+                s.join(", ")
+            );
+        }
+        TraceEvent::Rollback {
+            surface,
+            stage,
+            count,
+            quads,
+        } if times => {
+            let q: Vec<String> = quads
+                .iter()
+                .map(|q| format!("{} {} {} {}", q[0], q[1], q[2], q[3]))
+                .collect();
+            eprintln!(
+                "surface {surface}: the {stage} left {count} invalid quad(s) (nodes {}); rolled back",
+                q.join(", ")
+            );
+        }
+        TraceEvent::MatchingGraph {
+            surface,
+            vertices,
+            edges,
+        } => {
+            if let Some(dir) = &graphs {
+                let path = dir.join(format!("surface-{surface}.txt"));
+                if let Err(err) = dump_graph(&path, *vertices, edges) {
+                    eprintln!("warning: cannot write {}: {err}", path.display());
+                }
+            }
+        }
+        _ => {}
+    }))
+}
+
+/// Writes one matching graph (see [`trace_from_env`]).
+fn dump_graph(path: &Path, n: usize, edges: &[(u32, u32, i64)]) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(f, "{n} {}", edges.len())?;
+    for (u, v, c) in edges {
+        writeln!(f, "{u} {v} {c}")?;
+    }
+    f.flush()
+}
+
 fn recombine_main(args: RunArgs) -> Result<(), String> {
     let (Some(input), Some(output)) = (args.input, args.output) else {
         return Err("missing INPUT or -o OUTPUT (see --help)".into());
@@ -263,6 +333,7 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     opts.topology = !args.no_topology;
     opts.optimize = !args.no_optimize;
     opts.allow_invalid = args.allow_invalid;
+    opts.trace = trace_from_env();
     let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
         let b = indicatif::ProgressBar::new(0);
         b.set_style(

@@ -100,6 +100,10 @@ pub struct Options {
     /// Progress callback.
     #[serde(skip)]
     pub progress: Option<ProgressFn>,
+    /// Developer hooks: stage times, optimizer rollbacks and matching graphs (see
+    /// [`crate::profile`]).
+    #[serde(skip)]
+    pub trace: Option<crate::profile::Trace>,
 }
 
 impl Default for Options {
@@ -116,6 +120,7 @@ impl Default for Options {
             optimize: true,
             allow_invalid: false,
             progress: None,
+            trace: None,
         }
     }
 }
@@ -453,6 +458,7 @@ fn run_once(
         harmonic_cross_field: opts.harmonic_cross_field,
         // the fallback's edge-split nodes (tags above the input's) are split nodes too
         split_nodes_from: Some(input.max_node_tag() + 1),
+        trace: opts.trace.clone(),
         ..Default::default()
     };
     let t = Instant::now();
@@ -510,6 +516,7 @@ fn run_once(
         oopts.reference_size_scale = 0.5f64.powi(i32::from(opts.refine));
         let cb = |done: usize, total: usize| progress(opts, Stage::Optimize, done, total);
         oopts.progress = Some(&cb);
+        oopts.trace = opts.trace.as_ref();
         let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
         // periodic surfaces keep the matching's quads (master and slave stay images of
         // each other, node for node)

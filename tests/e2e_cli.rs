@@ -184,3 +184,105 @@ fn usage_errors_are_exit_2() {
     }
     assert!(!Path::new("x.msh").exists());
 }
+
+/// The developer hooks reach the caller's `Trace` sink and change nothing: the shipped
+/// rectangle traced gives the same mesh as untraced, one matching graph with a vertex per
+/// triangle, and stage times of the graph and optimizer steps. The CLI turns them into
+/// `DIR/surface-TAG.txt` (`BLOSSOMQUAD_DUMP_GRAPHS`) and stderr lines
+/// (`BLOSSOMQUAD_STAGE_TIMES`), and prints neither without those variables.
+#[test]
+fn trace_hooks_reach_the_sink_and_change_nothing() {
+    use blossomquad::profile::{Trace, TraceEvent};
+    use std::sync::{Arc, Mutex};
+    let path = geo_dir().join("rectangle.msh");
+    let input = blossomquad::read(&path).expect("read");
+    let triangles: usize = input
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == 2)
+        .map(|b| b.len())
+        .sum();
+    let mut plain = input.clone();
+    blossomquad::quadrangulate(&mut plain, &blossomquad::Options::default()).expect("plain");
+    let seen: Arc<Mutex<Vec<String>>> = Arc::default();
+    let sink = seen.clone();
+    let mut opts = blossomquad::Options::default();
+    opts.trace = Some(Trace::new(move |e: &TraceEvent<'_>| {
+        let line = match e {
+            TraceEvent::MatchingGraph {
+                vertices, edges, ..
+            } => format!("graph {vertices} {}", edges.len()),
+            TraceEvent::StageTimes { group, laps, .. } => format!("times {group} {}", laps.len()),
+            _ => "other".to_string(),
+        };
+        sink.lock().expect("sink").push(line);
+    }));
+    let mut traced = input.clone();
+    blossomquad::quadrangulate(&mut traced, &opts).expect("traced");
+    let mut a = Vec::new();
+    let mut b = Vec::new();
+    let format = blossomquad::MshFormat {
+        version: blossomquad::mesh::MshVersion::V41,
+        binary: false,
+    };
+    blossomquad::msh::write(&plain, &mut a, format).expect("write");
+    blossomquad::msh::write(&traced, &mut b, format).expect("write");
+    assert!(a == b, "tracing changed the output");
+    let seen = seen.lock().expect("seen").clone();
+    let graphs: Vec<&String> = seen.iter().filter(|l| l.starts_with("graph ")).collect();
+    assert_eq!(graphs.len(), 1, "one surface, one graph: {seen:?}");
+    let parts: Vec<usize> = graphs[0][6..]
+        .split(' ')
+        .map(|x| x.parse().expect("number"))
+        .collect();
+    assert_eq!(parts[0], triangles, "a graph vertex per triangle");
+    assert!(
+        parts[1] >= triangles,
+        "fewer edges than triangles: {seen:?}"
+    );
+    for group in ["times graph ", "times optimize "] {
+        assert!(
+            seen.iter()
+                .any(|l| l.starts_with(group) && !l.ends_with(" 0")),
+            "no {group:?} laps: {seen:?}"
+        );
+    }
+
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("out.msh");
+    let quiet = blossomquad()
+        .arg(&path)
+        .arg("-o")
+        .arg(&out)
+        .env_remove("BLOSSOMQUAD_STAGE_TIMES")
+        .env_remove("BLOSSOMQUAD_DUMP_GRAPHS")
+        .assert()
+        .success();
+    let err = String::from_utf8_lossy(&quiet.get_output().stderr).into_owned();
+    assert!(
+        !err.contains("cpu/wall"),
+        "stage times without the variable:\n{err}"
+    );
+    let graphs = dir.path().join("graphs");
+    std::fs::create_dir(&graphs).expect("mkdir");
+    let loud = blossomquad()
+        .arg(&path)
+        .arg("-o")
+        .arg(&out)
+        .env("BLOSSOMQUAD_STAGE_TIMES", "1")
+        .env("BLOSSOMQUAD_DUMP_GRAPHS", &graphs)
+        .assert()
+        .success();
+    let err = String::from_utf8_lossy(&loud.get_output().stderr).into_owned();
+    assert!(
+        err.contains("optimize surface 1 cpu/wall"),
+        "no stage times:\n{err}"
+    );
+    let dump = std::fs::read_to_string(graphs.join("surface-1.txt")).expect("graph file");
+    let first = dump.lines().next().expect("header");
+    assert_eq!(
+        first.split(' ').next(),
+        Some(triangles.to_string().as_str()),
+        "header {first:?}"
+    );
+}

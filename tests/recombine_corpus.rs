@@ -96,10 +96,10 @@ fn every_core_file_recombines_and_keeps_its_invariants() {
             m = before.clone();
             RecombineOptions {
                 drop_volumes: true,
-                ..verify
+                ..verify.clone()
             }
         } else {
-            verify
+            verify.clone()
         };
         let r = recombine(&mut m, &opts).unwrap_or_else(|e| panic!("{name}: {e}"));
         let tris_before: usize = before

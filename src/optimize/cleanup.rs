@@ -577,7 +577,8 @@ pub(crate) fn cleanup(
     if depth == 0 {
         return (0, 0);
     }
-    let mut tm = super::StageTimer::new("cleanup", 0);
+    let trace = l.trace.clone();
+    let mut tm = crate::profile::StageTimer::new(trace.as_ref(), "cleanup", l.surface);
     let mut t = Topo::near(l, focus);
     tm.lap("near");
     let (mut sequences, mut rotations) = (0, 0);

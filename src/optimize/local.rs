@@ -65,6 +65,8 @@ pub(crate) struct Local {
     /// True while `qn`, `hopeless` and `colours` match the quads (cleared by
     /// [`Local::build_adjacency`]).
     pub sweep_ready: bool,
+    /// Where stage times and rollbacks go ([`OptimizeOptions::trace`](super::OptimizeOptions)).
+    pub trace: Option<crate::profile::Trace>,
 }
 
 impl Local {

@@ -70,6 +70,7 @@ pub mod check;
 pub use local::Stats;
 
 use crate::mesh::{etype, DataKind, Mesh};
+use crate::profile::StageTimer;
 use crate::quality::locate::TriSurface;
 use crate::quality::size::mean_incident_edge_length;
 use crate::quality::FlatNodes;
@@ -103,6 +104,8 @@ pub struct OptimizeOptions<'a> {
     pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
     /// Surfaces left as they are (their nodes count as shared, so neighbours keep them).
     pub skip: &'a [i32],
+    /// Where stage times and rollbacks go (see [`crate::profile`]); `None`: nowhere.
+    pub trace: Option<&'a crate::profile::Trace>,
 }
 
 impl Default for OptimizeOptions<'_> {
@@ -120,6 +123,7 @@ impl Default for OptimizeOptions<'_> {
             reference_size_scale: 1.0,
             progress: None,
             skip: &[],
+            trace: None,
         }
     }
 }
@@ -356,7 +360,7 @@ pub fn optimize_prepared(
     prepared: PreparedReference,
     opts: &OptimizeOptions,
 ) -> Result<OptimizeReport, OptimizeError> {
-    let mut tm = StageTimer::new("optimize setup", 0);
+    let mut tm = StageTimer::new(opts.trace, "optimize setup", 0);
     let flat = FlatNodes::new(mesh);
     tm.lap("flat");
     let surfaces = surface_tags(mesh, etype::QUAD4);
@@ -368,7 +372,9 @@ pub fn optimize_prepared(
         if opts.skip.contains(&s) {
             continue;
         }
-        locals.push(extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?);
+        let mut l = extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?;
+        l.trace = opts.trace.cloned();
+        locals.push(l);
     }
     tm.lap("extract");
     let total = locals.len() * (1 + opts.max_rounds);
@@ -398,7 +404,7 @@ pub fn optimize_prepared(
         .into_par_iter()
         .zip(refs)
         .map(|(mut l, sref)| {
-            let mut tr = StageTimer::new("attach", l.surface);
+            let mut tr = StageTimer::new(opts.trace, "attach", l.surface);
             attach_reference(&mut l, sref, refnodes, opts.reference_size_scale);
             tr.lap("attach_reference");
             tr.done();
@@ -441,7 +447,7 @@ fn run_surface(
     opts: &OptimizeOptions,
     tick: &(dyn Fn(usize) + Sync),
 ) -> SurfaceOptimizeReport {
-    let mut tm = StageTimer::new("optimize", l.surface);
+    let mut tm = StageTimer::new(opts.trace, "optimize", l.surface);
     l.build_adjacency();
     let before = l.stats();
     // validity: the start state and its invalid quads (valid.rs)
@@ -479,7 +485,7 @@ fn run_surface(
                 plain_ops = ops;
                 let mut plain = l.clone();
                 let mut plain_gate = gate.clone();
-                let mut tp = StageTimer::new("optimize (square finish)", l.surface);
+                let mut tp = StageTimer::new(opts.trace, "optimize (square finish)", l.surface);
                 rayon::join(
                     || {
                         finish(
@@ -507,7 +513,8 @@ fn run_surface(
             },
             || {
                 if let Some((u, u_ops, u_gate)) = unsheared.as_mut() {
-                    let mut tu = StageTimer::new("optimize (conformal rounds)", u.surface);
+                    let mut tu =
+                        StageTimer::new(opts.trace, "optimize (conformal rounds)", u.surface);
                     topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
                     finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT, u_gate);
                     tu.done();
@@ -575,12 +582,12 @@ const TAU_SLACK: f64 = 0.7;
 /// Tests: `l` in the state the last stages see in the pipeline (the first smoothing and the
 /// topology rounds done), with the counts, timer and gate those stages continue with.
 #[cfg(test)]
-pub(crate) fn after_topology_rounds(
+pub(crate) fn after_topology_rounds<'a>(
     l: &mut Local,
-    opts: &OptimizeOptions,
-) -> (OperationCounts, StageTimer, valid::Gate) {
+    opts: &OptimizeOptions<'a>,
+) -> (OperationCounts, StageTimer<'a>, valid::Gate) {
     let mut ops = OperationCounts::default();
-    let mut tm = StageTimer::new("optimize", 0);
+    let mut tm = StageTimer::new(opts.trace, "optimize", 0);
     smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight);
     let mut gate = valid::Gate::new(l);
     topology_rounds(l, opts, &mut ops, &mut tm, &|_| {}, false, &mut gate);
@@ -595,7 +602,7 @@ fn topology_rounds(
     l: &mut Local,
     opts: &OptimizeOptions,
     ops: &mut OperationCounts,
-    tm: &mut StageTimer,
+    tm: &mut StageTimer<'_>,
     tick: &(dyn Fn(usize) + Sync),
     unshear: bool,
     gate: &mut valid::Gate,
@@ -643,7 +650,7 @@ fn finish(
     l: &mut Local,
     opts: &OptimizeOptions,
     ops: &mut OperationCounts,
-    tm: &mut StageTimer,
+    tm: &mut StageTimer<'_>,
     keep_aspect: f64,
     gate: &mut valid::Gate,
 ) {
@@ -673,75 +680,6 @@ fn finish(
         ops.smoothing_moves += polish::polish_mean(l, sweeps);
         gate.check(l, true, "mean polish");
         tm.lap("polish_mean");
-    }
-}
-
-/// Stage timer for profiling (`BLOSSOMQUAD_STAGE_TIMES` set: one line per surface on stderr,
-/// process CPU seconds per stage, then wall seconds).
-pub(crate) struct StageTimer {
-    on: bool,
-    what: &'static str,
-    surface: i32,
-    c: f64,
-    w: std::time::Instant,
-    laps: Vec<(&'static str, f64, f64)>,
-}
-
-/// User + system CPU seconds of this process, all threads (Linux `/proc/self/stat`; 0 when
-/// unavailable).
-pub fn cpu_seconds() -> f64 {
-    let s = std::fs::read_to_string("/proc/self/stat").unwrap_or_default();
-    let f: Vec<&str> = s
-        .rsplit(')')
-        .next()
-        .unwrap_or("")
-        .split_whitespace()
-        .collect();
-    let ticks = |i: usize| f.get(i).and_then(|x| x.parse::<f64>().ok()).unwrap_or(0.0);
-    (ticks(11) + ticks(12)) / 100.0
-}
-
-impl StageTimer {
-    /// A timer for stage group `what` (e.g. "optimize") of surface `surface`.
-    pub(crate) fn new(what: &'static str, surface: i32) -> Self {
-        let on = std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some();
-        StageTimer {
-            on,
-            what,
-            surface,
-            c: if on { cpu_seconds() } else { 0.0 },
-            w: std::time::Instant::now(),
-            laps: Vec::new(),
-        }
-    }
-    /// Ends stage `name` (started at the previous lap or at creation).
-    pub(crate) fn lap(&mut self, name: &'static str) {
-        if self.on {
-            let c = cpu_seconds();
-            let w = std::time::Instant::now();
-            self.laps
-                .push((name, c - self.c, (w - self.w).as_secs_f64()));
-            self.c = c;
-            self.w = w;
-        }
-    }
-    /// Prints the laps (when enabled).
-    pub(crate) fn done(&self) {
-        if self.on {
-            let total: f64 = self.laps.iter().map(|x| x.1).sum();
-            let wall: f64 = self.laps.iter().map(|x| x.2).sum();
-            let s: Vec<String> = self
-                .laps
-                .iter()
-                .map(|(n, t, w)| format!("{n} {t:.2}/{w:.2}"))
-                .collect();
-            eprintln!(
-                "{} surface {} cpu/wall ({total:.2}/{wall:.2} s): {}",
-                self.what,
-                self.surface,
-                s.join(", ")
-            );
-        }
     }
 }
 
@@ -1008,6 +946,7 @@ fn extract(
         hopeless: Vec::new(),
         colours: Vec::new(),
         sweep_ready: false,
+        trace: None,
     })
 }
 

@@ -44,7 +44,8 @@ const CLEANUP_DEPTH: usize = 2;
 /// and its smoothing changed (elsewhere the same searches already failed).
 pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[bool]>) -> usize {
     l.sweep_ready = false;
-    let mut tm = super::StageTimer::new("topo pass", l.surface);
+    let trace = l.trace.clone();
+    let mut tm = crate::profile::StageTimer::new(trace.as_ref(), "topo pass", l.surface);
     let mut dirty = vec![false; l.pos.len()];
     let (ideal, angle) = ideal_valence(l);
     let before = ops.doublet_collapses + ops.quad_vertex_merges + ops.edge_rotations;

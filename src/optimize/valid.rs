@@ -171,8 +171,8 @@ impl Gate {
     /// Checks `l` after a stage: a state that passes becomes the one to roll back to
     /// (`keep`: store a copy, else only note it); one that fails is replaced by the last
     /// one that passed (or the start). Returns true when `l` passed.
-    /// `stage` names the stage for the log (`BLOSSOMQUAD_STAGE_TIMES` set: one line on
-    /// stderr per rollback).
+    /// `stage` names the stage in the [`Rollback`](crate::profile::TraceEvent::Rollback)
+    /// event sent to the surface's trace sink, if any.
     pub fn check(&mut self, l: &mut Local, keep: bool, stage: &str) -> bool {
         let bad = self.new_invalid(l);
         if bad.is_empty() {
@@ -183,21 +183,18 @@ impl Gate {
             }
             return true;
         }
-        if std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some() {
-            let show: Vec<String> = bad
+        if let Some(trace) = &l.trace {
+            let quads: Vec<[u64; 4]> = bad
                 .iter()
                 .take(4)
-                .map(|&q| {
-                    let t = l.quads[q as usize].map(|v| l.tags[v as usize]);
-                    format!("{} {} {} {}", t[0], t[1], t[2], t[3])
-                })
+                .map(|&q| l.quads[q as usize].map(|v| l.tags[v as usize]))
                 .collect();
-            eprintln!(
-                "surface {}: the {stage} left {} invalid quad(s) (nodes {}); rolled back",
-                l.surface,
-                bad.len(),
-                show.join(", ")
-            );
+            trace.emit(&crate::profile::TraceEvent::Rollback {
+                surface: l.surface,
+                stage,
+                count: bad.len(),
+                quads: &quads,
+            });
         }
         self.rollbacks += 1;
         self.roll_back(l);

@@ -393,9 +393,10 @@ pub(crate) fn build(
     cross_w: f64,
     harmonic: bool,
     with_extra: bool,
+    trace: Option<&crate::profile::Trace>,
 ) -> Graph {
     let n = topo.len();
-    let mut tm = crate::optimize::StageTimer::new("graph", 0);
+    let mut tm = crate::profile::StageTimer::new(trace, "graph", 0);
     let walls = NodeSet::new(&wall_nodes(topo));
     let walls = &walls;
     let normals = &triangle_normals(topo, coords);

@@ -163,6 +163,7 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 
 use crate::mesh::{element_dim, etype, ElementBlock, Mesh};
+use crate::profile::{StageTimer, Trace, TraceEvent};
 use topology::{CurveInfo, NodeTable, SurfaceTopo};
 
 pub use fallback::{split_triangles, FallbackSplit};
@@ -185,7 +186,7 @@ pub enum ParityMode {
 }
 
 /// Options of [`recombine`].
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct RecombineOptions {
     /// Parity handling.
     pub parity: ParityMode,
@@ -208,6 +209,8 @@ pub struct RecombineOptions {
     /// triangle split there cost [`split_halves_cost`] to merge back): the pipeline's
     /// fallback sets it to the first tag its edge splits used. `None`: parity splits only.
     pub split_nodes_from: Option<u64>,
+    /// Where stage times and matching graphs go (see [`crate::profile`]); `None`: nowhere.
+    pub trace: Option<crate::profile::Trace>,
 }
 
 impl Default for RecombineOptions {
@@ -220,6 +223,7 @@ impl Default for RecombineOptions {
             cross_field_weight: 0.0,
             harmonic_cross_field: false,
             split_nodes_from: None,
+            trace: None,
         }
     }
 }
@@ -551,12 +555,12 @@ fn parity_stage(
     opts: &RecombineOptions,
     report: &mut RecombineReport,
 ) -> Result<(NodeTable, Vec<SurfaceWork>), RecombineError> {
-    let mut tm = crate::optimize::StageTimer::new("parity stage", 0);
+    let mut tm = StageTimer::new(opts.trace.as_ref(), "parity stage", 0);
     let nodes = NodeTable::new(mesh);
     tm.lap("node table");
     let curves = CurveInfo::new(mesh, &nodes)?;
     tm.lap("curves");
-    let work = surface_work(mesh, &nodes, &curves)?;
+    let work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref())?;
     tm.lap("surface work");
     let plan = parity::plan(mesh, &nodes, &work);
     tm.lap("plan");
@@ -605,7 +609,7 @@ fn parity_stage(
     mesh.invalidate_element_data();
     let nodes = NodeTable::new(mesh);
     let curves = CurveInfo::new(mesh, &nodes)?;
-    let work = surface_work(mesh, &nodes, &curves)?;
+    let work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref())?;
     let again = parity::plan(mesh, &nodes, &work);
     if !again.odd.is_empty() {
         return Err(parity::still_odd_error(&again.odd));
@@ -765,12 +769,13 @@ fn surface_work(
     mesh: &Mesh,
     nodes: &NodeTable,
     curves: &CurveInfo,
+    trace: Option<&Trace>,
 ) -> Result<Vec<SurfaceWork>, RecombineError> {
     surface_tags(mesh)
         .into_par_iter()
         .map(|tag| {
             let t0 = Instant::now();
-            let mut tm = crate::optimize::StageTimer::new("topology", tag);
+            let mut tm = StageTimer::new(trace, "topology", tag);
             let mut tris = Vec::new();
             let mut elem_tags = Vec::new();
             let mut partitions = Vec::new();
@@ -896,10 +901,15 @@ fn match_surface(
         cross,
         opts.harmonic_cross_field,
         opts.extra_edges,
+        opts.trace.as_ref(),
     );
     let time_graph = w.time + t0.elapsed();
-    if let Some(dir) = std::env::var_os("BLOSSOMQUAD_DUMP_GRAPHS") {
-        dump_graph(std::path::Path::new(&dir), w.tag, w.topo.len(), &g.edges);
+    if let Some(trace) = &opts.trace {
+        trace.emit(&TraceEvent::MatchingGraph {
+            surface: w.tag,
+            vertices: w.topo.len(),
+            edges: &g.edges,
+        });
     }
     let t1 = Instant::now();
     let n = w.topo.len();
@@ -940,26 +950,6 @@ fn match_surface(
         time_post: t2.elapsed(),
     };
     Ok(SurfaceResult { faces, report })
-}
-
-/// Writes a surface's matching graph as `DIR/surface-TAG.txt` in the format of
-/// `examples/solve_matching` (first line `n m`, then `u v cost`), for benchmarking the solver
-/// on real meshes (`BLOSSOMQUAD_DUMP_GRAPHS=DIR`). A failure is reported on stderr and
-/// otherwise ignored: this is a developer aid, not part of the output.
-fn dump_graph(dir: &std::path::Path, tag: i32, n: usize, edges: &[(u32, u32, i64)]) {
-    use std::io::Write;
-    let path = dir.join(format!("surface-{tag}.txt"));
-    let write = || -> std::io::Result<()> {
-        let mut f = std::io::BufWriter::new(std::fs::File::create(&path)?);
-        writeln!(f, "{n} {}", edges.len())?;
-        for (u, v, c) in edges {
-            writeln!(f, "{u} {v} {c}")?;
-        }
-        f.flush()
-    };
-    if let Err(e) = write() {
-        eprintln!("warning: cannot write {}: {e}", path.display());
-    }
 }
 
 /// Step 8: new nodes, then each surface's triangle blocks replaced by quads.
