@@ -31,8 +31,13 @@
 //! returned [`Duals`] (documented there); a matching that passes is optimal whatever solver
 //! produced it. [`verify_witness`] checks a Tutte witness.
 
+// Internals, public only for the integration tests, examples and benchmarks (the solver's
+// forest modes and statistics, the brute-force oracle, the radix heap): not part of the API.
+#[doc(hidden)]
 pub mod blossom;
+#[doc(hidden)]
 pub mod oracle;
+#[doc(hidden)]
 pub mod radix;
 mod verify;
 

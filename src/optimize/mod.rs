@@ -61,10 +61,14 @@ mod conformal;
 mod local;
 mod polish;
 mod smooth;
+// synthetic test meshes (the only user of spade): for tests and examples, not the API
+#[doc(hidden)]
 pub mod synth;
 mod topo;
 mod valid;
 
+// an independent mesh checker for the tests (not the API)
+#[doc(hidden)]
 pub mod check;
 
 pub use local::Stats;

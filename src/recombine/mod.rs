@@ -167,6 +167,8 @@ use crate::profile::{StageTimer, Trace, TraceEvent};
 use topology::{CurveInfo, NodeTable, SurfaceTopo};
 
 pub use fallback::{split_triangles, FallbackSplit};
+// the cost model's constants, public for the tests (not the API)
+#[doc(hidden)]
 pub use graph::{
     bad_extra_edge_cost, extra_edge_cost, split_halves_cost, COST_SCALE, FIXED_CORNER_MIN_ETA,
     HOPELESS_COST, MAX_REAL_COST,
