@@ -1,0 +1,486 @@
+//! The `blossomquad` command line (feature `cli`): a thin driver over the library
+//! (`main → run → exit code`), run by `src/main.rs` and by the Python package's
+//! `blossomquad` command.
+//!
+//! Raw flags are parsed by clap into `Cli`; `run` turns them into the library's option
+//! structs, calls the stages and maps every error to one line on stderr and exit code 1
+//! (usage errors exit with 2, from clap). This module and `msh` are the only places that
+//! print, read the environment or touch files.
+
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::Instant;
+
+use crate::mesh::{Mesh, MshFormat, MshVersion};
+use crate::{msh, quality, recombine};
+use clap::{Args, Parser, Subcommand, ValueEnum};
+
+/// Turn Gmsh triangle surface meshes into all-quadrilateral meshes (Blossom-Quad).
+///
+/// The main job: `blossomquad INPUT.msh -o OUTPUT.msh` recombines the triangles of every
+/// surface entity into quads with an exact minimum-cost perfect matching, then optimizes the
+/// quads. Everything else in the file (nodes, curves, physical groups, other elements) is kept.
+#[derive(Parser, Debug)]
+#[command(
+    name = "blossomquad",
+    version,
+    about,
+    args_conflicts_with_subcommands = true,
+    subcommand_negates_reqs = true
+)]
+struct Cli {
+    #[command(subcommand)]
+    command: Option<Command>,
+    #[command(flatten)]
+    run: RunArgs,
+}
+
+#[derive(Subcommand, Debug)]
+enum Command {
+    /// Copy a mesh through the reader and writer (format conversion), no recombination.
+    Convert {
+        /// Input mesh (MSH 2.x or 4.x, ASCII or binary), `-` for stdin.
+        input: PathBuf,
+        /// Output mesh, `-` for stdout.
+        #[arg(short, long)]
+        output: PathBuf,
+        #[command(flatten)]
+        format: FormatArgs,
+        /// Allow the output to overwrite the input file.
+        #[arg(long)]
+        force: bool,
+    },
+    /// Print the format, entities, element counts per surface, physical groups and parity.
+    Info {
+        /// Mesh to describe, `-` for stdin.
+        input: PathBuf,
+    },
+    /// Print quad quality η (eq. 3), vertex degrees and efficiency τ (eq. 1-2) of any mesh.
+    Quality {
+        /// Mesh to measure, `-` for stdin.
+        input: PathBuf,
+        /// Size field h(x, y, z) as an expression, e.g. `0.1+0.08*sin(3*x)*cos(6*y)`;
+        /// default: estimated from the mesh's own edge lengths.
+        #[arg(long, value_name = "EXPR")]
+        size: Option<String>,
+        /// Triangle mesh the quads came from, to estimate the size field from it.
+        #[arg(long, value_name = "MESH")]
+        reference: Option<PathBuf>,
+        /// Print JSON instead of a table.
+        #[arg(long)]
+        json: bool,
+    },
+}
+
+#[derive(Args, Debug)]
+struct RunArgs {
+    /// Input triangle mesh (MSH 2.x or 4.x, ASCII or binary), `-` for stdin.
+    #[arg(required = true)]
+    input: Option<PathBuf>,
+    /// Output quad mesh, `-` for stdout.
+    #[arg(short, long, required = true)]
+    output: Option<PathBuf>,
+    #[command(flatten)]
+    format: FormatArgs,
+    /// What to do with surfaces that have an odd number of triangles.
+    #[arg(long, value_enum, default_value_t = ParityArg::Repair)]
+    parity: ParityArg,
+    /// Drop volume elements instead of refusing a volume mesh.
+    #[arg(long)]
+    drop_volumes: bool,
+    /// Check the matching's optimality certificate and the mesh invariants; fail if either
+    /// does not hold.
+    #[arg(long)]
+    verify: bool,
+    /// Weight W of the cross-field alignment cost (paper eq. 7, cross field following the
+    /// nearest boundary) added to the quality cost (eq. 4); 0 = eq. 4 alone. Small weights
+    /// raise η̄, the share of regular vertices and τ; weights from 0.1 up lower the worst
+    /// quality on strongly graded planar meshes (see the README).
+    #[arg(long, value_name = "W", default_value_t = 0.05, value_parser = parse_weight)]
+    cross_field: f64,
+    /// Uniform refinement after recombination, N times (0..=3): every quad split into four,
+    /// every curve segment into two (paper Figure 2, Table I rows 2h and 4h). Mesh the
+    /// triangles at 2^N times the wanted size; all new vertices are regular.
+    #[arg(long, value_name = "N", default_value_t = 0, value_parser = clap::value_parser!(u8).range(0..=3))]
+    refine: u8,
+    /// With --cross-field W > 0: use a smooth (harmonic) cross field interpolating the walls'
+    /// directions instead of the nearest-wall field.
+    #[arg(long)]
+    harmonic_cross_field: bool,
+    /// Smoothing iterations of the optimization.
+    #[arg(long, value_name = "N")]
+    smooth: Option<usize>,
+    /// Skip the topological operators (quad-vertex merge, doublet collapse, ...).
+    #[arg(long)]
+    no_topology: bool,
+    /// Skip the whole optimization (smoothing and topology).
+    #[arg(long)]
+    no_optimize: bool,
+    /// Write the mesh even when some quads are not valid (a corner not strictly between 0
+    /// and 180 degrees, a zero-length edge) after the fallback, listing them as warnings;
+    /// without it such a mesh is refused (exit 1) and nothing is written.
+    #[arg(long)]
+    allow_invalid: bool,
+    /// Allow the output to overwrite the input file.
+    #[arg(long)]
+    force: bool,
+    /// Print nothing but errors.
+    #[arg(short, long)]
+    quiet: bool,
+}
+
+#[derive(Args, Debug, Default)]
+struct FormatArgs {
+    /// Output format version (default: the input's).
+    #[arg(long, value_enum)]
+    format: Option<FormatArg>,
+    /// Write binary (default: the input's encoding).
+    #[arg(long, conflicts_with = "ascii")]
+    binary: bool,
+    /// Write ASCII (default: the input's encoding).
+    #[arg(long)]
+    ascii: bool,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug)]
+enum FormatArg {
+    /// MSH 4.1.
+    Msh41,
+    /// MSH 2.2.
+    Msh22,
+}
+
+#[derive(ValueEnum, Clone, Copy, Debug, PartialEq, Eq)]
+enum ParityArg {
+    /// Split boundary segments so every surface has an even triangle count.
+    Repair,
+    /// Refuse odd surfaces with a message saying how to fix the .geo.
+    Error,
+}
+
+/// Runs the command line on `args` (the first is the program name) and returns the exit
+/// code: 0 ok, 1 bad input, refused or invalid mesh (one line on stderr), 2 usage. `--help`
+/// and `--version` print and return 0.
+pub fn run_args<I, T>(args: I) -> u8
+where
+    I: IntoIterator<Item = T>,
+    T: Into<std::ffi::OsString> + Clone,
+{
+    let cli = match Cli::try_parse_from(args) {
+        Ok(cli) => cli,
+        Err(e) => {
+            // help and version go to stdout with exit 0, usage errors to stderr with 2
+            let _ = e.print();
+            return u8::try_from(e.exit_code()).unwrap_or(2);
+        }
+    };
+    match run(cli) {
+        Ok(()) => 0,
+        Err(msg) => {
+            eprintln!("blossomquad: error: {msg}");
+            1
+        }
+    }
+}
+
+/// [`run_args`] on the process's arguments, as an [`ExitCode`].
+pub fn main() -> ExitCode {
+    ExitCode::from(run_args(std::env::args_os()))
+}
+
+/// Log sink: prints to stderr unless quiet.
+struct Log {
+    quiet: bool,
+}
+
+impl Log {
+    fn say(&self, msg: impl AsRef<str>) {
+        if !self.quiet {
+            eprintln!("{}", msg.as_ref());
+        }
+    }
+}
+
+fn run(cli: Cli) -> Result<(), String> {
+    match cli.command {
+        Some(Command::Convert {
+            input,
+            output,
+            format,
+            force,
+        }) => {
+            check_not_input(&input, &output, force)?;
+            let mesh = read(&input)?;
+            let log = Log { quiet: false };
+            print_warnings(&mesh, &log);
+            write(&mesh, &output, &format, &log)
+        }
+        Some(Command::Info { input }) => {
+            let mesh = read(&input)?;
+            print!("{}", msh::summary(&mesh));
+            Ok(())
+        }
+        Some(Command::Quality {
+            input,
+            size,
+            reference,
+            json,
+        }) => {
+            let mesh = read(&input)?;
+            let field = match (&size, &reference) {
+                (Some(expr), _) => quality::SizeField::Expression(
+                    quality::SizeExpr::new(expr).map_err(|e| e.to_string())?,
+                ),
+                (None, Some(r)) => {
+                    let reference = read(r)?;
+                    match quality::ReferenceSize::from_mesh(&reference) {
+                        Some(f) => quality::SizeField::Reference(f),
+                        None => {
+                            return Err(format!(
+                                "{}: no triangles or quads to estimate sizes from",
+                                r.display()
+                            ))
+                        }
+                    }
+                }
+                (None, None) => quality::SizeField::SelfEstimate,
+            };
+            let report =
+                quality::report(&mesh, &field).map_err(|e| format!("{}: {e}", input.display()))?;
+            if json {
+                println!("{}", report.to_json());
+            } else {
+                print!("{report}");
+            }
+            Ok(())
+        }
+        None => recombine_main(cli.run),
+    }
+}
+
+/// The developer hooks the environment asks for: `BLOSSOMQUAD_STAGE_TIMES` (set: stage
+/// times and optimizer rollbacks on stderr, one line each) and `BLOSSOMQUAD_DUMP_GRAPHS=DIR`
+/// (each surface's matching graph as `DIR/surface-TAG.txt`: a line `n m`, then `u v cost`
+/// per edge, the input format of `examples/solve_matching`).
+fn trace_from_env() -> Option<crate::profile::Trace> {
+    use crate::profile::{Trace, TraceEvent};
+    let times = std::env::var_os("BLOSSOMQUAD_STAGE_TIMES").is_some();
+    let graphs = std::env::var_os("BLOSSOMQUAD_DUMP_GRAPHS").map(PathBuf::from);
+    if !times && graphs.is_none() {
+        return None;
+    }
+    Some(Trace::new(move |e: &TraceEvent<'_>| match e {
+        TraceEvent::StageTimes {
+            group,
+            surface,
+            laps,
+        } if times => {
+            let cpu: f64 = laps.iter().map(|x| x.1).sum();
+            let wall: f64 = laps.iter().map(|x| x.2).sum();
+            let s: Vec<String> = laps
+                .iter()
+                .map(|(n, c, w)| format!("{n} {c:.2}/{w:.2}"))
+                .collect();
+            eprintln!(
+                "{group} surface {surface} cpu/wall ({cpu:.2}/{wall:.2} s): {}",
+                s.join(", ")
+            );
+        }
+        TraceEvent::Rollback {
+            surface,
+            stage,
+            count,
+            quads,
+        } if times => {
+            let q: Vec<String> = quads
+                .iter()
+                .map(|q| format!("{} {} {} {}", q[0], q[1], q[2], q[3]))
+                .collect();
+            eprintln!(
+                "surface {surface}: the {stage} left {count} invalid quad(s) (nodes {}); rolled back",
+                q.join(", ")
+            );
+        }
+        TraceEvent::MatchingGraph {
+            surface,
+            vertices,
+            edges,
+        } => {
+            if let Some(dir) = &graphs {
+                let path = dir.join(format!("surface-{surface}.txt"));
+                if let Err(err) = dump_graph(&path, *vertices, edges) {
+                    eprintln!("warning: cannot write {}: {err}", path.display());
+                }
+            }
+        }
+        _ => {}
+    }))
+}
+
+/// Writes one matching graph (see [`trace_from_env`]).
+fn dump_graph(path: &Path, n: usize, edges: &[(u32, u32, i64)]) -> std::io::Result<()> {
+    use std::io::Write;
+    let mut f = std::io::BufWriter::new(std::fs::File::create(path)?);
+    writeln!(f, "{n} {}", edges.len())?;
+    for (u, v, c) in edges {
+        writeln!(f, "{u} {v} {c}")?;
+    }
+    f.flush()
+}
+
+fn recombine_main(args: RunArgs) -> Result<(), String> {
+    let (Some(input), Some(output)) = (args.input, args.output) else {
+        return Err("missing INPUT or -o OUTPUT (see --help)".into());
+    };
+    check_not_input(&input, &output, args.force)?;
+    let quiet = args.quiet;
+    let log = Log { quiet };
+    let t0 = Instant::now();
+    let mut mesh = read(&input)?;
+    let t_read = t0.elapsed().as_secs_f64();
+    print_warnings(&mesh, &log);
+
+    let mut opts = crate::Options::default();
+    opts.parity = match args.parity {
+        ParityArg::Repair => recombine::ParityMode::Repair,
+        ParityArg::Error => recombine::ParityMode::Error,
+    };
+    opts.drop_volumes = args.drop_volumes;
+    opts.verify = args.verify;
+    opts.cross_field_weight = args.cross_field;
+    opts.harmonic_cross_field = args.harmonic_cross_field;
+    opts.refine = args.refine;
+    opts.smooth = args.smooth;
+    opts.topology = !args.no_topology;
+    opts.optimize = !args.no_optimize;
+    opts.allow_invalid = args.allow_invalid;
+    opts.trace = trace_from_env();
+    let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
+        let b = indicatif::ProgressBar::new(0);
+        b.set_style(
+            indicatif::ProgressStyle::with_template("{msg:10} {bar:40} {pos}/{len}")
+                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+        );
+        b
+    });
+    if let Some(b) = bar.clone() {
+        opts.progress = Some(crate::ProgressFn(std::sync::Arc::new(
+            move |p: crate::Progress| {
+                b.set_message(match p.stage {
+                    crate::Stage::Recombine => "recombine",
+                    crate::Stage::Refine => "refine",
+                    crate::Stage::Optimize => "optimize",
+                    _ => "check",
+                });
+                b.set_length(p.total as u64);
+                b.set_position(p.done as u64);
+            },
+        )));
+    }
+    let result = crate::quadrangulate(&mut mesh, &opts);
+    if let Some(b) = bar {
+        b.finish_and_clear();
+    }
+    let report = result.map_err(|e| format!("{}: {e}", input.display()))?;
+    for line in &report.log {
+        log.say(line);
+    }
+    let t3 = Instant::now();
+    write(&mesh, &output, &args.format, &log)?;
+    let t_write = t3.elapsed().as_secs_f64();
+    let times = &report.times;
+    let refine_time = if args.refine > 0 {
+        format!(", refine {:.3} s", times.refine.as_secs_f64())
+    } else {
+        String::new()
+    };
+    log.say(format!(
+        "time: read {t_read:.3} s, recombine {:.3} s{refine_time}, optimize {:.3} s, check {:.3} s, write {t_write:.3} s",
+        times.recombine.as_secs_f64(),
+        times.optimize.as_secs_f64(),
+        times.check.as_secs_f64(),
+    ));
+    let sum = |f: fn(&recombine::SurfaceReport) -> std::time::Duration| {
+        report
+            .recombine
+            .surfaces
+            .iter()
+            .map(f)
+            .sum::<std::time::Duration>()
+            .as_secs_f64()
+    };
+    log.say(format!(
+        "time in recombine, summed over surfaces: topology and graph {:.3} s, matching {:.3} s, quads {:.3} s",
+        sum(|s| s.time_graph),
+        sum(|s| s.time_matching),
+        sum(|s| s.time_post)
+    ));
+    Ok(())
+}
+
+/// `--cross-field W`: a finite number in [0, 5].
+fn parse_weight(s: &str) -> Result<f64, String> {
+    let w: f64 = s
+        .parse()
+        .map_err(|e| format!("{s:?} is not a number: {e}"))?;
+    if (0.0..=5.0).contains(&w) {
+        Ok(w)
+    } else {
+        Err(format!("{w} is outside [0, 5]"))
+    }
+}
+
+fn read(path: &Path) -> Result<Mesh, String> {
+    msh::read_file(path).map_err(|e| e.to_string())
+}
+
+fn print_warnings(mesh: &Mesh, log: &Log) {
+    for w in &mesh.warnings {
+        log.say(format!("warning: {w}"));
+    }
+}
+
+fn output_format(mesh: &Mesh, args: &FormatArgs) -> MshFormat {
+    let default = msh::default_output_format(mesh);
+    MshFormat {
+        version: match args.format {
+            Some(FormatArg::Msh41) => MshVersion::V41,
+            Some(FormatArg::Msh22) => MshVersion::V2 { minor: 2 },
+            None => default.version,
+        },
+        binary: if args.binary {
+            true
+        } else if args.ascii {
+            false
+        } else {
+            default.binary
+        },
+    }
+}
+
+fn write(mesh: &Mesh, path: &Path, args: &FormatArgs, log: &Log) -> Result<(), String> {
+    let format = output_format(mesh, args);
+    for w in msh::write_warnings(mesh, format) {
+        log.say(format!("warning: {w}"));
+    }
+    msh::write_file(mesh, path, format).map_err(|e| e.to_string())
+}
+
+/// Refuses an output path that is the input file itself, unless `force`.
+fn check_not_input(input: &Path, output: &Path, force: bool) -> Result<(), String> {
+    if force || input.as_os_str() == "-" || output.as_os_str() == "-" {
+        return Ok(());
+    }
+    let same = match (std::fs::canonicalize(input), std::fs::canonicalize(output)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    };
+    if same {
+        return Err(format!(
+            "{}: output would overwrite the input; choose another -o or pass --force",
+            output.display()
+        ));
+    }
+    Ok(())
+}
