@@ -341,21 +341,23 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     let t_read = t0.elapsed().as_secs_f64();
     print_warnings(&mesh, &log);
 
-    let mut opts = crate::Options::default();
-    opts.parity = match args.parity {
-        ParityArg::Repair => recombine::ParityMode::Repair,
-        ParityArg::Error => recombine::ParityMode::Error,
+    let mut opts = crate::Options {
+        parity: match args.parity {
+            ParityArg::Repair => recombine::ParityMode::Repair,
+            ParityArg::Error => recombine::ParityMode::Error,
+        },
+        drop_volumes: args.drop_volumes,
+        verify: args.verify,
+        cross_field_weight: args.cross_field,
+        harmonic_cross_field: args.harmonic_cross_field,
+        refine: args.refine,
+        smooth: args.smooth,
+        topology: !args.no_topology,
+        optimize: !args.no_optimize,
+        allow_invalid: args.allow_invalid,
+        trace: trace_from_env(),
+        ..Default::default()
     };
-    opts.drop_volumes = args.drop_volumes;
-    opts.verify = args.verify;
-    opts.cross_field_weight = args.cross_field;
-    opts.harmonic_cross_field = args.harmonic_cross_field;
-    opts.refine = args.refine;
-    opts.smooth = args.smooth;
-    opts.topology = !args.no_topology;
-    opts.optimize = !args.no_optimize;
-    opts.allow_invalid = args.allow_invalid;
-    opts.trace = trace_from_env();
     let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
         let b = indicatif::ProgressBar::new(0);
         b.set_style(
