@@ -21,6 +21,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod arrays;
 #[cfg(feature = "cli")]
 pub mod cli;
 pub mod matching;
@@ -35,6 +36,9 @@ pub mod refine;
 pub mod validity;
 
 pub use mesh::{Mesh, MshFormat};
+
+/// The crate's version (the Python package reports the same).
+pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 pub use pipeline::{quadrangulate, Error, Options, Progress, ProgressFn, Report, Stage};
 
 /// Reads an MSH file (2.x or 4.x, ASCII or binary; `-` reads stdin).
