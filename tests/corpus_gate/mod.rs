@@ -22,11 +22,12 @@ pub fn corpus_dir() -> Option<PathBuf> {
     }
     static SAID: Once = Once::new();
     SAID.call_once(|| {
-        let _ = writeln!(
-            std::io::stderr(),
-            "skipped: tests over the real MSH corpus (not at {}; set BLOSSOMQUAD_CORPUS to run them)",
+        // One write, so that tests running in parallel cannot split the line.
+        let line = format!(
+            "skipped: tests over the real MSH corpus (not at {}; set BLOSSOMQUAD_CORPUS to run them)\n",
             dir.display()
         );
+        let _ = std::io::stderr().write_all(line.as_bytes());
     });
     None
 }
