@@ -2,6 +2,7 @@
 //! with a clear reason: volume meshes without `drop_volumes`), passes the invariant check and
 //! the matching certificates, and survives a write/read round trip.
 
+mod corpus_gate;
 mod gmsh_gate;
 
 use std::path::PathBuf;
@@ -9,26 +10,10 @@ use std::path::PathBuf;
 use blossomquad::mesh::etype;
 use blossomquad::msh;
 use blossomquad::recombine::{check_invariants, recombine, RecombineError, RecombineOptions};
+use corpus_gate::corpus_dir;
 
 /// Number of `.msh` files at the top level of the corpus (SOURCES.md lists them).
 const CORE_FILES: usize = 19;
-
-/// `None` (with one printed line) when the corpus is not beside the crate.
-fn corpus_dir() -> Option<PathBuf> {
-    let dir = std::env::var_os("BLOSSOMQUAD_CORPUS")
-        .map(PathBuf::from)
-        .unwrap_or_else(|| {
-            PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/real-msh")
-        });
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    println!(
-        "skipped: the real MSH corpus is not at {} (set BLOSSOMQUAD_CORPUS to run this test)",
-        dir.display()
-    );
-    None
-}
 
 /// Empty when the corpus is absent.
 fn core_files() -> Vec<PathBuf> {

@@ -39,23 +39,12 @@ pub fn test_size(fixture: &str) -> f64 {
     }
 }
 
-/// The real-world MSH corpus: `$BLOSSOMQUAD_CORPUS`, else `<crate>/../shared/corpus/real-msh`.
-/// `None`, after printing one line saying the tests that need it are skipped, when neither
-/// exists (a clone with nothing beside it); CI has it.
-pub fn corpus_dir() -> Option<PathBuf> {
-    let dir = match std::env::var_os("BLOSSOMQUAD_CORPUS") {
-        Some(dir) => PathBuf::from(dir),
-        None => repo_dir().join("../shared/corpus/real-msh"),
-    };
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    println!(
-        "skipped: the real MSH corpus is not at {} (set BLOSSOMQUAD_CORPUS to run this test)",
-        dir.display()
-    );
-    None
-}
+#[path = "../corpus_gate/mod.rs"]
+mod corpus_gate;
+/// The real-world MSH corpus, `None` (one printed line per test binary) when absent: see
+/// `tests/corpus_gate`.
+#[allow(unused_imports)] // not every test binary uses it
+pub use corpus_gate::corpus_dir;
 
 /// The `.msh` files directly inside `dir`, sorted.
 pub fn msh_files(dir: &Path) -> Vec<PathBuf> {

@@ -3,27 +3,17 @@
 #![allow(dead_code)]
 
 use std::collections::{BTreeMap, BTreeSet};
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
 use blossomquad::mesh::{Mesh, MshFormat, MshVersion};
 
-/// The real-MSH corpus: `$BLOSSOMQUAD_CORPUS`, else `<manifest>/../shared/corpus/real-msh`;
-/// `None` (with one printed line saying the test is skipped) when neither exists.
-pub fn corpus_dir() -> Option<PathBuf> {
-    let dir = match std::env::var_os("BLOSSOMQUAD_CORPUS") {
-        Some(p) => PathBuf::from(p),
-        None => Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/corpus/real-msh"),
-    };
-    if dir.is_dir() {
-        return Some(dir);
-    }
-    println!(
-        "skipped: the real MSH corpus is not at {} (set BLOSSOMQUAD_CORPUS to run this test)",
-        dir.display()
-    );
-    None
-}
+#[path = "../corpus_gate/mod.rs"]
+mod corpus_gate;
+/// The real-MSH corpus, `None` (one printed line per test binary) when absent: see
+/// `tests/corpus_gate`.
+#[allow(unused_imports)] // not every test binary uses it
+pub use corpus_gate::corpus_dir;
 
 /// Every readable corpus file (core + extras), sorted.
 /// Empty when the corpus is absent (see [`corpus_dir`]).
