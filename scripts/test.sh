@@ -10,3 +10,15 @@ source scripts/ensure_gmsh.sh
 echo "scripts/test.sh: using $(command -v gmsh) (Gmsh $(gmsh --version 2>&1))" >&2
 
 cargo test --release "$@"
+
+# The Python package (python/): built and installed by pip into a venv under target/, then
+# its tests. Skipped only when arguments select part of the Rust suite.
+if [ $# -eq 0 ]; then
+    venv=target/py-venv
+    if [ ! -x "$venv/bin/python" ]; then
+        python3 -m venv --system-site-packages "$venv"
+    fi
+    "$venv/bin/python" -m pip install -q --disable-pip-version-check numpy pytest meshio "gmsh==4.15.2"
+    CARGO_TARGET_DIR="$PWD/target/python" "$venv/bin/python" -m pip install -q --disable-pip-version-check ./python
+    PATH="$PWD/$venv/bin:$PATH" "$venv/bin/python" -m pytest -q python/tests
+fi

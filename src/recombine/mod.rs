@@ -298,7 +298,7 @@ pub struct RecombineReport {
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum RecombineError {
     /// Volume elements are present (recombining their boundary would break conformity).
-    #[error("the mesh has {count} volume elements (volumes {}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone", list_tags(.volumes))]
+    #[error("the mesh has {count} volume elements (volumes {}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone (--drop-volumes)", list_tags(.volumes))]
     VolumeElements {
         /// Number of volume elements.
         count: usize,

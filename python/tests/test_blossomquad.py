@@ -1,0 +1,292 @@
+"""The Python package: the command it installs, files, arrays and Gmsh's in-memory model.
+
+Run with ``pytest python/tests`` after ``pip install ./python`` (scripts/test.sh does both).
+"""
+
+import os
+import re
+import subprocess
+import threading
+
+import numpy as np
+import pytest
+
+import blossomquad
+
+REPO = os.path.abspath(os.path.join(os.path.dirname(__file__), "..", ".."))
+RECTANGLE = os.path.join(REPO, "geo", "rectangle.msh")
+
+
+def test_version_is_the_crate_version():
+    with open(os.path.join(REPO, "Cargo.toml")) as f:
+        version = re.search(r'^version = "([^"]+)"', f.read(), re.M).group(1)
+    assert blossomquad.__version__ == version
+
+
+def test_error_is_a_value_error():
+    assert issubclass(blossomquad.Error, ValueError)
+
+
+# --- the command ---------------------------------------------------------------------
+
+
+def test_the_installed_command_runs_the_cli_with_its_exit_codes(tmp_path):
+    out = tmp_path / "q.msh"
+    ok = subprocess.run(["blossomquad", RECTANGLE, "-o", str(out), "--quiet"])
+    assert ok.returncode == 0 and out.exists()
+    bad = subprocess.run(
+        ["blossomquad", str(tmp_path / "missing.msh"), "-o", str(tmp_path / "x.msh")],
+        capture_output=True,
+        text=True,
+    )
+    assert bad.returncode == 1
+    assert bad.stderr.count("\n") == 1 and "missing.msh" in bad.stderr
+    usage = subprocess.run(["blossomquad", "--bogus"], capture_output=True, text=True)
+    assert usage.returncode == 2
+    assert subprocess.run(["blossomquad", "--version"], capture_output=True).returncode == 0
+
+
+# --- files ---------------------------------------------------------------------------
+
+
+def test_recombine_file_writes_quads_and_returns_the_report(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    out = tmp_path / "q.msh"
+    calls = []
+    report = blossomquad.recombine_file(
+        RECTANGLE, out, progress=lambda s, d, t: calls.append((s, d, t))
+    )
+    assert report["recombine"]["surfaces"][0]["quads_out"] > 0
+    assert "times" in report and report["invalid"] == []
+    assert {c[0] for c in calls} >= {"recombine", "optimize"}
+    m = meshio.read(out)
+    kinds = {c.type for c in m.cells}
+    assert "quad" in kinds and "triangle" not in kinds
+
+
+def test_recombine_file_errors_are_one_line_and_write_nothing(tmp_path):
+    bad = tmp_path / "bad.msh"
+    bad.write_text("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 2\n")
+    out = tmp_path / "out.msh"
+    with pytest.raises(blossomquad.Error) as e:
+        blossomquad.recombine_file(bad, out)
+    assert "bad.msh" in str(e.value) and "\n" not in str(e.value)
+    assert not out.exists()
+    with pytest.raises(blossomquad.Error, match="overwrite the input"):
+        blossomquad.recombine_file(RECTANGLE, RECTANGLE)
+    with pytest.raises(TypeError, match="unknown option"):
+        blossomquad.recombine_file(RECTANGLE, out, smoothing=3)
+    with pytest.raises(ValueError, match="parity"):
+        blossomquad.recombine_file(RECTANGLE, out, parity="fix")
+
+
+# --- arrays --------------------------------------------------------------------------
+
+
+def grid(n=6, hole=True):
+    """An n x n grid of unit squares as triangles, the middle square removed."""
+    pts = np.array([[i, j, 0.0] for j in range(n + 1) for i in range(n + 1)])
+    tris = []
+    for j in range(n):
+        for i in range(n):
+            if hole and (i, j) == (n // 2, n // 2):
+                continue
+            a = j * (n + 1) + i
+            tris += [[a, a + 1, a + n + 2], [a, a + n + 2, a + n + 1]]
+    return pts, np.array(tris)
+
+
+def check_quads(pts, quads, n_in):
+    assert quads.dtype == np.int64 and quads.shape[1] == 4
+    assert quads.min() >= 0 and quads.max() < len(pts)
+    for q in quads:
+        p = pts[q][:, :2]
+        for k in range(4):
+            a = p[(k + 1) % 4] - p[k]
+            b = p[(k + 3) % 4] - p[k]
+            # every corner strictly convex, counterclockwise like the triangles
+            assert a[0] * b[1] - a[1] * b[0] > 1e-12
+
+
+def test_quadrangulate_arrays_keeps_boundary_points_and_gives_valid_quads():
+    pts, tris = grid()
+    out_pts, quads = blossomquad.quadrangulate(pts, tris)
+    assert len(out_pts) == len(pts)
+    check_quads(out_pts, quads, len(pts))
+    boundary = [i for i, p in enumerate(pts) if p[0] in (0, 6) or p[1] in (0, 6)]
+    assert np.array_equal(out_pts[boundary], pts[boundary])
+
+
+def test_an_odd_surface_gets_new_points_appended_and_fixed_points_stay():
+    pts, tris = grid()
+    tris = tris[:-1]
+    out_pts, quads = blossomquad.quadrangulate(pts[:, :2], tris, fixed=[8])
+    assert len(out_pts) > len(pts)
+    assert np.array_equal(out_pts[8], pts[8])
+    check_quads(out_pts, quads, len(pts))
+
+
+def test_meshio_data_works_directly(tmp_path):
+    meshio = pytest.importorskip("meshio")
+    m = meshio.read(RECTANGLE)
+    pts, quads = blossomquad.quadrangulate(m.points, m.cells_dict["triangle"])
+    assert len(quads) > 0
+    check_quads(pts, quads, len(m.points))
+
+
+@pytest.mark.parametrize(
+    "points,triangles,message",
+    [
+        (np.zeros((4, 4)), [[0, 1, 2]], "shape"),
+        (np.zeros((4, 3)), [[0, 1]], "shape"),
+        (np.zeros((4, 3)), [[0.0, 1.0, 2.0]], "integer"),
+        (np.array([[0, 0, 0], [1, 0, 0], [0, np.nan, 0]]), [[0, 1, 2]], "finite"),
+        (np.array([["a", "b", "c"]]), [[0, 0, 0]], "numbers"),
+        (np.eye(3), [[0, 1, 7]], "refers to point 7"),
+        (np.eye(3), [[0, 1, 1]], "twice"),
+    ],
+)
+def test_bad_arrays_raise_value_error_in_words(points, triangles, message):
+    with pytest.raises(ValueError, match=message):
+        blossomquad.quadrangulate(points, triangles)
+
+
+def test_the_gil_is_released_while_the_work_runs():
+    pts, tris = grid(n=120, hole=False)
+    done = threading.Event()
+    ticks = 0
+
+    def work():
+        blossomquad.quadrangulate(pts, tris)
+        done.set()
+
+    t = threading.Thread(target=work)
+    t.start()
+    while not done.is_set():
+        ticks += 1
+        done.wait(0.001)
+    t.join()
+    assert ticks > 5, "the main thread could not run while the mesh was recombined"
+
+
+# --- Gmsh's in-memory model ----------------------------------------------------------
+
+gmsh = pytest.importorskip("gmsh") if os.environ.get("BLOSSOMQUAD_ALLOW_NO_GMSH") else None
+if gmsh is None:
+    import gmsh  # CI installs it: a missing module fails loudly
+
+
+@pytest.fixture
+def model():
+    gmsh.initialize(["-v", "0"])
+    gmsh.option.setNumber("General.Terminal", 0)
+    gmsh.model.add("plate")
+    yield gmsh.model
+    gmsh.finalize()
+
+
+def plate_with_hole(size):
+    occ = gmsh.model.occ
+    box = occ.addRectangle(0, 0, 0, 2, 1)
+    hole = occ.addDisk(1, 0.5, 0, 0.2, 0.2)
+    occ.cut([(2, box)], [(2, hole)])
+    occ.synchronize()
+    gmsh.model.addPhysicalGroup(2, [1], 7, name="plate")
+    curves = [t for _, t in gmsh.model.getEntities(1)]
+    gmsh.model.addPhysicalGroup(1, curves, 8, name="edges")
+    gmsh.option.setNumber("Mesh.MeshSizeMax", size)
+    gmsh.model.mesh.generate(2)
+
+
+def element_counts(dim):
+    counts = {}
+    for _, tag in gmsh.model.getEntities(dim):
+        types, tags, _ = gmsh.model.mesh.getElements(dim, tag)
+        for t, et in zip(types, tags):
+            counts[int(t)] = counts.get(int(t), 0) + len(et)
+    return counts
+
+
+def test_recombine_gmsh_turns_the_open_model_into_quads(model, tmp_path):
+    plate_with_hole(0.1)
+    curve_nodes_before = {}
+    for _, c in gmsh.model.getEntities(1):
+        tags, coords, _ = gmsh.model.mesh.getNodes(1, c, includeBoundary=True)
+        curve_nodes_before.update(zip(tags, coords.reshape(-1, 3).tolist()))
+    tri_tags = set(gmsh.model.mesh.getElements(2, 1)[1][0])
+    report = blossomquad.recombine_gmsh()
+    assert report["invalid"] == []
+    counts = element_counts(2)
+    assert 2 not in counts and counts.get(3, 0) > 0, counts
+    quad_tags = set(gmsh.model.mesh.getElements(2, 1)[1][0])
+    assert quad_tags <= tri_tags, "quads take tags of the triangles they replace"
+    # curve nodes kept, unmoved
+    for tag, xyz in curve_nodes_before.items():
+        coord, _, _, _ = gmsh.model.mesh.getNode(tag)
+        assert np.allclose(coord, xyz)
+    # physical groups survive, and every element is valid for a solver
+    assert gmsh.model.getPhysicalName(2, 7) == "plate"
+    assert set(gmsh.model.getPhysicalGroups()) == {(2, 7), (1, 8)}
+    types, tags, _ = gmsh.model.mesh.getElements(2, 1)
+    sj = gmsh.model.mesh.getElementQualities(tags[0], "minSJ")
+    assert min(sj) > 0
+    # what gmsh writes reads back with the quads
+    out = str(tmp_path / "plate.msh")
+    gmsh.write(out)
+    gmsh.clear()
+    gmsh.open(out)
+    assert 2 not in element_counts(2)
+
+
+def test_recombine_gmsh_repairs_parity_on_the_model_curves(model):
+    occ = gmsh.model.occ
+    occ.addRectangle(0, 0, 0, 1, 1)
+    occ.synchronize()
+    # 3 + 3 + 3 + 4 = 13 boundary segments: an odd number of triangles
+    for i, (_, c) in enumerate(gmsh.model.getEntities(1)):
+        gmsh.model.mesh.setTransfiniteCurve(c, 5 if i == 0 else 4)
+    gmsh.model.mesh.generate(2)
+    n_tris = sum(len(t) for t in gmsh.model.mesh.getElements(2, 1)[1])
+    assert n_tris % 2 == 1
+    max_node = gmsh.model.mesh.getMaxNodeTag()
+    lines_before = element_counts(1).get(1, 0)
+    report = blossomquad.recombine_gmsh()
+    assert report["recombine"]["parity_splits"], report["log"]
+    assert 2 not in element_counts(2)
+    assert gmsh.model.mesh.getMaxNodeTag() > max_node
+    assert element_counts(1).get(1, 0) > lines_before, "a split curve gets its new line"
+    types, tags, _ = gmsh.model.mesh.getElements(2, 1)
+    assert min(gmsh.model.mesh.getElementQualities(tags[0], "minSJ")) > 0
+
+
+def test_recombine_gmsh_errors_leave_the_model_unchanged(model):
+    gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+    gmsh.model.occ.synchronize()
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
+    gmsh.model.mesh.generate(3)
+    before = element_counts(3)
+    with pytest.raises(blossomquad.Error, match="volume"):
+        blossomquad.recombine_gmsh()
+    assert element_counts(3) == before
+    blossomquad.recombine_gmsh(drop_volumes=True)
+    assert 2 not in element_counts(2)
+
+
+def test_recombine_gmsh_keeps_periodic_curves_periodic(model):
+    gmsh.model.occ.addRectangle(0, 0, 0, 1, 1)
+    gmsh.model.occ.synchronize()
+    left = gmsh.model.getEntitiesInBoundingBox(-0.1, -0.1, -0.1, 0.1, 1.1, 0.1, 1)[0][1]
+    right = gmsh.model.getEntitiesInBoundingBox(0.9, -0.1, -0.1, 1.1, 1.1, 0.1, 1)[0][1]
+    shift = [1, 0, 0, 1, 0, 1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1]
+    gmsh.model.mesh.setPeriodic(1, [right], [left], shift)
+    gmsh.option.setNumber("Mesh.MeshSizeMax", 0.1)
+    gmsh.model.mesh.generate(2)
+    before = gmsh.model.mesh.getPeriodicNodes(1, right)
+    blossomquad.recombine_gmsh()
+    master, slaves, masters, affine = gmsh.model.mesh.getPeriodicNodes(1, right)
+    assert master == left and len(slaves) == len(before[1]) > 0
+    for s, m in zip(slaves, masters):
+        xs = gmsh.model.mesh.getNode(s)[0]
+        xm = gmsh.model.mesh.getNode(m)[0]
+        assert np.allclose(xs, xm + [1, 0, 0])
+    assert 2 not in element_counts(2)
