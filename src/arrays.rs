@@ -146,19 +146,9 @@ pub fn surface_mesh(
 
     let tag = |i: usize| i as u64 + 1;
     let bbox_of = |ids: &mut dyn Iterator<Item = usize>| {
-        let mut b = [
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-            f64::NEG_INFINITY,
-        ];
+        let mut b = crate::msh::EMPTY_BOX;
         for i in ids {
-            for d in 0..3 {
-                b[d] = b[d].min(points[i][d]);
-                b[d + 3] = b[d + 3].max(points[i][d]);
-            }
+            crate::msh::grow_box(&mut b, &points[i]);
         }
         b
     };

@@ -77,6 +77,7 @@ mod write;
 use std::io::{Read, Write};
 use std::path::Path;
 
+pub(crate) use derive::{grow_box, EMPTY_BOX};
 pub use error::{ErrorKind, Location, MshError};
 pub use summary::{summary, GroupSummary, MeshSummary, SurfaceSummary};
 pub use write::write_warnings;
