@@ -120,6 +120,55 @@ fn validity(m: &Mesh, normal: DVec3) -> Validity {
     v
 }
 
+/// The best worst η the input `m` allows: a wall node (on an edge of a single triangle)
+/// whose triangles' angles sum to α < 90° never moves and keeps its wall edges, so every quad
+/// corner there is at most α and every quad there has η ≤ α / 90° (eq. 3); 1 without such a
+/// node.
+fn input_bound(m: &Mesh) -> f64 {
+    let index = m.node_index();
+    let mut tris = Vec::new();
+    for b in m
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == etype::TRI3)
+    {
+        for e in 0..b.len() {
+            let el = b.element(e);
+            tris.push([el[0], el[1], el[2]]);
+        }
+    }
+    let at = |t: u64| {
+        let r = index.get(t).expect("node exists");
+        DVec3::from_array(m.node_blocks[r.block as usize].coords[r.index as usize])
+    };
+    let mut edges: std::collections::HashMap<(u64, u64), usize> = Default::default();
+    for t in &tris {
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            *edges.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    let wall: HashSet<u64> = edges
+        .iter()
+        .filter(|(_, &n)| n == 1)
+        .flat_map(|(&(a, b), _)| [a, b])
+        .collect();
+    let mut angle: std::collections::HashMap<u64, f64> = Default::default();
+    for t in &tris {
+        for k in 0..3 {
+            if wall.contains(&t[k]) {
+                let p = at(t[k]);
+                let a = (at(t[(k + 1) % 3]) - p).angle_between(at(t[(k + 2) % 3]) - p);
+                *angle.entry(t[k]).or_default() += a;
+            }
+        }
+    }
+    angle
+        .values()
+        .map(|&a| (a / std::f64::consts::FRAC_PI_2).min(1.0))
+        .fold(1.0, f64::min)
+}
+
 /// Meshes the island domain (`seed`) at `size` into `dir`.
 fn island_mesh(dir: &Path, size: f64, seed: u64) -> PathBuf {
     let out = dir.join(format!("islands-{seed}-{size}.msh"));
@@ -142,8 +191,10 @@ fn island_mesh(dir: &Path, size: f64, seed: u64) -> PathBuf {
 /// and checks what the optimization must keep: no quad invalid that the matching did not
 /// leave invalid, no edge of length 0, and η ≥ 0.2 on every quad that can reach it (its
 /// static corners allow it and it shares no node with a quad the matching left invalid,
-/// which pins its free nodes). Returns (η_w, η̄) over the quads outside the matching's
-/// invalid ones.
+/// which pins its free nodes), and η_w ≥ 0.2 over those quads unless the input has a wall
+/// corner narrower than 18°, where no quad can reach it (then η_w reaches that corner's
+/// bound, [`input_bound`]). Returns (η_w, η̄) over the quads outside the matching's invalid
+/// ones.
 fn islands_stay_valid(size: f64, seed: u64) -> (f64, f64) {
     let dir = tempfile::tempdir().expect("temp dir");
     let input = island_mesh(dir.path(), size, seed);
@@ -185,6 +236,12 @@ fn islands_stay_valid(size: f64, seed: u64) -> (f64, f64) {
     let worst = after.good.iter().map(|g| g.1).fold(f64::INFINITY, f64::min);
     let mean = after.good.iter().map(|g| g.1).sum::<f64>() / after.good.len() as f64;
     assert!(mean > 0.75, "seed {seed}: mean eta {mean}");
+    // issue 11: eta_w >= 0.2 wherever the input allows it (up to rounding of the angles)
+    let allowed = 0.2_f64.min(input_bound(&read(&input)));
+    assert!(
+        worst >= allowed - 1e-6,
+        "seed {seed}: eta_w {worst} below {allowed} (0.2, or the input's narrowest wall corner)"
+    );
     for out in [&matched, &optimized] {
         let rep = check_mesh(&input, out, &[]);
         assert!(rep.ok, "{}", rep.report);
@@ -199,10 +256,12 @@ fn islands_stay_valid(size: f64, seed: u64) -> (f64, f64) {
 }
 
 /// ~1.3e4 triangles; on seed 1 the optimizer used to make a quad invalid (a straight
-/// corner at an island wall node, η = 0 up to float noise).
+/// corner at an island wall node, η = 0 up to float noise). Seeds 1 and 2 used to end with
+/// η_w 0.191 and 0.010: a wall node at 163° (179°) whose single quad held both its wall
+/// edges; seed 2 has a 17.7° wall corner (η_w bound 0.196).
 #[test]
 fn the_island_domain_at_1e4_triangles_stays_valid_after_optimization() {
-    for seed in [1, 5, 11] {
+    for seed in [1, 2, 5, 11] {
         islands_stay_valid(1.0, seed);
     }
 }

@@ -19,8 +19,11 @@
 //! Besides E, a fixed node left with a corner wider than [`MAX_FIXED_CORNER`] (e.g. a
 //! boundary node on a straight wall with a single quad, a straight corner no smoothing can
 //! open), or given an extra quad with corners narrower than [`MIN_FIXED_CORNER`], costs
-//! [`WIDE_CORNER_PENALTY`]: the search removes such corners (they set η_w) and never creates
-//! one.
+//! [`WIDE_CORNER_PENALTY`]: the search removes such corners (they set η_w) and creates one
+//! only in a sequence that lowers E by more than the penalty. From a quad with a node whose corners are that wide, the search goes deeper
+//! ([`WIDE_DEPTH`] rotations) and its prefixes may raise the energy by up to [`WIDE_FLOOR`]
+//! (the whole sequence must still lower it): the first rotations make room for the quad the
+//! wide corner needs.
 //!
 //! The quads a sequence rewrites must be valid (signed η above [`MIN_ETA`]) at the current
 //! node positions; if some are not, the free nodes of those are moved to the centroid of
@@ -31,8 +34,9 @@
 //! quads they replace, so orientation is kept; fixed nodes never move, and no node or quad
 //! appears or disappears.
 //!
-//! Cost: O(1) per candidate sequence (at most (2·7)^depth of them per start edge), one sweep
-//! over the edges per round, so O(n) per round for a fixed depth.
+//! Cost: O(1) per candidate sequence (at most (2·7)^depth of them per start edge, depth 3
+//! only from the few quads at a wide corner), one sweep over the edges per round, so O(n)
+//! per round for a fixed depth.
 
 use super::local::{slot, Local, NONE};
 use super::valid;
@@ -53,9 +57,23 @@ pub(crate) const MIN_FIXED_CORNER: f64 = 65.0 / 180.0 * std::f64::consts::PI;
 const RELOCATED_MIN_ETA: f64 = 0.2;
 
 /// Quad rings around the focus within which [`Topo::near`] builds the quad neighbours: a
-/// search from a focus quad rewrites quads within 3 rings of the focus (depth 2) and walks
-/// the fans of their nodes; one more ring for margin.
-const REACH_RINGS: usize = 4;
+/// search from a focus quad rewrites quads within 3 rings of the focus (depth 2; 4 for the
+/// [`WIDE_DEPTH`] searches from a wide corner) and walks the fans of their nodes; one more
+/// ring for those fans.
+const REACH_RINGS: usize = WIDE_DEPTH + 2;
+
+/// Longest rotation sequence searched from a quad with a node of [`Topo::wide_corner`]
+/// (measured on the island domain at 1e4 triangles, seeds 1, 2, 11: η_w 0.191, 0.010, 0.262
+/// with depth 2 or with prefixes that may not raise the energy; 0.263, 0.196, 0.330 with
+/// both this depth and [`WIDE_FLOOR`]).
+const WIDE_DEPTH: usize = 3;
+
+/// How much the prefixes of a sequence searched from a wide corner may raise the energy:
+/// one narrow corner ([`WIDE_CORNER_PENALTY`]) and a few valence defects. A straight wall
+/// node whose single quad has both its wall edges has neighbours on the wall with two quads
+/// each; rotating an edge towards it takes a quad from such a neighbour (a straight corner
+/// there), so the sequence must first give that neighbour a third quad (narrow corners).
+const WIDE_FLOOR: i32 = WIDE_CORNER_PENALTY + 4;
 
 /// Energy of a fixed node whose corners would be wider than [`MAX_FIXED_CORNER`].
 const WIDE_CORNER_PENALTY: i32 = 16;
@@ -135,7 +153,7 @@ impl<'a> Topo<'a> {
 
     /// [`Topo::new`] for a search that only starts from quads with a node in `focus`: the
     /// quad neighbours and manifold checks are computed only for the quads with a node
-    /// within [`REACH_RINGS`] quad rings of it (all a search of depth ≤ 2 reads), the rest
+    /// within [`REACH_RINGS`] quad rings of it (all a search of depth ≤ 3 reads), the rest
     /// is left unknown ([`NONE`] neighbours).
     fn near(l: &'a mut Local, focus: Option<&[bool]>) -> Self {
         l.build_adjacency();
@@ -272,6 +290,15 @@ impl<'a> Topo<'a> {
             }
             f(q);
         }
+    }
+
+    /// True when `v` is a fixed node whose quads' corners are wider than
+    /// [`MAX_FIXED_CORNER`] on average.
+    fn wide_corner(&self, v: u32) -> bool {
+        let vi = v as usize;
+        self.l.fixed[vi]
+            && self.val[vi] > 0
+            && self.angle[vi] / f64::from(self.val[vi]) > MAX_FIXED_CORNER
     }
 
     /// Energy of node `v` at valence `d`.
@@ -608,8 +635,16 @@ pub(crate) fn cleanup(
             if !near {
                 continue;
             }
+            // quality: around a fixed node whose single quad spans too wide a corner, a
+            // longer sequence whose first steps may raise the energy (see WIDE_DEPTH)
+            let wide = quad.iter().any(|&w| t.wide_corner(w));
+            let (d, floor) = if wide {
+                (depth.max(WIDE_DEPTH), -WIDE_FLOOR)
+            } else {
+                (depth, 0)
+            };
             t.log.clear();
-            let found = t.search([q, NONE], 0, depth, 0);
+            let found = t.search([q, NONE], 0, d, floor);
             if let Some(n) = found {
                 applied += 1;
                 rotations += n;

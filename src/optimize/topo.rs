@@ -17,8 +17,9 @@
 //!    valences (defect up by 2 at most), when it lifts a bad pair (worst η < 0.2) by more
 //!    than 0.2 (e.g. a quad with two boundary edges in line, a straight angle).
 //! 4. **Valence cleanup** ([`cleanup`](super::cleanup)): sequences of up to
-//!    [`CLEANUP_DEPTH`] edge rotations that together lower the valence defect (moving 3-5
-//!    pairs until they cancel) or open a fixed node's flat corner.
+//!    [`CLEANUP_DEPTH`] edge rotations (three from a fixed node's too-wide corner) that
+//!    together lower the valence defect (moving 3-5 pairs until they cancel) or open a fixed
+//!    node's flat corner.
 //!
 //! Quad-vertex merge never leaves a fixed node with a corner wider than
 //! [`MAX_FIXED_CORNER`] (it cannot move to open it: measured, such merges set η_w on the CAD
