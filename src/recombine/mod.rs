@@ -171,6 +171,16 @@ pub use graph::{
     HOPELESS_COST, MAX_REAL_COST,
 };
 pub use invariants::check_invariants;
+
+/// A copy of `mesh` without the triangles that repeat another triangle's three nodes on
+/// the same surface (a triangle and its reverse cancel: a zero-area pocket such as Gmsh
+/// writes at a degenerate apex; a copy is kept where it fills the hole the removal leaves;
+/// copies in the same orientation keep one), with one line per surface saying what went;
+/// `None` when there are none. [`recombine`] runs it first; [`crate::quadrangulate`] runs
+/// it on its input, so every later check compares with the surface without them.
+pub fn drop_repeated_triangles(mesh: &Mesh) -> Option<(Mesh, Vec<String>)> {
+    input::drop_repeated_triangles(mesh)
+}
 pub use parity::OddRegion;
 
 /// What to do with surfaces that have an odd number of triangles.
@@ -335,7 +345,7 @@ pub enum RecombineError {
         elements: usize,
     },
     /// A surface element no recombination can turn into valid quads (a repeated node, a
-    /// non-finite or overflowing coordinate, zero area, a duplicate, a non-manifold edge, an
+    /// non-finite or overflowing coordinate, zero area, a non-manifold edge, an
     /// inconsistent orientation, a fold).
     #[error("surface {surface}, element {element}: {problem}; the surface cannot be recombined into valid quads")]
     InvalidElement {
@@ -453,8 +463,16 @@ pub fn recombine(
     opts: &RecombineOptions,
 ) -> Result<RecombineReport, RecombineError> {
     let start = Instant::now();
-    let before = opts.verify.then(|| mesh.clone());
     let mut report = RecombineReport::default();
+    // repeated triangles (zero-area pockets) go first: the checks below compare with the
+    // mesh without them
+    if let Some((cleaned, lines)) = input::drop_repeated_triangles(mesh) {
+        *mesh = cleaned;
+        report
+            .log
+            .extend(lines.into_iter().map(|l| format!("warning: {l}")));
+    }
+    let before = opts.verify.then(|| mesh.clone());
     check_input(mesh, opts, &mut report)?;
 
     // Topology, parity, matching. A surface whose triangles are enclosed by quads so that
