@@ -55,7 +55,11 @@
 //!    to it (through chains of `$Periodic` curve links), at their chord midpoints (which
 //!    correspond through an affine transform), and the new node pairs are added to the curve
 //!    links and to the surface links that pair the segments' ends; the group flips the
-//!    regions of all those segments. A segment bordered by a quad (of another surface:
+//!    regions of all those segments. When the segment's curve is not known (MSH 2.2 without
+//!    line elements, where `$Periodic` has surface links only), a segment that is an edge
+//!    of a periodic slave or master surface is split with its images through the surface
+//!    links (which list the boundary nodes too) the same way; a segment whose image is not
+//!    an edge there is not split. A segment bordered by a quad (of another surface:
 //!    `Layers`/`Recombine` faces) is split through the quad chord that starts there: every
 //!    edge reached by stepping to the opposite edge of each quad is split at its midpoint,
 //!    each quad of the chord becomes two quads, and the triangles at the chord's far end
@@ -599,15 +603,17 @@ fn parity_stage(
         ));
     }
     for s in &splits {
-        let place = match (s.curve, s.surfaces.is_empty()) {
-            (Some(c), _) => format!("curve {c}"),
-            (None, true) => "a quad strip".into(),
-            (None, false) => "a boundary without curve data".into(),
+        let place = match s.curve {
+            Some(c) => format!("curve {c}"),
+            None => "a boundary without curve data".into(),
         };
         report.log.push(if s.surfaces.is_empty() {
             format!(
-                "parity repair: split segment {}-{} of {place} at its midpoint (new node {}) with the split above (its periodic image or the quad strip it runs through)",
-                s.segment.0, s.segment.1, s.new_node
+                "parity repair: split segment {}-{}{} at its midpoint (new node {}) with the split above (its periodic image or the quad strip it runs through)",
+                s.segment.0,
+                s.segment.1,
+                s.curve.map(|c| format!(" of curve {c}")).unwrap_or_default(),
+                s.new_node
             )
         } else {
             format!(
