@@ -277,6 +277,9 @@ fn oriented(s: [u64; 3], sign: i8) -> [u64; 3] {
 /// One 3-node triangle of a surface: (surface, sorted nodes, block, index in block, sign).
 type TriRef = (i32, [u64; 3], u32, u32, i8);
 
+/// Per (surface, undirected edge), the directed uses of that edge by remaining triangles.
+type EdgeUses = std::collections::HashMap<(i32, (u64, u64)), Vec<(u64, u64)>>;
+
 /// Which triangles of `mesh` repeat another triangle's three nodes on the same surface and
 /// are to be removed (see [`drop_repeated_triangles`]): per element block, the indices to
 /// remove, and one line per surface saying what goes. Empty lines when there are none.
@@ -338,8 +341,7 @@ fn repeated_triangles(mesh: &Mesh) -> (Vec<Vec<u32>>, Vec<String>) {
     cancelled.sort_by_key(|&(i, _)| (all[i].2, all[i].3));
     let key = |a: u64, b: u64| (a.min(b), a.max(b));
     // directed uses of the cancelled sets' edges by the remaining triangles
-    let mut uses: std::collections::HashMap<(i32, (u64, u64)), Vec<(u64, u64)>> =
-        std::collections::HashMap::new();
+    let mut uses: EdgeUses = EdgeUses::new();
     for &(i, _) in &cancelled {
         let (s, n) = (all[i].0, all[i].1);
         for k in 0..3 {
@@ -360,20 +362,19 @@ fn repeated_triangles(mesh: &Mesh) -> (Vec<Vec<u32>>, Vec<String>) {
     }
     for &(i, j) in &cancelled {
         let (s, n) = (all[i].0, all[i].1);
-        let fits =
-            |sign: i8, uses: &std::collections::HashMap<(i32, (u64, u64)), Vec<(u64, u64)>>| {
-                let t = oriented(n, sign);
-                let mut shared = 0;
-                for k in 0..3 {
-                    let (a, b) = (t[k], t[(k + 1) % 3]);
-                    match uses.get(&(s, key(a, b))).map(Vec::as_slice) {
-                        None | Some([]) => {}
-                        Some([(p, q)]) if (*p, *q) == (b, a) => shared += 1,
-                        _ => return false,
-                    }
+        let fits = |sign: i8, uses: &EdgeUses| {
+            let t = oriented(n, sign);
+            let mut shared = 0;
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                match uses.get(&(s, key(a, b))).map(Vec::as_slice) {
+                    None | Some([]) => {}
+                    Some([(p, q)]) if (*p, *q) == (b, a) => shared += 1,
+                    _ => return false,
                 }
-                shared > 0
-            };
+            }
+            shared > 0
+        };
         let first = all[i].4;
         if let Some(sign) = [first, -first].into_iter().find(|&g| fits(g, &uses)) {
             if let Some(k) = (i..j).find(|&k| all[k].4 == sign) {
@@ -465,8 +466,8 @@ pub(crate) fn drop_repeated_triangles(mesh: &Mesh) -> Option<(Mesh, Vec<String>)
         }
         let k = b.nodes_per_element();
         let mut w = 0;
-        for r in 0..b.len() {
-            if gone[r] {
+        for (r, &g) in gone.iter().enumerate() {
+            if g {
                 continue;
             }
             b.tags[w] = b.tags[r];
