@@ -286,7 +286,8 @@ type EdgeUses = std::collections::HashMap<(i32, (u64, u64)), Vec<(u64, u64)>>;
 fn repeated_triangles(mesh: &Mesh) -> (Vec<Vec<u32>>, Vec<String>) {
     let mut all: Vec<TriRef> = Vec::new();
     for (bi, b) in mesh.element_blocks.iter().enumerate() {
-        if b.entity_dim != 2 || b.element_type != etype::TRI3 {
+        // a malformed block (node count not 3 per element) is refused later, by name
+        if b.entity_dim != 2 || b.element_type != etype::TRI3 || b.nodes.len() != 3 * b.len() {
             continue;
         }
         for i in 0..b.len() {
