@@ -205,10 +205,21 @@ fn invalid_message(bad: &[BadQuad]) -> String {
 /// with the fallback when quads are not valid. On error `mesh` is unchanged.
 pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
     let input = std::mem::take(mesh);
-    let result = run_rounds(&input, opts);
+    // triangles repeating another's nodes (zero-area pockets) are removed once, up front:
+    // every check below compares with the input without them
+    let cleaned = recombine::drop_repeated_triangles(&input);
+    let (base, dropped) = match &cleaned {
+        Some((m, lines)) => (m, lines.clone()),
+        None => (&input, Vec::new()),
+    };
+    let result = run_rounds(base, opts);
     match result {
-        Ok((out, report)) => {
+        Ok((out, mut report)) => {
             *mesh = out;
+            report.log.splice(
+                0..0,
+                dropped.into_iter().map(|line| format!("warning: {line}")),
+            );
             Ok(report)
         }
         Err(e) => {

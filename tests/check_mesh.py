@@ -40,8 +40,13 @@ code. Checks (names as in the JSON report):
                     length L).
   orientation       every quad is oriented like the input triangles of its
                     surface: on a planar surface its normal agrees with the
-                    input's average normal; on a curved surface with the normal
-                    of the nearest input triangle.
+                    input's average normal; on a curved surface with the sum of
+                    the input surface's area-weighted normals at its nodes (the
+                    normal README's validity is measured about; faces with no input
+                    node, e.g. a fallback split's centre quad, use the normal of the
+                    input triangle nearest their centroid). (The nearest triangle
+                    alone is ill-defined on a thin tube: a quad across it has its
+                    centroid on the axis, as near to the far wall as to its own.)
 
   quad_valid        every output quad is valid, measured in 3D against the surface
                     normal of the input triangles it came from (those whose nodes are
@@ -569,13 +574,28 @@ def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, 
         rep.check("area", rel <= allowed, f"surface {surface}: area {area_in!r} -> {area_out!r} (rel {rel:.3e})")
         flipped = sum(1 for p in out_pts if dot(polygon_normal(p), axis) <= 0.0)
     else:
-        centroids = [tuple(sum(c[i] for c in p) / len(p) for i in range(3)) for p in in_pts]
-        finder = NearestTriangle(centroids, normals)
+        # area-weighted input normal at each input node of the surface
+        at_node = {}
+        for (_, f), n in zip(in_faces, normals):
+            for t in f:
+                at_node[t] = add(at_node.get(t, (0.0, 0.0, 0.0)), n)
+        finder = None
         flipped = 0
-        for p in out_pts:
-            c = tuple(sum(q[i] for q in p) / len(p) for i in range(3))
-            t = finder.nearest(c)
-            if t is None or dot(polygon_normal(p), normals[t]) <= 0.0:
+        for _, f in out_faces:
+            if not all(n in out.nodes for n in f):
+                continue
+            p = [out.nodes[n] for n in f]
+            ref = (0.0, 0.0, 0.0)
+            for t in f:
+                ref = add(ref, unit(at_node.get(t, (0.0, 0.0, 0.0))))
+            if norm(ref) == 0.0:
+                if finder is None:
+                    centroids = [tuple(sum(c[i] for c in q) / len(q) for i in range(3)) for q in in_pts]
+                    finder = NearestTriangle(centroids, normals)
+                c = tuple(sum(q[i] for q in p) / len(p) for i in range(3))
+                t = finder.nearest(c)
+                ref = normals[t] if t is not None else (0.0, 0.0, 0.0)
+            if dot(polygon_normal(p), ref) <= 0.0:
                 flipped += 1
     rep.check("orientation", flipped == 0,
               f"surface {surface} ({'planar' if planar else 'curved'}): {flipped} faces flipped or degenerate")

@@ -216,15 +216,52 @@ fn folded_triangles_are_refused() {
     assert_refused(&text, &["surface 1", "element 2", "folded", "triangle 1"]);
 }
 
-/// Two triangles with the same nodes (one reversed): every edge is then shared by three
-/// faces after recombination.
+/// Two triangles with the same nodes (one reversed) used to be refused (after
+/// recombination every edge of theirs was shared by three faces). As a surface they cancel;
+/// the first copy fills the hole their removal leaves (its edges have one neighbour each,
+/// run the other way), so it is kept, the reversed copy removed, and the grid recombined.
 #[test]
-fn duplicate_triangle_is_refused() {
+fn reversed_copy_of_a_triangle_is_removed() {
     let text = grid_text(0.0, 0.0, 1.0, &[], &["20 2 2 10 1 5 2 1"]);
-    assert_refused(
-        &text,
-        &["surface 1", "element 20", "same nodes", "triangle 1"],
+    assert_valid_planar_result(&text);
+    assert_eq!(quads_written(&text), 4, "the 8 grid triangles make 4 quads");
+}
+
+/// A zero-area pocket on an interior edge (a triangle and its reverse, on an edge the grid
+/// already uses twice, as Gmsh writes at a sharp cone's apex): both removed, since keeping
+/// either would put three faces on that edge.
+#[test]
+fn zero_area_pocket_is_removed() {
+    let text = grid_text(
+        0.0,
+        0.0,
+        1.0,
+        &["28 1.5 1.5 1"],
+        &["20 2 2 10 1 5 6 28", "21 2 2 10 1 6 5 28"],
     );
+    assert_valid_planar_result(&text);
+    assert_eq!(quads_written(&text), 4, "the 8 grid triangles make 4 quads");
+}
+
+/// A triangle written twice in the same orientation: one copy is kept.
+#[test]
+fn triangle_written_twice_keeps_one_copy() {
+    let text = grid_text(0.0, 0.0, 1.0, &[], &["20 2 2 10 1 1 2 5"]);
+    assert_valid_planar_result(&text);
+    assert_eq!(quads_written(&text), 4, "the 8 grid triangles make 4 quads");
+}
+
+/// Number of 4-node quads `blossomquad IN -o OUT` writes for `text` (exit 0 expected).
+fn quads_written(text: &str) -> usize {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (code, err, output) = run(dir.path(), text, false);
+    assert_eq!(code, 0, "expected exit 0, stderr:\n{err}");
+    let mesh = blossomquad::msh::read_file(&output).expect("output reads back");
+    mesh.element_blocks
+        .iter()
+        .filter(|b| b.element_type == 3)
+        .map(|b| b.len())
+        .sum()
 }
 
 /// The fixes refuse only what cannot be recombined: the plain grid still works.

@@ -7,7 +7,6 @@
 //! - a node of a surface element with a non-finite coordinate, or one so large that
 //!   products of coordinate differences overflow ([`MAX_COORDINATE`]);
 //! - a triangle of zero area (its nodes coincide or are collinear, to rounding);
-//! - two triangles with the same three nodes;
 //! - an edge shared by three or more triangles of one surface (non-manifold: a parity
 //!   split of it gives edges that no conforming recombination has);
 //! - two triangles running their common edge in the same direction (inconsistent
@@ -16,6 +15,11 @@
 //! - a fold: two triangles sharing an edge, consistently oriented, whose normals point
 //!   in opposite directions (one is flipped over the other; on a planar surface, an
 //!   inverted triangle).
+//!
+//! Triangles that repeat the three nodes of another triangle of their surface are not
+//! refused: [`drop_repeated_triangles`] removes them first (a triangle and its reverse
+//! cancel as a surface: a zero-area pocket, which Gmsh writes at the degenerate apex of a
+//! very sharp cone; a copy is kept where it fills the hole this leaves).
 
 use rayon::prelude::*;
 
@@ -115,7 +119,7 @@ fn check_surface(
     surface: i32,
     coord: &(dyn Fn(u64) -> Option<V> + Sync),
 ) -> Result<(), RecombineError> {
-    // triangles with their normals, for the duplicate and fold checks
+    // triangles with their normals, for the fold check
     let mut tris: Vec<([u64; 3], u64, V)> = Vec::new();
     for b in mesh.element_blocks.iter().filter(|b| {
         b.entity_dim == 2
@@ -186,28 +190,7 @@ fn check_surface(
             }
         }
     }
-    // duplicates: triangles sorted by their sorted node triple
-    let mut sets: Vec<([u64; 3], u32)> = tris
-        .iter()
-        .enumerate()
-        .map(|(t, (v, _, _))| {
-            let mut s = *v;
-            s.sort_unstable();
-            (s, t as u32)
-        })
-        .collect();
-    sets.sort_unstable();
-    if let Some(w) = sets.windows(2).find(|w| w[0].0 == w[1].0) {
-        let (s, a, b) = (w[0].0, &tris[w[0].1 as usize], &tris[w[1].1 as usize]);
-        return Err(invalid(
-            surface,
-            b.1,
-            format!(
-                "the triangle has the same nodes {}, {}, {} as triangle {}",
-                s[0], s[1], s[2], a.1
-            ),
-        ));
-    }
+    // triangles repeating another's three nodes were removed before (drop_repeated_triangles)
     // folds: half-edges (from, to, triangle) sorted by undirected edge; an edge of exactly
     // two triangles that run through it in opposite directions (consistently oriented
     // neighbours) whose normals point opposite ways
@@ -269,4 +252,244 @@ fn check_surface(
         i = j;
     }
     Ok(())
+}
+
+/// +1 when the triangle `t` runs its nodes in the cyclic order of their sorted tags, −1
+/// otherwise (its orientation relative to the sorted triple).
+fn orientation_sign(t: [u64; 3]) -> i8 {
+    let k = (0..3).min_by_key(|&k| t[k]).unwrap_or(0);
+    if t[(k + 1) % 3] < t[(k + 2) % 3] {
+        1
+    } else {
+        -1
+    }
+}
+
+/// The triangle on the sorted nodes `s` running the way `sign` says.
+fn oriented(s: [u64; 3], sign: i8) -> [u64; 3] {
+    if sign > 0 {
+        s
+    } else {
+        [s[0], s[2], s[1]]
+    }
+}
+
+/// One 3-node triangle of a surface: (surface, sorted nodes, block, index in block, sign).
+type TriRef = (i32, [u64; 3], u32, u32, i8);
+
+/// Per (surface, undirected edge), the directed uses of that edge by remaining triangles.
+type EdgeUses = std::collections::HashMap<(i32, (u64, u64)), Vec<(u64, u64)>>;
+
+/// Which triangles of `mesh` repeat another triangle's three nodes on the same surface and
+/// are to be removed (see [`drop_repeated_triangles`]): per element block, the indices to
+/// remove, and one line per surface saying what goes. Empty lines when there are none.
+fn repeated_triangles(mesh: &Mesh) -> (Vec<Vec<u32>>, Vec<String>) {
+    let mut all: Vec<TriRef> = Vec::new();
+    for (bi, b) in mesh.element_blocks.iter().enumerate() {
+        // a malformed block (node count not 3 per element) is refused later, by name
+        if b.entity_dim != 2 || b.element_type != etype::TRI3 || b.nodes.len() != 3 * b.len() {
+            continue;
+        }
+        for i in 0..b.len() {
+            let e = b.element(i);
+            let t = [e[0], e[1], e[2]];
+            if t[0] == t[1] || t[1] == t[2] || t[0] == t[2] {
+                continue; // refused by check_surface_elements
+            }
+            let mut s = t;
+            s.sort_unstable();
+            all.push((b.entity_tag, s, bi as u32, i as u32, orientation_sign(t)));
+        }
+    }
+    // sorted by surface and nodes, then file order (block, index)
+    all.par_sort_unstable();
+    let mut remove: Vec<Vec<u32>> = vec![Vec::new(); mesh.element_blocks.len()];
+    // runs of equal (surface, nodes): [start, end)
+    let mut runs: Vec<(usize, usize)> = Vec::new();
+    let mut i = 0;
+    while i < all.len() {
+        let mut j = i + 1;
+        while j < all.len() && all[j].0 == all[i].0 && all[j].1 == all[i].1 {
+            j += 1;
+        }
+        if j - i > 1 {
+            runs.push((i, j));
+        }
+        i = j;
+    }
+    if runs.is_empty() {
+        return (remove, Vec::new());
+    }
+    let mut removed = vec![false; all.len()];
+    // first every set that cancels (as many copies each way) goes whole, and the others
+    // keep one copy running the way of the majority
+    let mut cancelled: Vec<(usize, usize)> = Vec::new();
+    for &(i, j) in &runs {
+        let net: i32 = all[i..j].iter().map(|x| i32::from(x.4)).sum();
+        let keep = (net != 0).then(|| (i..j).find(|&k| i32::from(all[k].4) == net.signum()));
+        for (k, r) in removed.iter_mut().enumerate().take(j).skip(i) {
+            *r = keep.flatten() != Some(k);
+        }
+        if net == 0 {
+            cancelled.push((i, j));
+        }
+    }
+    // then a cancelled set gets one copy back when that copy fills a hole the removal left:
+    // each of its edges then has at most two triangles, run in opposite directions, and one
+    // edge at least is shared with a remaining triangle (a triangle written once more,
+    // reversed, beside a sound mesh); pockets whose edges have no other triangle, or that
+    // would make an edge of three, stay out. Sets are taken in file order.
+    cancelled.sort_by_key(|&(i, _)| (all[i].2, all[i].3));
+    let key = |a: u64, b: u64| (a.min(b), a.max(b));
+    // directed uses of the cancelled sets' edges by the remaining triangles
+    let mut uses: EdgeUses = EdgeUses::new();
+    for &(i, _) in &cancelled {
+        let (s, n) = (all[i].0, all[i].1);
+        for k in 0..3 {
+            uses.entry((s, key(n[k], n[(k + 1) % 3]))).or_default();
+        }
+    }
+    for (x, gone) in all.iter().zip(&removed) {
+        if *gone {
+            continue;
+        }
+        let t = oriented(x.1, x.4);
+        for k in 0..3 {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            if let Some(u) = uses.get_mut(&(x.0, key(a, b))) {
+                u.push((a, b));
+            }
+        }
+    }
+    for &(i, j) in &cancelled {
+        let (s, n) = (all[i].0, all[i].1);
+        let fits = |sign: i8, uses: &EdgeUses| {
+            let t = oriented(n, sign);
+            let mut shared = 0;
+            for k in 0..3 {
+                let (a, b) = (t[k], t[(k + 1) % 3]);
+                match uses.get(&(s, key(a, b))).map(Vec::as_slice) {
+                    None | Some([]) => {}
+                    Some([(p, q)]) if (*p, *q) == (b, a) => shared += 1,
+                    _ => return false,
+                }
+            }
+            shared > 0
+        };
+        let first = all[i].4;
+        if let Some(sign) = [first, -first].into_iter().find(|&g| fits(g, &uses)) {
+            if let Some(k) = (i..j).find(|&k| all[k].4 == sign) {
+                removed[k] = false;
+                let t = oriented(n, sign);
+                for m in 0..3 {
+                    let (a, b) = (t[m], t[(m + 1) % 3]);
+                    if let Some(u) = uses.get_mut(&(s, key(a, b))) {
+                        u.push((a, b));
+                    }
+                }
+            }
+        }
+    }
+    // per surface: (triangles removed, sets, example)
+    let mut per_surface: Vec<(i32, usize, usize, String)> = Vec::new();
+    for &(i, j) in &runs {
+        let s = all[i].0;
+        if per_surface.last().is_none_or(|p| p.0 != s) {
+            per_surface.push((s, 0, 0, String::new()));
+        }
+        let gone: Vec<u64> = (i..j)
+            .filter(|&k| removed[k])
+            .map(|k| mesh.element_blocks[all[k].2 as usize].tags[all[k].3 as usize])
+            .collect();
+        for k in (i..j).filter(|&k| removed[k]) {
+            remove[all[k].2 as usize].push(all[k].3);
+        }
+        if let Some(p) = per_surface.last_mut() {
+            p.1 += gone.len();
+            p.2 += 1;
+            if p.3.is_empty() {
+                let n = all[i].1;
+                let kept = (i..j)
+                    .find(|&k| !removed[k])
+                    .map(|k| mesh.element_blocks[all[k].2 as usize].tags[all[k].3 as usize]);
+                p.3 = format!(
+                    "on nodes {}, {}, {}: element(s) {} removed{}",
+                    n[0],
+                    n[1],
+                    n[2],
+                    gone.iter()
+                        .map(|t| t.to_string())
+                        .collect::<Vec<_>>()
+                        .join(", "),
+                    kept.map(|t| format!(", element {t} kept"))
+                        .unwrap_or_default()
+                );
+            }
+        }
+    }
+    let lines = per_surface
+        .into_iter()
+        .map(|(s, n, sets, example)| {
+            format!(
+                "surface {s}: {sets} set(s) of triangles on the same three nodes; removed {n} triangle(s) (a triangle and its reverse cancel as a surface, a zero-area pocket such as Gmsh writes at a degenerate apex or seam; a copy is kept where it runs like its neighbours), e.g. {example}"
+            )
+        })
+        .collect();
+    (remove, lines)
+}
+
+/// A copy of `mesh` without the 3-node triangles that repeat the three nodes of another
+/// triangle of the same surface, with one line per such surface saying what was removed
+/// (for the log); `None` when there are none. Taken as an oriented surface, a triangle and
+/// its reverse cancel: together they are a pocket of zero area (Gmsh writes such pairs at
+/// the degenerate apex or seam of a very sharp cone), and a triangle repeated in the same
+/// orientation is the same face twice. So for every set of triangles on the same three
+/// nodes: when as many run one way as the other, all are removed, except that one copy is
+/// put back where it fills the hole this leaves (each of its edges then has at most two
+/// triangles, run in opposite directions, and one at least is shared with a remaining
+/// triangle: a triangle written once more, reversed, beside a sound mesh); otherwise one
+/// copy running the way of the majority (the first in file order) is kept. What stays has
+/// the same area-weighted normal at every node. Triangles naming a node twice are left to
+/// [`check_surface_elements`]; element blocks emptied are removed.
+pub(crate) fn drop_repeated_triangles(mesh: &Mesh) -> Option<(Mesh, Vec<String>)> {
+    let (remove, lines) = repeated_triangles(mesh);
+    if lines.is_empty() {
+        return None;
+    }
+    let mut out = mesh.clone();
+    for (b, rm) in out.element_blocks.iter_mut().zip(&remove) {
+        if rm.is_empty() {
+            continue;
+        }
+        let mut gone = vec![false; b.len()];
+        for &r in rm {
+            gone[r as usize] = true;
+        }
+        let k = b.nodes_per_element();
+        let mut w = 0;
+        for (r, &g) in gone.iter().enumerate() {
+            if g {
+                continue;
+            }
+            b.tags[w] = b.tags[r];
+            b.nodes.copy_within(r * k..(r + 1) * k, w * k);
+            if let Some(p) = b.partitions.as_mut() {
+                p.swap(w, r);
+            }
+            w += 1;
+        }
+        b.tags.truncate(w);
+        b.nodes.truncate(w * k);
+        if let Some(p) = b.partitions.as_mut() {
+            p.truncate(w);
+        }
+    }
+    let mut bi = 0;
+    out.element_blocks.retain(|b| {
+        let keep = remove[bi].is_empty() || !b.is_empty();
+        bi += 1;
+        keep
+    });
+    out.invalidate_element_data();
+    Some((out, lines))
 }

@@ -55,7 +55,11 @@
 //!    to it (through chains of `$Periodic` curve links), at their chord midpoints (which
 //!    correspond through an affine transform), and the new node pairs are added to the curve
 //!    links and to the surface links that pair the segments' ends; the group flips the
-//!    regions of all those segments. A segment bordered by a quad (of another surface:
+//!    regions of all those segments. When the segment's curve is not known (MSH 2.2 without
+//!    line elements, where `$Periodic` has surface links only), a segment that is an edge
+//!    of a periodic slave or master surface is split with its images through the surface
+//!    links (which list the boundary nodes too) the same way; a segment whose image is not
+//!    an edge there is not split. A segment bordered by a quad (of another surface:
 //!    `Layers`/`Recombine` faces) is split through the quad chord that starts there: every
 //!    edge reached by stepping to the opposite edge of each quad is split at its midpoint,
 //!    each quad of the chord becomes two quads, and the triangles at the chord's far end
@@ -174,6 +178,16 @@ pub use graph::{
     HOPELESS_COST, MAX_REAL_COST,
 };
 pub use invariants::check_invariants;
+
+/// A copy of `mesh` without the triangles that repeat another triangle's three nodes on
+/// the same surface (a triangle and its reverse cancel: a zero-area pocket such as Gmsh
+/// writes at a degenerate apex; a copy is kept where it fills the hole the removal leaves;
+/// copies in the same orientation keep one), with one line per surface saying what went;
+/// `None` when there are none. [`recombine`] runs it first; [`crate::quadrangulate`] runs
+/// it on its input, so every later check compares with the surface without them.
+pub fn drop_repeated_triangles(mesh: &Mesh) -> Option<(Mesh, Vec<String>)> {
+    input::drop_repeated_triangles(mesh)
+}
 pub use parity::OddRegion;
 
 /// What to do with surfaces that have an odd number of triangles.
@@ -341,7 +355,7 @@ pub enum RecombineError {
         elements: usize,
     },
     /// A surface element no recombination can turn into valid quads (a repeated node, a
-    /// non-finite or overflowing coordinate, zero area, a duplicate, a non-manifold edge, an
+    /// non-finite or overflowing coordinate, zero area, a non-manifold edge, an
     /// inconsistent orientation, a fold).
     #[error("surface {surface}, element {element}: {problem}; the surface cannot be recombined into valid quads")]
     InvalidElement {
@@ -459,8 +473,16 @@ pub fn recombine(
     opts: &RecombineOptions,
 ) -> Result<RecombineReport, RecombineError> {
     let start = Instant::now();
-    let before = opts.verify.then(|| mesh.clone());
     let mut report = RecombineReport::default();
+    // repeated triangles (zero-area pockets) go first: the checks below compare with the
+    // mesh without them
+    if let Some((cleaned, lines)) = input::drop_repeated_triangles(mesh) {
+        *mesh = cleaned;
+        report
+            .log
+            .extend(lines.into_iter().map(|l| format!("warning: {l}")));
+    }
+    let before = opts.verify.then(|| mesh.clone());
     check_input(mesh, opts, &mut report)?;
 
     // Topology, parity, matching. A surface whose triangles are enclosed by quads so that
@@ -587,15 +609,17 @@ fn parity_stage(
         ));
     }
     for s in &splits {
-        let place = match (s.curve, s.surfaces.is_empty()) {
-            (Some(c), _) => format!("curve {c}"),
-            (None, true) => "a quad strip".into(),
-            (None, false) => "a boundary without curve data".into(),
+        let place = match s.curve {
+            Some(c) => format!("curve {c}"),
+            None => "a boundary without curve data".into(),
         };
         report.log.push(if s.surfaces.is_empty() {
             format!(
-                "parity repair: split segment {}-{} of {place} at its midpoint (new node {}) with the split above (its periodic image or the quad strip it runs through)",
-                s.segment.0, s.segment.1, s.new_node
+                "parity repair: split segment {}-{}{} at its midpoint (new node {}) with the split above (its periodic image or the quad strip it runs through)",
+                s.segment.0,
+                s.segment.1,
+                s.curve.map(|c| format!(" of curve {c}")).unwrap_or_default(),
+                s.new_node
             )
         } else {
             format!(

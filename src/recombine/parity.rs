@@ -145,6 +145,7 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
             .collect()
     };
     let periodic = PeriodicCurves::new(mesh, nodes);
+    let periodic_surfaces = PeriodicSurfaces::new(mesh, nodes);
     let mut groups: HashMap<(Option<i32>, Vec<u32>), usize> = HashMap::new();
     let mut list: Vec<Group> = Vec::new();
     for run in walls.chunk_by(|x, y| x.0 == y.0) {
@@ -173,6 +174,22 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
                 with.push((x, y, Some(c2)));
             }
             class = images.iter().map(|i| i.0).chain([c]).min();
+        } else if !periodic_surfaces.is_empty() {
+            // a segment on the boundary of a periodic surface whose curve is not known
+            // (no curve data, e.g. MSH 2.2 without line elements): split together with its
+            // images through the surface links, so the slave stays the master's image
+            let Some(images) = periodic_surfaces.images(a, b) else {
+                continue;
+            };
+            for &(x, y) in &images {
+                let k2 = edge_key(x, y);
+                if blocked.binary_search(&k2).is_ok() {
+                    sig.clear();
+                    break;
+                }
+                sig = xor_sorted(&sig, &sig_of(k2));
+                with.push((x, y, None));
+            }
         }
         if sig.is_empty() {
             continue;
@@ -1074,6 +1091,101 @@ impl PeriodicCurves {
                     continue;
                 }
                 seen.push((to, look(map, x)?, look(map, y)?));
+            }
+        }
+        Some(seen.split_off(1))
+    }
+}
+
+/// The `$Periodic` links between surfaces, with the edges of their slave and master
+/// surfaces: a segment on the boundary of one of them is split together with its images
+/// (used when the segment's curve is not known, so the curve links cannot be).
+pub(crate) struct PeriodicSurfaces {
+    /// Per link: (slave, master, slave → master, master → slave).
+    links: Vec<(i32, i32, NodeMap, NodeMap)>,
+    /// (edge key, surface) of every element edge of a surface in some link, sorted.
+    edges: Vec<(u64, i32)>,
+}
+
+impl PeriodicSurfaces {
+    fn new(mesh: &Mesh, nodes: &NodeTable) -> Self {
+        let mut links = Vec::new();
+        let mut surfaces = Vec::new();
+        for l in mesh.periodic.iter().filter(|l| l.dim == 2) {
+            let mut fwd: Vec<(u32, u32)> = l
+                .node_pairs
+                .iter()
+                .filter_map(|&(s, m)| Some((nodes.id(s)?, nodes.id(m)?)))
+                .collect();
+            let mut back: Vec<(u32, u32)> = fwd.iter().map(|&(s, m)| (m, s)).collect();
+            fwd.sort_unstable();
+            back.sort_unstable();
+            links.push((l.tag, l.master_tag, fwd, back));
+            surfaces.extend([l.tag, l.master_tag]);
+        }
+        surfaces.sort_unstable();
+        surfaces.dedup();
+        let mut edges = Vec::new();
+        if !links.is_empty() {
+            for b in &mesh.element_blocks {
+                if b.entity_dim != 2
+                    || (b.element_type != etype::TRI3 && b.element_type != etype::QUAD4)
+                    || surfaces.binary_search(&b.entity_tag).is_err()
+                {
+                    continue;
+                }
+                for i in 0..b.len() {
+                    let e = b.element(i);
+                    for j in 0..e.len() {
+                        if let (Some(x), Some(y)) = (nodes.id(e[j]), nodes.id(e[(j + 1) % e.len()]))
+                        {
+                            edges.push((edge_key(x, y), b.entity_tag));
+                        }
+                    }
+                }
+            }
+            edges.sort_unstable();
+            edges.dedup();
+        }
+        PeriodicSurfaces { links, edges }
+    }
+
+    fn is_empty(&self) -> bool {
+        self.links.is_empty()
+    }
+
+    fn on(&self, key: u64, surface: i32) -> bool {
+        self.edges.binary_search(&(key, surface)).is_ok()
+    }
+
+    /// The images of segment `a`–`b` through the surface links (directly or through a
+    /// chain of them): for each link whose slave (master) has the segment as an element
+    /// edge, its image on the master (slave), which must be an element edge there. `None`
+    /// when some link lacks the correspondence of an end node or the image is not an edge
+    /// (the split could not be mirrored); empty when the segment is on no periodic surface.
+    fn images(&self, a: u32, b: u32) -> Option<Vec<(u32, u32)>> {
+        let look =
+            |m: &[(u32, u32)], x: u32| m.binary_search_by_key(&x, |p| p.0).ok().map(|i| m[i].1);
+        let mut seen = vec![(a.min(b), a.max(b))];
+        let mut head = 0;
+        while head < seen.len() {
+            let (x, y) = seen[head];
+            head += 1;
+            let k = edge_key(x, y);
+            for (s, m, fwd, back) in &self.links {
+                for (from, to, map) in [(*s, *m, fwd), (*m, *s, back)] {
+                    if !self.on(k, from) {
+                        continue;
+                    }
+                    let (x2, y2) = (look(map, x)?, look(map, y)?);
+                    if !self.on(edge_key(x2, y2), to) {
+                        return None;
+                    }
+                    let e = (x2.min(y2), x2.max(y2));
+                    if !seen.contains(&e) {
+                        seen.push(e);
+                    }
+                }
             }
         }
         Some(seen.split_off(1))
