@@ -3,8 +3,9 @@
 //! result must pass the library's own
 //! `recombine::check_invariants` against the mesh as read, and every quad must be valid:
 //! four distinct nodes, no zero-length edge, and every corner strictly between 0° and 180°
-//! measured in 3D about the area-weighted normal of the input triangles at that corner
-//! (which also means the quad is oriented like them). That is the definition of
+//! measured in 3D about the area-weighted normal of the input faces at that corner's node,
+//! or, for a node the input does not have, of the input faces nearest to it (which also
+//! means the quad is oriented like them). That is the definition of
 //! `blossomquad::validity`, written again here independently so that the gate itself is
 //! checked. Anything else is a finding (a panic).
 //!
@@ -61,41 +62,127 @@ fn coords(mesh: &Mesh) -> HashMap<u64, V> {
     m
 }
 
-/// Every quad of `after` valid against the triangles of `before` (see the module doc).
+/// Closest point to `p` on triangle `t` (regions of the triangle: inside, edges, corners).
+fn closest_on_triangle(p: V, t: [V; 3]) -> V {
+    let (a, b, c) = (t[0], t[1], t[2]);
+    let (ab, ac, ap) = (sub(b, a), sub(c, a), sub(p, a));
+    let (d1, d2) = (dot(ab, ap), dot(ac, ap));
+    if d1 <= 0.0 && d2 <= 0.0 {
+        return a;
+    }
+    let bp = sub(p, b);
+    let (d3, d4) = (dot(ab, bp), dot(ac, bp));
+    if d3 >= 0.0 && d4 <= d3 {
+        return b;
+    }
+    let vc = d1 * d4 - d3 * d2;
+    if vc <= 0.0 && d1 >= 0.0 && d3 <= 0.0 {
+        let v = d1 / (d1 - d3);
+        return add(a, ab.map(|x| x * v));
+    }
+    let cp = sub(p, c);
+    let (d5, d6) = (dot(ab, cp), dot(ac, cp));
+    if d6 >= 0.0 && d5 <= d6 {
+        return c;
+    }
+    let vb = d5 * d2 - d1 * d6;
+    if vb <= 0.0 && d2 >= 0.0 && d6 <= 0.0 {
+        let w = d2 / (d2 - d6);
+        return add(a, ac.map(|x| x * w));
+    }
+    let va = d3 * d6 - d5 * d4;
+    if va <= 0.0 && (d4 - d3) >= 0.0 && (d5 - d6) >= 0.0 {
+        let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
+        return add(b, sub(c, b).map(|x| x * w));
+    }
+    let denom = 1.0 / (va + vb + vc);
+    let (v, w) = (vb * denom, vc * denom);
+    add(a, add(ab.map(|x| x * v), ac.map(|x| x * w)))
+}
+
+/// One input face: its corners and twice its vector area (Newell).
+struct Face {
+    corners: Vec<V>,
+    normal: V,
+}
+
+impl Face {
+    fn distance(&self, p: V) -> f64 {
+        let c = &self.corners;
+        (1..c.len() - 1)
+            .map(|k| norm(sub(p, closest_on_triangle(p, [c[0], c[k], c[k + 1]]))))
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// The reference normal of a node the input surface does not have: the summed normals of
+/// the input faces of the surface nearest to it (ties within `tie` all count).
+fn nearest_normal(faces: &[Face], p: V, tie: f64) -> V {
+    let d: Vec<f64> = faces.iter().map(|f| f.distance(p)).collect();
+    let best = d.iter().copied().fold(f64::INFINITY, f64::min);
+    let mut n = [0.0; 3];
+    for (f, &df) in faces.iter().zip(&d) {
+        if df <= best + tie {
+            n = add(n, f.normal);
+        }
+    }
+    n
+}
+
+/// Every quad of `after` valid against the faces of `before` (see the module doc).
 fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
     let cb = coords(before);
     let ca = coords(after);
-    // per (surface, node): the area-weighted normal of the input triangles at the node
+    // per (surface, node): the area-weighted normal of the input faces at the node, and per
+    // surface its faces
     let mut normal: HashMap<(i32, u64), V> = HashMap::new();
-    for b in before
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
-    {
+    let mut faces: HashMap<i32, Vec<Face>> = HashMap::new();
+    let mut lo = [f64::INFINITY; 3];
+    let mut hi = [f64::NEG_INFINITY; 3];
+    for c in ca.values() {
+        for d in 0..3 {
+            lo[d] = lo[d].min(c[d]);
+            hi[d] = hi[d].max(c[d]);
+        }
+    }
+    let tie = 1e-9 * norm(sub(hi, lo)).max(f64::MIN_POSITIVE);
+    for b in before.element_blocks.iter().filter(|b| {
+        b.entity_dim == 2 && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
+    }) {
+        let k = b.nodes_per_element();
         for i in 0..b.len() {
             let t = b.element(i);
-            let (Some(&p0), Some(&p1), Some(&p2)) = (cb.get(&t[0]), cb.get(&t[1]), cb.get(&t[2]))
+            let Some(c) = t.iter().map(|v| cb.get(v).copied()).collect::<Option<Vec<V>>>()
             else {
                 continue;
             };
-            // twice the triangle's vector area: the sum at a node is the area-weighted
-            // normal, the definition of `blossomquad::validity`
-            let n = cross(sub(p1, p0), sub(p2, p0));
+            // twice the face's vector area: the sum at a node is the area-weighted normal,
+            // the definition of `blossomquad::validity`
+            let mut n = [0.0; 3];
+            for j in 1..k - 1 {
+                n = add(n, cross(sub(c[j], c[0]), sub(c[j + 1], c[0])));
+            }
             if !n.iter().all(|x| x.is_finite()) {
                 continue;
             }
-            for &v in &t[..3] {
+            for &v in t {
                 let e = normal.entry((b.entity_tag, v)).or_insert([0.0; 3]);
                 *e = add(*e, n);
             }
+            faces.entry(b.entity_tag).or_default().push(Face {
+                corners: c,
+                normal: n,
+            });
         }
     }
+    let no_faces: Vec<Face> = Vec::new();
     for b in after
         .element_blocks
         .iter()
         .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4)
     {
         let s = b.entity_tag;
+        let surface_faces = faces.get(&s).unwrap_or(&no_faces);
         for i in 0..b.len() {
             let q = &b.element(i)[..4];
             let tag = b.tags[i];
@@ -111,30 +198,15 @@ fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                     format!("surface {s}: quad {tag} names missing node {}", q[k])
                 })?;
             }
-            // the quad's own reference normal: the input normals at its nodes (a node added
-            // by parity repair has none; its quad's other nodes give it)
-            // (unit normals; a node whose faces cancel out has none)
-            let known: Vec<Option<V>> = q
-                .iter()
-                .map(|&v| {
-                    let n = normal.get(&(s, v)).copied()?;
-                    let l = norm(n);
-                    (l > 0.0 && l.is_finite()).then(|| n.map(|x| x / l))
+            // the reference normal at each corner: the input's at its node, else (a node
+            // the run added: parity and fallback splits, vertex duplications) the normal of
+            // the input faces nearest to it
+            let known: Vec<V> = (0..4)
+                .map(|k| match normal.get(&(s, q[k])) {
+                    Some(n) if norm(*n) > 0.0 => *n,
+                    _ => nearest_normal(surface_faces, p[k], tie),
                 })
                 .collect();
-            let mut mean = [0.0; 3];
-            for n in known.iter().flatten() {
-                mean = add(mean, *n);
-            }
-            if norm(mean) == 0.0 {
-                // no node of the quad is an input node of the surface (the fallback's centre
-                // and edge nodes): the surface's summed input normal
-                for ((ts, _), n) in &normal {
-                    if *ts == s {
-                        mean = add(mean, *n);
-                    }
-                }
-            }
             for k in 0..4 {
                 let e = sub(p[(k + 1) % 4], p[k]);
                 if norm(e) == 0.0 {
@@ -146,7 +218,7 @@ fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                 }
             }
             for k in 0..4 {
-                let n = known[k].unwrap_or(mean);
+                let n = known[k];
                 let ln = norm(n);
                 if !(ln > 0.0) {
                     // quads of a surface whose input triangles all have zero area: no
