@@ -21,6 +21,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+mod keysort;
 pub mod matching;
 pub mod mesh;
 pub mod msh;

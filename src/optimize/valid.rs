@@ -74,7 +74,9 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
     1.0 / (1.0 + worst) >= VALID_KEY
 }
 
-/// True when alive quad `q` is valid (module docs).
+/// True when alive quad `q` is valid (module docs). It depends only on the quad's nodes and
+/// their positions, normals and target sizes, and on whether the surface is planar
+/// ([`Gate`] relies on this).
 pub(crate) fn valid(l: &Local, q: u32) -> bool {
     quad_valid(l, &l.quads[q as usize], reference_normal(l, q))
 }
@@ -85,6 +87,32 @@ pub(crate) fn invalid_quads(l: &Local) -> Vec<u32> {
         .into_par_iter()
         .with_min_len(4096)
         .filter(|&q| l.alive[q as usize] && !valid(l, q))
+        .collect()
+}
+
+/// The alive quads of `l` that are not alive in `base` with the same nodes, or that have a
+/// node whose position or normal differs (bit for bit) from `base`'s, by increasing index.
+fn changed_quads(l: &Local, base: &State) -> Vec<u32> {
+    let same =
+        |a: DVec3, b: DVec3| a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits);
+    let moved: Vec<bool> = (0..l.pos.len())
+        .into_par_iter()
+        .with_min_len(8192)
+        .map(|v| {
+            base.pos.get(v).is_none_or(|&p| !same(p, l.pos[v]))
+                || base.nrm.get(v).is_none_or(|&n| !same(n, l.nrm[v]))
+        })
+        .collect();
+    (0..l.quads.len() as u32)
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter(|&q| {
+            let i = q as usize;
+            l.alive[i]
+                && (base.alive.get(i) != Some(&true)
+                    || base.quads.get(i) != Some(&l.quads[i])
+                    || l.quads[i].iter().any(|&v| moved[v as usize]))
+        })
         .collect()
 }
 
@@ -157,13 +185,25 @@ impl Gate {
     }
 
     /// The invalid quads of `l` that the start did not have (as the same node set).
+    ///
+    /// Speed: only the quads that differ from the last state that passed (or the start)
+    /// are checked. That state had no such quad, and whether a quad is valid depends on its
+    /// nodes' positions, normals and sizes alone ([`valid`]; the sizes never change), so a
+    /// quad alive there with the same nodes, none of which moved or turned, is not one now.
     pub fn new_invalid(&self, l: &Local) -> Vec<u32> {
-        invalid_quads(l)
-            .into_iter()
+        let candidates = match self.last.as_ref().or(self.start.as_ref()) {
+            Some(base) => changed_quads(l, base),
+            None => (0..l.quads.len() as u32).collect(),
+        };
+        candidates
+            .into_par_iter()
+            .with_min_len(4096)
             .filter(|&q| {
-                self.inherited
-                    .binary_search(&sorted(l.quads[q as usize]))
-                    .is_err()
+                !valid(l, q)
+                    && self
+                        .inherited
+                        .binary_search(&sorted(l.quads[q as usize]))
+                        .is_err()
             })
             .collect()
     }
