@@ -317,6 +317,22 @@ mod tests {
     }
 
     #[test]
+    fn the_gate_sees_quads_turned_over_by_their_normals_alone() {
+        // the gate re-checks only quads that changed since the last state that passed: a
+        // change of the node normals (no node moved) is a change
+        let (mut l, _) = grid();
+        let mut gate = Gate::new(&l);
+        assert!(gate.check(&mut l, true, "test"));
+        let up = l.nrm.clone();
+        for n in &mut l.nrm {
+            *n = -*n;
+        }
+        assert!(!gate.new_invalid(&l).is_empty());
+        assert!(!gate.check(&mut l, true, "test"));
+        assert_eq!(l.nrm, up);
+    }
+
+    #[test]
     fn quads_invalid_at_the_start_are_inherited_not_new() {
         let (mut l, v) = grid();
         l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
