@@ -79,46 +79,65 @@ pub(crate) fn sort_by_prefix<T: Copy + Ord>(v: &mut Vec<T>, key: impl Fn(&T) -> 
     }
 }
 
-/// Sorts pairs of tags lexicographically (the order of `v.sort_unstable()`): when the
-/// first tags span a range of at most a few times the list's length (node tags of a mesh
-/// surface), a counting sort by the first tag then each bucket (a few pairs) by the second;
-/// else radix sorted on both packed in one `u64` key when they fit; else by comparison.
+/// Sorts `v` into the order of `v.sort_unstable()`, given an order-keeping `first`
+/// (`x < y` implies `first(x) <= first(y)`), when the values of `first` span at most a few
+/// times the list's length (node tags of a mesh surface): a counting sort by `first`, then
+/// each bucket (a few elements) by comparison. Returns false, `v` unchanged, when they span
+/// more.
+pub(crate) fn bucket_sort<T: Copy + Ord + Default>(
+    v: &mut Vec<T>,
+    first: impl Fn(&T) -> u64,
+) -> bool {
+    let (mut lo, mut hi) = (u64::MAX, 0u64);
+    for x in v.iter() {
+        let k = first(x);
+        lo = lo.min(k);
+        hi = hi.max(k);
+    }
+    if v.is_empty() {
+        return true;
+    }
+    if hi - lo > 4 * v.len() as u64 {
+        return false;
+    }
+    let range = (hi - lo) as usize + 1;
+    // start[k]: where the elements whose `first` is lo + k begin
+    let mut start = vec![0usize; range + 1];
+    for x in v.iter() {
+        start[(first(x) - lo) as usize + 1] += 1;
+    }
+    for k in 1..=range {
+        start[k] += start[k - 1];
+    }
+    let mut next = start.clone();
+    let mut out = vec![T::default(); v.len()];
+    for x in v.iter() {
+        let k = (first(x) - lo) as usize;
+        out[next[k]] = *x;
+        next[k] += 1;
+    }
+    for w in start.windows(2) {
+        if w[1] - w[0] > 1 {
+            out[w[0]..w[1]].sort_unstable();
+        }
+    }
+    *v = out;
+    true
+}
+
+/// Sorts pairs of tags lexicographically (the order of `v.sort_unstable()`): a
+/// [`bucket_sort`] by the first tag when it applies; else radix sorted on both packed in
+/// one `u64` key when they fit; else by comparison.
 pub(crate) fn sort_pairs(v: &mut Vec<(u64, u64)>) {
     if v.len() < SMALL {
         v.sort_unstable();
         return;
     }
-    let (mut lo, mut m0, mut m1) = (u64::MAX, 0u64, 0u64);
-    for &(a, b) in v.iter() {
-        lo = lo.min(a);
-        m0 = m0.max(a);
-        m1 = m1.max(b);
-    }
-    if m0 - lo <= 4 * v.len() as u64 {
-        let range = (m0 - lo) as usize + 1;
-        // start[k]: where the pairs whose first tag is lo + k begin
-        let mut start = vec![0usize; range + 1];
-        for &(a, _) in v.iter() {
-            start[(a - lo) as usize + 1] += 1;
-        }
-        for k in 1..=range {
-            start[k] += start[k - 1];
-        }
-        let mut next = start.clone();
-        let mut out = vec![(0u64, 0u64); v.len()];
-        for &x in v.iter() {
-            let k = (x.0 - lo) as usize;
-            out[next[k]] = x;
-            next[k] += 1;
-        }
-        for w in start.windows(2) {
-            if w[1] - w[0] > 1 {
-                out[w[0]..w[1]].sort_unstable();
-            }
-        }
-        *v = out;
+    if bucket_sort(v, |x| x.0) {
         return;
     }
+    let m1 = v.iter().map(|x| x.1).max().unwrap_or(0);
+    let m0 = v.iter().map(|x| x.0).max().unwrap_or(0);
     let shift = bits(m1);
     if bits(m0) + shift >= u64::BITS {
         v.sort_unstable();
@@ -191,9 +210,16 @@ mod tests {
             .collect();
         let mut a = v.clone();
         sort_by_prefix(&mut a, |e| e.0 << 2 | e.1);
+        let mut c = v.clone();
+        assert!(bucket_sort(&mut c, |e| e.0));
         let mut b = v;
         b.sort_unstable();
         assert_eq!(a, b);
+        assert_eq!(c, b);
+        // first values spread too far for buckets: nothing done
+        let mut far = vec![(0u64, 1u64), (1 << 40, 0)];
+        assert!(!bucket_sort(&mut far, |e| e.0));
+        assert_eq!(far, [(0, 1), (1 << 40, 0)]);
         // zeros in the second place (a shift of 0)
         let mut z: Vec<(u64, u64)> = (0..1000u64).rev().map(|i| (i, 0)).collect();
         sort_pairs(&mut z);

@@ -20,7 +20,7 @@
 use rayon::prelude::*;
 
 use super::RecombineError;
-use crate::keysort::{bits, sort_by_prefix};
+use crate::keysort::{bits, bucket_sort, sort_by_prefix};
 use crate::mesh::{etype, Mesh};
 
 /// Largest accepted coordinate magnitude of a surface element's node. Quality measures
@@ -197,12 +197,15 @@ fn check_surface(
             (s, t as u32)
         })
         .collect();
-    // speed: radix sorted on the packed triple when it fits in 64 bits (same order)
+    // speed: a bucket sort by the smallest tag, else radix sorted on the packed triple when
+    // it fits in 64 bits (same order)
     let b = bits(sets.iter().map(|x| x.0[2]).max().unwrap_or(0));
-    if 3 * b < u64::BITS {
-        sort_by_prefix(&mut sets, |x| (x.0[0] << (2 * b)) | (x.0[1] << b) | x.0[2]);
-    } else {
-        sets.sort_unstable();
+    if !bucket_sort(&mut sets, |x| x.0[0]) {
+        if 3 * b < u64::BITS {
+            sort_by_prefix(&mut sets, |x| (x.0[0] << (2 * b)) | (x.0[1] << b) | x.0[2]);
+        } else {
+            sets.sort_unstable();
+        }
     }
     if let Some(w) = sets.windows(2).find(|w| w[0].0 == w[1].0) {
         let (s, a, b) = (w[0].0, &tris[w[0].1 as usize], &tris[w[1].1 as usize]);
@@ -225,12 +228,15 @@ fn check_surface(
             half.push((a.min(b), a.max(b), a, t as u32));
         }
     }
-    // speed: radix sorted on the packed edge when it fits in 64 bits (same order)
+    // speed: a bucket sort by the edge's first tag, else radix sorted on the packed edge
+    // when it fits in 64 bits (same order)
     let b = bits(half.iter().map(|x| x.1).max().unwrap_or(0));
-    if 2 * b < u64::BITS {
-        sort_by_prefix(&mut half, |x| (x.0 << b) | x.1);
-    } else {
-        half.sort_unstable();
+    if !bucket_sort(&mut half, |x| x.0) {
+        if 2 * b < u64::BITS {
+            sort_by_prefix(&mut half, |x| (x.0 << b) | x.1);
+        } else {
+            half.sort_unstable();
+        }
     }
     let mut i = 0;
     while i < half.len() {
