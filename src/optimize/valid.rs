@@ -139,13 +139,24 @@ impl State {
         }
     }
 
-    fn restore(self, l: &mut Local) {
-        l.pos = self.pos;
-        l.nrm = self.nrm;
-        l.tri = self.tri;
-        l.removed = self.removed;
-        l.quads = self.quads;
-        l.alive = self.alive;
+    /// Makes this state `l`'s, reusing its buffers (no new allocation at a later check).
+    fn store(&mut self, l: &Local) {
+        self.pos.clone_from(&l.pos);
+        self.nrm.clone_from(&l.nrm);
+        self.tri.clone_from(&l.tri);
+        self.removed.clone_from(&l.removed);
+        self.quads.clone_from(&l.quads);
+        self.alive.clone_from(&l.alive);
+    }
+
+    /// Puts `l` into this state (copied into `l`'s buffers).
+    fn restore(&self, l: &mut Local) {
+        l.pos.clone_from(&self.pos);
+        l.nrm.clone_from(&self.nrm);
+        l.tri.clone_from(&self.tri);
+        l.removed.clone_from(&self.removed);
+        l.quads.clone_from(&self.quads);
+        l.alive.clone_from(&self.alive);
         l.build_adjacency();
     }
 }
@@ -217,9 +228,16 @@ impl Gate {
         let bad = self.new_invalid(l);
         if bad.is_empty() {
             if keep {
-                self.last = Some(State::of(l));
-                // the start is needed only until a later state passed
-                self.start = None;
+                // the start is needed only until a later state passed (speed: its buffers
+                // hold the later states)
+                match (&mut self.last, self.start.take()) {
+                    (Some(last), _) => last.store(l),
+                    (None, Some(mut start)) => {
+                        start.store(l);
+                        self.last = Some(start);
+                    }
+                    (None, None) => self.last = Some(State::of(l)),
+                }
             }
             return true;
         }
@@ -246,14 +264,9 @@ impl Gate {
 
     /// Puts `l` back into the last state that passed (the start if none).
     pub fn roll_back(&mut self, l: &mut Local) {
-        let s = match self.last.clone() {
-            Some(s) => s,
-            None => match self.start.clone() {
-                Some(s) => s,
-                None => return,
-            },
-        };
-        s.restore(l);
+        if let Some(s) = self.last.as_ref().or(self.start.as_ref()) {
+            s.restore(l);
+        }
     }
 }
 
