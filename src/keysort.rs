@@ -35,7 +35,7 @@ pub(crate) fn radix_sort_by_key<T: Copy>(v: &mut Vec<T>, key: impl Fn(&T) -> u64
     for p in 0..passes as usize {
         let count = &mut counts[p * buckets..(p + 1) * buckets];
         // one bucket holds every key: this digit does not reorder
-        if count.iter().any(|&c| c == src.len()) {
+        if count.contains(&src.len()) {
             continue;
         }
         let mut sum = 0;
