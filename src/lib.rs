@@ -24,6 +24,7 @@
 pub mod arrays;
 #[cfg(feature = "cli")]
 pub mod cli;
+mod keysort;
 pub mod matching;
 pub mod mesh;
 pub mod msh;

@@ -265,18 +265,21 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
             run_once(input, &mut mesh, opts, &force, keep, &mut times)?;
         let t = Instant::now();
         progress(opts, Stage::Check, 0, 1);
-        // refinement splits every boundary segment once more: its output is the baseline
-        recombine::check_invariants(refined.as_ref().unwrap_or(input), &mesh).map_err(
-            |detail| Error::Invariant {
-                stage: if opts.optimize {
-                    "optimization"
-                } else {
-                    "recombination"
-                },
-                detail,
+        // refinement splits every boundary segment once more: its output is the baseline.
+        // speed: the two checks are independent, so they run side by side (an invariant
+        // failure still comes first)
+        let (invariants, mut bad) = rayon::join(
+            || recombine::check_invariants(refined.as_ref().unwrap_or(input), &mesh),
+            || validity::invalid_quads(input, &mesh),
+        );
+        invariants.map_err(|detail| Error::Invariant {
+            stage: if opts.optimize {
+                "optimization"
+            } else {
+                "recombination"
             },
-        )?;
-        let mut bad = validity::invalid_quads(input, &mesh);
+            detail,
+        })?;
         if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
             let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
             let back = revert_surfaces(&mesh, pre, &surfaces);

@@ -19,6 +19,7 @@
 use glam::DVec3;
 use rayon::prelude::*;
 
+use crate::keysort::radix_sort_by_key;
 use crate::mesh::{etype, Mesh, NodeIndex};
 
 /// Smallest corner quality (eq. 3, one corner) counted as strictly inside (0°, 180°):
@@ -126,29 +127,30 @@ pub fn invalid_quads(input: &Mesh, output: &Mesh) -> Vec<BadQuad> {
     surfaces
         .par_iter()
         .flat_map_iter(|&s| {
-            let pairs = input_normals(input, &in_index, s);
-            // the whole surface's area-weighted normal: the reference of a quad none of whose
-            // nodes the input has (exact on planar surfaces)
-            let whole: DVec3 = pairs.iter().map(|p| p.1).sum::<DVec3>().normalize_or_zero();
-            let normals = Normals::new(pairs);
+            let (normals, whole) = input_normals(input, &in_index, s);
+            let normals = &normals;
             let mut bad = Vec::new();
             for b in output.element_blocks.iter().filter(|b| {
                 b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::QUAD4
             }) {
-                for i in 0..b.len() {
-                    let e = b.element(i);
-                    let nodes = [e[0], e[1], e[2], e[3]];
-                    if let Some(defect) =
-                        check_quad(output, &out_index, &normals, whole, nodes, min_edge)
-                    {
-                        bad.push(BadQuad {
-                            surface: s,
-                            element: b.tags[i],
-                            nodes,
-                            defect,
-                        });
-                    }
-                }
+                // speed: quads in parallel within a surface too (one large surface)
+                let found: Vec<BadQuad> = (0..b.len())
+                    .into_par_iter()
+                    .with_min_len(4096)
+                    .filter_map(|i| {
+                        let e = b.element(i);
+                        let nodes = [e[0], e[1], e[2], e[3]];
+                        check_quad(output, &out_index, normals, whole, nodes, min_edge).map(
+                            |defect| BadQuad {
+                                surface: s,
+                                element: b.tags[i],
+                                nodes,
+                                defect,
+                            },
+                        )
+                    })
+                    .collect();
+                bad.extend(found);
             }
             bad
         })
@@ -174,83 +176,107 @@ fn extent(mesh: &Mesh) -> f64 {
     }
 }
 
-/// The input normals of one surface by node tag: a table indexed by tag when the surface's
-/// nodes are a good share of the tag range, else sorted pairs.
+/// The unit input normals of one surface by node tag (zero where the faces around a node
+/// cancel): a table indexed by tag when the surface's nodes are a good share of the tag
+/// range, else sorted pairs.
 enum Normals {
     Dense(Vec<DVec3>),
     Sorted(Vec<(u64, DVec3)>),
 }
 
 impl Normals {
-    fn new(pairs: Vec<(u64, DVec3)>) -> Self {
-        let max = pairs.last().map_or(0, |p| p.0);
-        if max <= 32 * pairs.len() as u64 + 1024 {
-            let mut dense = vec![DVec3::ZERO; max as usize + 1];
-            for (t, n) in pairs {
-                dense[t as usize] = n;
-            }
-            Normals::Dense(dense)
-        } else {
-            Normals::Sorted(pairs)
-        }
-    }
-
     /// The unit normal at node `t`, when the input has one there.
     fn get(&self, t: u64) -> Option<DVec3> {
         let n = match self {
             Normals::Dense(d) => d.get(t as usize).copied(),
             Normals::Sorted(p) => p.binary_search_by_key(&t, |x| x.0).ok().map(|i| p[i].1),
         }?;
-        Some(n.normalize_or_zero()).filter(|n| *n != DVec3::ZERO)
+        Some(n).filter(|n| *n != DVec3::ZERO)
     }
 }
 
-/// Area-weighted normals of the input faces of surface `s` at their nodes, sorted by node
-/// tag.
-fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> Vec<(u64, DVec3)> {
+/// The area-weighted normals of the input faces of surface `s` at their nodes, normalized
+/// ([`Normals`]), and the surface's whole normal: the sum of them all before normalizing
+/// (each face counted once per node), normalized (zero when it has none).
+fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, DVec3) {
     let pos = |t: u64| {
         index.get(t).map(|r| {
             DVec3::from_array(input.node_blocks[r.block as usize].coords[r.index as usize])
         })
     };
-    let mut acc: Vec<(u64, DVec3)> = Vec::new();
-    for b in input.element_blocks.iter().filter(|b| {
-        b.entity_dim == 2
-            && b.entity_tag == s
-            && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
-    }) {
-        let k = b.nodes_per_element();
-        for i in 0..b.len() {
-            let e = b.element(i);
-            let mut p = [DVec3::ZERO; 4];
-            if e.iter().zip(p.iter_mut()).any(|(&t, x)| match pos(t) {
-                Some(v) => {
-                    *x = v;
-                    false
+    let blocks = || {
+        input.element_blocks.iter().filter(|b| {
+            b.entity_dim == 2
+                && b.entity_tag == s
+                && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
+        })
+    };
+    // each face's node tags with twice its vector area (Newell: a face's weight is its area)
+    let each_face = |f: &mut dyn FnMut(&[u64], DVec3)| {
+        for b in blocks() {
+            let k = b.nodes_per_element();
+            for i in 0..b.len() {
+                let e = b.element(i);
+                let mut p = [DVec3::ZERO; 4];
+                if e.iter().zip(p.iter_mut()).any(|(&t, x)| match pos(t) {
+                    Some(v) => {
+                        *x = v;
+                        false
+                    }
+                    None => true,
+                }) {
+                    continue;
                 }
-                None => true,
-            }) {
-                continue;
+                let mut n = DVec3::ZERO;
+                for j in 1..k - 1 {
+                    n += (p[j] - p[0]).cross(p[j + 1] - p[0]);
+                }
+                f(e, n);
             }
-            // twice the vector area (Newell), so a face's weight is its area
-            let mut n = DVec3::ZERO;
-            for j in 1..k - 1 {
-                n += (p[j] - p[0]).cross(p[j + 1] - p[0]);
+        }
+    };
+    let (mut uses, mut max) = (0u64, 0u64);
+    for b in blocks() {
+        uses += b.nodes.len() as u64;
+        max = b.nodes.iter().fold(max, |m, &t| m.max(t));
+    }
+    let mut whole = DVec3::ZERO;
+    // speed: accumulated straight into a table when the surface's tags are dense enough
+    // (a node is in about six triangles), else sorted pairs merged
+    let normals = if max <= 8 * uses + 1024 {
+        let mut dense = vec![DVec3::ZERO; max as usize + 1];
+        each_face(&mut |e, n| {
+            for &t in e {
+                dense[t as usize] += n;
+                whole += n;
             }
+        });
+        for n in &mut dense {
+            *n = n.normalize_or_zero();
+        }
+        Normals::Dense(dense)
+    } else {
+        let mut acc: Vec<(u64, DVec3)> = Vec::with_capacity(uses as usize);
+        each_face(&mut |e, n| {
             for &t in e {
                 acc.push((t, n));
+                whole += n;
+            }
+        });
+        radix_sort_by_key(&mut acc, |x| x.0);
+        let mut out: Vec<(u64, DVec3)> = Vec::with_capacity(acc.len() / 3 + 1);
+        for (t, n) in acc {
+            match out.last_mut() {
+                Some(last) if last.0 == t => last.1 += n,
+                _ => out.push((t, n)),
             }
         }
-    }
-    acc.sort_unstable_by_key(|x| x.0);
-    let mut out: Vec<(u64, DVec3)> = Vec::with_capacity(acc.len() / 3 + 1);
-    for (t, n) in acc {
-        match out.last_mut() {
-            Some(last) if last.0 == t => last.1 += n,
-            _ => out.push((t, n)),
+        for x in &mut out {
+            x.1 = x.1.normalize_or_zero();
         }
-    }
-    out
+        Normals::Sorted(out)
+    };
+    (normals, whole.normalize_or_zero())
 }
 
 /// The first defect of quad `q`, if any.

@@ -74,7 +74,9 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
     1.0 / (1.0 + worst) >= VALID_KEY
 }
 
-/// True when alive quad `q` is valid (module docs).
+/// True when alive quad `q` is valid (module docs). It depends only on the quad's nodes and
+/// their positions, normals and target sizes, and on whether the surface is planar
+/// ([`Gate`] relies on this).
 pub(crate) fn valid(l: &Local, q: u32) -> bool {
     quad_valid(l, &l.quads[q as usize], reference_normal(l, q))
 }
@@ -85,6 +87,32 @@ pub(crate) fn invalid_quads(l: &Local) -> Vec<u32> {
         .into_par_iter()
         .with_min_len(4096)
         .filter(|&q| l.alive[q as usize] && !valid(l, q))
+        .collect()
+}
+
+/// The alive quads of `l` that are not alive in `base` with the same nodes, or that have a
+/// node whose position or normal differs (bit for bit) from `base`'s, by increasing index.
+fn changed_quads(l: &Local, base: &State) -> Vec<u32> {
+    let same =
+        |a: DVec3, b: DVec3| a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits);
+    let moved: Vec<bool> = (0..l.pos.len())
+        .into_par_iter()
+        .with_min_len(8192)
+        .map(|v| {
+            base.pos.get(v).is_none_or(|&p| !same(p, l.pos[v]))
+                || base.nrm.get(v).is_none_or(|&n| !same(n, l.nrm[v]))
+        })
+        .collect();
+    (0..l.quads.len() as u32)
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter(|&q| {
+            let i = q as usize;
+            l.alive[i]
+                && (base.alive.get(i) != Some(&true)
+                    || base.quads.get(i) != Some(&l.quads[i])
+                    || l.quads[i].iter().any(|&v| moved[v as usize]))
+        })
         .collect()
 }
 
@@ -111,13 +139,24 @@ impl State {
         }
     }
 
-    fn restore(self, l: &mut Local) {
-        l.pos = self.pos;
-        l.nrm = self.nrm;
-        l.tri = self.tri;
-        l.removed = self.removed;
-        l.quads = self.quads;
-        l.alive = self.alive;
+    /// Makes this state `l`'s, reusing its buffers (no new allocation at a later check).
+    fn store(&mut self, l: &Local) {
+        self.pos.clone_from(&l.pos);
+        self.nrm.clone_from(&l.nrm);
+        self.tri.clone_from(&l.tri);
+        self.removed.clone_from(&l.removed);
+        self.quads.clone_from(&l.quads);
+        self.alive.clone_from(&l.alive);
+    }
+
+    /// Puts `l` into this state (copied into `l`'s buffers).
+    fn restore(&self, l: &mut Local) {
+        l.pos.clone_from(&self.pos);
+        l.nrm.clone_from(&self.nrm);
+        l.tri.clone_from(&self.tri);
+        l.removed.clone_from(&self.removed);
+        l.quads.clone_from(&self.quads);
+        l.alive.clone_from(&self.alive);
         l.build_adjacency();
     }
 }
@@ -157,13 +196,25 @@ impl Gate {
     }
 
     /// The invalid quads of `l` that the start did not have (as the same node set).
+    ///
+    /// Speed: only the quads that differ from the last state that passed (or the start)
+    /// are checked. That state had no such quad, and whether a quad is valid depends on its
+    /// nodes' positions, normals and sizes alone ([`valid`]; the sizes never change), so a
+    /// quad alive there with the same nodes, none of which moved or turned, is not one now.
     pub fn new_invalid(&self, l: &Local) -> Vec<u32> {
-        invalid_quads(l)
-            .into_iter()
+        let candidates = match self.last.as_ref().or(self.start.as_ref()) {
+            Some(base) => changed_quads(l, base),
+            None => (0..l.quads.len() as u32).collect(),
+        };
+        candidates
+            .into_par_iter()
+            .with_min_len(4096)
             .filter(|&q| {
-                self.inherited
-                    .binary_search(&sorted(l.quads[q as usize]))
-                    .is_err()
+                !valid(l, q)
+                    && self
+                        .inherited
+                        .binary_search(&sorted(l.quads[q as usize]))
+                        .is_err()
             })
             .collect()
     }
@@ -177,9 +228,16 @@ impl Gate {
         let bad = self.new_invalid(l);
         if bad.is_empty() {
             if keep {
-                self.last = Some(State::of(l));
-                // the start is needed only until a later state passed
-                self.start = None;
+                // the start is needed only until a later state passed (speed: its buffers
+                // hold the later states)
+                match (&mut self.last, self.start.take()) {
+                    (Some(last), _) => last.store(l),
+                    (None, Some(mut start)) => {
+                        start.store(l);
+                        self.last = Some(start);
+                    }
+                    (None, None) => self.last = Some(State::of(l)),
+                }
             }
             return true;
         }
@@ -203,14 +261,9 @@ impl Gate {
 
     /// Puts `l` back into the last state that passed (the start if none).
     pub fn roll_back(&mut self, l: &mut Local) {
-        let s = match self.last.clone() {
-            Some(s) => s,
-            None => match self.start.clone() {
-                Some(s) => s,
-                None => return,
-            },
-        };
-        s.restore(l);
+        if let Some(s) = self.last.as_ref().or(self.start.as_ref()) {
+            s.restore(l);
+        }
     }
 }
 
@@ -271,6 +324,22 @@ mod tests {
         l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
         assert!(!gate.check(&mut l, false, "test"));
         assert!(l.alive[0] && l.quads == quads);
+    }
+
+    #[test]
+    fn the_gate_sees_quads_turned_over_by_their_normals_alone() {
+        // the gate re-checks only quads that changed since the last state that passed: a
+        // change of the node normals (no node moved) is a change
+        let (mut l, _) = grid();
+        let mut gate = Gate::new(&l);
+        assert!(gate.check(&mut l, true, "test"));
+        let up = l.nrm.clone();
+        for n in &mut l.nrm {
+            *n = -*n;
+        }
+        assert!(!gate.new_invalid(&l).is_empty());
+        assert!(!gate.check(&mut l, true, "test"));
+        assert_eq!(l.nrm, up);
     }
 
     #[test]

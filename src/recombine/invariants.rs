@@ -1,13 +1,18 @@
 //! Invariants of recombination, checked from the two meshes alone. Deliberately simple
 //! (sorted edge lists keyed by node tags, one surface at a time) and sharing no code with
-//! the recombination itself. It runs on every `quadrangulate` call, so it is linear-ish
-//! (sorting) and parallel over surfaces.
+//! the recombination itself. It runs on every `quadrangulate` call, so it is linear: its
+//! sorts are radix sorts of packed tag pairs (`crate::keysort`), and it is parallel over
+//! surfaces (and over its independent sorts within one).
 
 use rayon::prelude::*;
 
+use crate::keysort::sort_pairs;
 use crate::mesh::{element_dim, etype, Mesh, NodeIndex};
 
 type Edge = (u64, u64);
+
+/// Faces per parallel task within one surface.
+const CHUNK: usize = 8192;
 
 fn undirected(a: u64, b: u64) -> Edge {
     (a.min(b), a.max(b))
@@ -42,7 +47,7 @@ fn edge_counts(faces: &[&[u64]]) -> Vec<(Edge, u32)> {
             all.push(undirected(f[i], f[(i + 1) % f.len()]));
         }
     }
-    all.par_sort_unstable();
+    sort_pairs(&mut all);
     let mut out: Vec<(Edge, u32)> = Vec::with_capacity(all.len() / 2 + 1);
     for e in all {
         match out.last_mut() {
@@ -67,7 +72,7 @@ fn directed(faces: &[&[u64]]) -> Vec<Edge> {
             s.push((f[i], f[(i + 1) % f.len()]));
         }
     }
-    s.par_sort_unstable();
+    sort_pairs(&mut s);
     s.dedup();
     s
 }
@@ -217,7 +222,7 @@ pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
                 }
             }
         }
-        s.par_sort_unstable();
+        sort_pairs(&mut s);
         s.dedup();
         s
     };
@@ -252,19 +257,20 @@ fn check_surface(
     let new_node = |t: u64| ib.get(t).is_none();
     let fb = faces_of(before, s);
     let fa = faces_of(after, s);
-    for f in &fa {
-        let mut sorted = f.to_vec();
-        sorted.sort_unstable();
-        sorted.dedup();
-        if sorted.len() != f.len() {
-            return Err(format!(
-                "surface {s}: the face with nodes {} repeats a node",
-                nodes_text(f)
-            ));
-        }
+    if let Some(f) = fa
+        .iter()
+        .find(|f| (1..f.len()).any(|j| f[..j].contains(&f[j])))
+    {
+        return Err(format!(
+            "surface {s}: the face with nodes {} repeats a node",
+            nodes_text(f)
+        ));
     }
-    let eb = edge_counts(&fb);
-    let ea = edge_counts(&fa);
+    // speed: the three sorted lists are independent (two cores: two at a time)
+    let ((eb, ea), db) = rayon::join(
+        || rayon::join(|| edge_counts(&fb), || edge_counts(&fa)),
+        || Directed::new(directed(&fb)),
+    );
     if let Some((e, c)) = ea.iter().find(|(e, c)| *c > 2 && count_of(&eb, e) <= 2) {
         return Err(format!(
             "surface {s}: the edge {}-{} is shared by {c} faces",
@@ -294,7 +300,7 @@ fn check_surface(
             nbr.push((*x, *y));
             nbr.push((*y, *x));
         }
-        nbr.par_sort_unstable();
+        sort_pairs(&mut nbr);
         let split_present = |e: &Edge| -> bool {
             let from = nbr.partition_point(|x| x.0 < e.0);
             nbr[from..]
@@ -309,24 +315,23 @@ fn check_surface(
             ));
         }
     }
-    // orientation
-    let db = Directed::new(directed(&fb));
-    for f in &fa {
-        for i in 0..f.len() {
-            let (p, q) = (f[i], f[(i + 1) % f.len()]);
-            if db.contains(q, p) && !db.contains(p, q) {
-                return Err(format!(
-                    "surface {s}: the face with nodes {} runs edge {p}->{q} against the orientation of the input triangles",
-                    nodes_text(f)
-                ));
-            }
-        }
-    }
-    // planar area
-    let pts = |f: &[u64], m: &Mesh, idx: &NodeIndex| -> Option<Vec<[f64; 3]>> {
-        f.iter().map(|&t| coord(m, idx, t)).collect()
+    // orientation (faces in parallel; the first offending face in order is reported)
+    let against = |f: &[u64]| -> Option<Edge> {
+        (0..f.len())
+            .map(|i| (f[i], f[(i + 1) % f.len()]))
+            .find(|&(p, q)| db.contains(q, p) && !db.contains(p, q))
     };
-    // the same without an allocation per face (faces have 3 or 4 nodes)
+    if let Some((f, (p, q))) = fa
+        .par_iter()
+        .with_min_len(CHUNK)
+        .find_map_first(|f| against(f).map(|e| (f, e)))
+    {
+        return Err(format!(
+            "surface {s}: the face with nodes {} runs edge {p}->{q} against the orientation of the input triangles",
+            nodes_text(f)
+        ));
+    }
+    // planar area (faces have 3 or 4 nodes: no allocation per face)
     let pts4 = |f: &[u64], m: &Mesh, idx: &NodeIndex| -> Option<([[f64; 3]; 4], usize)> {
         let mut p = [[0.0; 3]; 4];
         for (x, &t) in p.iter_mut().zip(f) {
@@ -334,53 +339,75 @@ fn check_surface(
         }
         Some((p, f.len().min(4)))
     };
-    let mut total = [0.0; 3];
-    let mut polys_b = Vec::with_capacity(fb.len());
-    for f in &fb {
-        let p = pts(f, before, ib).ok_or_else(|| {
-            format!(
-                "surface {s}: the input face with nodes {} has an unknown node",
-                nodes_text(f)
-            )
-        })?;
-        let a = vector_area(&p);
-        for k in 0..3 {
-            total[k] += a[k];
+    // twice the summed vector area of `faces` projected on `n` (`None`: the vector itself),
+    // by chunks of faces in parallel added in order (the same sum for any thread count);
+    // the first face with an unknown node is an error
+    let area = |faces: &[&[u64]], m: &Mesh, idx: &NodeIndex, what: &str| {
+        let parts: Vec<Result<[f64; 3], String>> = faces
+            .par_chunks(CHUNK)
+            .map(|c| {
+                let mut t = [0.0; 3];
+                for f in c {
+                    let p = pts4(f, m, idx).ok_or_else(|| {
+                        format!(
+                            "surface {s}: the {what} face with nodes {} has an unknown node",
+                            nodes_text(f)
+                        )
+                    })?;
+                    let a = vector_area(&p.0[..p.1]);
+                    for k in 0..3 {
+                        t[k] += a[k];
+                    }
+                }
+                Ok(t)
+            })
+            .collect();
+        let mut total = [0.0; 3];
+        for p in parts {
+            let p = p?;
+            for k in 0..3 {
+                total[k] += p[k];
+            }
         }
-        polys_b.push(p);
-    }
+        Ok::<[f64; 3], String>(total)
+    };
+    let total = area(&fb, before, ib, "input")?;
     let norm = dot(total, total).sqrt();
     if norm == 0.0 {
         return Ok(());
     }
     let n = total.map(|x| x / norm);
-    let o = polys_b
+    // planar: every corner of the input faces within 1e-10 of the extent (the largest
+    // distance from the first corner) of the plane through the first corner
+    let o = fb
         .first()
-        .and_then(|p| p.first())
-        .copied()
+        .and_then(|f| f.first())
+        .and_then(|&t| coord(before, ib, t))
         .unwrap_or([0.0; 3]);
-    let extent = polys_b
-        .iter()
-        .flatten()
-        .map(|p| dot(sub(*p, o), sub(*p, o)).sqrt())
-        .fold(0.0, f64::max);
-    let planar = polys_b
-        .iter()
-        .flatten()
-        .all(|p| dot(sub(*p, o), n).abs() <= 1e-10 * extent.max(f64::MIN_POSITIVE));
+    // (extent, largest distance from the plane, a distance that is not a number)
+    let spread = |c: &[&[u64]]| {
+        let mut r = (0.0_f64, 0.0_f64, false);
+        for p in c
+            .iter()
+            .flat_map(|f| f.iter().filter_map(|&t| coord(before, ib, t)))
+        {
+            let d = sub(p, o);
+            r.0 = r.0.max(dot(d, d).sqrt());
+            let off = dot(d, n).abs();
+            r.1 = r.1.max(off);
+            r.2 |= off.is_nan();
+        }
+        r
+    };
+    let (extent, off, nan) = fb.par_chunks(CHUNK).map(spread).reduce(
+        || (0.0, 0.0, false),
+        |a, b| (a.0.max(b.0), a.1.max(b.1), a.2 || b.2),
+    );
+    let planar = !nan && off <= 1e-10 * extent.max(f64::MIN_POSITIVE);
     if !planar {
         return Ok(());
     }
-    let mut area_after = 0.0;
-    for f in &fa {
-        let p = pts4(f, after, ia).ok_or_else(|| {
-            format!(
-                "surface {s}: the output face with nodes {} has an unknown node",
-                nodes_text(f)
-            )
-        })?;
-        area_after += dot(vector_area(&p.0[..p.1]), n);
-    }
+    let area_after = dot(area(&fa, after, ia, "output")?, n);
     let area_before = dot(total, n);
     if ((area_after - area_before) / area_before).abs() > 1e-9 {
         return Err(format!(
