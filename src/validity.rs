@@ -8,13 +8,15 @@
 //!   the area-weighted normal of the input faces of the same surface around the corner's
 //!   node, oriented like them. So a quad that turned over (inverted, or oriented against
 //!   the triangles it came from) fails at its corners, and so does a flat (180°) or reflex
-//!   corner. Nodes the input did not have (vertex duplications, parity and fallback splits,
-//!   refinement) take the mean input normal of the quad's other nodes, or, when none of its
-//!   nodes is an input node of that surface, the surface's whole area-weighted normal
-//!   (exact on planar surfaces; the quad's own normal only when the surface has none).
+//!   corner. A node the input surface does not have (vertex duplications, parity and
+//!   fallback splits, refinement), or whose input faces cancel out, takes the summed normal
+//!   of the input faces of the surface nearest to it (every face within 1e-9 of the mesh's
+//!   extent of the nearest distance counts); the quad's own normal only when the surface
+//!   has no face at all.
 //!
 //! [`invalid_quads`] lists every quad that is not valid; it shares no code with the
-//! recombination or the optimizer, which it checks.
+//! recombination or the optimizer, which it checks, except the closest-point grid of
+//! `quality::locate` for the nearest faces (the fuzz target checks that by brute force).
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -127,8 +129,17 @@ pub fn invalid_quads(input: &Mesh, output: &Mesh) -> Vec<BadQuad> {
     surfaces
         .par_iter()
         .flat_map_iter(|&s| {
-            let (normals, whole) = input_normals(input, &in_index, s);
+            let (normals, faces) = input_normals(input, &in_index, s);
             let normals = &normals;
+            // the nearest-face search, built only when some quad node has no input normal
+            let unknown = output.element_blocks.iter().any(|b| {
+                b.entity_dim == 2
+                    && b.entity_tag == s
+                    && b.element_type == etype::QUAD4
+                    && b.nodes.iter().any(|&t| normals.get(t).is_none())
+            });
+            let nearest = unknown.then(|| Nearest::new(faces, extent * 1e-9));
+            let nearest = nearest.as_ref();
             let mut bad = Vec::new();
             for b in output.element_blocks.iter().filter(|b| {
                 b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::QUAD4
@@ -140,7 +151,7 @@ pub fn invalid_quads(input: &Mesh, output: &Mesh) -> Vec<BadQuad> {
                     .filter_map(|i| {
                         let e = b.element(i);
                         let nodes = [e[0], e[1], e[2], e[3]];
-                        check_quad(output, &out_index, normals, whole, nodes, min_edge).map(
+                        check_quad(output, &out_index, normals, nearest, nodes, min_edge).map(
                             |defect| BadQuad {
                                 surface: s,
                                 element: b.tags[i],
@@ -198,7 +209,7 @@ impl Normals {
 /// The area-weighted normals of the input faces of surface `s` at their nodes, normalized
 /// ([`Normals`]), and the surface's whole normal: the sum of them all before normalizing
 /// (each face counted once per node), normalized (zero when it has none).
-fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, DVec3) {
+fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, Vec<Face>) {
     let pos = |t: u64| {
         index.get(t).map(|r| {
             DVec3::from_array(input.node_blocks[r.block as usize].coords[r.index as usize])
@@ -212,7 +223,8 @@ fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, DVec3) {
         })
     };
     // each face's node tags with twice its vector area (Newell: a face's weight is its area)
-    let each_face = |f: &mut dyn FnMut(&[u64], DVec3)| {
+    let mut faces: Vec<Face> = Vec::new();
+    let mut each_face = |f: &mut dyn FnMut(&[u64], DVec3)| {
         for b in blocks() {
             let k = b.nodes_per_element();
             for i in 0..b.len() {
@@ -232,6 +244,11 @@ fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, DVec3) {
                     n += (p[j] - p[0]).cross(p[j + 1] - p[0]);
                 }
                 f(e, n);
+                faces.push(Face {
+                    corners: p,
+                    len: k as u8,
+                    normal: n,
+                });
             }
         }
     };
@@ -240,7 +257,6 @@ fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, DVec3) {
         uses += b.nodes.len() as u64;
         max = b.nodes.iter().fold(max, |m, &t| m.max(t));
     }
-    let mut whole = DVec3::ZERO;
     // speed: accumulated straight into a table when the surface's tags are dense enough
     // (a node is in about six triangles), else sorted pairs merged
     let normals = if max <= 8 * uses + 1024 {
@@ -248,7 +264,6 @@ fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, DVec3) {
         each_face(&mut |e, n| {
             for &t in e {
                 dense[t as usize] += n;
-                whole += n;
             }
         });
         for n in &mut dense {
@@ -260,7 +275,6 @@ fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, DVec3) {
         each_face(&mut |e, n| {
             for &t in e {
                 acc.push((t, n));
-                whole += n;
             }
         });
         radix_sort_by_key(&mut acc, |x| x.0);
@@ -276,7 +290,113 @@ fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, DVec3) {
         }
         Normals::Sorted(out)
     };
-    (normals, whole.normalize_or_zero())
+    (normals, faces)
+}
+
+/// One input face: its corners (3 or 4) and twice its vector area.
+struct Face {
+    corners: [DVec3; 4],
+    len: u8,
+    normal: DVec3,
+}
+
+/// The nearest input faces of one surface to a point (closest-point grid over the faces'
+/// triangles).
+struct Nearest {
+    faces: Vec<Face>,
+    /// Face of each triangle of `surface`.
+    face_of: Vec<u32>,
+    /// Triangles around each point of `surface` (CSR).
+    start: Vec<u32>,
+    around: Vec<u32>,
+    surface: crate::quality::locate::TriSurface,
+    tie: f64,
+}
+
+impl Nearest {
+    fn new(faces: Vec<Face>, tie: f64) -> Self {
+        let mut points: Vec<DVec3> = Vec::new();
+        let mut tris: Vec<[u32; 3]> = Vec::new();
+        let mut face_of: Vec<u32> = Vec::new();
+        // points shared between faces are merged by exact position, so ties across an
+        // edge are found through the triangles around its points
+        let mut id: std::collections::HashMap<[u64; 3], u32> = Default::default();
+        for (f, face) in faces.iter().enumerate() {
+            let ids: Vec<u32> = face.corners[..face.len as usize]
+                .iter()
+                .map(|c| {
+                    let key = c.to_array().map(f64::to_bits);
+                    *id.entry(key).or_insert_with(|| {
+                        points.push(*c);
+                        points.len() as u32 - 1
+                    })
+                })
+                .collect();
+            for j in 1..ids.len() - 1 {
+                tris.push([ids[0], ids[j], ids[j + 1]]);
+                face_of.push(f as u32);
+            }
+        }
+        let mut start = vec![0u32; points.len() + 1];
+        for t in &tris {
+            for &v in t {
+                start[v as usize + 1] += 1;
+            }
+        }
+        for i in 0..points.len() {
+            start[i + 1] += start[i];
+        }
+        let mut fill = start.clone();
+        let mut around = vec![0u32; start[points.len()] as usize];
+        for (ti, t) in tris.iter().enumerate() {
+            for &v in t {
+                around[fill[v as usize] as usize] = ti as u32;
+                fill[v as usize] += 1;
+            }
+        }
+        Nearest {
+            faces,
+            face_of,
+            start,
+            around,
+            surface: crate::quality::locate::TriSurface::new(points, tris),
+            tie,
+        }
+    }
+
+    /// Distance from `p` to face `f`.
+    fn distance(&self, f: u32, p: DVec3) -> f64 {
+        let face = &self.faces[f as usize];
+        let c = &face.corners;
+        (1..face.len as usize - 1)
+            .map(|k| {
+                let (q, _) = crate::quality::locate::closest_on_triangle(p, [c[0], c[k], c[k + 1]]);
+                (p - q).length()
+            })
+            .fold(f64::INFINITY, f64::min)
+    }
+
+    /// The unit summed normal of the faces nearest to `p` (zero when there is none).
+    fn normal(&self, p: DVec3) -> DVec3 {
+        let Some(hit) = self.surface.closest(p) else {
+            return DVec3::ZERO;
+        };
+        let best = (p - hit.point).length();
+        let mut near: Vec<u32> = Vec::new();
+        for &v in &self.surface.triangle(hit.tri) {
+            let (a, b) = (self.start[v as usize], self.start[v as usize + 1]);
+            for &t in &self.around[a as usize..b as usize] {
+                near.push(self.face_of[t as usize]);
+            }
+        }
+        near.sort_unstable();
+        near.dedup();
+        near.iter()
+            .filter(|&&f| self.distance(f, p) <= best + self.tie)
+            .map(|&f| self.faces[f as usize].normal)
+            .sum::<DVec3>()
+            .normalize_or_zero()
+    }
 }
 
 /// The first defect of quad `q`, if any.
@@ -284,7 +404,7 @@ fn check_quad(
     mesh: &Mesh,
     index: &NodeIndex,
     normals: &Normals,
-    whole: DVec3,
+    nearest: Option<&Nearest>,
     q: [u64; 4],
     min_edge: f64,
 ) -> Option<Defect> {
@@ -304,17 +424,15 @@ fn check_quad(
             return Some(Defect::ZeroLengthEdge { corner: k });
         }
     }
-    let at: [Option<DVec3>; 4] = q.map(|t| normals.get(t));
-    let known: DVec3 = at.iter().flatten().copied().sum();
-    let fallback = if known != DVec3::ZERO {
-        known.normalize()
-    } else if whole != DVec3::ZERO {
-        whole
-    } else {
-        (p[2] - p[0]).cross(p[3] - p[1]).normalize_or_zero()
-    };
+    let own = (p[2] - p[0]).cross(p[3] - p[1]).normalize_or_zero();
     for k in 0..4 {
-        let n = at[k].unwrap_or(fallback);
+        let n = match normals.get(q[k]) {
+            Some(n) => n,
+            None => match nearest.map(|f| f.normal(p[k])) {
+                Some(n) if n != DVec3::ZERO => n,
+                _ => own,
+            },
+        };
         let a = p[(k + 1) % 4] - p[k];
         let b = p[(k + 3) % 4] - p[k];
         let s = n.dot(a.cross(b));
