@@ -16,7 +16,7 @@ cargo test --release "$@"
 if [ $# -eq 0 ]; then
     venv=target/py-venv
     if [ ! -x "$venv/bin/python" ]; then
-        python3 -m venv --system-site-packages "$venv"
+        python3 -m venv "$venv"
     fi
     "$venv/bin/python" -m pip install -q --disable-pip-version-check numpy pytest meshio "gmsh==4.15.2"
     CARGO_TARGET_DIR="$PWD/target/python" "$venv/bin/python" -m pip install -q --disable-pip-version-check ./python

@@ -290,3 +290,60 @@ def test_recombine_gmsh_keeps_periodic_curves_periodic(model):
         xm = gmsh.model.mesh.getNode(m)[0]
         assert np.allclose(xs, xm + [1, 0, 0])
     assert 2 not in element_counts(2)
+
+
+@pytest.mark.parametrize(
+    "geo,size",
+    [("rectangle", 1.0), ("square_hole", 2.7), ("cad_solid", 2.0), ("even_curves", 2.0)],
+)
+def test_recombine_gmsh_on_the_geo_fixtures(model, tmp_path, geo, size):
+    meshio = pytest.importorskip("meshio")
+    gmsh.onelab.setNumber("Parameters/size", [size])
+    gmsh.open(os.path.join(REPO, "geo", f"{geo}.geo"))
+    gmsh.model.mesh.generate(2)
+    groups = sorted(gmsh.model.getPhysicalGroups())
+    names = {g: gmsh.model.getPhysicalName(*g) for g in groups}
+    boundary = {}
+    for dim in (0, 1):
+        for _, tag in gmsh.model.getEntities(dim):
+            ntags, coords, _ = gmsh.model.mesh.getNodes(dim, tag)
+            boundary.update(zip(ntags, coords.reshape(-1, 3).tolist()))
+    report = blossomquad.recombine_gmsh()
+    assert report["invalid"] == []
+    counts = element_counts(2)
+    assert 2 not in counts and counts.get(3, 0) > 0, counts
+    assert sorted(gmsh.model.getPhysicalGroups()) == groups
+    assert {g: gmsh.model.getPhysicalName(*g) for g in groups} == names
+    for tag, xyz in boundary.items():
+        assert np.allclose(gmsh.model.mesh.getNode(tag)[0], xyz), tag
+    for _, s in gmsh.model.getEntities(2):
+        _, tags, _ = gmsh.model.mesh.getElements(2, s)
+        assert min(gmsh.model.mesh.getElementQualities(tags[0], "minSJ")) > 0, s
+    out = str(tmp_path / f"{geo}.msh")
+    gmsh.write(out)
+    gmsh.clear()
+    gmsh.open(out)
+    assert 2 not in element_counts(2)
+    m = meshio.read(out)
+    assert "triangle" not in {c.type for c in m.cells}
+    assert sum(len(c.data) for c in m.cells if c.type == "quad") == counts[3]
+
+
+@pytest.mark.parametrize("version", ["4.1", "2.2"])
+def test_recombine_file_in_msh_41_and_22(model, tmp_path, version):
+    meshio = pytest.importorskip("meshio")
+    gmsh.onelab.setNumber("Parameters/size", [2.7])
+    gmsh.open(os.path.join(REPO, "geo", "square_hole.geo"))
+    gmsh.model.mesh.generate(2)
+    gmsh.option.setNumber("Mesh.MshFileVersion", float(version))
+    src = str(tmp_path / "in.msh")
+    gmsh.write(src)
+    out = tmp_path / "out.msh"
+    report = blossomquad.recombine_file(src, out)
+    assert report["invalid"] == []
+    with open(out) as f:
+        f.readline()
+        assert f.readline().split()[0] == version
+    m = meshio.read(out)
+    assert "quad" in {c.type for c in m.cells}
+    assert "triangle" not in {c.type for c in m.cells}
