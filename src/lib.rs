@@ -21,6 +21,7 @@
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
+pub mod high_order;
 pub mod matching;
 pub mod mesh;
 pub mod msh;

@@ -119,6 +119,10 @@ struct RunArgs {
     /// without it such a mesh is refused (exit 1) and nothing is written.
     #[arg(long)]
     allow_invalid: bool,
+    /// With a second-order input (6-node triangles): write 8-node quads (Gmsh's
+    /// Mesh.SecondOrderIncomplete) instead of 9-node quads.
+    #[arg(long)]
+    incomplete: bool,
     /// Allow the output to overwrite the input file.
     #[arg(long)]
     force: bool,
@@ -333,6 +337,7 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     opts.topology = !args.no_topology;
     opts.optimize = !args.no_optimize;
     opts.allow_invalid = args.allow_invalid;
+    opts.incomplete = args.incomplete;
     opts.trace = trace_from_env();
     let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
         let b = indicatif::ProgressBar::new(0);
@@ -373,8 +378,13 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     } else {
         String::new()
     };
+    let second_order_time = if report.second_order.is_some() {
+        format!(", second order {:.3} s", times.second_order.as_secs_f64())
+    } else {
+        String::new()
+    };
     log.say(format!(
-        "time: read {t_read:.3} s, recombine {:.3} s{refine_time}, optimize {:.3} s, check {:.3} s, write {t_write:.3} s",
+        "time: read {t_read:.3} s, recombine {:.3} s{refine_time}, optimize {:.3} s, check {:.3} s{second_order_time}, write {t_write:.3} s",
         times.recombine.as_secs_f64(),
         times.optimize.as_secs_f64(),
         times.check.as_secs_f64(),
