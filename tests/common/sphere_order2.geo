@@ -5,6 +5,6 @@ DefineConstant[ size = {0.3, Name "size"} ];
 SetFactory("OpenCASCADE");
 Sphere(1) = {0, 0, 0, 1};
 Physical Surface("skin", 7) = {1};
-Physical Curve("seam", 8) = {1};
+Physical Curve("seam", 8) = Curve{:};
 Mesh.MeshSizeMax = size;
 Mesh.MeshSizeMin = size;
