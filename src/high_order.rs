@@ -340,6 +340,8 @@ pub fn tri6_point(x: &[DVec3; 6], l: [f64; 3]) -> DVec3 {
 struct SurfaceGeometry {
     locator: TriSurface,
     six: Vec<[DVec3; 6]>,
+    /// A triangle at each input corner node: where searches near that node start.
+    node_tri: HashMap<u64, u32>,
 }
 
 impl SurfaceGeometry {
@@ -348,8 +350,14 @@ impl SurfaceGeometry {
     /// steps from the flat point closest to `q` (`Φ` is the identity plus a small
     /// distortion, so a few steps converge). Returns `q` itself when `q` is already on the
     /// curved surface to rounding (a planar surface's points do not move).
-    fn project(&self, q: DVec3) -> Option<DVec3> {
-        let mut hit = self.locator.closest(q)?;
+    /// `near`: input corner nodes close to `q`, whose triangles the search starts from (a
+    /// walk across a few triangles instead of a search of the whole surface).
+    fn project(&self, q: DVec3, near: &[u64]) -> Option<DVec3> {
+        let start = near.iter().find_map(|t| self.node_tri.get(t));
+        let mut hit = match start {
+            Some(&t) => self.locator.walk(t, q)?,
+            None => self.locator.closest(q)?,
+        };
         let mut best: Option<(f64, DVec3, f64)> = None;
         for _ in 0..8 {
             let x = self.six.get(hit.tri as usize)?;
@@ -447,6 +455,12 @@ impl Geometry {
                 let mut flat = Vec::with_capacity(list.len());
                 let mut six = Vec::with_capacity(list.len());
                 let at = |t: u64| coords.get(&t).copied().unwrap_or(DVec3::ZERO);
+                let mut node_tri = HashMap::new();
+                for (ti, t) in list.iter().enumerate() {
+                    for &n in &t[..3] {
+                        node_tri.entry(n).or_insert(ti as u32);
+                    }
+                }
                 for t in &list {
                     let mut f = [0u32; 3];
                     for (k, &n) in t[..3].iter().enumerate() {
@@ -471,6 +485,7 @@ impl Geometry {
                     SurfaceGeometry {
                         locator: TriSurface::new(points, flat),
                         six,
+                        node_tri,
                     },
                 )
             })
@@ -622,7 +637,7 @@ pub fn elevate(
                 return Some((t, p));
             }
             let s = surface_of.get(&t)?;
-            let p = geo.surfaces.get(s)?.project(pos(t))?;
+            let p = geo.surfaces.get(s)?.project(pos(t), &[t])?;
             Some((t, p))
         })
         .collect();
@@ -710,7 +725,11 @@ pub fn elevate(
             return;
         }
         if let Some(s) = e.surface {
-            if let Some(x) = geo.surfaces.get(&s).and_then(|g| g.project(mid_pt)) {
+            if let Some(x) = geo
+                .surfaces
+                .get(&s)
+                .and_then(|g| g.project(mid_pt, &[e.a, e.b]))
+            {
                 e.kind = MidKind::Surface;
                 e.curved = x;
                 return;
@@ -735,7 +754,10 @@ pub fn elevate(
                     x[4 + k] = edges[quad_edges[i][k]].curved;
                 }
                 let c = serendipity_centre(&x);
-                geo.surfaces.get(&s).and_then(|g| g.project(c)).unwrap_or(c)
+                geo.surfaces
+                    .get(&s)
+                    .and_then(|g| g.project(c, &q))
+                    .unwrap_or(c)
             })
             .collect()
     } else {
@@ -919,7 +941,9 @@ pub fn elevate(
     for (bi, b) in out.node_blocks.iter().enumerate() {
         block_of.entry((b.entity_dim, b.entity_tag)).or_insert(bi);
     }
-    let mut additions: Vec<(i32, i32, u64, DVec3, Option<Vec<f64>>)> = Vec::new();
+    // (entity dim, entity tag, node tag, coordinates, parametric coordinates)
+    type NewNode = (i32, i32, u64, DVec3, Option<Vec<f64>>);
+    let mut additions: Vec<NewNode> = Vec::new();
     let old_blocks = out.node_blocks.clone();
     let params_for = |owner: (i32, i32), parents: &[u64]| -> Option<Vec<f64>> {
         let bi = *block_of.get(&owner)?;
@@ -1271,7 +1295,9 @@ pub fn min_scaled_jacobian_at_nodes(x: &[DVec3; 9]) -> f64 {
 /// straight-sided quad passes exactly when its corners turn positively.
 pub fn quad_valid(x: &[DVec3; 9], reference: DVec3) -> bool {
     let n = straight_normal(x);
-    if !(n.dot(reference) > 0.0) || x.iter().any(|p| !p.is_finite()) {
+    if n.dot(reference).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater)
+        || x.iter().any(|p| !p.is_finite())
+    {
         return false;
     }
     let n = n.normalize_or_zero();
@@ -1340,7 +1366,7 @@ pub fn jacobian_positive(f: &dyn Fn(f64, f64) -> f64, max_depth: u32) -> bool {
         for (i, row) in s.iter_mut().enumerate() {
             for (j, v) in row.iter_mut().enumerate() {
                 *v = f(u0 + w * i as f64 / 3.0, v0 + w * j as f64 / 3.0);
-                if !(*v > 0.0) {
+                if (*v).partial_cmp(&0.0) != Some(std::cmp::Ordering::Greater) {
                     return false;
                 }
             }
@@ -1353,9 +1379,9 @@ pub fn jacobian_positive(f: &dyn Fn(f64, f64) -> f64, max_depth: u32) -> bool {
             }
         }
         let mut min_c = f64::INFINITY;
-        for i in 0..4 {
-            for j in 0..4 {
-                let c: f64 = (0..4).map(|k| t[i][k] * inv[j][k]).sum();
+        for row in &t {
+            for inv_j in &inv {
+                let c: f64 = row.iter().zip(inv_j).map(|(a, b)| a * b).sum();
                 min_c = min_c.min(c);
             }
         }

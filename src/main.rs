@@ -67,6 +67,11 @@ enum Command {
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
+        /// Also write the mesh with the views "eta" and "scaled jacobian" (per quad,
+        /// $ElementData) and "valence" (per node, $NodeData) as MSH 4.1 ASCII, which Gmsh
+        /// opens coloured (`gmsh OUT.msh`).
+        #[arg(long, value_name = "OUT")]
+        view: Option<PathBuf>,
     },
 }
 
@@ -208,8 +213,19 @@ fn run(cli: Cli) -> Result<(), String> {
             size,
             reference,
             json,
+            view,
         }) => {
             let mesh = read(&input)?;
+            if let Some(out) = &view {
+                check_not_input(&input, out, false)?;
+                let views = quality::view::view_mesh(&mesh);
+                let format = views.format.unwrap_or(blossomquad::MshFormat {
+                    version: blossomquad::mesh::MshVersion::V41,
+                    binary: false,
+                });
+                msh::write_file(&views, out, format)
+                    .map_err(|e| format!("{}: {e}", out.display()))?;
+            }
             let field = match (&size, &reference) {
                 (Some(expr), _) => quality::SizeField::Expression(
                     quality::SizeExpr::new(expr).map_err(|e| e.to_string())?,

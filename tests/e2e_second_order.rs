@@ -187,3 +187,51 @@ fn third_order_input_is_refused_in_plain_words() {
     );
     assert!(!out.exists());
 }
+
+#[test]
+fn quality_view_loads_in_gmsh_with_one_value_per_quad() {
+    if !gmsh_gate::require_gmsh() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let geo = repo_dir().join("tests/common/plate_hole_order2.geo");
+    let input = mesh_order2(&geo, dir.path(), Variant::Msh41Binary, 0.5, &[]);
+    let output = dir.path().join("quads.msh");
+    let (code, _, err) = blossomquad_run([input.as_os_str(), "-o".as_ref(), output.as_os_str()]);
+    assert_eq!(code, Some(0), "{err}");
+    let view = dir.path().join("view.msh");
+    let (code, _, err) = blossomquad_run([
+        "quality".as_ref(),
+        output.as_os_str(),
+        "--view".as_ref(),
+        view.as_os_str(),
+    ]);
+    assert_eq!(code, Some(0), "{err}");
+    // Gmsh reads the three views: one value per quad for the element views (eta in
+    // (0, 1], scaled Jacobian in (0, 1]), one per corner node for the valence (1..=8)
+    let script = r#"
+import sys, gmsh
+gmsh.initialize(); gmsh.option.setNumber("General.Terminal", 0)
+gmsh.logger.start(); gmsh.open(sys.argv[1]); log = gmsh.logger.get()
+assert not any("Error" in l for l in log), log
+quads = [t for ty, tags in zip(*gmsh.model.mesh.getElements(2)[:2]) for t in tags if ty == 10]
+names = {}
+for v in gmsh.view.getTags():
+    kind, tags, data, _, _ = gmsh.view.getModelData(v, 0)
+    names[gmsh.view.option.getString(v, "Name")] = (kind, sorted(int(t) for t in tags), [d[0] for d in data])
+for n in ("eta", "scaled jacobian"):
+    kind, tags, vals = names[n]
+    assert kind == "ElementData" and tags == sorted(int(q) for q in quads), n
+    assert all(0 < x <= 1 + 1e-12 for x in vals), (n, min(vals))
+kind, tags, vals = names["valence"]
+assert kind == "NodeData" and all(1 <= x <= 8 for x in vals) and len(tags) > 0
+print("ok", len(quads))
+"#;
+    let o = run(Command::new(common::python_exe())
+        .arg("-c")
+        .arg(script)
+        .arg(&view));
+    let text =
+        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success() && text.starts_with("ok"), "{text}");
+}
