@@ -1550,4 +1550,104 @@ mod tests {
         let xi = chain_parameters(&[p(0.0), p(0.26), p(0.49), p(0.76), p(1.0)]);
         assert_eq!(xi, vec![-1.0, -0.5, 0.0, 0.5, 1.0]);
     }
+
+    /// Two 6-node triangles making the unit square (mid-edge nodes have the largest tags,
+    /// as Gmsh numbers them; the bottom edge's mid node bulges out of the plane).
+    fn two_tri6() -> Mesh {
+        use crate::mesh::{Entity, NodeBlock};
+        let mut m = Mesh::default();
+        m.entities[2].push(Entity {
+            dim: 2,
+            tag: 1,
+            bbox: [0.0, 0.0, 0.0, 1.0, 1.0, 0.0],
+            physical_tags: vec![],
+            bounding: vec![],
+        });
+        let coords = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.0, 0.05], // 5: mid 1-2
+            [1.0, 0.5, 0.0],  // 6: mid 2-3
+            [0.5, 0.5, 0.0],  // 7: mid 3-1 (the diagonal)
+            [0.5, 1.0, 0.0],  // 8: mid 3-4
+            [0.0, 0.5, 0.0],  // 9: mid 4-1
+        ];
+        m.node_blocks.push(NodeBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            tags: (1..=9).collect(),
+            coords,
+            params: None,
+        });
+        m.element_blocks.push(ElementBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            element_type: etype::TRI6,
+            tags: vec![1, 2],
+            nodes: vec![1, 2, 3, 5, 6, 7, 1, 3, 4, 7, 8, 9],
+            partitions: None,
+        });
+        m
+    }
+
+    #[test]
+    fn two_triangles_become_one_quad9_keeping_the_boundary_mid_nodes() {
+        let mut m = two_tri6();
+        let mut opts = Options::default();
+        opts.optimize = false;
+        let report = crate::pipeline::quadrangulate(&mut m, &opts).expect("recombined");
+        let so = report.second_order.expect("second-order report");
+        assert_eq!((so.quads, so.kept_mid_nodes, so.face_nodes), (1, 4, 1));
+        let b = m
+            .element_blocks
+            .iter()
+            .find(|b| b.entity_dim == 2)
+            .expect("a surface block");
+        assert_eq!(b.element_type, etype::QUAD9);
+        assert_eq!(b.len(), 1);
+        let e = b.element(0);
+        // the four edges keep their input mid-edge nodes, the diagonal's (7) is gone, the
+        // face node is new, above the input's largest tag
+        let mut mids: Vec<u64> = e[4..8].to_vec();
+        mids.sort_unstable();
+        assert_eq!(mids, vec![5, 6, 8, 9]);
+        assert!(e[8] > 9);
+        let tags: Vec<u64> = m.node_blocks.iter().flat_map(|b| b.tags.clone()).collect();
+        assert!(!tags.contains(&7) && tags.contains(&e[8]));
+        // the face node: the serendipity centre (0.5, 0.5, 0.025: half the bottom edge's
+        // bulge) projected back onto the input surface, which is flat along the diagonal
+        let index = m.node_index();
+        let r = index.get(e[8]).expect("face node exists");
+        let c = DVec3::from_array(m.node_blocks[r.block as usize].coords[r.index as usize]);
+        assert!(c.distance(DVec3::new(0.5, 0.5, 0.0)) < 1e-12, "{c:?}");
+        // --incomplete: an 8-node quad, no face node
+        let mut m = two_tri6();
+        opts.incomplete = true;
+        crate::pipeline::quadrangulate(&mut m, &opts).expect("recombined");
+        let b = m
+            .element_blocks
+            .iter()
+            .find(|b| b.entity_dim == 2)
+            .expect("block");
+        assert_eq!((b.element_type, b.nodes.len()), (etype::QUAD8, 8));
+    }
+
+    #[test]
+    fn third_order_triangles_are_refused_and_the_mesh_is_unchanged() {
+        let mut m = two_tri6();
+        m.element_blocks.push(ElementBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            element_type: 21,
+            tags: vec![3],
+            nodes: vec![1, 2, 3, 5, 5, 6, 6, 7, 7, 8],
+            partitions: None,
+        });
+        let before = m.clone();
+        let e = crate::pipeline::quadrangulate(&mut m, &Options::default()).unwrap_err();
+        assert!(e.to_string().contains("type 21"), "{e}");
+        assert_eq!(m, before);
+    }
 }
