@@ -1595,8 +1595,10 @@ mod tests {
     #[test]
     fn two_triangles_become_one_quad9_keeping_the_boundary_mid_nodes() {
         let mut m = two_tri6();
-        let mut opts = Options::default();
-        opts.optimize = false;
+        let mut opts = Options {
+            optimize: false,
+            ..Default::default()
+        };
         let report = crate::pipeline::quadrangulate(&mut m, &opts).expect("recombined");
         let so = report.second_order.expect("second-order report");
         assert_eq!((so.quads, so.kept_mid_nodes, so.face_nodes), (1, 4, 1));
