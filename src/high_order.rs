@@ -195,6 +195,11 @@ pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Erro
     let mut dropped = 0usize;
     let mut blocks = Vec::with_capacity(input.element_blocks.len());
     let mut high: HashSet<u64> = HashSet::new();
+    let existing: HashSet<u64> = input
+        .node_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().copied())
+        .collect();
     for b in &input.element_blocks {
         let k = b.nodes_per_element();
         if k == 0 || b.nodes.len() != b.len() * k {
@@ -235,7 +240,17 @@ pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Erro
             Some(t) => {
                 let c = element_node_count(t).unwrap_or(0);
                 let mut nodes = Vec::with_capacity(b.len() * c);
-                for e in b.nodes.chunks_exact(k) {
+                for (i, e) in b.nodes.chunks_exact(k).enumerate() {
+                    // the linear job checks the corners; the high-order nodes are ours
+                    if let Some(&node) = e[c..].iter().find(|n| !existing.contains(n)) {
+                        return Err(RecombineError::UnknownNode {
+                            dim: b.entity_dim,
+                            entity: b.entity_tag,
+                            element: b.tags[i],
+                            node,
+                        }
+                        .into());
+                    }
                     nodes.extend_from_slice(&e[..c]);
                     high.extend(e[c..].iter().copied());
                 }
@@ -599,7 +614,12 @@ pub fn elevate(
     }
     for (&c, list) in &geo.curves {
         for &[a, b, m] in list {
-            let (xa, xb, xm) = (geo.coords[&a], geo.coords[&b], geo.coords[&m]);
+            // a line naming a node the file does not have gets no curved geometry
+            let (Some(&xa), Some(&xb), Some(&xm)) =
+                (geo.coords.get(&a), geo.coords.get(&b), geo.coords.get(&m))
+            else {
+                continue;
+            };
             if moved(a) || moved(b) {
                 continue;
             }
@@ -999,7 +1019,9 @@ pub fn elevate(
     for b in &mut out.node_blocks {
         for (i, &t) in b.tags.iter().enumerate() {
             if lifted.contains(&t) && !reverted.contains(&t) {
-                b.coords[i] = corner[&t].to_array();
+                if let Some(p) = corner.get(&t) {
+                    b.coords[i] = p.to_array();
+                }
                 corners_placed += 1;
             }
         }
