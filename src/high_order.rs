@@ -12,36 +12,45 @@
 //!    numbered above the linear copy's largest tag; they are renumbered above the input's
 //!    (one shift of every tag above the linear maximum), so no tag collides with a
 //!    high-order node of the input.
-//! 3. **Second order again** ([`elevate`]), with the input's curved geometry `Φ`: on each
-//!    surface, the map from the flat corner triangles to the curved tri6 surface (a point
-//!    is located on the flat triangle closest to it, [`crate::quality::locate`], and mapped
-//!    through the triangle's quadratic shape functions); on each curve, the chain of input
-//!    line3 elements. Then:
+//! 3. **Second order again** ([`elevate`]), on the input's curved geometry: on each
+//!    surface, the map `Φ` from the flat corner triangles to the curved tri6 surface
+//!    (through each triangle's quadratic shape functions), and the projection onto that
+//!    surface (the flat point `p` whose `Φ(p)` differs from the query only along the
+//!    normal, found from the closest flat point, [`crate::quality::locate`], by a few
+//!    fixed-point steps; a point of a planar surface is its own projection); on each curve,
+//!    the chain of input line3 elements. Then:
 //!    - an input node the linear job did not move keeps its tag and coordinates;
-//!    - a new or moved surface node goes to `Φ` of its position on the flat triangulation;
 //!    - a new node on a curve (parity split, fallback split, refinement) lies between the
 //!      two ends of one input line3: it goes onto that line3, at the parameter its place
 //!      along the chain of new segments gives (the chord-length fraction, snapped to the
 //!      dyadic fraction the midpoint splits made: a single split is the parameter
 //!      midpoint, i.e. the input's own mid-edge node position);
+//!    - any other new or moved corner is projected onto the curved surface;
 //!    - an edge of an input element whose two ends did not move keeps the input's mid-edge
 //!      node (same tag, same coordinates);
-//!    - any other mid-edge node is `Φ` of the midpoint of its edge on the flat
-//!      triangulation, or, on a curve, the line3 point at the mean parameter of its ends
-//!      (a curve edge without an input line3 gets its straight midpoint);
-//!    - the face node of a 9-node quad is `Φ` of the mean of its corners.
+//!    - any other mid-edge node is, on a curve with line3 elements, the line3 point at the
+//!      mean parameter of its ends; else the projection of the midpoint of its (placed)
+//!      corners onto the curved surface (a curve edge of no surface and no line3 gets its
+//!      straight midpoint); a mid-edge node of a split curve segment is classified on the
+//!      curve;
+//!    - the face node of a 9-node quad is the projection of the centre its corners and
+//!      mid-edge nodes give a serendipity quad (`Σ mid/2 − Σ corner/4`: a curved edge's
+//!      bulge spreads over the element instead of folding it).
 //!
 //! # Validity
-//! Every quad must have a Jacobian determinant (about the normal of its straight-sided
-//! quad at its centre, as Gmsh measures it) strictly positive over the whole element:
-//! checked with Bézier bounds of that bicubic polynomial, subdivided where the bounds are
-//! not conclusive ([`jacobian_positive`]); every line3 must run forward along its chord.
-//! An element that fails gets straight-sided new nodes (mid-edge nodes at the midpoints of
-//! their corners, the face node at the centre of that serendipity quad; the neighbour across
-//! each such edge shares the straight edge); one that fails even so gets its moved corners
-//! back at the linear job's positions (which the linear validity gate accepted). The
-//! report's log names the elements placed straight. What still fails makes the call fail
-//! ([`HighOrderError::Invalid`]) unless [`Options::allow_invalid`] is set.
+//! Every quad must have all the Bézier coefficients of its Jacobian determinant (a
+//! polynomial of degree 3 in each reference coordinate, measured about the normal of its
+//! straight-sided quad at its centre, as Gmsh measures it) strictly positive
+//! ([`quad_valid`]): that implies a positive determinant over the whole element and is
+//! what Gmsh's `minSJ` bound certifies; every line3 must run forward along its chord. An
+//! element that fails gets straight-sided new nodes (mid-edge nodes at the midpoints of its
+//! corners, the face node at the centre of that serendipity quad; the neighbour across each
+//! such edge shares the straight edge); one that fails even so gets its moved corners back
+//! at the linear job's positions (which the linear validity gate accepted; a straight-sided
+//! quad passes exactly when its corners turn positively), and the elements around them
+//! straight sides. The report's log names the elements placed straight. What still fails
+//! makes the call fail ([`HighOrderError::Invalid`]) unless [`Options::allow_invalid`] is
+//! set.
 //!
 //! **Invariant:** the input's corner nodes the linear job kept in place, and its curve
 //! nodes, keep tag and coordinates; a kept mid-edge node keeps tag and coordinates; every
