@@ -70,6 +70,11 @@ enum Command {
         /// Print JSON instead of a table.
         #[arg(long)]
         json: bool,
+        /// Also write the mesh with the views "eta" and "scaled jacobian" (per quad,
+        /// $ElementData) and "valence" (per node, $NodeData) as MSH 4.1 ASCII, which Gmsh
+        /// opens coloured (`gmsh OUT.msh`).
+        #[arg(long, value_name = "OUT")]
+        view: Option<PathBuf>,
     },
 }
 
@@ -122,6 +127,10 @@ struct RunArgs {
     /// without it such a mesh is refused (exit 1) and nothing is written.
     #[arg(long)]
     allow_invalid: bool,
+    /// With a second-order input (6-node triangles): write 8-node quads (Gmsh's
+    /// Mesh.SecondOrderIncomplete) instead of 9-node quads.
+    #[arg(long)]
+    incomplete: bool,
     /// Allow the output to overwrite the input file.
     #[arg(long)]
     force: bool,
@@ -226,8 +235,19 @@ fn run(cli: Cli) -> Result<(), String> {
             size,
             reference,
             json,
+            view,
         }) => {
             let mesh = read(&input)?;
+            if let Some(out) = &view {
+                check_not_input(&input, out, false)?;
+                let views = quality::view::view_mesh(&mesh);
+                let format = views.format.unwrap_or(crate::MshFormat {
+                    version: crate::mesh::MshVersion::V41,
+                    binary: false,
+                });
+                msh::write_file(&views, out, format)
+                    .map_err(|e| format!("{}: {e}", out.display()))?;
+            }
             let field = match (&size, &reference) {
                 (Some(expr), _) => quality::SizeField::Expression(
                     quality::SizeExpr::new(expr).map_err(|e| e.to_string())?,
@@ -355,6 +375,7 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         topology: !args.no_topology,
         optimize: !args.no_optimize,
         allow_invalid: args.allow_invalid,
+        incomplete: args.incomplete,
         trace: trace_from_env(),
         ..Default::default()
     };
@@ -397,8 +418,13 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     } else {
         String::new()
     };
+    let second_order_time = if report.second_order.is_some() {
+        format!(", second order {:.3} s", times.second_order.as_secs_f64())
+    } else {
+        String::new()
+    };
     log.say(format!(
-        "time: read {t_read:.3} s, recombine {:.3} s{refine_time}, optimize {:.3} s, check {:.3} s, write {t_write:.3} s",
+        "time: read {t_read:.3} s, recombine {:.3} s{refine_time}, optimize {:.3} s, check {:.3} s{second_order_time}, write {t_write:.3} s",
         times.recombine.as_secs_f64(),
         times.optimize.as_secs_f64(),
         times.check.as_secs_f64(),

@@ -25,6 +25,7 @@ pub mod arrays;
 #[cfg(feature = "cli")]
 pub mod cli;
 mod keysort;
+pub mod high_order;
 pub mod matching;
 pub mod mesh;
 pub mod msh;

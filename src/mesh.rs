@@ -521,6 +521,12 @@ pub mod etype {
     pub const POINT: u32 = 15;
     /// 6-node second-order triangle.
     pub const TRI6: u32 = 9;
+    /// 3-node second-order line.
+    pub const LINE3: u32 = 8;
+    /// 9-node second-order quadrangle.
+    pub const QUAD9: u32 = 10;
+    /// 8-node second-order (serendipity) quadrangle.
+    pub const QUAD8: u32 = 16;
 }
 
 #[cfg(test)]

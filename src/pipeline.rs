@@ -97,6 +97,9 @@ pub struct Options {
     pub optimize: bool,
     /// Return `Ok` with the invalid quads listed in [`Report::invalid`] instead of failing.
     pub allow_invalid: bool,
+    /// With second-order (6-node triangle) input: write 8-node quads (Gmsh's
+    /// `Mesh.SecondOrderIncomplete`) instead of 9-node quads.
+    pub incomplete: bool,
     /// Progress callback.
     #[serde(skip)]
     pub progress: Option<ProgressFn>,
@@ -119,6 +122,7 @@ impl Default for Options {
             topology: true,
             optimize: true,
             allow_invalid: false,
+            incomplete: false,
             progress: None,
             trace: None,
         }
@@ -136,6 +140,8 @@ pub struct Times {
     pub optimize: Duration,
     /// Invariant and validity checks.
     pub check: Duration,
+    /// Second-order nodes and their Jacobian check (second-order input only).
+    pub second_order: Duration,
 }
 
 /// What [`quadrangulate`] did.
@@ -154,6 +160,8 @@ pub struct Report {
     pub rounds: usize,
     /// Quads still invalid (only with [`Options::allow_invalid`]; empty otherwise).
     pub invalid: Vec<BadQuad>,
+    /// The second-order step (second-order input only, see [`crate::high_order`]).
+    pub second_order: Option<crate::high_order::SecondOrderReport>,
     /// Human-readable log lines, in order.
     pub log: Vec<String>,
     /// Wall times.
@@ -187,6 +195,9 @@ pub enum Error {
     /// Some quads are not valid even after the fallback.
     #[error("{}", invalid_message(.0))]
     Invalid(Vec<BadQuad>),
+    /// Second-order input refused, or second-order elements not valid.
+    #[error(transparent)]
+    SecondOrder(#[from] crate::high_order::HighOrderError),
 }
 
 fn invalid_message(bad: &[BadQuad]) -> String {
@@ -202,8 +213,14 @@ fn invalid_message(bad: &[BadQuad]) -> String {
 
 /// Turns every surface's triangles into valid quads (see the module doc): recombination
 /// with parity repair, refinement, optimization, then the invariant and validity checks,
-/// with the fallback when quads are not valid. On error `mesh` is unchanged.
+/// with the fallback when quads are not valid. A mesh with 6-node triangles is recombined
+/// on its corners and written back as 9-node (or, with [`Options::incomplete`], 8-node)
+/// quads on its curved geometry ([`crate::high_order`]). On error `mesh` is unchanged.
 pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
+    if crate::high_order::is_second_order(mesh) {
+        // the linear job on the corners, then second-order nodes on the input's geometry
+        return crate::high_order::quadrangulate(mesh, opts);
+    }
     let input = std::mem::take(mesh);
     // triangles repeating another's nodes (zero-area pockets) are removed once, up front:
     // every check below compares with the input without them

@@ -41,6 +41,7 @@ _OPTIONS = {
     "verify": "verify",
     "drop_volumes": "drop_volumes",
     "allow_invalid": "allow_invalid",
+    "incomplete": "incomplete",
 }
 
 

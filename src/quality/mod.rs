@@ -12,6 +12,7 @@
 pub mod eta;
 pub mod locate;
 pub mod size;
+pub mod view;
 
 pub use eta::{eta, eta_signed, eta_signed_fast};
 pub use size::{ReferenceSize, SizeExpr, SizeField};
@@ -190,13 +191,13 @@ impl FlatNodes {
     }
 }
 
-/// Per-quad quality η (eq. 3) of every 4-node quadrangle, as `(element tag, η)` in file order.
-/// Quads naming missing nodes are skipped.
+/// Per-quad quality η (eq. 3) of every quadrangle (4-node, and 8- and 9-node on their
+/// corners), as `(element tag, η)` in file order. Quads naming missing nodes are skipped.
 pub fn quad_etas(mesh: &Mesh) -> Vec<(u64, f64)> {
     let nodes = FlatNodes::new(mesh);
     let mut out = Vec::new();
     for b in &mesh.element_blocks {
-        if b.element_type != etype::QUAD4 {
+        if !matches!(b.element_type, etype::QUAD4 | etype::QUAD8 | etype::QUAD9) {
             continue;
         }
         for e in 0..b.len() {
@@ -328,8 +329,9 @@ pub fn report(mesh: &Mesh, size: &SizeField) -> Result<QualityReport, QualityErr
         }
         let s = sid(b.entity_tag);
         let k = match b.element_type {
-            etype::TRI3 => 3,
-            etype::QUAD4 => 4,
+            // second-order elements are measured on their corners
+            etype::TRI3 | etype::TRI6 => 3,
+            etype::QUAD4 | etype::QUAD8 | etype::QUAD9 => 4,
             _ => {
                 accs[s as usize].other += b.len();
                 total.other += b.len();
@@ -337,7 +339,7 @@ pub fn report(mesh: &Mesh, size: &SizeField) -> Result<QualityReport, QualityErr
             }
         };
         for e in 0..b.len() {
-            let el = b.element(e);
+            let el = &b.element(e)[..k];
             let mut ids = [0u32; 4];
             if !el
                 .iter()

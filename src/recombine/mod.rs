@@ -320,7 +320,7 @@ pub enum RecombineError {
         volumes: Vec<i32>,
     },
     /// Surface elements that are neither 3-node triangles nor 4-node quads.
-    #[error("surface {surface} has {count} elements of type {element_type} (only 3-node triangles and 4-node quads are supported for now; mesh with Mesh.ElementOrder = 1)")]
+    #[error("surface {surface} has {count} elements of type {element_type} (supported: 3-node triangles and 4-node quads, or 6-node triangles alone; mesh with Mesh.ElementOrder = 1 or 2)")]
     UnsupportedSurfaceElements {
         /// Surface entity tag.
         surface: i32,
