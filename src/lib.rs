@@ -24,8 +24,8 @@
 pub mod arrays;
 #[cfg(feature = "cli")]
 pub mod cli;
-mod keysort;
 pub mod high_order;
+mod keysort;
 pub mod matching;
 pub mod mesh;
 pub mod msh;

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Print, for each MSH file given, what Gmsh sees in it, as one JSON object per line:
 {"file", "nodes", "types": {type: count}, "entities": [n0, n1, n2, n3], "groups": [[dim, tag], ...],
- "error": null or message}. Used by tests/msh_gmsh.rs to compare with blossomquad's reader."""
+ "error": null or message}. Used by tests/msh/gmsh.rs to compare with blossomquad's reader."""
 import sys
 
 import gmsh

@@ -34,7 +34,7 @@ pub(crate) const MAX_COORDINATE: f64 = 1e60;
 /// Below this `|(b − a) × (c − a)| / (|ab|² + |bc|² + |ca|²)` a triangle has no area to
 /// rounding (an equilateral triangle has √3/6 ≈ 0.29; a needle of height `h` and length
 /// `L` about `h / 2L`; slivers of a graded Delaunay mesh reach 5.7·10⁻¹⁴ in
-/// `tests/recombine_random.rs` and are kept).
+/// `tests/recombine/random.rs` and are kept).
 const ZERO_AREA: f64 = 1e-15;
 
 /// Two adjacent triangles whose unit normals have a dot product below this are folded

@@ -1,0 +1,288 @@
+//! `info` and `quality` on the fixtures, and the exit-code contract
+//! (0 ok, 1 bad input with one error line naming the file, 2 usage).
+//! Needs Gmsh for the generated meshes.
+
+use crate::common;
+
+use common::{blossomquad, blossomquad_run, generate, geo_dir, json_number, Variant};
+use std::path::Path;
+
+fn info(path: &Path) -> String {
+    let out = blossomquad().arg("info").arg(path).assert().success();
+    String::from_utf8_lossy(&out.get_output().stdout).into_owned()
+}
+
+fn quality_json(path: &Path, extra: &[&str]) -> String {
+    let out = blossomquad()
+        .arg("quality")
+        .arg(path)
+        .arg("--json")
+        .args(extra)
+        .assert()
+        .success();
+    String::from_utf8_lossy(&out.get_output().stdout).into_owned()
+}
+
+/// A number of the `"total"` object of `quality --json` (whole-mesh figures;
+/// per-surface objects come before it).
+fn number(json: &str, key: &str) -> f64 {
+    let total = json
+        .find("\"total\"")
+        .map(|at| &json[at..])
+        .unwrap_or_else(|| panic!("no \"total\" in {json}"));
+    json_number(total, key).unwrap_or_else(|| panic!("no number {key:?} in {json}"))
+}
+
+#[test]
+fn info_on_shipped_rectangle() {
+    let text = info(&geo_dir().join("rectangle.msh"));
+    for word in ["1792", "domain", "bottom", "left"] {
+        assert!(text.contains(word), "info lacks {word:?}:\n{text}");
+    }
+    assert!(
+        !text.to_lowercase().contains("odd"),
+        "rectangle is even:\n{text}"
+    );
+}
+
+#[test]
+fn info_reports_odd_surfaces_in_every_variant() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for variant in Variant::ALL {
+        let msh = generate("even_curves", variant, dir.path(), 1.0, &[]);
+        let text = info(&msh);
+        for word in ["square", "triangle", "pentagon", "940", "333", "1269"] {
+            assert!(
+                text.contains(word),
+                "{}: info lacks {word:?}:\n{text}",
+                variant.name()
+            );
+        }
+        assert!(
+            text.to_lowercase().contains("odd"),
+            "{}:\n{text}",
+            variant.name()
+        );
+    }
+}
+
+#[test]
+fn quality_of_triangle_input_and_of_our_quads() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = geo_dir().join("rectangle.msh");
+    let tri = quality_json(&input, &[]);
+    assert_eq!(number(&tri, "quads"), 0.0, "{tri}");
+    assert_eq!(number(&tri, "triangles"), 1792.0, "{tri}");
+
+    let output = dir.path().join("quads.msh");
+    blossomquad()
+        .arg(&input)
+        .args(["-o"])
+        .arg(&output)
+        .arg("--quiet")
+        .assert()
+        .success();
+    for extra in [&[][..], &["--size", "0.1 + 0.08*sin(3*x)*cos(6*y)"][..]] {
+        let q = quality_json(&output, extra);
+        let quads = number(&q, "quads");
+        assert!(quads > 0.0 && quads <= 1792.0 / 2.0 + 64.0, "{q}");
+        assert_eq!(number(&q, "triangles"), 0.0, "{q}");
+        let (w, mean) = (number(&q, "eta_worst"), number(&q, "eta_mean"));
+        assert!(0.0 < w && w <= mean && mean <= 1.0, "{q}");
+        let tau = number(&q, "tau_percent");
+        assert!(0.0 < tau && tau <= 100.0, "{q}");
+        let d4 = number(&q, "d4_percent");
+        assert!((0.0..=100.0).contains(&d4), "{q}");
+        let (dmin, dmax) = (number(&q, "d_min"), number(&q, "d_max"));
+        assert!((1.0..=4.0).contains(&dmin) && 4.0 <= dmax, "{q}");
+    }
+}
+
+#[test]
+fn quality_of_gmsh_own_quads() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let msh = generate(
+        "rectangle",
+        Variant::Msh41Binary,
+        dir.path(),
+        1.0,
+        &[("Mesh.RecombineAll", 1.0)],
+    );
+    let q = quality_json(&msh, &[]);
+    assert!(number(&q, "quads") > 800.0, "{q}");
+    assert!(number(&q, "eta_mean") > 0.5, "{q}");
+    let text = blossomquad().arg("quality").arg(&msh).assert().success();
+    assert!(!text.get_output().stdout.is_empty());
+}
+
+#[test]
+fn missing_input_is_exit_1_naming_the_file() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let missing = dir.path().join("does-not-exist.msh");
+    let out = dir.path().join("out.msh");
+    for args in [
+        vec![missing.as_os_str(), "-o".as_ref(), out.as_os_str()],
+        vec!["info".as_ref(), missing.as_os_str()],
+        vec!["quality".as_ref(), missing.as_os_str()],
+    ] {
+        let (code, _, stderr) = blossomquad_run(args);
+        assert_eq!(code, Some(1), "{stderr}");
+        assert!(stderr.contains("does-not-exist.msh"), "{stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    }
+    assert!(!out.exists());
+}
+
+#[test]
+fn geo_file_given_by_mistake_is_exit_1() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("out.msh");
+    let geo = geo_dir().join("rectangle.geo");
+    let (code, _, stderr) = blossomquad_run([geo.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(stderr.contains("rectangle.geo"), "{stderr}");
+    assert!(!out.exists());
+}
+
+#[test]
+fn usage_errors_are_exit_2() {
+    let shipped = geo_dir().join("rectangle.msh");
+    for args in [
+        vec!["--no-such-flag".as_ref(), shipped.as_os_str()],
+        vec![
+            shipped.as_os_str(),
+            "-o".as_ref(),
+            "x.msh".as_ref(),
+            "--format".as_ref(),
+            "msh99".as_ref(),
+        ],
+        vec![
+            shipped.as_os_str(),
+            "-o".as_ref(),
+            "x.msh".as_ref(),
+            "--parity".as_ref(),
+            "maybe".as_ref(),
+        ],
+        vec![
+            shipped.as_os_str(),
+            "-o".as_ref(),
+            "x.msh".as_ref(),
+            "--cross-field".as_ref(),
+            "7".as_ref(),
+        ],
+        vec![
+            shipped.as_os_str(),
+            "-o".as_ref(),
+            "x.msh".as_ref(),
+            "--cross-field".as_ref(),
+            "NaN".as_ref(),
+        ],
+        vec!["quality".as_ref()],
+    ] {
+        let (code, _, stderr) = blossomquad_run(args);
+        assert_eq!(code, Some(2), "{stderr}");
+    }
+    assert!(!Path::new("x.msh").exists());
+}
+
+/// The developer hooks reach the caller's `Trace` sink and change nothing: the shipped
+/// rectangle traced gives the same mesh as untraced, one matching graph with a vertex per
+/// triangle, and stage times of the graph and optimizer steps. The CLI turns them into
+/// `DIR/surface-TAG.txt` (`BLOSSOMQUAD_DUMP_GRAPHS`) and stderr lines
+/// (`BLOSSOMQUAD_STAGE_TIMES`), and prints neither without those variables.
+#[test]
+fn trace_hooks_reach_the_sink_and_change_nothing() {
+    use blossomquad::profile::{Trace, TraceEvent};
+    use std::sync::{Arc, Mutex};
+    let path = geo_dir().join("rectangle.msh");
+    let input = blossomquad::read(&path).expect("read");
+    let triangles: usize = input
+        .element_blocks
+        .iter()
+        .filter(|b| b.element_type == 2)
+        .map(|b| b.len())
+        .sum();
+    let mut plain = input.clone();
+    blossomquad::quadrangulate(&mut plain, &blossomquad::Options::default()).expect("plain");
+    let seen: Arc<Mutex<Vec<String>>> = Arc::default();
+    let sink = seen.clone();
+    let mut opts = blossomquad::Options::default();
+    opts.trace = Some(Trace::new(move |e: &TraceEvent<'_>| {
+        let line = match e {
+            TraceEvent::MatchingGraph {
+                vertices, edges, ..
+            } => format!("graph {vertices} {}", edges.len()),
+            TraceEvent::StageTimes { group, laps, .. } => format!("times {group} {}", laps.len()),
+            _ => "other".to_string(),
+        };
+        sink.lock().expect("sink").push(line);
+    }));
+    let mut traced = input.clone();
+    blossomquad::quadrangulate(&mut traced, &opts).expect("traced");
+    let mut a = Vec::new();
+    let mut b = Vec::new();
+    let format = blossomquad::MshFormat {
+        version: blossomquad::mesh::MshVersion::V41,
+        binary: false,
+    };
+    blossomquad::msh::write(&plain, &mut a, format).expect("write");
+    blossomquad::msh::write(&traced, &mut b, format).expect("write");
+    assert!(a == b, "tracing changed the output");
+    let seen = seen.lock().expect("seen").clone();
+    let graphs: Vec<&String> = seen.iter().filter(|l| l.starts_with("graph ")).collect();
+    assert_eq!(graphs.len(), 1, "one surface, one graph: {seen:?}");
+    let parts: Vec<usize> = graphs[0][6..]
+        .split(' ')
+        .map(|x| x.parse().expect("number"))
+        .collect();
+    assert_eq!(parts[0], triangles, "a graph vertex per triangle");
+    assert!(
+        parts[1] >= triangles,
+        "fewer edges than triangles: {seen:?}"
+    );
+    for group in ["times graph ", "times optimize "] {
+        assert!(
+            seen.iter()
+                .any(|l| l.starts_with(group) && !l.ends_with(" 0")),
+            "no {group:?} laps: {seen:?}"
+        );
+    }
+
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("out.msh");
+    let quiet = blossomquad()
+        .arg(&path)
+        .arg("-o")
+        .arg(&out)
+        .env_remove("BLOSSOMQUAD_STAGE_TIMES")
+        .env_remove("BLOSSOMQUAD_DUMP_GRAPHS")
+        .assert()
+        .success();
+    let err = String::from_utf8_lossy(&quiet.get_output().stderr).into_owned();
+    assert!(
+        !err.contains("cpu/wall"),
+        "stage times without the variable:\n{err}"
+    );
+    let graphs = dir.path().join("graphs");
+    std::fs::create_dir(&graphs).expect("mkdir");
+    let loud = blossomquad()
+        .arg(&path)
+        .arg("-o")
+        .arg(&out)
+        .env("BLOSSOMQUAD_STAGE_TIMES", "1")
+        .env("BLOSSOMQUAD_DUMP_GRAPHS", &graphs)
+        .assert()
+        .success();
+    let err = String::from_utf8_lossy(&loud.get_output().stderr).into_owned();
+    assert!(
+        err.contains("optimize surface 1 cpu/wall"),
+        "no stage times:\n{err}"
+    );
+    let dump = std::fs::read_to_string(graphs.join("surface-1.txt")).expect("graph file");
+    let first = dump.lines().next().expect("header");
+    assert_eq!(
+        first.split(' ').next(),
+        Some(triangles.to_string().as_str()),
+        "header {first:?}"
+    );
+}
