@@ -1043,24 +1043,33 @@ pub(crate) struct PeriodicCurves {
     curves: Vec<i32>,
 }
 
+/// The `$Periodic` links of dimension `dim` as (slave, master, slave → master, master →
+/// slave) node maps, and every entity in some link, sorted.
+type PeriodicLinks = Vec<(i32, i32, NodeMap, NodeMap)>;
+
+fn periodic_links(mesh: &Mesh, nodes: &NodeTable, dim: i32) -> (PeriodicLinks, Vec<i32>) {
+    let mut links = Vec::new();
+    let mut tags = Vec::new();
+    for l in mesh.periodic.iter().filter(|l| l.dim == dim) {
+        let mut fwd: Vec<(u32, u32)> = l
+            .node_pairs
+            .iter()
+            .filter_map(|&(s, m)| Some((nodes.id(s)?, nodes.id(m)?)))
+            .collect();
+        let mut back: Vec<(u32, u32)> = fwd.iter().map(|&(s, m)| (m, s)).collect();
+        fwd.sort_unstable();
+        back.sort_unstable();
+        links.push((l.tag, l.master_tag, fwd, back));
+        tags.extend([l.tag, l.master_tag]);
+    }
+    tags.sort_unstable();
+    tags.dedup();
+    (links, tags)
+}
+
 impl PeriodicCurves {
     fn new(mesh: &Mesh, nodes: &NodeTable) -> Self {
-        let mut links = Vec::new();
-        let mut curves = Vec::new();
-        for l in mesh.periodic.iter().filter(|l| l.dim == 1) {
-            let mut fwd: Vec<(u32, u32)> = l
-                .node_pairs
-                .iter()
-                .filter_map(|&(s, m)| Some((nodes.id(s)?, nodes.id(m)?)))
-                .collect();
-            let mut back: Vec<(u32, u32)> = fwd.iter().map(|&(s, m)| (m, s)).collect();
-            fwd.sort_unstable();
-            back.sort_unstable();
-            links.push((l.tag, l.master_tag, fwd, back));
-            curves.extend([l.tag, l.master_tag]);
-        }
-        curves.sort_unstable();
-        curves.dedup();
+        let (links, curves) = periodic_links(mesh, nodes, 1);
         PeriodicCurves { links, curves }
     }
 
@@ -1109,22 +1118,7 @@ pub(crate) struct PeriodicSurfaces {
 
 impl PeriodicSurfaces {
     fn new(mesh: &Mesh, nodes: &NodeTable) -> Self {
-        let mut links = Vec::new();
-        let mut surfaces = Vec::new();
-        for l in mesh.periodic.iter().filter(|l| l.dim == 2) {
-            let mut fwd: Vec<(u32, u32)> = l
-                .node_pairs
-                .iter()
-                .filter_map(|&(s, m)| Some((nodes.id(s)?, nodes.id(m)?)))
-                .collect();
-            let mut back: Vec<(u32, u32)> = fwd.iter().map(|&(s, m)| (m, s)).collect();
-            fwd.sort_unstable();
-            back.sort_unstable();
-            links.push((l.tag, l.master_tag, fwd, back));
-            surfaces.extend([l.tag, l.master_tag]);
-        }
-        surfaces.sort_unstable();
-        surfaces.dedup();
+        let (links, surfaces) = periodic_links(mesh, nodes, 2);
         let mut edges = Vec::new();
         if !links.is_empty() {
             for b in &mesh.element_blocks {
