@@ -32,6 +32,11 @@ pub const MIN_CORNER_ETA: f64 = 1e-6;
 static MIN_TAN: std::sync::LazyLock<f64> =
     std::sync::LazyLock::new(|| (MIN_CORNER_ETA * std::f64::consts::FRAC_PI_2).tan());
 
+/// Smallest sine of a corner about the reference normal (relative to its two edges'
+/// lengths): a corner whose plane is about perpendicular to the surface is not valid even
+/// when its in-plane angle is right.
+pub const MIN_SINE: f64 = 1e-9;
+
 /// Shortest edge counted as non-zero, relative to the diagonal of the mesh's bounding box.
 pub const MIN_EDGE: f64 = 1e-12;
 
@@ -437,8 +442,10 @@ fn check_quad(
         let b = p[(k + 3) % 4] - p[k];
         let s = n.dot(a.cross(b));
         let c = a.dot(b);
-        // α = atan2(s, c) is inside (ε, π − ε) exactly when s > |c| tan ε
-        let inside = s > c.abs() * *MIN_TAN;
+        // α = atan2(s, c) is inside (ε, π − ε) exactly when s > |c| tan ε; and the corner
+        // must not be seen edge-on (its plane about perpendicular to the surface, where s
+        // and c are both rounding noise): s above MIN_SINE of |a| |b|
+        let inside = s > c.abs() * *MIN_TAN && s > MIN_SINE * a.length() * b.length();
         if !inside {
             return Some(Defect::Corner {
                 corner: k,

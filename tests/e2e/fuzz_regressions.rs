@@ -439,3 +439,24 @@ fn assert_valid_recombination(name: &str) {
     blossomquad::recombine::check_invariants(&input, &mesh).expect("invariants hold");
     assert!(blossomquad::validity::invalid_quads(&input, &mesh).is_empty());
 }
+
+/// Fuzz finding (709,441 runs): a quad corner whose plane is about perpendicular to the
+/// input surface at its node (the in-plane angle right, the sine about the surface's normal
+/// 5.6e-17). The gate's test `s > |c| tan ε` let rounding noise through when `c` was zero
+/// too; a corner now also needs its sine above `validity::MIN_SINE`. The fallback cannot
+/// open it, so the run refuses in one line and writes nothing.
+#[test]
+fn a_corner_seen_edge_on_from_the_surface_is_not_valid() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz/corner-perpendicular-to-the-surface.msh");
+    let text = std::fs::read_to_string(&path).expect("read the finding");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (code, err, output) = run(dir.path(), &text, false);
+    assert_eq!(code, 1, "stderr:\n{err}");
+    assert_eq!(err.lines().count(), 1, "one error line:\n{err}");
+    assert!(
+        err.contains("surface 1") && err.contains("not valid"),
+        "{err}"
+    );
+    assert!(!output.exists(), "nothing written");
+}
