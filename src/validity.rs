@@ -12,7 +12,9 @@
 //!   fallback splits, refinement), or whose input faces cancel out, takes the summed normal
 //!   of the input faces of the surface nearest to it (every face within 1e-9 of the mesh's
 //!   extent of the nearest distance counts); the quad's own normal only when the surface
-//!   has no face at all.
+//!   has no face at all;
+//! - no corner is seen edge-on from the surface (its sine about that normal above
+//!   [`MIN_SINE`] of its edges' lengths).
 //!
 //! [`invalid_quads`] lists every quad that is not valid; it shares no code with the
 //! recombination or the optimizer, which it checks, except the closest-point grid of
