@@ -20,7 +20,7 @@ create_exception!(
 
 /// The options of `blossomquad::Options` from their JSON form, with `progress` (a callable
 /// taking `(stage, done, total)`) as the progress callback.
-fn options(json: &str, progress: Option<Py<PyAny>>) -> PyResult<blossomquad::Options> {
+fn parse_options(json: &str, progress: Option<Py<PyAny>>) -> PyResult<blossomquad::Options> {
     let mut opts: blossomquad::Options = serde_json::from_str(json)
         .map_err(|e| PyValueError::new_err(format!("bad options: {e}")))?;
     if let Some(cb) = progress {
@@ -63,7 +63,7 @@ fn recombine_file(
     options: &str,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<String> {
-    let opts = options_checked(options, progress)?;
+    let opts = parse_options(options, progress)?;
     let same = match (input.canonicalize(), output.canonicalize()) {
         (Ok(a), Ok(b)) => a == b,
         _ => false,
@@ -85,10 +85,6 @@ fn recombine_file(
         })
         .map_err(Error::new_err)?;
     report_json(&report)
-}
-
-fn options_checked(json: &str, progress: Option<Py<PyAny>>) -> PyResult<blossomquad::Options> {
-    options(json, progress)
 }
 
 /// Little-endian f64 values of `b` (length checked by the caller's shape).
@@ -136,7 +132,7 @@ fn quadrangulate_arrays<'py>(
     options: &str,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyBytes>, Bound<'py, PyBytes>, String)> {
-    let opts = options_checked(options, progress)?;
+    let opts = parse_options(options, progress)?;
     let p = f64s(points);
     let t = i64s(triangles);
     let f = i64s(fixed);
@@ -199,7 +195,7 @@ fn recombine_model<'py>(
     options: &str,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<ModelOut<'py>> {
-    let opts = options_checked(options, progress)?;
+    let opts = parse_options(options, progress)?;
     let mut mesh = Mesh {
         has_entities_section: true,
         ..Default::default()
