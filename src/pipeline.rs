@@ -637,4 +637,3 @@ fn run_once<'a>(
     }
     Ok((report, refined, unoptimized))
 }
-

@@ -114,6 +114,9 @@ pub(crate) fn check_surface_elements(mesh: &Mesh) -> Result<(), RecombineError> 
 /// Elements per parallel task.
 const CHUNK: usize = 8192;
 
+/// A triangle for the fold check: its nodes, element tag and unit normal.
+type FoldTri = ([u64; 3], u64, V);
+
 /// Checks element `i` of block `b` (a 3-node triangle or 4-node quad of `surface`): its
 /// triangle with its unit normal, for the fold check (`None`: a quad, or a node unknown).
 fn check_element(
@@ -121,7 +124,7 @@ fn check_element(
     i: usize,
     surface: i32,
     coord: &(dyn Fn(u64) -> Option<V> + Sync),
-) -> Result<Option<([u64; 3], u64, V)>, RecombineError> {
+) -> Result<Option<FoldTri>, RecombineError> {
     let k = if b.element_type == etype::TRI3 { 3 } else { 4 };
     let nodes = &b.element(i)[..k];
     let tag = b.tags[i];
@@ -193,13 +196,13 @@ fn check_surface(
 ) -> Result<(), RecombineError> {
     // triangles with their normals, for the fold check; elements checked by chunks in
     // parallel, the first refused one in block order reported
-    let mut tris: Vec<([u64; 3], u64, V)> = Vec::new();
+    let mut tris: Vec<FoldTri> = Vec::new();
     for b in mesh.element_blocks.iter().filter(|b| {
         b.entity_dim == 2
             && b.entity_tag == surface
             && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
     }) {
-        let chunks: Vec<Result<Vec<([u64; 3], u64, V)>, RecombineError>> = (0..b.len())
+        let chunks: Vec<Result<Vec<FoldTri>, RecombineError>> = (0..b.len())
             .into_par_iter()
             .step_by(CHUNK)
             .map(|from| {
