@@ -272,9 +272,9 @@ fn changes(before: &Mesh, after: &Mesh) -> Vec<((i32, i32), Change)> {
 
 /// Runs `work` on a thread of its own and waits for it (every entry point does). Speed:
 /// the calling thread allocates from the C allocator's main arena, which Gmsh's meshing
-/// leaves fragmented in the same process; a new thread gets an arena of its own (the
-/// pipeline ran 25-35% faster this way after `gmsh.model.mesh.generate` at 1e6
-/// triangles, see BENCHMARKS.md).
+/// leaves fragmented in the same process; a new thread gets an arena of its own (after
+/// `gmsh.model.mesh.generate` at 1e6 triangles the pipeline ran 25-35% faster this way in
+/// two alternating pairs on a loaded machine: see BENCHMARKS.md for how weak that is).
 fn on_own_thread<T: Send>(work: impl FnOnce() -> T + Send) -> T {
     std::thread::scope(|s| match s.spawn(work).join() {
         Ok(v) => v,
