@@ -377,17 +377,19 @@ fn recombine_model<'py>(
     let mut outside = t_in.elapsed();
     let (report, changed, compare) = py
         .detach(|| -> Result<_, blossomquad::Error> {
+            let t = Instant::now();
             let before = Mesh {
                 node_blocks: mesh.node_blocks.clone(),
                 element_blocks: mesh.element_blocks.clone(),
                 ..Default::default()
             };
+            let copy = t.elapsed();
             // on a thread of its own: see `on_own_thread`
             let report = on_own_thread(|| blossomquad::quadrangulate(&mut mesh, &opts))?;
             let t = Instant::now();
             let changed = changes(&before, &mesh);
             drop(before);
-            Ok((report, changed, t.elapsed()))
+            Ok((report, changed, copy + t.elapsed()))
         })
         .map_err(|e| Error::new_err(e.to_string()))?;
     let t_out = Instant::now();
