@@ -577,6 +577,31 @@ mod tests {
     const SQUARE: [[f64; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];
 
     #[test]
+    fn the_prepared_input_finds_what_the_one_call_finds() {
+        // node 5, which the input does not have, takes its normal from the nearest faces
+        let mut c = SQUARE.to_vec();
+        c.push([0.5, 0.5, 0.0]);
+        let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
+        let reference = Reference::new(&input);
+        for quads in [
+            &[&[1, 2, 3, 4][..]][..],
+            &[&[1, 4, 3, 2]],
+            &[&[1, 2, 5, 4], &[2, 3, 4, 5]],
+            &[&[1, 2, 4, 5], &[2, 3, 4, 5]],
+            &[&[1, 2, 3, 2]],
+        ] {
+            let out = mesh(&c, etype::QUAD4, quads);
+            assert_eq!(reference.invalid_quads(&out), invalid_quads(&input, &out));
+        }
+        assert_eq!(
+            reference
+                .invalid_quads(&mesh(&c, etype::QUAD4, &[&[1, 2, 4, 5]]))
+                .len(),
+            1
+        );
+    }
+
+    #[test]
     fn a_square_is_valid_and_its_mirror_is_turned_over() {
         let input = mesh(&SQUARE, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
         let ok = mesh(&SQUARE, etype::QUAD4, &[&[1, 2, 3, 4]]);

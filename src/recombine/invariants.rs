@@ -601,3 +601,95 @@ fn check_split_sets(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::{ElementBlock, NodeBlock};
+
+    /// A 3×3-node unit square: corner nodes on points, the rest on the surface; `elems` of
+    /// `etype_` on surface 1.
+    fn square(etype_: u32, elems: &[&[u64]], moved: Option<(u64, [f64; 3])>) -> Mesh {
+        let mut m = Mesh::default();
+        let mut coords: Vec<[f64; 3]> = (0..9)
+            .map(|i| [(i % 3) as f64 * 0.5, (i / 3) as f64 * 0.5, 0.0])
+            .collect();
+        if let Some((t, c)) = moved {
+            coords[t as usize - 1] = c;
+        }
+        let corners = [1u64, 3, 7, 9];
+        for (dim, pick) in [(0, true), (2, false)] {
+            let tags: Vec<u64> = (1..=9u64).filter(|t| corners.contains(t) == pick).collect();
+            m.node_blocks.push(NodeBlock {
+                entity_dim: dim,
+                entity_tag: 1,
+                coords: tags.iter().map(|&t| coords[t as usize - 1]).collect(),
+                tags,
+                params: None,
+            });
+        }
+        m.element_blocks.push(ElementBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            element_type: etype_,
+            tags: (1..=elems.len() as u64).collect(),
+            nodes: elems.iter().flat_map(|e| e.iter().copied()).collect(),
+            partitions: None,
+        });
+        m
+    }
+
+    const TRIS: [&[u64]; 8] = [
+        &[1, 2, 5],
+        &[1, 5, 4],
+        &[2, 3, 6],
+        &[2, 6, 5],
+        &[4, 5, 8],
+        &[4, 8, 7],
+        &[5, 6, 9],
+        &[5, 9, 8],
+    ];
+    const QUADS: [&[u64]; 4] = [&[1, 2, 5, 4], &[2, 3, 6, 5], &[4, 5, 8, 7], &[5, 6, 9, 8]];
+
+    #[test]
+    fn the_prepared_input_finds_what_the_one_call_finds() {
+        let before = square(etype::TRI3, &TRIS, None);
+        let prepared = Before::new(&before);
+        let flipped: [&[u64]; 4] = [&[1, 4, 5, 2], QUADS[1], QUADS[2], QUADS[3]];
+        let three: [&[u64]; 5] = [QUADS[0], QUADS[1], QUADS[2], QUADS[3], &[1, 2, 5, 4]];
+        let cases = [
+            (square(etype::QUAD4, &QUADS, None), None),
+            (
+                square(etype::TRI3, &TRIS, None),
+                Some("still has 8 triangles"),
+            ),
+            (
+                square(etype::QUAD4, &QUADS, Some((3, [1.0, 0.1, 0.0]))),
+                Some("node 3 on entity (0, 1) moved"),
+            ),
+            (
+                square(etype::QUAD4, &flipped, None),
+                Some("against the orientation"),
+            ),
+            (
+                square(etype::QUAD4, &three, None),
+                Some("shared by 3 faces"),
+            ),
+            (
+                square(etype::QUAD4, &QUADS, Some((2, [0.5, 0.1, 0.0]))),
+                Some("planar area changed"),
+            ),
+        ];
+        for (after, expected) in &cases {
+            let once = check_invariants(&before, after);
+            assert_eq!(prepared.check(after), once);
+            match expected {
+                None => assert_eq!(once, Ok(())),
+                Some(text) => {
+                    let e = once.expect_err(text);
+                    assert!(e.contains(text), "{e}");
+                }
+            }
+        }
+    }
+}
