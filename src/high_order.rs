@@ -141,7 +141,12 @@ pub fn is_second_order(mesh: &Mesh) -> bool {
 pub(crate) fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
     let (mut linear, dropped) = linearize(mesh, opts.drop_volumes)?;
     let linear_max = linear.max_node_tag();
-    let mut report = crate::pipeline::quadrangulate(&mut linear, opts)?;
+    // the views are measured on the second-order result, not on the linear copy
+    let linear_opts = Options {
+        quality_view: false,
+        ..opts.clone()
+    };
+    let mut report = crate::pipeline::quadrangulate(&mut linear, &linear_opts)?;
     let t = Instant::now();
     if dropped > 0 {
         report.recombine.dropped_volume_elements = dropped;
@@ -1665,6 +1670,38 @@ mod tests {
             .find(|b| b.entity_dim == 2)
             .expect("block");
         assert_eq!((b.element_type, b.nodes.len()), (etype::QUAD8, 8));
+    }
+
+    #[test]
+    fn quality_view_option_measures_the_second_order_result() {
+        let mut m = two_tri6();
+        let opts = Options {
+            optimize: false,
+            quality_view: true,
+            ..Default::default()
+        };
+        crate::pipeline::quadrangulate(&mut m, &opts).expect("recombined");
+        // eta, scaled jacobian, valence: once each (not also from the linear copy),
+        // ASCII (the mesh has no format: MSH 4.1 ASCII by default)
+        assert_eq!(m.data_sections.len(), 3);
+        assert!(m
+            .data_sections
+            .iter()
+            .all(|d| d.encoded_binary == Some(false)));
+        let text = String::from_utf8_lossy(&m.data_sections[1].body).into_owned();
+        assert!(text.starts_with("1\n\"scaled jacobian\""), "{text}");
+        // one quad: one row, its tag and its value at the nodes
+        let q = m
+            .element_blocks
+            .iter()
+            .find(|b| b.element_type == etype::QUAD9)
+            .expect("a quad9 block");
+        let rows: Vec<&str> = text.lines().skip(8).collect();
+        assert_eq!(rows.len(), 1, "{text}");
+        let (tag, value) = rows[0].split_once(' ').expect("tag value");
+        assert_eq!(tag.parse::<u64>().ok(), Some(q.tags[0]));
+        let v: f64 = value.parse().expect("a number");
+        assert!(v > 0.5 && v <= 1.0, "{v}");
     }
 
     #[test]
