@@ -1,11 +1,13 @@
 //! Second-order surface meshes: 6-node triangles (Gmsh type 9) with 3-node lines (type 8)
 //! on curves in, 9-node quads (type 10) or, with [`Options::incomplete`], 8-node quads
-//! (type 16) with 3-node lines out.
+//! (type 16) with 3-node lines out. 9- and 8-node quads already in the input (Gmsh's
+//! transfinite, layered and recombined faces at order 2) are kept.
 //!
 //! [`crate::pipeline::quadrangulate`] sends a mesh with 6-node triangles here. It runs in
 //! three steps:
-//! 1. **Linear copy** ([`linearize`]): every tri6 becomes the tri3 of its corners and every
-//!    line3 the line2 of its ends (same element tags); the high-order nodes no corner uses
+//! 1. **Linear copy** ([`linearize`]): every tri6 becomes the tri3 of its corners, every
+//!    quad9 or quad8 the quad4 of its corners and every line3 the line2 of its ends (same
+//!    element tags; the linear job keeps existing quads); the high-order nodes no corner uses
 //!    are taken out of the node blocks (and out of `$Periodic` pairs). Node tags are kept.
 //! 2. **The linear job**: the whole linear pipeline on that copy (matching, parity repair,
 //!    fallback, optimization, invariant and validity checks), unchanged. Its new nodes are
@@ -14,7 +16,9 @@
 //!    high-order node of the input.
 //! 3. **Second order again** ([`elevate`]), on the input's curved geometry: on each
 //!    surface, the map `Φ` from the flat corner triangles to the curved tri6 surface
-//!    (through each triangle's quadratic shape functions), and the projection onto that
+//!    (through each triangle's quadratic shape functions; an input quad counts as two
+//!    curved triangles about its diagonal 0-2, through its face node or, for an 8-node
+//!    quad, its serendipity centre), and the projection onto that
 //!    surface (the flat point `p` whose `Φ(p)` differs from the query only along the
 //!    normal, found from the closest flat point, [`crate::quality::locate`], by a few
 //!    fixed-point steps; a point of a planar surface is its own projection); on each curve,
@@ -27,7 +31,9 @@
 //!      midpoint, i.e. the input's own mid-edge node position);
 //!    - any other new or moved corner is projected onto the curved surface;
 //!    - an edge of an input element whose two ends did not move keeps the input's mid-edge
-//!      node (same tag, same coordinates);
+//!      node (same tag, same coordinates), and an input 9-node quad whose corners did not
+//!      move keeps its face node (so an input quad the linear job kept in place is written
+//!      back as it was, its face node dropped for 8-node output);
 //!    - any other mid-edge node is, on a curve with line3 elements, the line3 point at the
 //!      mean parameter of its ends; else the projection of the midpoint of its (placed)
 //!      corners onto the curved surface (a curve edge of no surface and no line3 gets its
@@ -74,7 +80,7 @@ use crate::recombine::RecombineError;
 #[non_exhaustive]
 pub enum HighOrderError {
     /// An element type the second-order path does not handle.
-    #[error("entity ({dim}, {entity}) has {count} elements of type {element_type}; a second-order mesh must have 6-node triangles (type 9, and 3-node triangles) on surfaces and 3-node lines (type 8, and 2-node lines) on curves: mesh with Mesh.ElementOrder = 2 or 1, without Recombine")]
+    #[error("entity ({dim}, {entity}) has {count} elements of type {element_type}; a second-order mesh must have 6-node triangles (type 9, and 3-node triangles), 9- or 8-node quads (types 10, 16) on surfaces and 3-node lines (type 8, and 2-node lines) on curves: mesh with Mesh.ElementOrder = 2 or 1")]
     Unsupported {
         /// Entity dimension.
         dim: i32,
@@ -116,6 +122,8 @@ pub struct SecondOrderReport {
     pub surface_mid_nodes: usize,
     /// New face nodes (9-node quads).
     pub face_nodes: usize,
+    /// Face nodes of input 9-node quads kept (tag and coordinates).
+    pub kept_face_nodes: usize,
     /// New or moved corner nodes placed on the curved geometry.
     pub corners_placed: usize,
     /// Tags of the elements given straight-sided new nodes to stay valid.
@@ -130,11 +138,14 @@ pub struct SecondOrderReport {
     pub mean_scaled_jacobian: f64,
 }
 
-/// True when `mesh` has 6-node triangles on some surface (the second-order path).
+/// True when `mesh` has 6-node triangles, or 9- or 8-node quads, on some surface (the
+/// second-order path).
 pub fn is_second_order(mesh: &Mesh) -> bool {
-    mesh.element_blocks
-        .iter()
-        .any(|b| b.entity_dim == 2 && b.element_type == etype::TRI6 && !b.is_empty())
+    mesh.element_blocks.iter().any(|b| {
+        b.entity_dim == 2
+            && matches!(b.element_type, etype::TRI6 | etype::QUAD9 | etype::QUAD8)
+            && !b.is_empty()
+    })
 }
 
 /// The second-order job (see the module doc). On error `mesh` is unchanged.
@@ -156,13 +167,14 @@ pub(crate) fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, E
     }
     let (out, so) = elevate(mesh, linear, linear_max, opts)?;
     report.log.push(format!(
-        "second order: {} {}-node quads, {} 3-node lines; mid-edge nodes: {} kept from the input, {} new on curves, {} new on surfaces; {} face nodes; {} moved corner(s) placed on the curved geometry; min scaled Jacobian {:.3}, mean {:.3}",
+        "second order: {} {}-node quads, {} 3-node lines; mid-edge nodes: {} kept from the input, {} new on curves, {} new on surfaces; face nodes: {} kept, {} new; {} moved corner(s) placed on the curved geometry; min scaled Jacobian {:.3}, mean {:.3}",
         so.quads,
         if so.quad_type == etype::QUAD9 { 9 } else { 8 },
         so.lines,
         so.kept_mid_nodes,
         so.curve_mid_nodes,
         so.surface_mid_nodes,
+        so.kept_face_nodes,
         so.face_nodes,
         so.corners_placed,
         so.min_scaled_jacobian,
@@ -236,6 +248,9 @@ pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Erro
                 continue;
             }
             (_, etype::TRI6) => Some(etype::TRI3),
+            // quads already in the input (transfinite, layered or recombined faces) stay
+            // quads: the linear job keeps them as it keeps any quad
+            (_, etype::QUAD9 | etype::QUAD8) => Some(etype::QUAD4),
             (_, etype::LINE3) => Some(etype::LINE2),
             (_, etype::TRI3 | etype::LINE2 | etype::POINT) => None,
             _ if b.is_empty() => None,
@@ -418,6 +433,8 @@ struct Geometry {
     coords: HashMap<u64, DVec3>,
     /// Input edge (sorted corner tags) -> its mid-edge node.
     mid: HashMap<(u64, u64), u64>,
+    /// Input 9-node quad (sorted corner tags) -> its face node.
+    face: HashMap<[u64; 4], u64>,
     surfaces: HashMap<i32, SurfaceGeometry>,
     /// Input line3 elements per curve: `[a, b, m]`.
     curves: HashMap<i32, Vec<[u64; 3]>>,
@@ -442,8 +459,13 @@ impl Geometry {
             }
         }
         let mut mid = HashMap::new();
+        let mut face = HashMap::new();
         let mut curves: HashMap<i32, Vec<[u64; 3]>> = HashMap::new();
-        let mut tris: HashMap<i32, Vec<[u64; 6]>> = HashMap::new();
+        // per surface: curved triangles as corner tags and mid-edge points (edges 0-1,
+        // 1-2, 2-0; `None`: the straight midpoint)
+        type Piece = ([u64; 3], [Option<DVec3>; 3]);
+        let mut tris: HashMap<i32, Vec<Piece>> = HashMap::new();
+        let at = |t: u64| coords.get(&t).copied();
         for b in &input.element_blocks {
             match (b.entity_dim, b.element_type) {
                 (2, etype::TRI6) => {
@@ -451,17 +473,41 @@ impl Geometry {
                         mid.insert(key(e[0], e[1]), e[3]);
                         mid.insert(key(e[1], e[2]), e[4]);
                         mid.insert(key(e[2], e[0]), e[5]);
-                        let mut t = [0u64; 6];
-                        t.copy_from_slice(e);
-                        tris.entry(b.entity_tag).or_default().push(t);
+                        tris.entry(b.entity_tag)
+                            .or_default()
+                            .push(([e[0], e[1], e[2]], [at(e[3]), at(e[4]), at(e[5])]));
                     }
                 }
                 (2, etype::TRI3) => {
                     for e in b.nodes.chunks_exact(3) {
-                        // no mid-edge nodes: the flat triangle (marked by 0 tags)
+                        // no mid-edge nodes: the flat triangle
                         tris.entry(b.entity_tag)
                             .or_default()
-                            .push([e[0], e[1], e[2], 0, 0, 0]);
+                            .push(([e[0], e[1], e[2]], [None; 3]));
+                    }
+                }
+                (2, etype::QUAD9 | etype::QUAD8) => {
+                    let k = b.nodes_per_element();
+                    for e in b.nodes.chunks_exact(k) {
+                        for j in 0..4 {
+                            mid.insert(key(e[j], e[(j + 1) % 4]), e[4 + j]);
+                        }
+                        // the surface the quad covers, as two curved triangles about the
+                        // diagonal 0-2, whose middle is the face node (for an 8-node quad,
+                        // its serendipity centre)
+                        let x: Option<Vec<DVec3>> = e.iter().map(|&t| at(t)).collect();
+                        let Some(x) = x else { continue };
+                        let centre = if k == 9 {
+                            let mut c = [e[0], e[1], e[2], e[3]];
+                            c.sort_unstable();
+                            face.insert(c, e[8]);
+                            x[8]
+                        } else {
+                            (x[4] + x[5] + x[6] + x[7]) * 0.5 - (x[0] + x[1] + x[2] + x[3]) * 0.25
+                        };
+                        let list = tris.entry(b.entity_tag).or_default();
+                        list.push(([e[0], e[1], e[2]], [Some(x[4]), Some(x[5]), Some(centre)]));
+                        list.push(([e[0], e[2], e[3]], [Some(centre), Some(x[6]), Some(x[7])]));
                     }
                 }
                 (1, etype::LINE3) => {
@@ -485,14 +531,14 @@ impl Geometry {
                 let mut six = Vec::with_capacity(list.len());
                 let at = |t: u64| coords.get(&t).copied().unwrap_or(DVec3::ZERO);
                 let mut node_tri = HashMap::new();
-                for (ti, t) in list.iter().enumerate() {
-                    for &n in &t[..3] {
+                for (ti, (t, _)) in list.iter().enumerate() {
+                    for &n in t {
                         node_tri.entry(n).or_insert(ti as u32);
                     }
                 }
-                for t in &list {
+                for (t, m) in &list {
                     let mut f = [0u32; 3];
-                    for (k, &n) in t[..3].iter().enumerate() {
+                    for (k, &n) in t.iter().enumerate() {
                         f[k] = *index.entry(n).or_insert_with(|| {
                             points.push(at(n));
                             (points.len() - 1) as u32
@@ -500,14 +546,8 @@ impl Geometry {
                     }
                     flat.push(f);
                     let c = [at(t[0]), at(t[1]), at(t[2])];
-                    let m = |k: usize, i: usize, j: usize| {
-                        if t[k] == 0 {
-                            (c[i] + c[j]) * 0.5
-                        } else {
-                            at(t[k])
-                        }
-                    };
-                    six.push([c[0], c[1], c[2], m(3, 0, 1), m(4, 1, 2), m(5, 2, 0)]);
+                    let m = |k: usize, i: usize, j: usize| m[k].unwrap_or((c[i] + c[j]) * 0.5);
+                    six.push([c[0], c[1], c[2], m(0, 0, 1), m(1, 1, 2), m(2, 2, 0)]);
                 }
                 (
                     s,
@@ -522,6 +562,7 @@ impl Geometry {
         Geometry {
             coords,
             mid,
+            face,
             surfaces,
             curves,
             owner,
@@ -777,11 +818,29 @@ pub fn elevate(
     let complete = !opts.incomplete;
     // the face node: the serendipity centre of the curved corners and mid-edge nodes (a
     // curved edge's bulge spreads evenly over the element), projected onto the surface
+    // an input 9-node quad kept with its corners in place keeps its face node
+    let face_kept: Vec<Option<u64>> = quads
+        .iter()
+        .map(|&(_, q)| {
+            if !complete || q.iter().any(|&t| moved(t)) {
+                return None;
+            }
+            let mut k = q;
+            k.sort_unstable();
+            geo.face
+                .get(&k)
+                .copied()
+                .filter(|t| geo.coords.contains_key(t))
+        })
+        .collect();
     let mut face: Vec<DVec3> = if complete {
         quads
             .par_iter()
             .enumerate()
             .map(|(i, &(s, q))| {
+                if let Some(x) = face_kept[i].and_then(|t| geo.coords.get(&t)) {
+                    return *x;
+                }
                 let mut x = [DVec3::ZERO; 9];
                 for k in 0..4 {
                     x[k] = corner.get(&q[k]).copied().unwrap_or(DVec3::ZERO);
@@ -1020,11 +1079,18 @@ pub fn elevate(
     let mut face_tag = vec![0u64; quads.len()];
     if complete {
         for i in 0..quads.len() {
+            let x = quad_points(i, &edges, &face_straight, &reverted)[8];
+            let s = quads[i].0;
+            if let (Some(t), false) = (face_kept[i], face_straight[i]) {
+                face_tag[i] = t;
+                report.kept_face_nodes += 1;
+                let (d, e, p) = geo.owner.get(&t).cloned().unwrap_or((2, s, None));
+                additions.push((d, e, t, x, p));
+                continue;
+            }
             face_tag[i] = next;
             next += 1;
             report.face_nodes += 1;
-            let x = quad_points(i, &edges, &face_straight, &reverted)[8];
-            let s = quads[i].0;
             additions.push((2, s, face_tag[i], x, params_for((2, s), &quads[i].1)));
         }
     }

@@ -4,7 +4,8 @@
 //! own reader and its `minSJ` quality (no triangle left, only second-order quads and
 //! lines, `minSJ` > 0 everywhere, curve nodes and kept mid-edge nodes unmoved, new curve
 //! nodes on the input's 3-node lines, new tags above the input's, physical groups kept;
-//! on the sphere, new and moved nodes on the input's quadratic surface). Needs Gmsh.
+//! on the sphere, new and moved nodes on the input's quadratic surface; 9- and 8-node
+//! quads of the input kept as they are). Needs Gmsh.
 
 use crate::common;
 use crate::gmsh_gate;
@@ -270,5 +271,53 @@ fn quality_view_on_the_main_command_in_every_variant_linear_and_second_order() {
         assert_eq!(code, Some(0), "case {i}: {err}");
         assert!(!err.contains("dropped"), "case {i}: {err}");
         assert!(check_views(&output) > 20, "case {i}");
+    }
+}
+
+#[test]
+fn quads_already_in_the_input_are_kept_beside_recombined_triangles() {
+    if !gmsh_gate::require_gmsh() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    // a transfinite recombined square (Gmsh writes 9-node quads, 8-node ones with
+    // Mesh.SecondOrderIncomplete) beside a triangle face bounded by an arc
+    let geo = repo_dir().join("tests/common/mixed_order2.geo");
+    for (variant, incomplete_in, flags) in [
+        (Variant::Msh41Ascii, 0.0, vec![]),
+        (Variant::Msh22Binary, 1.0, vec!["--incomplete"]),
+        (Variant::Msh41Binary, 0.0, vec!["--incomplete"]),
+        (Variant::Msh22Ascii, 1.0, vec![]),
+    ] {
+        let input = mesh_order2(
+            &geo,
+            dir.path(),
+            variant,
+            0.3,
+            &[("Mesh.SecondOrderIncomplete", incomplete_in)],
+        );
+        let check: &[&str] = if flags.contains(&"--incomplete") {
+            &["--incomplete"]
+        } else {
+            &[]
+        };
+        let (report, log) = recombine_and_check(&input, &flags, check);
+        let name = variant.name();
+        // every input quad is in the output with its tag and nodes (the checker's
+        // input_quads check), and there are 7 x 7 of them
+        assert_eq!(
+            number(&report, "input_quad_count"),
+            49.0,
+            "{name}: {report}"
+        );
+        assert_eq!(
+            number(&report, "input_quads_kept"),
+            49.0,
+            "{name}: {report}"
+        );
+        assert!(number(&report, "quads") > 49.0, "{name}: {report}");
+        if incomplete_in == 0.0 && flags.is_empty() {
+            assert!(log.contains("face nodes: 49 kept"), "{name}: {log}");
+        }
     }
 }
