@@ -74,6 +74,7 @@ use serde::Serialize;
 use crate::mesh::{element_dim, element_node_count, etype, ElementBlock, Mesh, NodeBlock};
 use crate::pipeline::{Error, Options, Report};
 use crate::quality::locate::TriSurface;
+use crate::quality::FlatNodes;
 use crate::recombine::RecombineError;
 
 /// Hasher of the maps below, whose keys are node tags, tag pairs and entity tags: a
@@ -397,10 +398,6 @@ fn key(a: u64, b: u64) -> (u64, u64) {
     }
 }
 
-fn v3(p: [f64; 3]) -> DVec3 {
-    DVec3::from_array(p)
-}
-
 /// Point of the 3-node line `(a, b, m)` (ends at ξ = -1 and 1, `m` at 0) at `xi`.
 pub fn line3_point(a: DVec3, b: DVec3, m: DVec3, xi: f64) -> DVec3 {
     a * (0.5 * xi * (xi - 1.0)) + b * (0.5 * xi * (xi + 1.0)) + m * (1.0 - xi * xi)
@@ -450,10 +447,12 @@ impl SurfaceGeometry {
             let n = self.locator.normal(hit.tri);
             let rt = r - n * r.dot(n);
             let err = rt.length();
+            // converged, or no longer converging (rounding level): the best point so far
+            let stalled = best.is_some_and(|(e, _, _)| err > 0.5 * e);
             if best.is_none_or(|(e, _, _)| err < e) {
                 best = Some((err, y, size));
             }
-            if err <= 1e-13 * size {
+            if err <= 1e-13 * size || stalled {
                 break;
             }
             hit = self.locator.walk(hit.tri, hit.point + rt)?;
@@ -467,9 +466,10 @@ impl SurfaceGeometry {
 }
 
 /// The input's curved geometry.
-struct Geometry {
-    /// Coordinates of every input node.
-    coords: FastMap<u64, DVec3>,
+struct Geometry<'a> {
+    input: &'a Mesh,
+    /// Every input node (coordinates by tag).
+    nodes: FlatNodes,
     /// Input edge (sorted corner tags) -> its mid-edge node.
     mid: FastMap<(u64, u64), u64>,
     /// Input 9-node quad (sorted corner tags) -> its face node.
@@ -477,26 +477,31 @@ struct Geometry {
     surfaces: FastMap<i32, SurfaceGeometry>,
     /// Input line3 elements per curve: `[a, b, m]`.
     curves: FastMap<i32, Vec<[u64; 3]>>,
-    /// Entity (dim, tag) of every input node, and its parametric coordinates if any.
-    owner: FastMap<u64, (i32, i32, Option<Vec<f64>>)>,
 }
 
-impl Geometry {
-    fn new(input: &Mesh) -> Geometry {
-        let mut coords = FastMap::with_capacity_and_hasher(input.node_count(), Default::default());
-        let mut owner = FastMap::with_capacity_and_hasher(input.node_count(), Default::default());
-        for b in &input.node_blocks {
-            let np = b.entity_dim.max(0) as usize;
-            for (i, &t) in b.tags.iter().enumerate() {
-                coords.insert(t, v3(b.coords[i]));
-                let params = b
-                    .params
-                    .as_ref()
-                    .and_then(|p| p.get(i * np..(i + 1) * np))
-                    .map(|p| p.to_vec());
-                owner.insert(t, (b.entity_dim, b.entity_tag, params));
-            }
-        }
+impl<'a> Geometry<'a> {
+    /// Coordinates of input node `t`.
+    fn at(&self, t: u64) -> Option<DVec3> {
+        self.nodes.at(t)
+    }
+
+    /// Entity (dim, tag) of input node `t`, and its parametric coordinates if any.
+    fn owner(&self, t: u64) -> Option<(i32, i32, Option<Vec<f64>>)> {
+        let r = self.nodes.node_ref(t)?;
+        let b = self.input.node_blocks.get(r.block as usize)?;
+        let np = b.entity_dim.max(0) as usize;
+        let i = r.index as usize;
+        let params = b
+            .params
+            .as_ref()
+            .and_then(|p| p.get(i * np..(i + 1) * np))
+            .map(|p| p.to_vec());
+        Some((b.entity_dim, b.entity_tag, params))
+    }
+
+    fn new(input: &'a Mesh) -> Geometry<'a> {
+        let nodes = FlatNodes::new(input);
+        let coords = &nodes;
         let mut mid = FastMap::default();
         let mut face = FastMap::default();
         let mut curves: FastMap<i32, Vec<[u64; 3]>> = FastMap::default();
@@ -504,7 +509,7 @@ impl Geometry {
         // 1-2, 2-0; `None`: the straight midpoint)
         type Piece = ([u64; 3], [Option<DVec3>; 3]);
         let mut tris: FastMap<i32, Vec<Piece>> = FastMap::default();
-        let at = |t: u64| coords.get(&t).copied();
+        let at = |t: u64| coords.at(t);
         for b in &input.element_blocks {
             match (b.entity_dim, b.element_type) {
                 (2, etype::TRI6) => {
@@ -568,7 +573,7 @@ impl Geometry {
                 let mut points = Vec::new();
                 let mut flat = Vec::with_capacity(list.len());
                 let mut six = Vec::with_capacity(list.len());
-                let at = |t: u64| coords.get(&t).copied().unwrap_or(DVec3::ZERO);
+                let at = |t: u64| coords.at(t).unwrap_or(DVec3::ZERO);
                 let mut node_tri = FastMap::default();
                 for (ti, (t, _)) in list.iter().enumerate() {
                     for &n in t {
@@ -599,12 +604,12 @@ impl Geometry {
             })
             .collect();
         Geometry {
-            coords,
+            input,
+            nodes,
             mid,
             face,
             surfaces,
             curves,
-            owner,
         }
     }
 }
@@ -665,17 +670,10 @@ pub fn elevate(
         }
     }
     let geo = Geometry::new(input);
-    let flat: FastMap<u64, DVec3> = out
-        .node_blocks
-        .iter()
-        .flat_map(|b| b.tags.iter().copied().zip(b.coords.iter().map(|&c| v3(c))))
-        .collect();
-    let pos = |t: u64| flat.get(&t).copied().unwrap_or(DVec3::ZERO);
-    let moved = |t: u64| {
-        geo.coords
-            .get(&t)
-            .is_none_or(|&c| Some(c) != flat.get(&t).copied())
-    };
+    // the linear job's nodes (flat positions)
+    let flat = FlatNodes::new(&out);
+    let pos = |t: u64| flat.at(t).unwrap_or(DVec3::ZERO);
+    let moved = |t: u64| geo.at(t).is_none_or(|c| Some(c) != flat.at(t));
 
     // the quads and curve lines of the result
     let mut quads: Vec<(i32, [u64; 4])> = Vec::new();
@@ -709,16 +707,13 @@ pub fn elevate(
     for (&c, list) in &geo.curves {
         for &[a, b, m] in list {
             // a line naming a node the file does not have gets no curved geometry
-            let (Some(&xa), Some(&xb), Some(&xm)) =
-                (geo.coords.get(&a), geo.coords.get(&b), geo.coords.get(&m))
-            else {
+            let (Some(xa), Some(xb), Some(xm)) = (geo.at(a), geo.at(b), geo.at(m)) else {
                 continue;
             };
             if moved(a) || moved(b) {
                 continue;
             }
-            let Some(chain) = chain_between(&adjacency, c, a, b, &|t| !geo.coords.contains_key(&t))
-            else {
+            let Some(chain) = chain_between(&adjacency, c, a, b, &|t| geo.at(t).is_none()) else {
                 continue;
             };
             let pts: Vec<DVec3> = chain.iter().map(|&t| pos(t)).collect();
@@ -742,8 +737,14 @@ pub fn elevate(
             surface_of.entry(t).or_insert(s);
         }
     }
-    let mut candidates: Vec<u64> = flat.keys().copied().filter(|&t| moved(t)).collect();
+    let mut candidates: Vec<u64> = out
+        .node_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().copied())
+        .filter(|&t| moved(t))
+        .collect();
     candidates.sort_unstable();
+    candidates.dedup();
     let placed: Vec<(u64, DVec3)> = candidates
         .par_iter()
         .filter_map(|&t| {
@@ -755,14 +756,15 @@ pub fn elevate(
             Some((t, p))
         })
         .collect();
-    let mut corner: FastMap<u64, DVec3> = flat.clone();
-    let mut lifted: FastSet<u64> = FastSet::default();
+    // corners on the curved geometry: the lifted ones, else the flat positions
+    let mut lifted_at: FastMap<u64, DVec3> = FastMap::default();
     for &(t, p) in &placed {
         if p.is_finite() && p != pos(t) {
-            corner.insert(t, p);
-            lifted.insert(t);
+            lifted_at.insert(t, p);
         }
     }
+    let lifted = &lifted_at;
+    let corner_at = |t: u64| lifted_at.get(&t).copied().unwrap_or_else(|| pos(t));
 
     // edges
     let mut edge_of: FastMap<(u64, u64), usize> = FastMap::default();
@@ -824,10 +826,10 @@ pub fn elevate(
     }
     edges.par_iter_mut().for_each(|e| {
         let k = key(e.a, e.b);
-        let at = |t: u64| corner.get(&t).copied().unwrap_or(DVec3::ZERO);
+        let at = corner_at;
         let mid_pt = (at(e.a) + at(e.b)) * 0.5;
         if let (false, false, Some(&m)) = (moved(e.a), moved(e.b), geo.mid.get(&k)) {
-            if let Some(&x) = geo.coords.get(&m) {
+            if let Some(x) = geo.at(m) {
                 e.kind = MidKind::Kept(m);
                 e.curved = x;
                 return;
@@ -866,10 +868,7 @@ pub fn elevate(
             }
             let mut k = q;
             k.sort_unstable();
-            geo.face
-                .get(&k)
-                .copied()
-                .filter(|t| geo.coords.contains_key(t))
+            geo.face.get(&k).copied().filter(|&t| geo.at(t).is_some())
         })
         .collect();
     let mut face: Vec<DVec3> = if complete {
@@ -877,12 +876,12 @@ pub fn elevate(
             .par_iter()
             .enumerate()
             .map(|(i, &(s, q))| {
-                if let Some(x) = face_kept[i].and_then(|t| geo.coords.get(&t)) {
-                    return *x;
+                if let Some(x) = face_kept[i].and_then(|t| geo.at(t)) {
+                    return x;
                 }
                 let mut x = [DVec3::ZERO; 9];
                 for k in 0..4 {
-                    x[k] = corner.get(&q[k]).copied().unwrap_or(DVec3::ZERO);
+                    x[k] = corner_at(q[k]);
                     x[4 + k] = edges[quad_edges[i][k]].curved;
                 }
                 let c = serendipity_centre(&x);
@@ -907,7 +906,7 @@ pub fn elevate(
         if reverted.contains(&t) {
             pos(t)
         } else {
-            corner.get(&t).copied().unwrap_or(DVec3::ZERO)
+            corner_at(t)
         }
     };
     let mid_of = |e: &Edge, reverted: &FastSet<u64>| {
@@ -961,7 +960,7 @@ pub fn elevate(
                 changed = true;
             } else {
                 for t in [e.a, e.b] {
-                    if lifted.contains(&t) && reverted.insert(t) {
+                    if lifted.contains_key(&t) && reverted.insert(t) {
                         changed = true;
                     }
                 }
@@ -977,7 +976,7 @@ pub fn elevate(
                 changed = true;
             } else {
                 for t in quads[i].1 {
-                    if lifted.contains(&t) && reverted.insert(t) {
+                    if lifted.contains_key(&t) && reverted.insert(t) {
                         changed = true;
                     }
                 }
@@ -1089,11 +1088,7 @@ pub fn elevate(
             (MidKind::Kept(m), false) => {
                 edge_tag[i] = m;
                 report.kept_mid_nodes += 1;
-                let (d, t, p) = geo
-                    .owner
-                    .get(&m)
-                    .cloned()
-                    .unwrap_or((e.owner.0, e.owner.1, None));
+                let (d, t, p) = geo.owner(m).unwrap_or((e.owner.0, e.owner.1, None));
                 additions.push((d, t, m, e.curved, p));
             }
             (kind, straight) => {
@@ -1123,7 +1118,7 @@ pub fn elevate(
             if let (Some(t), false) = (face_kept[i], face_straight[i]) {
                 face_tag[i] = t;
                 report.kept_face_nodes += 1;
-                let (d, e, p) = geo.owner.get(&t).cloned().unwrap_or((2, s, None));
+                let (d, e, p) = geo.owner(t).unwrap_or((2, s, None));
                 additions.push((d, e, t, x, p));
                 continue;
             }
@@ -1137,8 +1132,8 @@ pub fn elevate(
     let mut corners_placed = 0usize;
     for b in &mut out.node_blocks {
         for (i, &t) in b.tags.iter().enumerate() {
-            if lifted.contains(&t) && !reverted.contains(&t) {
-                if let Some(p) = corner.get(&t) {
+            if lifted.contains_key(&t) && !reverted.contains(&t) {
+                if let Some(p) = lifted_at.get(&t) {
                     b.coords[i] = p.to_array();
                 }
                 corners_placed += 1;

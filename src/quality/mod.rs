@@ -194,6 +194,16 @@ impl FlatNodes {
         }
     }
 
+    /// Block and index of node `tag` in its mesh.
+    pub(crate) fn node_ref(&self, tag: u64) -> Option<crate::mesh::NodeRef> {
+        self.index.get(tag)
+    }
+
+    /// Coordinates of node `tag`.
+    pub(crate) fn at(&self, tag: u64) -> Option<DVec3> {
+        self.get(tag).map(|i| self.coords[i as usize])
+    }
+
     /// Flat index of node `tag`.
     pub(crate) fn get(&self, tag: u64) -> Option<u32> {
         self.index
