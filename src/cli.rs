@@ -56,7 +56,8 @@ enum Command {
         /// Mesh to describe, `-` for stdin.
         input: PathBuf,
     },
-    /// Print quad quality η (eq. 3), vertex degrees and efficiency τ (eq. 1-2) of any mesh.
+    /// Print quad quality η (eq. 3), scaled Jacobian, vertex degrees and efficiency τ
+    /// (eq. 1-2) of any mesh.
     Quality {
         /// Mesh to measure, `-` for stdin.
         input: PathBuf,
@@ -131,6 +132,10 @@ struct RunArgs {
     /// Mesh.SecondOrderIncomplete) instead of 9-node quads.
     #[arg(long)]
     incomplete: bool,
+    /// Add quality views to the output: "eta" and "scaled jacobian" per quad
+    /// ($ElementData) and "valence" per node ($NodeData), shown coloured by `gmsh OUTPUT`.
+    #[arg(long)]
+    quality_view: bool,
     /// Allow the output to overwrite the input file.
     #[arg(long)]
     force: bool,
@@ -408,6 +413,11 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     let report = result.map_err(|e| format!("{}: {e}", input.display()))?;
     for line in &report.log {
         log.say(line);
+    }
+    if args.quality_view {
+        // encoded for the format written (the library option encodes for the default one)
+        let binary = output_format(&mesh, &args.format).binary;
+        quality::view::add_views(&mut mesh, binary);
     }
     let t3 = Instant::now();
     write(&mesh, &output, &args.format, &log)?;

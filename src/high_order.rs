@@ -1,11 +1,13 @@
 //! Second-order surface meshes: 6-node triangles (Gmsh type 9) with 3-node lines (type 8)
 //! on curves in, 9-node quads (type 10) or, with [`Options::incomplete`], 8-node quads
-//! (type 16) with 3-node lines out.
+//! (type 16) with 3-node lines out. 9- and 8-node quads already in the input (Gmsh's
+//! transfinite, layered and recombined faces at order 2) are kept.
 //!
 //! [`crate::pipeline::quadrangulate`] sends a mesh with 6-node triangles here. It runs in
 //! three steps:
-//! 1. **Linear copy** ([`linearize`]): every tri6 becomes the tri3 of its corners and every
-//!    line3 the line2 of its ends (same element tags); the high-order nodes no corner uses
+//! 1. **Linear copy** ([`linearize`]): every tri6 becomes the tri3 of its corners, every
+//!    quad9 or quad8 the quad4 of its corners and every line3 the line2 of its ends (same
+//!    element tags; the linear job keeps existing quads); the high-order nodes no corner uses
 //!    are taken out of the node blocks (and out of `$Periodic` pairs). Node tags are kept.
 //! 2. **The linear job**: the whole linear pipeline on that copy (matching, parity repair,
 //!    fallback, optimization, invariant and validity checks), unchanged. Its new nodes are
@@ -14,7 +16,9 @@
 //!    high-order node of the input.
 //! 3. **Second order again** ([`elevate`]), on the input's curved geometry: on each
 //!    surface, the map `Φ` from the flat corner triangles to the curved tri6 surface
-//!    (through each triangle's quadratic shape functions), and the projection onto that
+//!    (through each triangle's quadratic shape functions; an input quad counts as two
+//!    curved triangles about its diagonal 0-2, through its face node or, for an 8-node
+//!    quad, its serendipity centre), and the projection onto that
 //!    surface (the flat point `p` whose `Φ(p)` differs from the query only along the
 //!    normal, found from the closest flat point, [`crate::quality::locate`], by a few
 //!    fixed-point steps; a point of a planar surface is its own projection); on each curve,
@@ -27,7 +31,9 @@
 //!      midpoint, i.e. the input's own mid-edge node position);
 //!    - any other new or moved corner is projected onto the curved surface;
 //!    - an edge of an input element whose two ends did not move keeps the input's mid-edge
-//!      node (same tag, same coordinates);
+//!      node (same tag, same coordinates), and an input 9-node quad whose corners did not
+//!      move keeps its face node (so an input quad the linear job kept in place is written
+//!      back as it was, its face node dropped for 8-node output);
 //!    - any other mid-edge node is, on a curve with line3 elements, the line3 point at the
 //!      mean parameter of its ends; else the projection of the midpoint of its (placed)
 //!      corners onto the curved surface (a curve edge of no surface and no line3 gets its
@@ -58,6 +64,7 @@
 //! groups are the linear job's (which keeps the input's).
 
 use std::collections::{HashMap, HashSet};
+use std::hash::BuildHasherDefault;
 use std::time::Instant;
 
 use glam::DVec3;
@@ -67,14 +74,53 @@ use serde::Serialize;
 use crate::mesh::{element_dim, element_node_count, etype, ElementBlock, Mesh, NodeBlock};
 use crate::pipeline::{Error, Options, Report};
 use crate::quality::locate::TriSurface;
+use crate::quality::FlatNodes;
 use crate::recombine::RecombineError;
+
+/// Hasher of the maps below, whose keys are node tags, tag pairs and entity tags: a
+/// multiply-rotate step per word (as rustc's FxHash) and a SplitMix64 finish (so that
+/// tags in arithmetic progressions still spread over the buckets). Several times faster
+/// than the default SipHash on these small keys.
+#[derive(Default, Clone, Copy)]
+struct TagHasher(u64);
+
+impl std::hash::Hasher for TagHasher {
+    fn write(&mut self, bytes: &[u8]) {
+        for chunk in bytes.chunks(8) {
+            let mut word = [0u8; 8];
+            word[..chunk.len()].copy_from_slice(chunk);
+            self.write_u64(u64::from_le_bytes(word));
+        }
+    }
+    fn write_u64(&mut self, x: u64) {
+        self.0 = (self.0.rotate_left(5) ^ x).wrapping_mul(0x517c_c1b7_2722_0a95);
+    }
+    fn write_u32(&mut self, x: u32) {
+        self.write_u64(u64::from(x));
+    }
+    fn write_i32(&mut self, x: i32) {
+        self.write_u64(u64::from(x as u32));
+    }
+    fn write_usize(&mut self, x: usize) {
+        self.write_u64(x as u64);
+    }
+    fn finish(&self) -> u64 {
+        let mut z = self.0;
+        z = (z ^ (z >> 30)).wrapping_mul(0xbf58_476d_1ce4_e5b9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94d0_49bb_1331_11eb);
+        z ^ (z >> 31)
+    }
+}
+
+type FastMap<K, V> = HashMap<K, V, BuildHasherDefault<TagHasher>>;
+type FastSet<K> = HashSet<K, BuildHasherDefault<TagHasher>>;
 
 /// Why the second-order path refused a mesh or could not make it valid.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 #[non_exhaustive]
 pub enum HighOrderError {
     /// An element type the second-order path does not handle.
-    #[error("entity ({dim}, {entity}) has {count} elements of type {element_type}; a second-order mesh must have 6-node triangles (type 9, and 3-node triangles) on surfaces and 3-node lines (type 8, and 2-node lines) on curves: mesh with Mesh.ElementOrder = 2 or 1, without Recombine")]
+    #[error("entity ({dim}, {entity}) has {count} elements of type {element_type}; a second-order mesh must have 6-node triangles (type 9, and 3-node triangles), 9- or 8-node quads (types 10, 16) on surfaces and 3-node lines (type 8, and 2-node lines) on curves: mesh with Mesh.ElementOrder = 2 or 1")]
     Unsupported {
         /// Entity dimension.
         dim: i32,
@@ -116,6 +162,8 @@ pub struct SecondOrderReport {
     pub surface_mid_nodes: usize,
     /// New face nodes (9-node quads).
     pub face_nodes: usize,
+    /// Face nodes of input 9-node quads kept (tag and coordinates).
+    pub kept_face_nodes: usize,
     /// New or moved corner nodes placed on the curved geometry.
     pub corners_placed: usize,
     /// Tags of the elements given straight-sided new nodes to stay valid.
@@ -130,18 +178,26 @@ pub struct SecondOrderReport {
     pub mean_scaled_jacobian: f64,
 }
 
-/// True when `mesh` has 6-node triangles on some surface (the second-order path).
+/// True when `mesh` has 6-node triangles, or 9- or 8-node quads, on some surface (the
+/// second-order path).
 pub fn is_second_order(mesh: &Mesh) -> bool {
-    mesh.element_blocks
-        .iter()
-        .any(|b| b.entity_dim == 2 && b.element_type == etype::TRI6 && !b.is_empty())
+    mesh.element_blocks.iter().any(|b| {
+        b.entity_dim == 2
+            && matches!(b.element_type, etype::TRI6 | etype::QUAD9 | etype::QUAD8)
+            && !b.is_empty()
+    })
 }
 
 /// The second-order job (see the module doc). On error `mesh` is unchanged.
 pub(crate) fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
     let (mut linear, dropped) = linearize(mesh, opts.drop_volumes)?;
     let linear_max = linear.max_node_tag();
-    let mut report = crate::pipeline::quadrangulate(&mut linear, opts)?;
+    // the views are measured on the second-order result, not on the linear copy
+    let linear_opts = Options {
+        quality_view: false,
+        ..opts.clone()
+    };
+    let mut report = crate::pipeline::quadrangulate(&mut linear, &linear_opts)?;
     let t = Instant::now();
     if dropped > 0 {
         report.recombine.dropped_volume_elements = dropped;
@@ -151,13 +207,14 @@ pub(crate) fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, E
     }
     let (out, so) = elevate(mesh, linear, linear_max, opts)?;
     report.log.push(format!(
-        "second order: {} {}-node quads, {} 3-node lines; mid-edge nodes: {} kept from the input, {} new on curves, {} new on surfaces; {} face nodes; {} moved corner(s) placed on the curved geometry; min scaled Jacobian {:.3}, mean {:.3}",
+        "second order: {} {}-node quads, {} 3-node lines; mid-edge nodes: {} kept from the input, {} new on curves, {} new on surfaces; face nodes: {} kept, {} new; {} moved corner(s) placed on the curved geometry; min scaled Jacobian {:.3}, mean {:.3}",
         so.quads,
         if so.quad_type == etype::QUAD9 { 9 } else { 8 },
         so.lines,
         so.kept_mid_nodes,
         so.curve_mid_nodes,
         so.surface_mid_nodes,
+        so.kept_face_nodes,
         so.face_nodes,
         so.corners_placed,
         so.min_scaled_jacobian,
@@ -203,8 +260,8 @@ pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Erro
     let mut volumes: Vec<i32> = Vec::new();
     let mut dropped = 0usize;
     let mut blocks = Vec::with_capacity(input.element_blocks.len());
-    let mut high: HashSet<u64> = HashSet::new();
-    let existing: HashSet<u64> = input
+    let mut high: FastSet<u64> = FastSet::default();
+    let existing: FastSet<u64> = input
         .node_blocks
         .iter()
         .flat_map(|b| b.tags.iter().copied())
@@ -231,6 +288,9 @@ pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Erro
                 continue;
             }
             (_, etype::TRI6) => Some(etype::TRI3),
+            // quads already in the input (transfinite, layered or recombined faces) stay
+            // quads: the linear job keeps them as it keeps any quad
+            (_, etype::QUAD9 | etype::QUAD8) => Some(etype::QUAD4),
             (_, etype::LINE3) => Some(etype::LINE2),
             (_, etype::TRI3 | etype::LINE2 | etype::POINT) => None,
             _ if b.is_empty() => None,
@@ -280,7 +340,7 @@ pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Erro
         }
         .into());
     }
-    let used: HashSet<u64> = blocks
+    let used: FastSet<u64> = blocks
         .iter()
         .flat_map(|b| b.nodes.iter().copied())
         .collect();
@@ -338,10 +398,6 @@ fn key(a: u64, b: u64) -> (u64, u64) {
     }
 }
 
-fn v3(p: [f64; 3]) -> DVec3 {
-    DVec3::from_array(p)
-}
-
 /// Point of the 3-node line `(a, b, m)` (ends at ξ = -1 and 1, `m` at 0) at `xi`.
 pub fn line3_point(a: DVec3, b: DVec3, m: DVec3, xi: f64) -> DVec3 {
     a * (0.5 * xi * (xi - 1.0)) + b * (0.5 * xi * (xi + 1.0)) + m * (1.0 - xi * xi)
@@ -365,7 +421,7 @@ struct SurfaceGeometry {
     locator: TriSurface,
     six: Vec<[DVec3; 6]>,
     /// A triangle at each input corner node: where searches near that node start.
-    node_tri: HashMap<u64, u32>,
+    node_tri: FastMap<u64, u32>,
 }
 
 impl SurfaceGeometry {
@@ -391,10 +447,12 @@ impl SurfaceGeometry {
             let n = self.locator.normal(hit.tri);
             let rt = r - n * r.dot(n);
             let err = rt.length();
+            // converged, or no longer converging (rounding level): the best point so far
+            let stalled = best.is_some_and(|(e, _, _)| err > 0.5 * e);
             if best.is_none_or(|(e, _, _)| err < e) {
                 best = Some((err, y, size));
             }
-            if err <= 1e-13 * size {
+            if err <= 1e-13 * size || stalled {
                 break;
             }
             hit = self.locator.walk(hit.tri, hit.point + rt)?;
@@ -408,37 +466,50 @@ impl SurfaceGeometry {
 }
 
 /// The input's curved geometry.
-struct Geometry {
-    /// Coordinates of every input node.
-    coords: HashMap<u64, DVec3>,
+struct Geometry<'a> {
+    input: &'a Mesh,
+    /// Every input node (coordinates by tag).
+    nodes: FlatNodes,
     /// Input edge (sorted corner tags) -> its mid-edge node.
-    mid: HashMap<(u64, u64), u64>,
-    surfaces: HashMap<i32, SurfaceGeometry>,
+    mid: FastMap<(u64, u64), u64>,
+    /// Input 9-node quad (sorted corner tags) -> its face node.
+    face: FastMap<[u64; 4], u64>,
+    surfaces: FastMap<i32, SurfaceGeometry>,
     /// Input line3 elements per curve: `[a, b, m]`.
-    curves: HashMap<i32, Vec<[u64; 3]>>,
-    /// Entity (dim, tag) of every input node, and its parametric coordinates if any.
-    owner: HashMap<u64, (i32, i32, Option<Vec<f64>>)>,
+    curves: FastMap<i32, Vec<[u64; 3]>>,
 }
 
-impl Geometry {
-    fn new(input: &Mesh) -> Geometry {
-        let mut coords = HashMap::with_capacity(input.node_count());
-        let mut owner = HashMap::with_capacity(input.node_count());
-        for b in &input.node_blocks {
-            let np = b.entity_dim.max(0) as usize;
-            for (i, &t) in b.tags.iter().enumerate() {
-                coords.insert(t, v3(b.coords[i]));
-                let params = b
-                    .params
-                    .as_ref()
-                    .and_then(|p| p.get(i * np..(i + 1) * np))
-                    .map(|p| p.to_vec());
-                owner.insert(t, (b.entity_dim, b.entity_tag, params));
-            }
-        }
-        let mut mid = HashMap::new();
-        let mut curves: HashMap<i32, Vec<[u64; 3]>> = HashMap::new();
-        let mut tris: HashMap<i32, Vec<[u64; 6]>> = HashMap::new();
+impl<'a> Geometry<'a> {
+    /// Coordinates of input node `t`.
+    fn at(&self, t: u64) -> Option<DVec3> {
+        self.nodes.at(t)
+    }
+
+    /// Entity (dim, tag) of input node `t`, and its parametric coordinates if any.
+    fn owner(&self, t: u64) -> Option<(i32, i32, Option<Vec<f64>>)> {
+        let r = self.nodes.node_ref(t)?;
+        let b = self.input.node_blocks.get(r.block as usize)?;
+        let np = b.entity_dim.max(0) as usize;
+        let i = r.index as usize;
+        let params = b
+            .params
+            .as_ref()
+            .and_then(|p| p.get(i * np..(i + 1) * np))
+            .map(|p| p.to_vec());
+        Some((b.entity_dim, b.entity_tag, params))
+    }
+
+    fn new(input: &'a Mesh) -> Geometry<'a> {
+        let nodes = FlatNodes::new(input);
+        let coords = &nodes;
+        let mut mid = FastMap::default();
+        let mut face = FastMap::default();
+        let mut curves: FastMap<i32, Vec<[u64; 3]>> = FastMap::default();
+        // per surface: curved triangles as corner tags and mid-edge points (edges 0-1,
+        // 1-2, 2-0; `None`: the straight midpoint)
+        type Piece = ([u64; 3], [Option<DVec3>; 3]);
+        let mut tris: FastMap<i32, Vec<Piece>> = FastMap::default();
+        let at = |t: u64| coords.at(t);
         for b in &input.element_blocks {
             match (b.entity_dim, b.element_type) {
                 (2, etype::TRI6) => {
@@ -446,17 +517,41 @@ impl Geometry {
                         mid.insert(key(e[0], e[1]), e[3]);
                         mid.insert(key(e[1], e[2]), e[4]);
                         mid.insert(key(e[2], e[0]), e[5]);
-                        let mut t = [0u64; 6];
-                        t.copy_from_slice(e);
-                        tris.entry(b.entity_tag).or_default().push(t);
+                        tris.entry(b.entity_tag)
+                            .or_default()
+                            .push(([e[0], e[1], e[2]], [at(e[3]), at(e[4]), at(e[5])]));
                     }
                 }
                 (2, etype::TRI3) => {
                     for e in b.nodes.chunks_exact(3) {
-                        // no mid-edge nodes: the flat triangle (marked by 0 tags)
+                        // no mid-edge nodes: the flat triangle
                         tris.entry(b.entity_tag)
                             .or_default()
-                            .push([e[0], e[1], e[2], 0, 0, 0]);
+                            .push(([e[0], e[1], e[2]], [None; 3]));
+                    }
+                }
+                (2, etype::QUAD9 | etype::QUAD8) => {
+                    let k = b.nodes_per_element();
+                    for e in b.nodes.chunks_exact(k) {
+                        for j in 0..4 {
+                            mid.insert(key(e[j], e[(j + 1) % 4]), e[4 + j]);
+                        }
+                        // the surface the quad covers, as two curved triangles about the
+                        // diagonal 0-2, whose middle is the face node (for an 8-node quad,
+                        // its serendipity centre)
+                        let x: Option<Vec<DVec3>> = e.iter().map(|&t| at(t)).collect();
+                        let Some(x) = x else { continue };
+                        let centre = if k == 9 {
+                            let mut c = [e[0], e[1], e[2], e[3]];
+                            c.sort_unstable();
+                            face.insert(c, e[8]);
+                            x[8]
+                        } else {
+                            (x[4] + x[5] + x[6] + x[7]) * 0.5 - (x[0] + x[1] + x[2] + x[3]) * 0.25
+                        };
+                        let list = tris.entry(b.entity_tag).or_default();
+                        list.push(([e[0], e[1], e[2]], [Some(x[4]), Some(x[5]), Some(centre)]));
+                        list.push(([e[0], e[2], e[3]], [Some(centre), Some(x[6]), Some(x[7])]));
                     }
                 }
                 (1, etype::LINE3) => {
@@ -474,20 +569,20 @@ impl Geometry {
         let surfaces = tris
             .into_par_iter()
             .map(|(s, list)| {
-                let mut index: HashMap<u64, u32> = HashMap::new();
+                let mut index: FastMap<u64, u32> = FastMap::default();
                 let mut points = Vec::new();
                 let mut flat = Vec::with_capacity(list.len());
                 let mut six = Vec::with_capacity(list.len());
-                let at = |t: u64| coords.get(&t).copied().unwrap_or(DVec3::ZERO);
-                let mut node_tri = HashMap::new();
-                for (ti, t) in list.iter().enumerate() {
-                    for &n in &t[..3] {
+                let at = |t: u64| coords.at(t).unwrap_or(DVec3::ZERO);
+                let mut node_tri = FastMap::default();
+                for (ti, (t, _)) in list.iter().enumerate() {
+                    for &n in t {
                         node_tri.entry(n).or_insert(ti as u32);
                     }
                 }
-                for t in &list {
+                for (t, m) in &list {
                     let mut f = [0u32; 3];
-                    for (k, &n) in t[..3].iter().enumerate() {
+                    for (k, &n) in t.iter().enumerate() {
                         f[k] = *index.entry(n).or_insert_with(|| {
                             points.push(at(n));
                             (points.len() - 1) as u32
@@ -495,14 +590,8 @@ impl Geometry {
                     }
                     flat.push(f);
                     let c = [at(t[0]), at(t[1]), at(t[2])];
-                    let m = |k: usize, i: usize, j: usize| {
-                        if t[k] == 0 {
-                            (c[i] + c[j]) * 0.5
-                        } else {
-                            at(t[k])
-                        }
-                    };
-                    six.push([c[0], c[1], c[2], m(3, 0, 1), m(4, 1, 2), m(5, 2, 0)]);
+                    let m = |k: usize, i: usize, j: usize| m[k].unwrap_or((c[i] + c[j]) * 0.5);
+                    six.push([c[0], c[1], c[2], m(0, 0, 1), m(1, 1, 2), m(2, 2, 0)]);
                 }
                 (
                     s,
@@ -515,11 +604,12 @@ impl Geometry {
             })
             .collect();
         Geometry {
-            coords,
+            input,
+            nodes,
             mid,
+            face,
             surfaces,
             curves,
-            owner,
         }
     }
 }
@@ -580,17 +670,10 @@ pub fn elevate(
         }
     }
     let geo = Geometry::new(input);
-    let flat: HashMap<u64, DVec3> = out
-        .node_blocks
-        .iter()
-        .flat_map(|b| b.tags.iter().copied().zip(b.coords.iter().map(|&c| v3(c))))
-        .collect();
-    let pos = |t: u64| flat.get(&t).copied().unwrap_or(DVec3::ZERO);
-    let moved = |t: u64| {
-        geo.coords
-            .get(&t)
-            .is_none_or(|&c| Some(c) != flat.get(&t).copied())
-    };
+    // the linear job's nodes (flat positions)
+    let flat = FlatNodes::new(&out);
+    let pos = |t: u64| flat.at(t).unwrap_or(DVec3::ZERO);
+    let moved = |t: u64| geo.at(t).is_none_or(|c| Some(c) != flat.at(t));
 
     // the quads and curve lines of the result
     let mut quads: Vec<(i32, [u64; 4])> = Vec::new();
@@ -614,9 +697,9 @@ pub fn elevate(
     }
 
     // curve nodes: chains of new segments between the ends of an input line3
-    let mut curve_pos: HashMap<u64, DVec3> = HashMap::new();
-    let mut curve_mid: HashMap<(u64, u64), DVec3> = HashMap::new();
-    let mut adjacency: HashMap<(i32, u64), Vec<u64>> = HashMap::new();
+    let mut curve_pos: FastMap<u64, DVec3> = FastMap::default();
+    let mut curve_mid: FastMap<(u64, u64), DVec3> = FastMap::default();
+    let mut adjacency: FastMap<(i32, u64), Vec<u64>> = FastMap::default();
     for &(c, [a, b]) in &lines {
         adjacency.entry((c, a)).or_default().push(b);
         adjacency.entry((c, b)).or_default().push(a);
@@ -624,16 +707,13 @@ pub fn elevate(
     for (&c, list) in &geo.curves {
         for &[a, b, m] in list {
             // a line naming a node the file does not have gets no curved geometry
-            let (Some(&xa), Some(&xb), Some(&xm)) =
-                (geo.coords.get(&a), geo.coords.get(&b), geo.coords.get(&m))
-            else {
+            let (Some(xa), Some(xb), Some(xm)) = (geo.at(a), geo.at(b), geo.at(m)) else {
                 continue;
             };
             if moved(a) || moved(b) {
                 continue;
             }
-            let Some(chain) = chain_between(&adjacency, c, a, b, &|t| !geo.coords.contains_key(&t))
-            else {
+            let Some(chain) = chain_between(&adjacency, c, a, b, &|t| geo.at(t).is_none()) else {
                 continue;
             };
             let pts: Vec<DVec3> = chain.iter().map(|&t| pos(t)).collect();
@@ -651,14 +731,20 @@ pub fn elevate(
     }
 
     // corners: kept, on a curve, or lifted onto the curved surface
-    let mut surface_of: HashMap<u64, i32> = HashMap::new();
+    let mut surface_of: FastMap<u64, i32> = FastMap::default();
     for &(s, q) in &quads {
         for t in q {
             surface_of.entry(t).or_insert(s);
         }
     }
-    let mut candidates: Vec<u64> = flat.keys().copied().filter(|&t| moved(t)).collect();
+    let mut candidates: Vec<u64> = out
+        .node_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().copied())
+        .filter(|&t| moved(t))
+        .collect();
     candidates.sort_unstable();
+    candidates.dedup();
     let placed: Vec<(u64, DVec3)> = candidates
         .par_iter()
         .filter_map(|&t| {
@@ -670,17 +756,18 @@ pub fn elevate(
             Some((t, p))
         })
         .collect();
-    let mut corner: HashMap<u64, DVec3> = flat.clone();
-    let mut lifted: HashSet<u64> = HashSet::new();
+    // corners on the curved geometry: the lifted ones, else the flat positions
+    let mut lifted_at: FastMap<u64, DVec3> = FastMap::default();
     for &(t, p) in &placed {
         if p.is_finite() && p != pos(t) {
-            corner.insert(t, p);
-            lifted.insert(t);
+            lifted_at.insert(t, p);
         }
     }
+    let lifted = &lifted_at;
+    let corner_at = |t: u64| lifted_at.get(&t).copied().unwrap_or_else(|| pos(t));
 
     // edges
-    let mut edge_of: HashMap<(u64, u64), usize> = HashMap::new();
+    let mut edge_of: FastMap<(u64, u64), usize> = FastMap::default();
     let mut edges: Vec<Edge> = Vec::new();
     let mut new_edge = |a: u64, b: u64, owner: (i32, i32), edges: &mut Vec<Edge>| -> usize {
         *edge_of.entry(key(a, b)).or_insert_with(|| {
@@ -701,7 +788,7 @@ pub fn elevate(
         line_edges.push(new_edge(a, b, (1, c), &mut edges));
     }
     // entity of every node of the result, for edges along curves without line elements
-    let node_entity: HashMap<u64, (i32, i32)> = out
+    let node_entity: FastMap<u64, (i32, i32)> = out
         .node_blocks
         .iter()
         .flat_map(|b| {
@@ -739,10 +826,10 @@ pub fn elevate(
     }
     edges.par_iter_mut().for_each(|e| {
         let k = key(e.a, e.b);
-        let at = |t: u64| corner.get(&t).copied().unwrap_or(DVec3::ZERO);
+        let at = corner_at;
         let mid_pt = (at(e.a) + at(e.b)) * 0.5;
         if let (false, false, Some(&m)) = (moved(e.a), moved(e.b), geo.mid.get(&k)) {
-            if let Some(&x) = geo.coords.get(&m) {
+            if let Some(x) = geo.at(m) {
                 e.kind = MidKind::Kept(m);
                 e.curved = x;
                 return;
@@ -772,14 +859,29 @@ pub fn elevate(
     let complete = !opts.incomplete;
     // the face node: the serendipity centre of the curved corners and mid-edge nodes (a
     // curved edge's bulge spreads evenly over the element), projected onto the surface
+    // an input 9-node quad kept with its corners in place keeps its face node
+    let face_kept: Vec<Option<u64>> = quads
+        .iter()
+        .map(|&(_, q)| {
+            if !complete || q.iter().any(|&t| moved(t)) {
+                return None;
+            }
+            let mut k = q;
+            k.sort_unstable();
+            geo.face.get(&k).copied().filter(|&t| geo.at(t).is_some())
+        })
+        .collect();
     let mut face: Vec<DVec3> = if complete {
         quads
             .par_iter()
             .enumerate()
             .map(|(i, &(s, q))| {
+                if let Some(x) = face_kept[i].and_then(|t| geo.at(t)) {
+                    return x;
+                }
                 let mut x = [DVec3::ZERO; 9];
                 for k in 0..4 {
-                    x[k] = corner.get(&q[k]).copied().unwrap_or(DVec3::ZERO);
+                    x[k] = corner_at(q[k]);
                     x[4 + k] = edges[quad_edges[i][k]].curved;
                 }
                 let c = serendipity_centre(&x);
@@ -796,25 +898,25 @@ pub fn elevate(
     face.resize(quads.len(), DVec3::ZERO);
 
     // validity: straighten, then put corners back, until every element is valid
-    let mut reverted: HashSet<u64> = HashSet::new();
-    let mut straight_elems: HashSet<u64> = HashSet::new();
+    let mut reverted: FastSet<u64> = FastSet::default();
+    let mut straight_elems: FastSet<u64> = FastSet::default();
     let mut bad_quads: Vec<usize>;
     let mut bad_lines: Vec<usize>;
-    let node = |t: u64, reverted: &HashSet<u64>| {
+    let node = |t: u64, reverted: &FastSet<u64>| {
         if reverted.contains(&t) {
             pos(t)
         } else {
-            corner.get(&t).copied().unwrap_or(DVec3::ZERO)
+            corner_at(t)
         }
     };
-    let mid_of = |e: &Edge, reverted: &HashSet<u64>| {
+    let mid_of = |e: &Edge, reverted: &FastSet<u64>| {
         if e.straight {
             (node(e.a, reverted) + node(e.b, reverted)) * 0.5
         } else {
             e.curved
         }
     };
-    let quad_points = |i: usize, edges: &[Edge], fs: &[bool], rv: &HashSet<u64>| -> [DVec3; 9] {
+    let quad_points = |i: usize, edges: &[Edge], fs: &[bool], rv: &FastSet<u64>| -> [DVec3; 9] {
         let q = quads[i].1;
         let mut x = [DVec3::ZERO; 9];
         for k in 0..4 {
@@ -858,7 +960,7 @@ pub fn elevate(
                 changed = true;
             } else {
                 for t in [e.a, e.b] {
-                    if lifted.contains(&t) && reverted.insert(t) {
+                    if lifted.contains_key(&t) && reverted.insert(t) {
                         changed = true;
                     }
                 }
@@ -874,7 +976,7 @@ pub fn elevate(
                 changed = true;
             } else {
                 for t in quads[i].1 {
-                    if lifted.contains(&t) && reverted.insert(t) {
+                    if lifted.contains_key(&t) && reverted.insert(t) {
                         changed = true;
                     }
                 }
@@ -966,7 +1068,7 @@ pub fn elevate(
         report.min_scaled_jacobian = 0.0;
     }
     let out_index = out.node_index();
-    let mut block_of: HashMap<(i32, i32), usize> = HashMap::new();
+    let mut block_of: FastMap<(i32, i32), usize> = FastMap::default();
     for (bi, b) in out.node_blocks.iter().enumerate() {
         block_of.entry((b.entity_dim, b.entity_tag)).or_insert(bi);
     }
@@ -986,11 +1088,7 @@ pub fn elevate(
             (MidKind::Kept(m), false) => {
                 edge_tag[i] = m;
                 report.kept_mid_nodes += 1;
-                let (d, t, p) = geo
-                    .owner
-                    .get(&m)
-                    .cloned()
-                    .unwrap_or((e.owner.0, e.owner.1, None));
+                let (d, t, p) = geo.owner(m).unwrap_or((e.owner.0, e.owner.1, None));
                 additions.push((d, t, m, e.curved, p));
             }
             (kind, straight) => {
@@ -1015,11 +1113,18 @@ pub fn elevate(
     let mut face_tag = vec![0u64; quads.len()];
     if complete {
         for i in 0..quads.len() {
+            let x = quad_points(i, &edges, &face_straight, &reverted)[8];
+            let s = quads[i].0;
+            if let (Some(t), false) = (face_kept[i], face_straight[i]) {
+                face_tag[i] = t;
+                report.kept_face_nodes += 1;
+                let (d, e, p) = geo.owner(t).unwrap_or((2, s, None));
+                additions.push((d, e, t, x, p));
+                continue;
+            }
             face_tag[i] = next;
             next += 1;
             report.face_nodes += 1;
-            let x = quad_points(i, &edges, &face_straight, &reverted)[8];
-            let s = quads[i].0;
             additions.push((2, s, face_tag[i], x, params_for((2, s), &quads[i].1)));
         }
     }
@@ -1027,8 +1132,8 @@ pub fn elevate(
     let mut corners_placed = 0usize;
     for b in &mut out.node_blocks {
         for (i, &t) in b.tags.iter().enumerate() {
-            if lifted.contains(&t) && !reverted.contains(&t) {
-                if let Some(p) = corner.get(&t) {
+            if lifted.contains_key(&t) && !reverted.contains(&t) {
+                if let Some(p) = lifted_at.get(&t) {
                     b.coords[i] = p.to_array();
                 }
                 corners_placed += 1;
@@ -1095,17 +1200,17 @@ pub fn elevate(
     }
 
     // periodic links: kept pairs of kept mid nodes, new pairs of new mid and face nodes
-    let present: HashSet<u64> = out
+    let present: FastSet<u64> = out
         .node_blocks
         .iter()
         .flat_map(|b| b.tags.iter().copied())
         .collect();
-    let edge_index: HashMap<(u64, u64), usize> = edges
+    let edge_index: FastMap<(u64, u64), usize> = edges
         .iter()
         .enumerate()
         .map(|(i, e)| (key(e.a, e.b), i))
         .collect();
-    let face_by_corners: HashMap<[u64; 4], u64> = if complete {
+    let face_by_corners: FastMap<[u64; 4], u64> = if complete {
         quads
             .iter()
             .zip(&face_tag)
@@ -1116,10 +1221,10 @@ pub fn elevate(
             })
             .collect()
     } else {
-        HashMap::new()
+        FastMap::default()
     };
     for (li, link) in out.periodic.iter_mut().enumerate() {
-        let map: HashMap<u64, u64> = link.node_pairs.iter().copied().collect();
+        let map: FastMap<u64, u64> = link.node_pairs.iter().copied().collect();
         let mut pairs = link.node_pairs.clone();
         if let Some(orig) = input.periodic.get(li) {
             for &(a, b) in &orig.node_pairs {
@@ -1185,7 +1290,7 @@ pub fn elevate(
 /// The chain of curve-`c` nodes from `a` to `b` through nodes `is_new` accepts, following
 /// the result's line elements (`adjacency`); `None` when `a` and `b` are not joined so.
 fn chain_between(
-    adjacency: &HashMap<(i32, u64), Vec<u64>>,
+    adjacency: &FastMap<(i32, u64), Vec<u64>>,
     c: i32,
     a: u64,
     b: u64,
@@ -1665,6 +1770,38 @@ mod tests {
             .find(|b| b.entity_dim == 2)
             .expect("block");
         assert_eq!((b.element_type, b.nodes.len()), (etype::QUAD8, 8));
+    }
+
+    #[test]
+    fn quality_view_option_measures_the_second_order_result() {
+        let mut m = two_tri6();
+        let opts = Options {
+            optimize: false,
+            quality_view: true,
+            ..Default::default()
+        };
+        crate::pipeline::quadrangulate(&mut m, &opts).expect("recombined");
+        // eta, scaled jacobian, valence: once each (not also from the linear copy),
+        // ASCII (the mesh has no format: MSH 4.1 ASCII by default)
+        assert_eq!(m.data_sections.len(), 3);
+        assert!(m
+            .data_sections
+            .iter()
+            .all(|d| d.encoded_binary == Some(false)));
+        let text = String::from_utf8_lossy(&m.data_sections[1].body).into_owned();
+        assert!(text.starts_with("1\n\"scaled jacobian\""), "{text}");
+        // one quad: one row, its tag and its value at the nodes
+        let q = m
+            .element_blocks
+            .iter()
+            .find(|b| b.element_type == etype::QUAD9)
+            .expect("a quad9 block");
+        let rows: Vec<&str> = text.lines().skip(8).collect();
+        assert_eq!(rows.len(), 1, "{text}");
+        let (tag, value) = rows[0].split_once(' ').expect("tag value");
+        assert_eq!(tag.parse::<u64>().ok(), Some(q.tags[0]));
+        let v: f64 = value.parse().expect("a number");
+        assert!(v > 0.5 && v <= 1.0, "{v}");
     }
 
     #[test]

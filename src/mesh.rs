@@ -193,6 +193,12 @@ pub struct DataSection {
     pub kind: DataKind,
     /// The raw section body, as read (ASCII or binary).
     pub body: Vec<u8>,
+    /// `None`: `body` is encoded as the file the mesh was read from (written only into a
+    /// format of the same encoding). `Some(binary)`: a section this crate made, encoded
+    /// binary or ASCII as said; such a body is the same in MSH 2.2 and 4.1 (binary
+    /// entries are a 4-byte tag and 8-byte values), so it is written into any version
+    /// with that encoding.
+    pub encoded_binary: Option<bool>,
 }
 
 /// The three kinds of post-processing data sections.

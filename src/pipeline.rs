@@ -100,6 +100,12 @@ pub struct Options {
     /// With second-order (6-node triangle) input: write 8-node quads (Gmsh's
     /// `Mesh.SecondOrderIncomplete`) instead of 9-node quads.
     pub incomplete: bool,
+    /// Append the quality views "eta", "scaled jacobian" (`$ElementData`) and "valence"
+    /// (`$NodeData`) to the result ([`crate::quality::view`]), encoded for
+    /// [`crate::msh::default_output_format`] of the mesh (written in another encoding,
+    /// they are dropped with a warning; the CLI's `--quality-view` encodes them for the
+    /// format it writes).
+    pub quality_view: bool,
     /// Progress callback.
     #[serde(skip)]
     pub progress: Option<ProgressFn>,
@@ -123,6 +129,7 @@ impl Default for Options {
             optimize: true,
             allow_invalid: false,
             incomplete: false,
+            quality_view: false,
             progress: None,
             trace: None,
         }
@@ -217,10 +224,21 @@ fn invalid_message(bad: &[BadQuad]) -> String {
 /// on its corners and written back as 9-node (or, with [`Options::incomplete`], 8-node)
 /// quads on its curved geometry ([`crate::high_order`]). On error `mesh` is unchanged.
 pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
-    if crate::high_order::is_second_order(mesh) {
+    let report = if crate::high_order::is_second_order(mesh) {
         // the linear job on the corners, then second-order nodes on the input's geometry
-        return crate::high_order::quadrangulate(mesh, opts);
+        crate::high_order::quadrangulate(mesh, opts)?
+    } else {
+        quadrangulate_linear(mesh, opts)?
+    };
+    if opts.quality_view {
+        let binary = crate::msh::default_output_format(mesh).binary;
+        crate::quality::view::add_views(mesh, binary);
     }
+    Ok(report)
+}
+
+/// [`quadrangulate`] of a linear mesh.
+fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
     let input = std::mem::take(mesh);
     // triangles repeating another's nodes (zero-area pockets) are removed once, up front:
     // every check below compares with the input without them

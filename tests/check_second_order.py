@@ -17,6 +17,10 @@ uses blossomquad's code. Prints one JSON object; exits 0 when every check holds.
   curve_nodes    every node of an OUTPUT 3-node line lies on INPUT's chain of 3-node
                  lines of that curve (distance <= 1e-9 of the model's size).
   physical       physical groups (dim, tag, name, entities) identical.
+  input_quads    every 9- or 8-node quad of INPUT (Gmsh's transfinite, layered or
+                 recombined faces) whose corners kept their coordinates is in OUTPUT
+                 with the same tag, corners and mid-edge nodes (and face node, when both
+                 are 9-node quads).
   sphere         with --sphere R (a sphere of radius R about the origin): the largest
                  |r - R| of OUTPUT's new or moved nodes is at most 1.5 times INPUT's
                  own interpolation error (|r - R| sampled over its quadratic
@@ -116,11 +120,16 @@ def main(argv):
             for n in nodes:
                 in_mid.add(n[2])
                 curves.setdefault(ent, []).append(tuple(in_nodes[k] for k in n))
-    for ent, t, _, nodes in elements(2):
+    in_quads = {}
+    for ent, t, tags, nodes in elements(2):
         if t == 9:
             for n in nodes:
                 in_mid.update(n[3:])
                 tris.append([in_nodes[k] for k in n])
+        if t in (10, 16):
+            for tag, n in zip(tags, nodes):
+                in_mid.update(n[4:])
+                in_quads[tag] = n
     lo = [min(c[k] for c in in_nodes.values()) for k in range(3)]
     hi = [max(c[k] for c in in_nodes.values()) for k in range(3)]
     size = norm(sub(hi, lo))
@@ -175,6 +184,24 @@ def main(argv):
     checks["curve_nodes"] = worst_curve <= 1e-9 * size
 
     checks["physical"] = physical() == in_phys
+
+    if in_quads:
+        out_elems = {tag: n for _, _, tags, nodes in surf for tag, n in zip(tags, nodes)}
+        kept = 0
+        lost = []
+        for tag, n in in_quads.items():
+            if any(k not in out_nodes or out_nodes[k] != in_nodes[k] for k in n[:4]):
+                continue
+            m = out_elems.get(tag)
+            k = min(len(n), len(m)) if m else 0
+            if m is None or m[:8] != n[:8] or (k == 9 and m[8] != n[8]):
+                lost.append(tag)
+            else:
+                kept += 1
+        info["input_quad_count"] = len(in_quads)
+        info["input_quads_kept"] = kept
+        info["input_quads_lost"] = lost[:10]
+        checks["input_quads"] = not lost
 
     if radius is not None:
         samples = [(i / 6, j / 6, 1 - i / 6 - j / 6) for i in range(7) for j in range(7 - i)]

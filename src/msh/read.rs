@@ -335,6 +335,7 @@ impl<'a> Reader<'a> {
                 self.mesh.data_sections.push(DataSection {
                     kind,
                     body: body.to_vec(),
+                    encoded_binary: None,
                 });
                 return Ok(());
             }

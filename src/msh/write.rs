@@ -109,8 +109,18 @@ impl<'w> Out<'w> {
     }
 }
 
-/// True when the mesh's `$NodeData`/`$ElementData` sections can be copied into `format`
-/// (same encoding, and for binary the same major version).
+/// True when data section `d` can be written into `format`: a section read from the file
+/// in the same encoding (and for binary the same major version); a section the crate made
+/// in the same encoding.
+fn data_section_fits(mesh: &Mesh, d: &crate::mesh::DataSection, format: MshFormat) -> bool {
+    match d.encoded_binary {
+        Some(binary) => binary == format.binary,
+        None => data_sections_fit(mesh, format),
+    }
+}
+
+/// True when the mesh's `$NodeData`/`$ElementData` sections as read can be copied into
+/// `format` (same encoding, and for binary the same major version).
 fn data_sections_fit(mesh: &Mesh, format: MshFormat) -> bool {
     let src = mesh.format.unwrap_or(MshFormat {
         version: MshVersion::V41,
@@ -160,10 +170,14 @@ fn v22_parametric(mesh: &Mesh, format: MshFormat) -> bool {
 /// encoding, parametric coordinates in binary MSH 2.2). Empty when nothing is lost.
 pub fn write_warnings(mesh: &Mesh, format: MshFormat) -> Vec<String> {
     let mut w = Vec::new();
-    if !mesh.data_sections.is_empty() && !data_sections_fit(mesh, format) {
+    let unfit = mesh
+        .data_sections
+        .iter()
+        .filter(|d| !data_section_fits(mesh, d, format))
+        .count();
+    if unfit > 0 {
         w.push(format!(
-            "dropped {} $NodeData/$ElementData/$ElementNodeData section(s): they are encoded for another MSH variant",
-            mesh.data_sections.len()
+            "dropped {unfit} $NodeData/$ElementData/$ElementNodeData section(s): they are encoded for another MSH variant"
         ));
     }
     let v2 = matches!(format.version, MshVersion::V2 { .. });
@@ -263,14 +277,15 @@ fn head(out: &mut Out, mesh: &Mesh, version: &str) -> io::Result<()> {
 }
 
 fn tail(out: &mut Out, mesh: &Mesh, format: MshFormat) -> io::Result<()> {
-    if data_sections_fit(mesh, format) {
-        for d in &mesh.data_sections {
-            let n = d.kind.section_name();
-            out.section(n);
-            out.b(&d.body);
-            out.end(n);
-            out.maybe_flush()?;
+    for d in &mesh.data_sections {
+        if !data_section_fits(mesh, d, format) {
+            continue;
         }
+        let n = d.kind.section_name();
+        out.section(n);
+        out.b(&d.body);
+        out.end(n);
+        out.maybe_flush()?;
     }
     for r in mesh.raw_sections.iter().filter(|r| {
         r.position == SectionPosition::AfterMesh && raw_section_fits(mesh, &r.name, format)

@@ -50,7 +50,7 @@ pub enum QualityError {
 pub struct SurfaceQuality {
     /// Surface entity tag; `None` for the whole-mesh summary.
     pub surface: Option<i32>,
-    /// Number of 4-node quadrangles.
+    /// Number of quadrangles (4-node, and 8- and 9-node measured as below).
     pub quads: usize,
     /// Number of 3-node triangles (left over after recombination, or the input itself).
     pub triangles: usize,
@@ -60,6 +60,13 @@ pub struct SurfaceQuality {
     pub eta_worst: Option<f64>,
     /// Mean quad quality η̄ (eq. 3); `None` without quads.
     pub eta_mean: Option<f64>,
+    /// Smallest scaled Jacobian over the quads ([`view::scaled_jacobian`]: for a 4-node quad
+    /// the minimum over its corners of the normalized cross product of its two edges,
+    /// signed about the quad's normal; for 8- and 9-node quads the minimum at its nodes;
+    /// Gmsh's `minSIGE`); `None` without quads.
+    pub sj_min: Option<f64>,
+    /// Mean over the quads of their scaled Jacobian; `None` without quads.
+    pub sj_mean: Option<f64>,
     /// Histogram of η in ten bins [0, 0.1), ..., [0.9, 1].
     pub eta_histogram: [usize; 10],
     /// Interior vertices measured for degrees: not on a curve, a point, or the boundary of
@@ -114,12 +121,14 @@ impl fmt::Display for QualityReport {
         writeln!(f, "size field: {}", self.size_field)?;
         writeln!(
             f,
-            "{:>8} {:>9} {:>7} {:>6} {:>6} {:>6} {:>5} {:>5} {:>7} {:>7} {:>7}",
+            "{:>8} {:>9} {:>7} {:>6} {:>6} {:>6} {:>6} {:>6} {:>5} {:>5} {:>7} {:>7} {:>7}",
             "surface",
             "quads",
             "tris",
             "eta_w",
             "eta_m",
+            "sj_min",
+            "sj_m",
             "d4%",
             "dmin",
             "dmax",
@@ -130,12 +139,14 @@ impl fmt::Display for QualityReport {
         let row = |f: &mut fmt::Formatter<'_>, name: String, s: &SurfaceQuality| {
             writeln!(
                 f,
-                "{:>8} {:>9} {:>7} {:>6} {:>6} {:>6} {:>5} {:>5} {:>7} {:>7} {:>7}",
+                "{:>8} {:>9} {:>7} {:>6} {:>6} {:>6} {:>6} {:>6} {:>5} {:>5} {:>7} {:>7} {:>7}",
                 name,
                 s.quads,
                 s.triangles,
                 opt(s.eta_worst, 3),
                 opt(s.eta_mean, 3),
+                opt(s.sj_min, 3),
+                opt(s.sj_mean, 3),
                 opt(s.d4_percent, 1),
                 opt_u(s.d_min),
                 opt_u(s.d_max),
@@ -183,6 +194,16 @@ impl FlatNodes {
         }
     }
 
+    /// Block and index of node `tag` in its mesh.
+    pub(crate) fn node_ref(&self, tag: u64) -> Option<crate::mesh::NodeRef> {
+        self.index.get(tag)
+    }
+
+    /// Coordinates of node `tag`.
+    pub(crate) fn at(&self, tag: u64) -> Option<DVec3> {
+        self.get(tag).map(|i| self.coords[i as usize])
+    }
+
     /// Flat index of node `tag`.
     pub(crate) fn get(&self, tag: u64) -> Option<u32> {
         self.index
@@ -223,6 +244,8 @@ struct Acc {
     other: usize,
     eta_min: f64,
     eta_sum: f64,
+    sj_min: f64,
+    sj_sum: f64,
     hist: [usize; 10],
     deg: Vec<usize>,
     edges: usize,
@@ -235,15 +258,18 @@ impl Acc {
     fn new() -> Self {
         Acc {
             eta_min: f64::INFINITY,
+            sj_min: f64::INFINITY,
             lmin: f64::INFINITY,
             lmax: 0.0,
             ..Default::default()
         }
     }
-    fn add_eta(&mut self, e: f64) {
+    fn add_quad(&mut self, e: f64, sj: f64) {
         self.quads += 1;
         self.eta_min = self.eta_min.min(e);
         self.eta_sum += e;
+        self.sj_min = self.sj_min.min(sj);
+        self.sj_sum += sj;
         self.hist[((e * 10.0) as usize).min(9)] += 1;
     }
     fn add_degree(&mut self, d: usize) {
@@ -267,6 +293,8 @@ impl Acc {
             other_elements: self.other,
             eta_worst: (self.quads > 0).then_some(self.eta_min),
             eta_mean: (self.quads > 0).then(|| self.eta_sum / self.quads as f64),
+            sj_min: (self.quads > 0).then_some(self.sj_min),
+            sj_mean: (self.quads > 0).then(|| self.sj_sum / self.quads as f64),
             eta_histogram: self.hist,
             interior_vertices: nint,
             d4_percent: (nint > 0)
@@ -283,7 +311,8 @@ impl Acc {
 
 /// Measures `mesh` against the size field `size`: per surface entity and overall.
 ///
-/// Counted: 4-node quads (η, eq. 3, with [`eta()`]), 3-node triangles, other 2D elements.
+/// Counted: quads (η, eq. 3, with [`eta()`], on the corners; the scaled Jacobian,
+/// [`view::scaled_jacobian`], on all nodes), 3-node and 6-node triangles, other 2D elements.
 /// Vertex degrees (Table I) are taken over *interior* vertices: not in any point or line
 /// element, not classified on a point or curve, not on an edge used by other than two
 /// surface elements, and surrounded by quads only (in a mixed mesh a vertex touching a
@@ -328,6 +357,7 @@ pub fn report(mesh: &Mesh, size: &SizeField) -> Result<QualityReport, QualityErr
             continue;
         }
         let s = sid(b.entity_tag);
+        let full = b.nodes_per_element();
         let k = match b.element_type {
             // second-order elements are measured on their corners
             etype::TRI3 | etype::TRI6 => 3,
@@ -350,10 +380,19 @@ pub fn report(mesh: &Mesh, size: &SizeField) -> Result<QualityReport, QualityErr
                 continue;
             }
             if k == 4 {
+                // the scaled Jacobian needs every node of a second-order quad
+                let all: Option<Vec<DVec3>> = b.element(e)[..full]
+                    .iter()
+                    .map(|&t| nodes.get(t).map(|i| nodes.coords[i as usize]))
+                    .collect();
+                let Some(sj) = all.as_deref().and_then(view::scaled_jacobian) else {
+                    skipped += 1;
+                    continue;
+                };
                 let p = ids.map(|i| nodes.coords[i as usize]);
                 let q = eta(&p);
-                accs[s as usize].add_eta(q);
-                total.add_eta(q);
+                accs[s as usize].add_quad(q, sj);
+                total.add_quad(q, sj);
             } else {
                 accs[s as usize].triangles += 1;
                 total.triangles += 1;

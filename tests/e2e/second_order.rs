@@ -4,7 +4,8 @@
 //! own reader and its `minSJ` quality (no triangle left, only second-order quads and
 //! lines, `minSJ` > 0 everywhere, curve nodes and kept mid-edge nodes unmoved, new curve
 //! nodes on the input's 3-node lines, new tags above the input's, physical groups kept;
-//! on the sphere, new and moved nodes on the input's quadratic surface). Needs Gmsh.
+//! on the sphere, new and moved nodes on the input's quadratic surface; 9- and 8-node
+//! quads of the input kept as they are). Needs Gmsh.
 
 use crate::common;
 use crate::gmsh_gate;
@@ -188,6 +189,29 @@ fn third_order_input_is_refused_in_plain_words() {
     assert!(!out.exists());
 }
 
+/// Runs `tests/check_views.py` on `mesh` (and on `blossomquad quality MESH --json`):
+/// the views load in Gmsh with one value per quad, the scaled Jacobian equals Gmsh's
+/// `minSIGE` per element and the report's per-surface `sj_min`/`sj_mean` its minimum
+/// and mean. Returns the number of quads.
+fn check_views(mesh: &Path) -> usize {
+    let (code, json, err) =
+        blossomquad_run(["quality".as_ref(), mesh.as_os_str(), "--json".as_ref()]);
+    assert_eq!(code, Some(0), "{err}");
+    let report = mesh.with_extension("quality.json");
+    std::fs::write(&report, json).expect("write the report");
+    let o = run(Command::new(common::python_exe())
+        .arg(repo_dir().join("tests/check_views.py"))
+        .arg(mesh)
+        .arg(&report));
+    let text =
+        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{}: {text}", mesh.display());
+    text.trim()
+        .strip_prefix("ok ")
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("{text}"))
+}
+
 #[test]
 fn quality_view_loads_in_gmsh_with_one_value_per_quad() {
     if !gmsh_gate::require_gmsh() {
@@ -207,31 +231,93 @@ fn quality_view_loads_in_gmsh_with_one_value_per_quad() {
         view.as_os_str(),
     ]);
     assert_eq!(code, Some(0), "{err}");
-    // Gmsh reads the three views: one value per quad for the element views (eta in
-    // (0, 1], scaled Jacobian in (0, 1]), one per corner node for the valence (1..=8)
-    let script = r#"
-import sys, gmsh
-gmsh.initialize(); gmsh.option.setNumber("General.Terminal", 0)
-gmsh.logger.start(); gmsh.open(sys.argv[1]); log = gmsh.logger.get()
-assert not any("Error" in l for l in log), log
-quads = [t for ty, tags in zip(*gmsh.model.mesh.getElements(2)[:2]) for t in tags if ty == 10]
-names = {}
-for v in gmsh.view.getTags():
-    kind, tags, data, _, _ = gmsh.view.getModelData(v, 0)
-    names[gmsh.view.option.getString(v, "Name")] = (kind, sorted(int(t) for t in tags), [d[0] for d in data])
-for n in ("eta", "scaled jacobian"):
-    kind, tags, vals = names[n]
-    assert kind == "ElementData" and tags == sorted(int(q) for q in quads), n
-    assert all(0 < x <= 1 + 1e-12 for x in vals), (n, min(vals))
-kind, tags, vals = names["valence"]
-assert kind == "NodeData" and all(1 <= x <= 8 for x in vals) and len(tags) > 0
-print("ok", len(quads))
-"#;
-    let o = run(Command::new(common::python_exe())
-        .arg("-c")
-        .arg(script)
-        .arg(&view));
-    let text =
-        String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
-    assert!(o.status.success() && text.starts_with("ok"), "{text}");
+    assert!(check_views(&view) > 20);
+}
+
+#[test]
+fn quality_view_on_the_main_command_in_every_variant_linear_and_second_order() {
+    if !gmsh_gate::require_gmsh() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let geo = repo_dir().join("tests/common/plate_hole_order2.geo");
+    // (input variant, order, flags choosing the output's variant): the views are encoded
+    // for the variant written, also when it is not the input's
+    let cases: [(Variant, u8, &[&str]); 6] = [
+        (Variant::Msh41Ascii, 1, &[]),
+        (Variant::Msh41Binary, 2, &[]),
+        (Variant::Msh22Ascii, 2, &["--incomplete"]),
+        (Variant::Msh22Binary, 1, &[]),
+        (Variant::Msh41Ascii, 2, &["--binary", "--format", "msh22"]),
+        (Variant::Msh22Binary, 1, &["--ascii", "--format", "msh41"]),
+    ];
+    for (i, (variant, order, flags)) in cases.into_iter().enumerate() {
+        let input = if order == 2 {
+            mesh_order2(&geo, dir.path(), variant, 0.5, &[])
+        } else {
+            let p = dir.path().join(format!("linear-{}.msh", variant.name()));
+            common::generate_geo(&geo, &p, variant, 0.5, &[]);
+            p
+        };
+        let output = dir.path().join(format!("out-{i}.msh"));
+        let mut args: Vec<&std::ffi::OsStr> = vec![
+            input.as_os_str(),
+            "-o".as_ref(),
+            output.as_os_str(),
+            "--quality-view".as_ref(),
+        ];
+        args.extend(flags.iter().map(std::ffi::OsStr::new));
+        let (code, _, err) = blossomquad_run(args);
+        assert_eq!(code, Some(0), "case {i}: {err}");
+        assert!(!err.contains("dropped"), "case {i}: {err}");
+        assert!(check_views(&output) > 20, "case {i}");
+    }
+}
+
+#[test]
+fn quads_already_in_the_input_are_kept_beside_recombined_triangles() {
+    if !gmsh_gate::require_gmsh() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    // a transfinite recombined square (Gmsh writes 9-node quads, 8-node ones with
+    // Mesh.SecondOrderIncomplete) beside a triangle face bounded by an arc
+    let geo = repo_dir().join("tests/common/mixed_order2.geo");
+    for (variant, incomplete_in, flags) in [
+        (Variant::Msh41Ascii, 0.0, vec![]),
+        (Variant::Msh22Binary, 1.0, vec!["--incomplete"]),
+        (Variant::Msh41Binary, 0.0, vec!["--incomplete"]),
+        (Variant::Msh22Ascii, 1.0, vec![]),
+    ] {
+        let input = mesh_order2(
+            &geo,
+            dir.path(),
+            variant,
+            0.3,
+            &[("Mesh.SecondOrderIncomplete", incomplete_in)],
+        );
+        let check: &[&str] = if flags.contains(&"--incomplete") {
+            &["--incomplete"]
+        } else {
+            &[]
+        };
+        let (report, log) = recombine_and_check(&input, &flags, check);
+        let name = variant.name();
+        // every input quad is in the output with its tag and nodes (the checker's
+        // input_quads check), and there are 7 x 7 of them
+        assert_eq!(
+            number(&report, "input_quad_count"),
+            49.0,
+            "{name}: {report}"
+        );
+        assert_eq!(
+            number(&report, "input_quads_kept"),
+            49.0,
+            "{name}: {report}"
+        );
+        assert!(number(&report, "quads") > 49.0, "{name}: {report}");
+        if incomplete_in == 0.0 && flags.is_empty() {
+            assert!(log.contains("face nodes: 49 kept"), "{name}: {log}");
+        }
+    }
 }
