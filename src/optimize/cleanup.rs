@@ -665,8 +665,9 @@ pub(crate) fn cleanup(
 pub(crate) mod tests {
     use super::*;
     use crate::mesh::Mesh;
+    use crate::optimize::extract::{extract, node_owners, write_back, PendingNodes};
     use crate::optimize::synth::{self, Soup};
-    use crate::optimize::{extract, node_owners, write_back, OptimizeReport, PendingNodes};
+    use crate::optimize::OptimizeReport;
     use crate::quality::FlatNodes;
 
     /// The single surface of `m` as a [`Local`], with its node → quads adjacency.

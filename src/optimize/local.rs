@@ -84,7 +84,7 @@ impl Local {
     pub fn prepare_sweeps(&mut self) {
         if !self.sweep_ready {
             self.refresh_quad_normals();
-            self.colours = super::smooth::colour_free_nodes(self);
+            self.colours = colour_free_nodes(self);
             self.sweep_ready = true;
         }
     }
@@ -261,6 +261,34 @@ impl Local {
             },
         }
     }
+}
+
+/// Free nodes grouped by colour: no two nodes of a group share a quad.
+fn colour_free_nodes(l: &Local) -> Vec<Vec<u32>> {
+    let n = l.pos.len();
+    let mut colour = vec![u8::MAX; n];
+    let mut groups: Vec<Vec<u32>> = Vec::new();
+    for v in 0..n as u32 {
+        if l.fixed[v as usize] || l.removed[v as usize] || l.star(v).is_empty() {
+            continue;
+        }
+        let mut used: u64 = 0;
+        for &q in l.star(v) {
+            for &w in &l.quads[q as usize] {
+                let c = colour[w as usize];
+                if c < 64 {
+                    used |= 1 << c;
+                }
+            }
+        }
+        let c = (!used).trailing_zeros().min(63) as usize;
+        colour[v as usize] = c as u8;
+        if groups.len() <= c {
+            groups.resize(c + 1, Vec::new());
+        }
+        groups[c].push(v);
+    }
+    groups
 }
 
 /// Node → quads CSR over `n` nodes of the quads `q` with `keep(q)`: the quads around `v` are

@@ -314,7 +314,7 @@ mod tests {
                 l.quads.iter().map(|q| &q[..]),
             );
             let opts = crate::optimize::OptimizeOptions::default();
-            crate::optimize::after_topology_rounds(&mut l, &opts);
+            crate::optimize::schedule::after_topology_rounds(&mut l, &opts);
             for (k, w) in [0.0, SIZE_WEIGHT].into_iter().enumerate() {
                 let mut p = l.clone();
                 p.build_adjacency();

@@ -154,6 +154,8 @@
 
 mod cross_field;
 mod fallback;
+mod fan;
+mod geometry;
 mod graph;
 mod input;
 mod invariants;
@@ -173,9 +175,11 @@ use topology::{CurveInfo, NodeTable, SurfaceTopo};
 pub use fallback::{split_triangles, FallbackSplit};
 // the cost model's constants, public for the tests (not the API)
 #[doc(hidden)]
+pub use geometry::FIXED_CORNER_MIN_ETA;
+#[doc(hidden)]
 pub use graph::{
-    bad_extra_edge_cost, extra_edge_cost, split_halves_cost, COST_SCALE, FIXED_CORNER_MIN_ETA,
-    HOPELESS_COST, MAX_REAL_COST,
+    bad_extra_edge_cost, extra_edge_cost, split_halves_cost, COST_SCALE, HOPELESS_COST,
+    MAX_REAL_COST,
 };
 pub use invariants::check_invariants;
 
