@@ -161,7 +161,7 @@ impl<'a> Topo<'a> {
         let (ideal, angle) = ideal_valence(l);
         let region = focus.map(|f| {
             let mut mark: Vec<bool> = (0..n).map(|v| f.get(v) == Some(&true)).collect();
-            super::grow_rings(l, &mut mark, REACH_RINGS);
+            super::local::grow_rings(l, &mut mark, REACH_RINGS);
             mark
         });
         let in_region = |v: u32| region.as_ref().is_none_or(|r| r[v as usize]);

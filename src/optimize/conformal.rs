@@ -456,7 +456,8 @@ mod tests {
             let (_, mut l) = local_of(&m);
             // the state the solve sees in the pipeline: smoothed, topology done
             let opts = crate::optimize::OptimizeOptions::default();
-            let (mut ops, mut tm, mut gate) = crate::optimize::schedule::after_topology_rounds(&mut l, &opts);
+            let (mut ops, mut tm, mut gate) =
+                crate::optimize::schedule::after_topology_rounds(&mut l, &opts);
             let mut square = l.clone();
             let mut aspect = l;
             let walls: Vec<(usize, DVec3)> = (0..aspect.pos.len())
@@ -464,7 +465,14 @@ mod tests {
                 .map(|v| (v, aspect.pos[v]))
                 .collect();
             let mut square_gate = gate.clone();
-            crate::optimize::schedule::finish(&mut square, &opts, &mut ops, &mut tm, 0.0, &mut square_gate);
+            crate::optimize::schedule::finish(
+                &mut square,
+                &opts,
+                &mut ops,
+                &mut tm,
+                0.0,
+                &mut square_gate,
+            );
             crate::optimize::schedule::finish(
                 &mut aspect,
                 &opts,

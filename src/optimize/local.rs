@@ -6,7 +6,6 @@
 //! it. Fixed nodes (on curves, points, the boundary, or used by any element that is not a
 //! quad of this surface) never move and are never removed.
 
-use super::valid::VALID_KEY;
 use crate::quality::eta::eta_signed_fast;
 use crate::quality::locate::TriSurface;
 use crate::quality::size::{inverse_linear_integral, tau_deviation};
@@ -291,6 +290,28 @@ fn colour_free_nodes(l: &Local) -> Vec<Vec<u32>> {
     groups
 }
 
+/// Adds to `mark` every node within `rings` quad rings of a marked node. Needs a current
+/// adjacency.
+pub(crate) fn grow_rings(l: &Local, mark: &mut [bool], rings: usize) {
+    let mut frontier: Vec<u32> = (0..l.pos.len() as u32)
+        .filter(|&v| mark[v as usize])
+        .collect();
+    for _ in 0..rings {
+        let mut next = Vec::new();
+        for &v in &frontier {
+            for &q in l.star(v) {
+                for &w in &l.quads[q as usize] {
+                    if !mark[w as usize] {
+                        mark[w as usize] = true;
+                        next.push(w);
+                    }
+                }
+            }
+        }
+        frontier = next;
+    }
+}
+
 /// Node → quads CSR over `n` nodes of the quads `q` with `keep(q)`: the quads around `v` are
 /// `adj[start[v]..start[v + 1]]`; returns `(start, adj)`.
 pub(crate) fn csr(
@@ -548,6 +569,13 @@ impl<'a> StarEval<'a> {
         Some((min, sum))
     }
 }
+
+/// Smallest signed η (eq. 3) of a valid quad (the optimizer's rule, `valid`): a corner
+/// within 0.09° of 0° or 180° fails.
+pub(crate) const VALID_ETA: f64 = 1e-3;
+
+/// [`VALID_ETA`] as a [`shape_key`]: `1 / (1 + cot(VALID_ETA·π/2))`.
+pub(crate) const VALID_KEY: f64 = 1.568_334_083_280_948e-3;
 
 /// A key ordered like the signed quality η (eq. 3) of the quad `p` about the unit normal
 /// `n`, without trigonometry: for a valid quad (every corner turning positively) it is

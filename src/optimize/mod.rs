@@ -76,7 +76,6 @@ use crate::quality::FlatNodes;
 use extract::{extract, node_owners, write_back, PendingNodes};
 use local::{Local, NONE};
 use reference::{attach_reference, SurfaceReference};
-pub(crate) use schedule::grow_rings;
 use schedule::run_surface;
 
 use rayon::prelude::*;

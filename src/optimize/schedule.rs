@@ -2,7 +2,7 @@
 //! smoothing, topology rounds with smoothing near their changes, the conformal solve, the
 //! polish stages, and on small planar surfaces the choice among three schedules.
 
-use super::local::{Local, Stats};
+use super::local::{grow_rings, Local, Stats};
 use super::{conformal, polish, smooth, topo, valid};
 use super::{OperationCounts, OptimizeOptions, SurfaceOptimizeReport};
 use crate::profile::StageTimer;
@@ -298,26 +298,4 @@ fn near_changes(
     }
     grow_rings(l, &mut mark, rings);
     mark
-}
-
-/// Adds to `mark` every node within `rings` quad rings of a marked node. Needs a current
-/// adjacency.
-pub(crate) fn grow_rings(l: &Local, mark: &mut [bool], rings: usize) {
-    let mut frontier: Vec<u32> = (0..l.pos.len() as u32)
-        .filter(|&v| mark[v as usize])
-        .collect();
-    for _ in 0..rings {
-        let mut next = Vec::new();
-        for &v in &frontier {
-            for &q in l.star(v) {
-                for &w in &l.quads[q as usize] {
-                    if !mark[w as usize] {
-                        mark[w as usize] = true;
-                        next.push(w);
-                    }
-                }
-            }
-        }
-        frontier = next;
-    }
 }
