@@ -43,7 +43,9 @@ mod verify;
 
 pub use verify::{verify, verify_witness, CertificateError};
 
-/// Sentinel for "no vertex / no blossom" in the `u32` arrays of this module.
+/// Sentinel for "no vertex / no blossom" in the `u32` arrays of this module: the same value
+/// as `mesh::NONE`, defined again so that this module uses nothing else from the
+/// crate.
 pub const NONE: u32 = u32::MAX;
 
 /// Largest absolute edge cost accepted by [`solve`]. Larger costs are saturated to this value

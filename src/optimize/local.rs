@@ -12,8 +12,8 @@ use crate::quality::size::{inverse_linear_integral, tau_deviation};
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// Sentinel for "none".
-pub(crate) const NONE: u32 = u32::MAX;
+/// Sentinel for "no node / no quad / no triangle".
+pub(crate) use crate::mesh::NONE;
 
 /// One surface's quads and nodes.
 #[derive(Clone)]

@@ -1,6 +1,6 @@
 //! Geometry shared by the graph, the cross field and the post-processing: triangle
-//! normals, the quad two triangles make, the signed quality used for costs, hopeless
-//! corners, and node sets.
+//! normals, the quad two triangles make, hopeless corners, and node sets. The edge costs
+//! use the crate's one signed-η kernel, [`crate::quality::eta_signed_fast`].
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -102,46 +102,10 @@ pub(crate) fn has_hopeless_corner(
     })
 }
 
-/// [`crate::quality::eta_signed`] with one `atan2` instead of four: the corner with the largest deviation
-/// `|π/2 − α_k|` is found from the sines of the angles first. With `α ∈ (−π, π]`, corners
-/// with `α < −π/2` deviate by more than `π` and more the larger `sin α` is; all others
-/// deviate by at most `π` and more the smaller `sin α` is (the deviation is the angle whose
-/// cosine is `sin α`). Degenerate corners (a zero edge) count as `α = 0`, as in
-/// [`crate::quality::eta::signed_angles`].
-pub(crate) fn eta_signed_fast(p: &[DVec3; 4], normal: DVec3) -> f64 {
-    let normal = normal.normalize_or_zero();
-    // (class, key): larger is worse
-    let mut worst = (0u8, f64::NEG_INFINITY, 0.0f64, 0.0f64);
-    for k in 0..4 {
-        let a = p[(k + 1) % 4] - p[k];
-        let b = p[(k + 3) % 4] - p[k];
-        let s = normal.dot(a.cross(b));
-        let c = a.dot(b);
-        let r = (s * s + c * c).sqrt();
-        let (class, key) = if r == 0.0 {
-            (0, 0.0)
-        } else if c < 0.0 && s < 0.0 {
-            (1, s / r)
-        } else {
-            (0, -s / r)
-        };
-        if (class, key) > (worst.0, worst.1) {
-            worst = (class, key, s, c);
-        }
-    }
-    let (_, _, s, c) = worst;
-    let alpha = if s == 0.0 && c == 0.0 {
-        0.0
-    } else {
-        s.atan2(c)
-    };
-    1.0 - (std::f64::consts::FRAC_PI_2 - alpha).abs() / std::f64::consts::FRAC_PI_2
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::quality::eta_signed;
+    use crate::quality::{eta_signed, eta_signed_fast};
 
     #[test]
     fn fast_eta_matches_eta_signed() {

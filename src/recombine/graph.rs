@@ -6,10 +6,9 @@ use rayon::prelude::*;
 
 use super::cross_field::{boundary_cross_field, cross_cost, smooth_cross_field, CrossField};
 use super::fan::{duplication_margin, fans, Fan};
-use super::geometry::{
-    eta_signed_fast, has_hopeless_corner, merged_quad, triangle_normals, NodeSet,
-};
+use super::geometry::{has_hopeless_corner, merged_quad, triangle_normals, NodeSet};
 use super::topology::{SurfaceTopo, NONE};
+use crate::quality::eta_signed_fast;
 
 /// Integer cost of one unit of `1 − η`: a graph edge costs `round(COST_SCALE · (1 − η_s))`
 /// with η_s the signed quality ([`crate::quality::eta_signed`]), so a perfect square costs 0, a quad with a
