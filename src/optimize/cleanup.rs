@@ -2,9 +2,8 @@
 //! defect of the mesh, found by a bounded depth-first search.
 //!
 //! The irregular vertices Blossom-Quad leaves on an unstructured triangulation come almost
-//! all as *3-5 pairs* (a valence-3 node next to a valence-5 node: measured on the Gmsh
-//! fixtures, about 9 in 10 irregular interior nodes), the quad analogue of a lattice
-//! dislocation. One edge rotation moves such a pair without changing the defect energy
+//! all as *3-5 pairs* (a valence-3 node next to a valence-5 node), the quad analogue of a
+//! lattice dislocation. One edge rotation moves such a pair without changing the defect energy
 //! E = Σ_v (d_v − d*_v)² (d* = 4 inside, on fixed nodes the boundary angle in right angles,
 //! see [`ideal_valence`]); two pairs that meet cancel. A greedy single rotation therefore
 //! never removes them, but a short sequence does: [`cleanup`] looks, from every interior edge

@@ -10,8 +10,7 @@
 //! is a max over corners), the node goes where the edges fit the size field.
 //!
 //! The worst quads are lifted before this by [`super::smooth::polish_worst`] (max-min
-//! pattern search); measured on the 1e5 fixtures, a second max-min pass here after the mean
-//! polish changed nothing, so there is none.
+//! pattern search); there is no second max-min pass after the mean polish.
 //!
 //! Cost: 2 colour-parallel sweeps over the free nodes (4 on surfaces under 20k quads).
 

@@ -22,10 +22,9 @@
 //!
 //! [`polish_worst`] lifts the quads with η < 0.6 by a max-min pattern search, and
 //! [`optimize_angles`] then polishes nodes around poor quads by a pattern search on the
-//! star's mean η that keeps every star's worst. Measured on a 15k-triangle Gmsh rectangle:
-//! η̄ +0.024, η_w +0.03, but τ −1 point, because η (eq. 3) sees angles only and accepts
-//! elongated rectangles; the max-min polish adds about +0.09 to η_w (0.51 -> 0.60 on the
-//! 1e5-triangle fixtures) for −0.001 of η̄.
+//! star's mean η that keeps every star's worst. η (eq. 3) sees angles only and accepts
+//! elongated rectangles, so these raise η̄ and η_w at some cost in τ (figures in
+//! BENCHMARKS.md).
 
 use super::local::{rotate_to, Local, StarEval};
 use glam::DVec3;
