@@ -363,6 +363,48 @@ impl NodeIndex {
     }
 }
 
+/// Node coordinates by tag, for lookups in element order: one memory access per node where
+/// tags are compact (a table indexed by tag), else through a [`NodeIndex`]. Checkers that
+/// visit every element use it: elements name their nodes in no spatial order, so each
+/// lookup is a cache miss, and a table of coordinates makes it one instead of two.
+pub(crate) enum TagCoords<'m> {
+    Dense(Vec<Option<[f64; 3]>>),
+    Indexed(&'m Mesh, NodeIndex),
+}
+
+impl<'m> TagCoords<'m> {
+    /// The coordinates of `mesh`'s nodes by tag (later duplicates of a tag win).
+    pub(crate) fn new(mesh: &'m Mesh) -> Self {
+        let n = mesh.node_count();
+        let max = mesh.max_node_tag();
+        if max > (4 * n as u64).max(1024) {
+            return TagCoords::Indexed(mesh, mesh.node_index());
+        }
+        let mut dense = vec![None; max as usize + 1];
+        for b in &mesh.node_blocks {
+            for (&t, c) in b.tags.iter().zip(&b.coords) {
+                dense[t as usize] = Some(*c);
+            }
+        }
+        TagCoords::Dense(dense)
+    }
+
+    /// The coordinates of node `tag`, if it exists.
+    #[inline]
+    pub(crate) fn get(&self, tag: u64) -> Option<[f64; 3]> {
+        match self {
+            TagCoords::Dense(d) => d.get(tag as usize).copied().flatten(),
+            TagCoords::Indexed(m, index) => index.get(tag).and_then(|r| {
+                m.node_blocks
+                    .get(r.block as usize)?
+                    .coords
+                    .get(r.index as usize)
+                    .copied()
+            }),
+        }
+    }
+}
+
 /// Every element type code Gmsh 4.15 defines with a fixed node count:
 /// `(type code, dimension, nodes per element)`, generated from
 /// `gmsh.model.mesh.getElementProperties`. Polygons/polyhedra (variable size) are absent.

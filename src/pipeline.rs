@@ -260,6 +260,8 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
     // without optimization: surfaces optimized all the same because their matching left
     // quads that are not valid (vertex duplications fold quads until smoothed)
     let mut force: HashSet<i32> = HashSet::new();
+    // the input side of the checks, prepared once (during the first round's matching)
+    let mut checks: Option<Checks> = None;
     for round in 0..=FALLBACK_ROUNDS {
         let mut mesh = input.clone();
         if !chosen.is_empty() {
@@ -278,16 +280,33 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         // after a first invalid run, keep the mesh before optimization: a surface the
         // optimizer leaves invalid gets it back
         let keep = round > 0 && (opts.optimize || !force.is_empty());
-        let (mut run, refined, unoptimized) =
-            run_once(input, &mut mesh, opts, &force, keep, &mut times)?;
+        let (mut run, refined, unoptimized) = run_once(
+            input,
+            &mut mesh,
+            opts,
+            &force,
+            keep,
+            &mut checks,
+            &mut times,
+        )?;
         let t = Instant::now();
         progress(opts, Stage::Check, 0, 1);
         // refinement splits every boundary segment once more: its output is the baseline.
         // speed: the two checks are independent, so they run side by side (an invariant
         // failure still comes first)
+        let checks = checks.get_or_insert_with(|| Checks::new(input, false));
+        // after a refinement the refined mesh is the baseline of the invariants
+        let refined_before = refined.as_ref().map(recombine::Before::new);
+        let before = refined_before.as_ref().or(checks.invariants.as_ref());
+        let invariants_of = |m: &Mesh| match before {
+            Some(b) => b.check(m),
+            None => recombine::check_invariants(input, m),
+        };
+        // speed: the two checks are independent, so they run side by side (an invariant
+        // failure still comes first)
         let (invariants, mut bad) = rayon::join(
-            || recombine::check_invariants(refined.as_ref().unwrap_or(input), &mesh),
-            || validity::invalid_quads(input, &mesh),
+            || invariants_of(&mesh),
+            || checks.validity.invalid_quads(&mesh),
         );
         invariants.map_err(|detail| Error::Invariant {
             stage: if opts.optimize {
@@ -300,9 +319,7 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
             let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
             let back = revert_surfaces(&mesh, pre, &surfaces);
-            if validity::invalid_quads(input, &back).is_empty()
-                && recombine::check_invariants(refined.as_ref().unwrap_or(input), &back).is_ok()
-            {
+            if checks.validity.invalid_quads(&back).is_empty() && invariants_of(&back).is_ok() {
                 run.log.push(format!(
                     "surface(s) {}: optimization undone (it left a quad that is not valid)",
                     sorted_list(&surfaces)
@@ -468,17 +485,38 @@ fn fallback_triangles(
     out
 }
 
+/// The input side of the final checks: the validity reference, and the invariants'
+/// baseline when it is the input (no refinement).
+struct Checks<'a> {
+    validity: validity::Reference<'a>,
+    invariants: Option<recombine::Before<'a>>,
+}
+
+impl<'a> Checks<'a> {
+    fn new(input: &'a Mesh, invariants: bool) -> Self {
+        let (validity, invariants) = rayon::join(
+            || validity::Reference::new(input),
+            || invariants.then(|| recombine::Before::new(input)),
+        );
+        Checks {
+            validity,
+            invariants,
+        }
+    }
+}
+
 /// One run: recombine, refine, optimize (all surfaces, or without
 /// [`Options::optimize`] those in `force`; the reference triangulation prepared on its own
 /// thread meanwhile). Returns the report, after a refinement the refined mesh before
 /// optimization, and with `keep_unoptimized` the mesh before optimization.
 #[allow(clippy::type_complexity)]
-fn run_once(
-    input: &Mesh,
+fn run_once<'a>(
+    input: &'a Mesh,
     mesh: &mut Mesh,
     opts: &Options,
     force: &HashSet<i32>,
     keep_unoptimized: bool,
+    checks: &mut Option<Checks<'a>>,
     times: &mut Times,
 ) -> Result<(Report, Option<Mesh>, Option<Mesh>), Error> {
     let ropts = recombine::RecombineOptions {
@@ -490,24 +528,37 @@ fn run_once(
         // the fallback's edge-split nodes (tags above the input's) are split nodes too
         split_nodes_from: Some(input.max_node_tag() + 1),
         trace: opts.trace.clone(),
+        // `quadrangulate` removed them from `input` (the fallback's splits add none)
+        repeated_dropped: true,
         ..Default::default()
     };
     let t = Instant::now();
     progress(opts, Stage::Recombine, 0, 1);
-    // the optimizer's reference depends on the input triangles only: prepared on its own
-    // thread while the recombination runs (its matching is serial per surface)
+    // the optimizer's reference and the input side of the final checks depend on the input
+    // only: prepared on their own thread while the recombination runs (its matching is
+    // serial per surface)
+    let optimizing = opts.optimize || !force.is_empty();
+    let want_checks = checks.is_none();
     let (recombined, prep) = std::thread::scope(|sc| {
-        let prep = (opts.optimize || !force.is_empty())
-            .then(|| sc.spawn(|| optimize::PreparedReference::new(input)));
+        let prep = (optimizing || want_checks).then(|| {
+            sc.spawn(|| {
+                let reference = optimizing.then(|| optimize::PreparedReference::new(input));
+                let ready = want_checks.then(|| Checks::new(input, opts.refine == 0));
+                (reference, ready)
+            })
+        });
         let r = recombine::recombine(mesh, &ropts);
         (r, prep.map(|h| h.join()))
     });
-    let rreport = recombined?;
-    let prepared = match prep {
-        Some(Ok(p)) => Some(p),
+    let (prepared, ready) = match prep {
+        Some(Ok(p)) => p,
         Some(Err(panic)) => std::panic::resume_unwind(panic),
-        None => None,
+        None => (None, None),
     };
+    if ready.is_some() {
+        *checks = ready;
+    }
+    let rreport = recombined?;
     progress(opts, Stage::Recombine, 1, 1);
     times.recombine += t.elapsed();
     let mut report = Report {

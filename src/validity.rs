@@ -24,7 +24,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::keysort::radix_sort_by_key;
-use crate::mesh::{etype, Mesh, NodeIndex};
+use crate::mesh::{etype, Mesh, TagCoords};
 
 /// Smallest corner quality (eq. 3, one corner) counted as strictly inside (0°, 180°):
 /// angles within about 1e-4 degree of 0° or 180° are flat.
@@ -121,58 +121,121 @@ impl std::fmt::Display for BadQuad {
 /// then block order. `input` is the mesh the quads came from: its faces (triangles and
 /// quads) give the reference normals.
 pub fn invalid_quads(input: &Mesh, output: &Mesh) -> Vec<BadQuad> {
-    let out_index = output.node_index();
-    let in_index = input.node_index();
-    let extent = extent(output);
-    let min_edge = MIN_EDGE * extent;
-    let mut surfaces: Vec<i32> = output
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4 && !b.is_empty())
-        .map(|b| b.entity_tag)
-        .collect();
-    surfaces.sort_unstable();
-    surfaces.dedup();
-    surfaces
-        .par_iter()
-        .flat_map_iter(|&s| {
-            let (normals, faces) = input_normals(input, &in_index, s);
-            let normals = &normals;
-            // the nearest-face search, built only when some quad node has no input normal
-            let unknown = output.element_blocks.iter().any(|b| {
-                b.entity_dim == 2
-                    && b.entity_tag == s
-                    && b.element_type == etype::QUAD4
-                    && b.nodes.iter().any(|&t| normals.get(t).is_none())
-            });
-            let nearest = unknown.then(|| Nearest::new(faces, extent * 1e-9));
-            let nearest = nearest.as_ref();
-            let mut bad = Vec::new();
-            for b in output.element_blocks.iter().filter(|b| {
-                b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::QUAD4
-            }) {
-                // speed: quads in parallel within a surface too (one large surface)
-                let found: Vec<BadQuad> = (0..b.len())
-                    .into_par_iter()
-                    .with_min_len(4096)
-                    .filter_map(|i| {
-                        let e = b.element(i);
-                        let nodes = [e[0], e[1], e[2], e[3]];
-                        check_quad(output, &out_index, normals, nearest, nodes, min_edge).map(
-                            |defect| BadQuad {
-                                surface: s,
-                                element: b.tags[i],
-                                nodes,
-                                defect,
-                            },
-                        )
+    Reference::new(input).invalid_quads(output)
+}
+
+/// The input side of [`invalid_quads`], prepared once for any number of outputs of the
+/// same input: the input's node index and, per surface, the normals at its nodes (the
+/// nearest-face search of a surface is built on the first quad node that needs it).
+pub struct Reference<'a> {
+    input: &'a Mesh,
+    coords: TagCoords<'a>,
+    /// Input surfaces with faces, by increasing tag.
+    surfaces: Vec<(i32, SurfaceReference)>,
+}
+
+/// One input surface's normals and, once needed, its nearest-face search.
+struct SurfaceReference {
+    normals: Normals,
+    nearest: std::sync::OnceLock<Nearest>,
+}
+
+impl<'a> Reference<'a> {
+    /// Prepares the check against `input`.
+    pub fn new(input: &'a Mesh) -> Self {
+        let coords = TagCoords::new(input);
+        let mut tags: Vec<i32> = input
+            .element_blocks
+            .iter()
+            .filter(|b| is_face_block(b, None))
+            .map(|b| b.entity_tag)
+            .collect();
+        tags.sort_unstable();
+        tags.dedup();
+        let surfaces = tags
+            .par_iter()
+            .map(|&s| (s, SurfaceReference::new(input, &coords, s)))
+            .collect();
+        Reference {
+            input,
+            coords,
+            surfaces,
+        }
+    }
+
+    /// [`invalid_quads`] of `output` against this input.
+    pub fn invalid_quads(&self, output: &Mesh) -> Vec<BadQuad> {
+        let out_coords = TagCoords::new(output);
+        let extent = extent(output);
+        let min_edge = MIN_EDGE * extent;
+        let mut surfaces: Vec<i32> = output
+            .element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4 && !b.is_empty())
+            .map(|b| b.entity_tag)
+            .collect();
+        surfaces.sort_unstable();
+        surfaces.dedup();
+        surfaces
+            .par_iter()
+            .flat_map_iter(|&s| {
+                // a surface the input has no face of: no normal, no nearest face
+                let absent;
+                let sr = match self.surfaces.binary_search_by_key(&s, |x| x.0) {
+                    Ok(i) => &self.surfaces[i].1,
+                    Err(_) => {
+                        absent = SurfaceReference::new(self.input, &self.coords, s);
+                        &absent
+                    }
+                };
+                let nearest = || {
+                    sr.nearest.get_or_init(|| {
+                        Nearest::new(input_faces(self.input, &self.coords, s), extent * 1e-9)
                     })
-                    .collect();
-                bad.extend(found);
-            }
-            bad
-        })
-        .collect()
+                };
+                let mut bad = Vec::new();
+                for b in output.element_blocks.iter().filter(|b| {
+                    b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::QUAD4
+                }) {
+                    // speed: quads in parallel within a surface too (one large surface)
+                    let found: Vec<BadQuad> = (0..b.len())
+                        .into_par_iter()
+                        .with_min_len(4096)
+                        .filter_map(|i| {
+                            let e = b.element(i);
+                            let nodes = [e[0], e[1], e[2], e[3]];
+                            check_quad(&out_coords, &sr.normals, &nearest, nodes, min_edge).map(
+                                |defect| BadQuad {
+                                    surface: s,
+                                    element: b.tags[i],
+                                    nodes,
+                                    defect,
+                                },
+                            )
+                        })
+                        .collect();
+                    bad.extend(found);
+                }
+                bad
+            })
+            .collect()
+    }
+}
+
+impl SurfaceReference {
+    fn new(input: &Mesh, coords: &TagCoords, s: i32) -> Self {
+        SurfaceReference {
+            normals: input_normals(input, coords, s),
+            nearest: std::sync::OnceLock::new(),
+        }
+    }
+}
+
+/// A block of 3-node triangles or 4-node quads on a surface (`s`, or any with `None`).
+fn is_face_block(b: &crate::mesh::ElementBlock, s: Option<i32>) -> bool {
+    b.entity_dim == 2
+        && s.is_none_or(|s| b.entity_tag == s)
+        && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
 }
 
 /// The diagonal of the bounding box of all nodes (1 for an empty mesh).
@@ -213,49 +276,79 @@ impl Normals {
     }
 }
 
-/// The area-weighted normals of the input faces of surface `s` at their nodes, normalized
-/// ([`Normals`]), and the surface's whole normal: the sum of them all before normalizing
-/// (each face counted once per node), normalized (zero when it has none).
-fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, Vec<Face>) {
-    let pos = |t: u64| {
-        index.get(t).map(|r| {
-            DVec3::from_array(input.node_blocks[r.block as usize].coords[r.index as usize])
-        })
-    };
-    let blocks = || {
-        input.element_blocks.iter().filter(|b| {
-            b.entity_dim == 2
-                && b.entity_tag == s
-                && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
-        })
-    };
-    // each face's node tags with twice its vector area (Newell: a face's weight is its area)
-    let mut faces: Vec<Face> = Vec::new();
-    let mut each_face = |f: &mut dyn FnMut(&[u64], DVec3)| {
-        for b in blocks() {
-            let k = b.nodes_per_element();
-            for i in 0..b.len() {
-                let e = b.element(i);
-                let mut p = [DVec3::ZERO; 4];
-                if e.iter().zip(p.iter_mut()).any(|(&t, x)| match pos(t) {
-                    Some(v) => {
-                        *x = v;
-                        false
-                    }
-                    None => true,
-                }) {
-                    continue;
-                }
-                let mut n = DVec3::ZERO;
-                for j in 1..k - 1 {
-                    n += (p[j] - p[0]).cross(p[j + 1] - p[0]);
-                }
-                f(e, n);
+/// Faces per parallel task.
+const CHUNK: usize = 8192;
+
+/// The corners of input face `e` (3 or 4 nodes), `None` when a node is unknown.
+fn face_corners(coords: &TagCoords, e: &[u64]) -> Option<[DVec3; 4]> {
+    let mut p = [DVec3::ZERO; 4];
+    for (x, &t) in p.iter_mut().zip(e) {
+        *x = DVec3::from_array(coords.get(t)?);
+    }
+    Some(p)
+}
+
+/// Twice the vector area of the polygon `p[..k]` (Newell: a face's weight is its area).
+fn face_normal(p: &[DVec3; 4], k: usize) -> DVec3 {
+    let mut n = DVec3::ZERO;
+    for j in 1..k - 1 {
+        n += (p[j] - p[0]).cross(p[j + 1] - p[0]);
+    }
+    n
+}
+
+/// The faces of input surface `s` whose nodes all exist, in block order.
+fn input_faces(input: &Mesh, coords: &TagCoords, s: i32) -> Vec<Face> {
+    let mut faces = Vec::new();
+    for b in input
+        .element_blocks
+        .iter()
+        .filter(|b| is_face_block(b, Some(s)))
+    {
+        let k = b.nodes_per_element();
+        for i in 0..b.len() {
+            if let Some(p) = face_corners(coords, b.element(i)) {
                 faces.push(Face {
                     corners: p,
                     len: k as u8,
-                    normal: n,
+                    normal: face_normal(&p, k),
                 });
+            }
+        }
+    }
+    faces
+}
+
+/// The area-weighted normals of the input faces of surface `s` at their nodes, normalized
+/// ([`Normals`]).
+fn input_normals(input: &Mesh, coords: &TagCoords, s: i32) -> Normals {
+    let blocks = || {
+        input
+            .element_blocks
+            .iter()
+            .filter(|b| is_face_block(b, Some(s)))
+    };
+    // each face's twice vector area, computed in parallel (`None`: a node is unknown, the
+    // face does not count), then added at its nodes in face order (the same sums as one
+    // thread)
+    let normals: Vec<Vec<Option<DVec3>>> = blocks()
+        .map(|b| {
+            let k = b.nodes_per_element();
+            let mut n = vec![None; b.len()];
+            n.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
+                for (j, x) in out.iter_mut().enumerate() {
+                    *x = face_corners(coords, b.element(c * CHUNK + j)).map(|p| face_normal(&p, k));
+                }
+            });
+            n
+        })
+        .collect();
+    let each_face = |f: &mut dyn FnMut(&[u64], DVec3)| {
+        for (b, ns) in blocks().zip(&normals) {
+            for (i, n) in ns.iter().enumerate() {
+                if let Some(n) = *n {
+                    f(b.element(i), n);
+                }
             }
         }
     };
@@ -266,16 +359,16 @@ fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, Vec<Face>
     }
     // speed: accumulated straight into a table when the surface's tags are dense enough
     // (a node is in about six triangles), else sorted pairs merged
-    let normals = if max <= 8 * uses + 1024 {
+    if max <= 8 * uses + 1024 {
         let mut dense = vec![DVec3::ZERO; max as usize + 1];
         each_face(&mut |e, n| {
             for &t in e {
                 dense[t as usize] += n;
             }
         });
-        for n in &mut dense {
-            *n = n.normalize_or_zero();
-        }
+        dense
+            .par_chunks_mut(CHUNK)
+            .for_each(|c| c.iter_mut().for_each(|n| *n = n.normalize_or_zero()));
         Normals::Dense(dense)
     } else {
         let mut acc: Vec<(u64, DVec3)> = Vec::with_capacity(uses as usize);
@@ -296,8 +389,7 @@ fn input_normals(input: &Mesh, index: &NodeIndex, s: i32) -> (Normals, Vec<Face>
             x.1 = x.1.normalize_or_zero();
         }
         Normals::Sorted(out)
-    };
-    (normals, faces)
+    }
 }
 
 /// One input face: its corners (3 or 4) and twice its vector area.
@@ -407,20 +499,19 @@ impl Nearest {
 }
 
 /// The first defect of quad `q`, if any.
-fn check_quad(
-    mesh: &Mesh,
-    index: &NodeIndex,
+fn check_quad<'n>(
+    coords: &TagCoords,
     normals: &Normals,
-    nearest: Option<&Nearest>,
+    nearest: &(dyn Fn() -> &'n Nearest + Sync),
     q: [u64; 4],
     min_edge: f64,
 ) -> Option<Defect> {
     let mut p = [DVec3::ZERO; 4];
     for k in 0..4 {
-        let Some(r) = index.get(q[k]) else {
+        let Some(c) = coords.get(q[k]) else {
             return Some(Defect::MissingNode(q[k]));
         };
-        p[k] = DVec3::from_array(mesh.node_blocks[r.block as usize].coords[r.index as usize]);
+        p[k] = DVec3::from_array(c);
         if q[..k].contains(&q[k]) {
             return Some(Defect::RepeatedNode(q[k]));
         }
@@ -435,8 +526,8 @@ fn check_quad(
     for k in 0..4 {
         let n = match normals.get(q[k]) {
             Some(n) => n,
-            None => match nearest.map(|f| f.normal(p[k])) {
-                Some(n) if n != DVec3::ZERO => n,
+            None => match nearest().normal(p[k]) {
+                n if n != DVec3::ZERO => n,
                 _ => own,
             },
         };

@@ -154,11 +154,21 @@ def recombine_gmsh(
     the triangles of every surface entity become quads with the kept element tags, moved
     nodes keep their tags, nodes added by parity repair go on their curves with their line
     elements. Physical groups and entity tags are untouched, so ``gmsh.write``,
-    ``gmsh.fltk.run()`` or a solver's Gmsh reader see the quads. Options as
-    :func:`recombine_file`; returns the report as a dict. On error the model is unchanged."""
+    ``gmsh.fltk.run()`` or a solver's Gmsh reader see the quads. Only the entities the
+    result changes are written back (the recombined surfaces, curves split by parity repair,
+    volumes whose elements ``drop_volumes`` removed); the others keep their mesh untouched,
+    node parametric coordinates included. Options as :func:`recombine_file`; returns the
+    report as a dict, with ``report["model"]``: ``rewritten`` (``[dim, tag, what]`` per
+    entity written back, ``what`` being ``"mesh"``, ``"elements"`` or ``"all"``) and the
+    seconds spent reading the model (``read_secs``), converting to and from the library's
+    mesh (``convert_secs``) and writing the model (``write_secs``); the rest is in
+    ``report["times"]``. On error the model is unchanged."""
+    import time
+
     import gmsh
     import numpy as np
 
+    t_read = time.perf_counter()
     model = gmsh.model
     all_entities = model.getEntities()
     entities = []
@@ -186,7 +196,10 @@ def recombine_gmsh(
     elements = []
     periodic = []
     for dim, tag in all_entities:
-        ntags, coords, _ = model.mesh.getNodes(dim, tag, includeBoundary=False)
+        # numpy arrays from Gmsh, handed over as bytes: no Python loop over nodes or elements
+        ntags, coords, _ = model.mesh.getNodes(
+            dim, tag, includeBoundary=False, returnParametricCoord=False
+        )
         if len(ntags):
             nodes.append(
                 (
@@ -220,27 +233,78 @@ def recombine_gmsh(
                         np.asarray(master_nodes, dtype="<u8").tobytes(),
                     )
                 )
-    out_nodes, out_elements, report = _native.recombine_model(
+    t_native = time.perf_counter()
+    changed, report, convert = _native.recombine_model(
         entities, names, nodes, elements, periodic, _options(options), progress
     )
-    # the result replaces the mesh: same node and element tags where kept, quads in place
-    # of triangles, new nodes and line elements where parity repair or the fallback split
-    # a curve
-    model.mesh.clear()
-    for dim, tag, ntags, coords in out_nodes:
-        model.mesh.addNodes(
-            dim,
-            tag,
-            np.frombuffer(ntags, dtype="<u8"),
-            np.frombuffer(coords, dtype="<f8"),
-        )
-    for dim, tag, etype, etags, enodes in out_elements:
-        model.mesh.addElementsByType(
-            tag,
-            etype,
-            np.frombuffer(etags, dtype="<u8"),
-            np.frombuffer(enodes, dtype="<u8"),
-        )
+    t_write = time.perf_counter()
+    rewritten = _write_back(gmsh.model.mesh, all_entities, changed, nodes, elements, periodic)
+    out = json.loads(report)
+    done = time.perf_counter()
+    out["model"] = {
+        "rewritten": rewritten,
+        "read_secs": t_native - t_read,
+        "convert_secs": convert,
+        "write_secs": done - t_write,
+    }
+    return out
+
+
+def _write_back(
+    mesh: Any, all_entities: Any, changed: Any, nodes: Any, elements: Any, periodic: Any
+) -> Any:
+    """Writes the result into Gmsh's mesh: only the entities the result changes (the
+    others keep their mesh as it was: nodes with their parametric coordinates, elements).
+    ``"elements"``: same nodes, so the entity's elements alone are replaced; ``"mesh"``:
+    nodes changed too (moved, removed or added), so the entity's mesh is cleared and added
+    back (Gmsh has no call removing one node). Returns ``[dim, tag, what]`` per rewritten
+    entity (``what`` is ``"all"`` for every entity when the whole mesh had to be
+    replaced)."""
+    import numpy as np
+
+    u8 = lambda b: np.frombuffer(b, dtype="<u8")  # noqa: E731
+    f8 = lambda b: np.frombuffer(b, dtype="<f8")  # noqa: E731
+    # highest dimension first: volume elements dropped before the surface nodes they use go
+    for dim, tag, what, _n, _c, _e in sorted(changed, key=lambda c: -c[0]):
+        if what == "elements":
+            mesh.removeElements(dim, tag)
+    cleared = [(dim, tag) for dim, tag, what, _n, _c, _e in changed if what == "mesh"]
+    # one at a time, highest dimension first: Gmsh keeps the mesh of a curve while a
+    # surface's mesh still uses it
+    for dim, tag in sorted(cleared, key=lambda e: -e[0]):
+        mesh.clear([(dim, tag)])
+    kept = [
+        e for e in cleared if len(mesh.getNodes(*e, returnParametricCoord=False)[0])
+    ]
+    if kept:
+        # Gmsh kept an entity's mesh (an unchanged entity's elements use it): the whole mesh
+        # is replaced instead, the unchanged entities from what was read
+        mesh.clear()
+        new = {(d, t): (w, n, c, e) for d, t, w, n, c, e in changed}
+        for dim, tag, ntags, coords in nodes:
+            if new.get((dim, tag), ("",))[0] != "mesh":
+                mesh.addNodes(dim, tag, u8(ntags), f8(coords))
+        for (dim, tag), (what, ntags, coords, _e) in new.items():
+            if what == "mesh" and len(ntags):
+                mesh.addNodes(dim, tag, u8(ntags), f8(coords))
+        for dim, tag, etype, etags, enodes in elements:
+            if (dim, tag) not in new:
+                mesh.addElementsByType(tag, etype, u8(etags), u8(enodes))
+        for _d, tag, _w, _n, _c, blocks in changed:
+            for etype, etags, enodes in blocks:
+                mesh.addElementsByType(tag, etype, u8(etags), u8(enodes))
+        for dim, tag, master, affine, _s, _m in periodic:
+            mesh.setPeriodic(dim, [tag], [master], affine)
+        return [[dim, tag, "all"] for dim, tag in all_entities]
+    for dim, tag, what, ntags, coords, _e in changed:
+        if what == "mesh" and len(ntags):
+            mesh.addNodes(dim, tag, u8(ntags), f8(coords))
+    for _d, tag, _w, _n, _c, blocks in changed:
+        for etype, etags, enodes in blocks:
+            mesh.addElementsByType(tag, etype, u8(etags), u8(enodes))
+    # a cleared entity lost its periodic node pairs: Gmsh matches them again
+    touched = set(cleared)
     for dim, tag, master, affine, _s, _m in periodic:
-        model.mesh.setPeriodic(dim, [tag], [master], affine)
-    return json.loads(report)
+        if (dim, tag) in touched or (dim, master) in touched:
+            mesh.setPeriodic(dim, [tag], [master], affine)
+    return [[dim, tag, what] for dim, tag, what, _n, _c, _e in changed]

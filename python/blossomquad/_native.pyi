@@ -24,5 +24,5 @@ def recombine_model(
     options: str,
     progress: _Progress = None,
 ) -> Tuple[
-    List[Tuple[int, int, bytes, bytes]], List[Tuple[int, int, int, bytes, bytes]], str
+    List[Tuple[int, int, str, bytes, bytes, List[Tuple[int, bytes, bytes]]]], str, float
 ]: ...

@@ -238,6 +238,59 @@ def test_recombine_gmsh_turns_the_open_model_into_quads(model, tmp_path):
     assert 2 not in element_counts(2)
 
 
+def test_recombine_gmsh_leaves_the_entities_it_does_not_change_alone(model):
+    plate_with_hole(0.1)
+    curves = {}
+    for _, c in gmsh.model.getEntities(1):
+        ntags, _, params = gmsh.model.mesh.getNodes(1, c, returnParametricCoord=True)
+        _, etags, enodes = gmsh.model.mesh.getElements(1, c)
+        assert len(params) == len(ntags) > 0, "Gmsh gives curve nodes their parameter"
+        curves[c] = (ntags.tolist(), params.tolist(), etags[0].tolist(), enodes[0].tolist())
+    report = blossomquad.recombine_gmsh()
+    # the surface is written back, and the curves parity repair split; the other curves
+    # keep their nodes with their parameters (which adding nodes back would lose) and their
+    # line elements
+    split = {s["curve"] for s in report["recombine"]["parity_splits"]}
+    assert report["model"]["rewritten"] == [[1, c, "mesh"] for c in sorted(split)] + [
+        [2, 1, "mesh"]
+    ]
+    assert len(split) < len(curves)
+    for c, (ntags, params, etags, enodes) in curves.items():
+        if c in split:
+            continue
+        n, _, p = gmsh.model.mesh.getNodes(1, c, returnParametricCoord=True)
+        _, et, en = gmsh.model.mesh.getElements(1, c)
+        assert (n.tolist(), p.tolist()) == (ntags, params), c
+        assert (et[0].tolist(), en[0].tolist()) == (etags, enodes), c
+    times = report["model"]
+    assert all(times[k] >= 0 for k in ("read_secs", "convert_secs", "write_secs"))
+    assert 2 not in element_counts(2)
+
+
+def test_recombine_gmsh_replaces_the_whole_mesh_when_gmsh_keeps_an_entity(
+    model, monkeypatch
+):
+    # Gmsh refuses to clear an entity whose nodes elements of another entity use; whatever
+    # the reason, the model must not end up with the nodes twice: the whole mesh is replaced
+    plate_with_hole(0.1)
+    nodes_before = len(gmsh.model.mesh.getNodes()[0])
+    clear = gmsh.model.mesh.clear
+    monkeypatch.setattr(
+        gmsh.model.mesh, "clear", lambda dimTags=[]: clear(dimTags) if not dimTags else None
+    )
+    report = blossomquad.recombine_gmsh()
+    assert report["model"]["rewritten"] == [[d, t, "all"] for d, t in gmsh.model.getEntities()]
+    tags, coords, _ = gmsh.model.mesh.getNodes()
+    assert len(tags) == len(set(tags.tolist()))
+    assert len(np.unique(coords.reshape(-1, 3), axis=0)) == len(tags)
+    removed = report["optimize"]["nodes_removed"]
+    added = len(report["recombine"]["parity_splits"])
+    assert len(tags) == nodes_before - removed + added
+    assert 2 not in element_counts(2)
+    _, etags, _ = gmsh.model.mesh.getElements(2, 1)
+    assert min(gmsh.model.mesh.getElementQualities(etags[0], "minSJ")) > 0
+
+
 def test_recombine_gmsh_repairs_parity_on_the_model_curves(model):
     occ = gmsh.model.occ
     occ.addRectangle(0, 0, 0, 1, 1)
@@ -268,8 +321,16 @@ def test_recombine_gmsh_errors_leave_the_model_unchanged(model):
     with pytest.raises(blossomquad.Error, match="volume"):
         blossomquad.recombine_gmsh()
     assert element_counts(3) == before
-    blossomquad.recombine_gmsh(drop_volumes=True)
+    volume_nodes = gmsh.model.mesh.getNodes(3, 1)[0].tolist()
+    report = blossomquad.recombine_gmsh(drop_volumes=True)
     assert 2 not in element_counts(2)
+    # the tetrahedra go, as with --drop-volumes; the volume's nodes stay, as in the file
+    assert element_counts(3) == {}
+    assert [3, 1, "elements"] in report["model"]["rewritten"]
+    assert gmsh.model.mesh.getNodes(3, 1)[0].tolist() == volume_nodes
+    for _, s in gmsh.model.getEntities(2):
+        _, tags, _ = gmsh.model.mesh.getElements(2, s)
+        assert min(gmsh.model.mesh.getElementQualities(tags[0], "minSJ")) > 0, s
 
 
 def test_recombine_gmsh_keeps_periodic_curves_periodic(model):

@@ -92,12 +92,8 @@ pub(crate) fn check_tag_room(mesh: &Mesh) -> Result<(), RecombineError> {
 /// Checks every 3-node triangle and 4-node quad of every surface (see the module doc).
 /// Unknown nodes are left to the later stages, which name them.
 pub(crate) fn check_surface_elements(mesh: &Mesh) -> Result<(), RecombineError> {
-    let index = mesh.node_index();
-    let coord = |tag: u64| -> Option<V> {
-        let r = index.get(tag)?;
-        let b = mesh.node_blocks.get(r.block as usize)?;
-        b.coords.get(r.index as usize).copied()
-    };
+    let coords = crate::mesh::TagCoords::new(mesh);
+    let coord = |tag: u64| -> Option<V> { coords.get(tag) };
     let mut surfaces: Vec<i32> = mesh
         .element_blocks
         .iter()
@@ -115,80 +111,112 @@ pub(crate) fn check_surface_elements(mesh: &Mesh) -> Result<(), RecombineError> 
         .map(|_| ())
 }
 
+/// Elements per parallel task.
+const CHUNK: usize = 8192;
+
+/// A triangle for the fold check: its nodes, element tag and unit normal.
+type FoldTri = ([u64; 3], u64, V);
+
+/// Checks element `i` of block `b` (a 3-node triangle or 4-node quad of `surface`): its
+/// triangle with its unit normal, for the fold check (`None`: a quad, or a node unknown).
+fn check_element(
+    b: &crate::mesh::ElementBlock,
+    i: usize,
+    surface: i32,
+    coord: &(dyn Fn(u64) -> Option<V> + Sync),
+) -> Result<Option<FoldTri>, RecombineError> {
+    let k = if b.element_type == etype::TRI3 { 3 } else { 4 };
+    let nodes = &b.element(i)[..k];
+    let tag = b.tags[i];
+    for (j, &v) in nodes.iter().enumerate() {
+        if nodes[..j].contains(&v) {
+            return Err(invalid(
+                surface,
+                tag,
+                format!(
+                    "it names node {v} twice; a {} needs {k} distinct nodes",
+                    if k == 3 { "triangle" } else { "quad" }
+                ),
+            ));
+        }
+    }
+    let mut p = [[0.0; 3]; 4];
+    for (j, &v) in nodes.iter().enumerate() {
+        let Some(c) = coord(v) else {
+            // unknown node: reported by the topology stage
+            return Ok(None);
+        };
+        if let Some(x) = c
+            .iter()
+            .find(|x| !x.is_finite() || x.abs() > MAX_COORDINATE)
+        {
+            return Err(invalid(
+                surface,
+                tag,
+                if x.is_finite() {
+                    format!(
+                        "its node {v} has a coordinate {x:e}, beyond the supported magnitude {MAX_COORDINATE:e}"
+                    )
+                } else {
+                    format!("its node {v} has a coordinate that is not a finite number")
+                },
+            ));
+        }
+        p[j] = c;
+    }
+    if k != 3 {
+        return Ok(None);
+    }
+    let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
+    let scale = dot(sub(p[1], p[0]), sub(p[1], p[0]))
+        + dot(sub(p[2], p[1]), sub(p[2], p[1]))
+        + dot(sub(p[0], p[2]), sub(p[0], p[2]));
+    let area2 = dot(n, n).sqrt();
+    if area2.is_nan() || area2 <= ZERO_AREA * scale {
+        return Err(invalid(
+            surface,
+            tag,
+            format!(
+                "the triangle has no area (its nodes {}, {}, {} coincide or are collinear to {:.1e} of its size)",
+                nodes[0],
+                nodes[1],
+                nodes[2],
+                area2 / scale
+            ),
+        ));
+    }
+    let unit = n.map(|x| x / area2);
+    Ok(Some(([nodes[0], nodes[1], nodes[2]], tag, unit)))
+}
+
 fn check_surface(
     mesh: &Mesh,
     surface: i32,
     coord: &(dyn Fn(u64) -> Option<V> + Sync),
 ) -> Result<(), RecombineError> {
-    // triangles with their normals, for the fold check
-    let mut tris: Vec<([u64; 3], u64, V)> = Vec::new();
+    // triangles with their normals, for the fold check; elements checked by chunks in
+    // parallel, the first refused one in block order reported
+    let mut tris: Vec<FoldTri> = Vec::new();
     for b in mesh.element_blocks.iter().filter(|b| {
         b.entity_dim == 2
             && b.entity_tag == surface
             && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
     }) {
-        let k = if b.element_type == etype::TRI3 { 3 } else { 4 };
-        'elements: for i in 0..b.len() {
-            let nodes = &b.element(i)[..k];
-            let tag = b.tags[i];
-            for (j, &v) in nodes.iter().enumerate() {
-                if nodes[..j].contains(&v) {
-                    return Err(invalid(
-                        surface,
-                        tag,
-                        format!(
-                            "it names node {v} twice; a {} needs {k} distinct nodes",
-                            if k == 3 { "triangle" } else { "quad" }
-                        ),
-                    ));
+        let chunks: Vec<Result<Vec<FoldTri>, RecombineError>> = (0..b.len())
+            .into_par_iter()
+            .step_by(CHUNK)
+            .map(|from| {
+                let mut out = Vec::new();
+                for i in from..(from + CHUNK).min(b.len()) {
+                    if let Some(t) = check_element(b, i, surface, coord)? {
+                        out.push(t);
+                    }
                 }
-            }
-            let mut p = [[0.0; 3]; 4];
-            for (j, &v) in nodes.iter().enumerate() {
-                let Some(c) = coord(v) else {
-                    // unknown node: reported by the topology stage
-                    continue 'elements;
-                };
-                if let Some(x) = c
-                    .iter()
-                    .find(|x| !x.is_finite() || x.abs() > MAX_COORDINATE)
-                {
-                    return Err(invalid(
-                        surface,
-                        tag,
-                        if x.is_finite() {
-                            format!(
-                                "its node {v} has a coordinate {x:e}, beyond the supported magnitude {MAX_COORDINATE:e}"
-                            )
-                        } else {
-                            format!("its node {v} has a coordinate that is not a finite number")
-                        },
-                    ));
-                }
-                p[j] = c;
-            }
-            if k == 3 {
-                let n = cross(sub(p[1], p[0]), sub(p[2], p[0]));
-                let scale = dot(sub(p[1], p[0]), sub(p[1], p[0]))
-                    + dot(sub(p[2], p[1]), sub(p[2], p[1]))
-                    + dot(sub(p[0], p[2]), sub(p[0], p[2]));
-                let area2 = dot(n, n).sqrt();
-                if area2.is_nan() || area2 <= ZERO_AREA * scale {
-                    return Err(invalid(
-                        surface,
-                        tag,
-                        format!(
-                            "the triangle has no area (its nodes {}, {}, {} coincide or are collinear to {:.1e} of its size)",
-                            nodes[0],
-                            nodes[1],
-                            nodes[2],
-                            area2 / scale
-                        ),
-                    ));
-                }
-                let unit = n.map(|x| x / area2);
-                tris.push(([nodes[0], nodes[1], nodes[2]], tag, unit));
-            }
+                Ok(out)
+            })
+            .collect();
+        for c in chunks {
+            tris.extend(c?);
         }
     }
     // triangles repeating another's three nodes were removed before (drop_repeated_triangles)

@@ -7,7 +7,7 @@
 use rayon::prelude::*;
 
 use crate::keysort::sort_pairs;
-use crate::mesh::{element_dim, etype, Mesh, NodeIndex};
+use crate::mesh::{element_dim, etype, Mesh, TagCoords};
 
 type Edge = (u64, u64);
 
@@ -64,57 +64,94 @@ fn count_of(counts: &[(Edge, u32)], e: &Edge) -> u32 {
         .map_or(0, |i| counts[i].1)
 }
 
-/// Every directed edge of `faces`, sorted.
-fn directed(faces: &[&[u64]]) -> Vec<Edge> {
-    let mut s: Vec<Edge> = Vec::with_capacity(faces.len() * 4);
-    for f in faces {
-        for i in 0..f.len() {
-            s.push((f[i], f[(i + 1) % f.len()]));
-        }
-    }
-    sort_pairs(&mut s);
-    s.dedup();
-    s
-}
-
-/// Sorted directed edges with, when node tags are compact, the start of each node's run
-/// (a lookup is then two nearby reads instead of a binary search over the whole list).
-struct Directed {
-    edges: Vec<Edge>,
+/// The edges of `faces` with how many faces use each and in which directions, sorted by
+/// edge, with (when node tags are compact) the start of each first node's run, so that a
+/// lookup is two nearby reads instead of a binary search over the whole list.
+struct EdgeTable {
+    /// (undirected edge, faces using it, bit 0: some face runs it from its smaller node,
+    /// bit 1: some face runs it from its larger node).
+    edges: Vec<(Edge, u32, u8)>,
     start: Vec<u32>,
 }
 
-impl Directed {
-    fn new(edges: Vec<Edge>) -> Self {
-        let max = edges.last().map_or(0, |e| e.0);
+impl EdgeTable {
+    fn new(faces: &[&[u64]]) -> Self {
+        // each use as (smaller node, larger node · 2 + runs from the larger): one sort gives
+        // the counts and the directions
+        let mut all: Vec<Edge> = Vec::with_capacity(faces.len() * 4);
+        for f in faces {
+            for i in 0..f.len() {
+                let (a, b) = (f[i], f[(i + 1) % f.len()]);
+                let (lo, hi) = undirected(a, b);
+                all.push((lo, (hi << 1) | u64::from(a > b)));
+            }
+        }
+        sort_pairs(&mut all);
+        let mut edges: Vec<(Edge, u32, u8)> = Vec::with_capacity(all.len() / 2 + 1);
+        for (lo, x) in all {
+            let e = (lo, x >> 1);
+            let dir = 1u8 << (x & 1);
+            match edges.last_mut() {
+                Some((last, c, d)) if *last == e => {
+                    *c += 1;
+                    *d |= dir;
+                }
+                _ => edges.push((e, 1, dir)),
+            }
+        }
+        let max = edges.last().map_or(0, |e| e.0 .0);
         let mut start = Vec::new();
         if max <= 8 * edges.len() as u64 + 1024 {
             start = vec![0u32; max as usize + 2];
             for e in &edges {
-                start[e.0 as usize + 1] += 1;
+                start[e.0 .0 as usize + 1] += 1;
             }
             for i in 1..start.len() {
                 start[i] += start[i - 1];
             }
         }
-        Directed { edges, start }
+        EdgeTable { edges, start }
     }
 
-    fn contains(&self, p: u64, q: u64) -> bool {
+    /// The entry of undirected edge `e`.
+    fn find(&self, e: &Edge) -> Option<&(Edge, u32, u8)> {
         if self.start.is_empty() {
-            return has(&self.edges, &(p, q));
+            return self
+                .edges
+                .binary_search_by_key(e, |x| x.0)
+                .ok()
+                .map(|i| &self.edges[i]);
         }
-        match (self.start.get(p as usize), self.start.get(p as usize + 1)) {
-            (Some(&a), Some(&b)) => self.edges[a as usize..b as usize].iter().any(|e| e.1 == q),
-            _ => false,
+        match (
+            self.start.get(e.0 as usize),
+            self.start.get(e.0 as usize + 1),
+        ) {
+            (Some(&a), Some(&b)) => self.edges[a as usize..b as usize]
+                .iter()
+                .find(|x| x.0 == *e),
+            _ => None,
         }
     }
-}
 
-fn coord(mesh: &Mesh, index: &NodeIndex, t: u64) -> Option<[f64; 3]> {
-    index
-        .get(t)
-        .map(|r| mesh.node_blocks[r.block as usize].coords[r.index as usize])
+    /// Faces using undirected edge `e`.
+    fn count(&self, e: &Edge) -> u32 {
+        self.find(e).map_or(0, |x| x.1)
+    }
+
+    /// Some face runs the edge from `p` to `q`.
+    fn runs(&self, p: u64, q: u64) -> bool {
+        let bit = if p < q { 1 } else { 2 };
+        self.find(&undirected(p, q)).is_some_and(|x| x.2 & bit != 0)
+    }
+
+    /// The edges used by one face, sorted.
+    fn boundary(&self) -> Vec<Edge> {
+        self.edges
+            .iter()
+            .filter(|x| x.1 == 1)
+            .map(|x| x.0)
+            .collect()
+    }
 }
 
 fn sub(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
@@ -170,92 +207,262 @@ fn nodes_text(f: &[u64]) -> String {
 /// Returns the first violation found (the lowest surface tag first), in words, with the
 /// surface and nodes involved.
 pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
-    if before.entities != after.entities {
-        return Err("entities (or their physical groups) changed".into());
-    }
-    if before.physical_names != after.physical_names {
-        return Err("physical names changed".into());
-    }
-    for b in &after.element_blocks {
-        if b.element_type == etype::TRI3 && !b.is_empty() {
-            return Err(format!(
-                "surface {} still has {} triangles",
-                b.entity_tag,
-                b.len()
-            ));
-        }
-    }
-    let ib = before.node_index();
-    let ia = after.node_index();
-    let new_node = |t: u64| ib.get(t).is_none();
-    // curve and point nodes unmoved
-    for b in &before.node_blocks {
-        if b.entity_dim > 1 {
-            continue;
-        }
-        for (t, c) in b.tags.iter().zip(&b.coords) {
-            match coord(after, &ia, *t) {
-                Some(x) if x == *c => {}
-                Some(x) => {
-                    return Err(format!(
-                        "node {t} on entity ({}, {}) moved from ({}, {}, {}) to ({}, {}, {})",
-                        b.entity_dim, b.entity_tag, c[0], c[1], c[2], x[0], x[1], x[2]
-                    ))
-                }
-                None => {
-                    return Err(format!(
-                        "node {t} on entity ({}, {}) disappeared",
-                        b.entity_dim, b.entity_tag
-                    ))
-                }
+    Before::new(before).check(after)
+}
+
+/// Every 2-node line element's edge of `m`, sorted and deduplicated.
+fn lines(m: &Mesh) -> Vec<Edge> {
+    let mut s = Vec::new();
+    for b in &m.element_blocks {
+        if b.element_type == etype::LINE2 {
+            for i in 0..b.len() {
+                let e = b.element(i);
+                s.push(undirected(e[0], e[1]));
             }
         }
     }
-    // line elements: kept or split in two at a new node
-    let lines = |m: &Mesh| -> Vec<Edge> {
-        let mut s = Vec::new();
-        for b in &m.element_blocks {
-            if b.element_type == etype::LINE2 {
-                for i in 0..b.len() {
-                    let e = b.element(i);
-                    s.push(undirected(e[0], e[1]));
+    sort_pairs(&mut s);
+    s.dedup();
+    s
+}
+
+/// The `before` side of [`check_invariants`], prepared once for any number of results of
+/// the same input (nothing here depends on `after`).
+pub struct Before<'a> {
+    mesh: &'a Mesh,
+    index: TagCoords<'a>,
+    lines: Vec<Edge>,
+    /// Surfaces with faces in `mesh`, by increasing tag.
+    surfaces: Vec<(i32, SurfaceBefore)>,
+}
+
+/// One surface of `before`: what [`check_invariants`] derives from them.
+struct SurfaceBefore {
+    edges: EdgeTable,
+    boundary: Vec<Edge>,
+    /// Twice the summed vector area of the faces (an error: a face has an unknown node).
+    total: Result<[f64; 3], String>,
+    /// The unit normal of a planar surface (`None`: not planar, or no area).
+    plane: Option<[f64; 3]>,
+}
+
+impl<'a> Before<'a> {
+    /// Prepares the checks against `before`.
+    pub fn new(before: &'a Mesh) -> Self {
+        let index = TagCoords::new(before);
+        let lines = lines(before);
+        let mut tags: Vec<i32> = before
+            .element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 2 && element_dim(b.element_type) == Some(2))
+            .map(|b| b.entity_tag)
+            .collect();
+        tags.sort_unstable();
+        tags.dedup();
+        let surfaces = tags
+            .par_iter()
+            .map(|&s| (s, SurfaceBefore::new(before, &index, s)))
+            .collect();
+        Before {
+            mesh: before,
+            index,
+            lines,
+            surfaces,
+        }
+    }
+
+    /// [`check_invariants`] of `after` against this `before`.
+    pub fn check(&self, after: &Mesh) -> Result<(), String> {
+        let before = self.mesh;
+        if before.entities != after.entities {
+            return Err("entities (or their physical groups) changed".into());
+        }
+        if before.physical_names != after.physical_names {
+            return Err("physical names changed".into());
+        }
+        for b in &after.element_blocks {
+            if b.element_type == etype::TRI3 && !b.is_empty() {
+                return Err(format!(
+                    "surface {} still has {} triangles",
+                    b.entity_tag,
+                    b.len()
+                ));
+            }
+        }
+        let ib = &self.index;
+        let ia = TagCoords::new(after);
+        let new_node = |t: u64| ib.get(t).is_none();
+        // curve and point nodes unmoved
+        for b in &before.node_blocks {
+            if b.entity_dim > 1 {
+                continue;
+            }
+            for (t, c) in b.tags.iter().zip(&b.coords) {
+                match ia.get(*t) {
+                    Some(x) if x == *c => {}
+                    Some(x) => {
+                        return Err(format!(
+                            "node {t} on entity ({}, {}) moved from ({}, {}, {}) to ({}, {}, {})",
+                            b.entity_dim, b.entity_tag, c[0], c[1], c[2], x[0], x[1], x[2]
+                        ))
+                    }
+                    None => {
+                        return Err(format!(
+                            "node {t} on entity ({}, {}) disappeared",
+                            b.entity_dim, b.entity_tag
+                        ))
+                    }
                 }
             }
         }
-        sort_pairs(&mut s);
-        s.dedup();
-        s
+        // line elements: kept or split in two at a new node
+        let la = lines(after);
+        check_split_sets(&self.lines, &la, &new_node, "line elements")?;
+        let mut surfaces: Vec<i32> = self
+            .surfaces
+            .iter()
+            .map(|x| x.0)
+            .chain(
+                after
+                    .element_blocks
+                    .iter()
+                    .filter(|b| b.entity_dim == 2 && element_dim(b.element_type) == Some(2))
+                    .map(|b| b.entity_tag),
+            )
+            .collect();
+        surfaces.sort_unstable();
+        surfaces.dedup();
+        let results: Vec<Result<(), String>> = surfaces
+            .par_iter()
+            .map(|&s| {
+                // a surface with no face before
+                let absent;
+                let sb = match self.surfaces.binary_search_by_key(&s, |x| x.0) {
+                    Ok(i) => &self.surfaces[i].1,
+                    Err(_) => {
+                        absent = SurfaceBefore::new(before, ib, s);
+                        &absent
+                    }
+                };
+                check_surface(self, sb, after, &ia, s)
+            })
+            .collect();
+        results.into_iter().collect()
+    }
+}
+
+/// Twice the summed vector area of `faces` of `m` (by chunks of faces in parallel added in
+/// order: the same sum for any thread count); the first face with an unknown node is an
+/// error.
+fn area(faces: &[&[u64]], idx: &TagCoords, s: i32, what: &str) -> Result<[f64; 3], String> {
+    // faces have 3 or 4 nodes: no allocation per face
+    let pts4 = |f: &[u64]| -> Option<([[f64; 3]; 4], usize)> {
+        let mut p = [[0.0; 3]; 4];
+        for (x, &t) in p.iter_mut().zip(f) {
+            *x = idx.get(t)?;
+        }
+        Some((p, f.len().min(4)))
     };
-    let lb = lines(before);
-    let la = lines(after);
-    check_split_sets(&lb, &la, &new_node, "line elements")?;
-    let mut surfaces: Vec<i32> = before
-        .element_blocks
+    let parts: Vec<Result<[f64; 3], String>> = faces
+        .par_chunks(CHUNK)
+        .map(|c| {
+            let mut t = [0.0; 3];
+            for f in c {
+                let p = pts4(f).ok_or_else(|| {
+                    format!(
+                        "surface {s}: the {what} face with nodes {} has an unknown node",
+                        nodes_text(f)
+                    )
+                })?;
+                let a = vector_area(&p.0[..p.1]);
+                for k in 0..3 {
+                    t[k] += a[k];
+                }
+            }
+            Ok(t)
+        })
+        .collect();
+    let mut total = [0.0; 3];
+    for p in parts {
+        let p = p?;
+        for k in 0..3 {
+            total[k] += p[k];
+        }
+    }
+    Ok(total)
+}
+
+impl SurfaceBefore {
+    fn new(before: &Mesh, ib: &TagCoords, s: i32) -> Self {
+        let faces = faces_of(before, s);
+        let (edges, total) =
+            rayon::join(|| EdgeTable::new(&faces), || area(&faces, ib, s, "input"));
+        let boundary = edges.boundary();
+        let plane = total
+            .as_ref()
+            .ok()
+            .and_then(|&total| plane_of(ib, &faces, total));
+        SurfaceBefore {
+            edges,
+            boundary,
+            total,
+            plane,
+        }
+    }
+}
+
+/// The edges of `counts` used by one face.
+fn boundary(counts: &[(Edge, u32)]) -> Vec<Edge> {
+    counts
         .iter()
-        .chain(&after.element_blocks)
-        .filter(|b| b.entity_dim == 2 && element_dim(b.element_type) == Some(2))
-        .map(|b| b.entity_tag)
-        .collect();
-    surfaces.sort_unstable();
-    surfaces.dedup();
-    let results: Vec<Result<(), String>> = surfaces
-        .par_iter()
-        .map(|&s| check_surface(before, after, &ib, &ia, &lb, s))
-        .collect();
-    results.into_iter().collect()
+        .filter(|(_, c)| *c == 1)
+        .map(|(e, _)| *e)
+        .collect()
+}
+
+/// The unit normal `total` of `faces` when they are planar: every corner within 1e-10 of
+/// the extent (the largest distance from the first corner) of the plane through the first
+/// corner. `None` when they are not, or `total` is zero.
+fn plane_of(ib: &TagCoords, faces: &[&[u64]], total: [f64; 3]) -> Option<[f64; 3]> {
+    let norm = dot(total, total).sqrt();
+    if norm == 0.0 {
+        return None;
+    }
+    let n = total.map(|x| x / norm);
+    let o = faces
+        .first()
+        .and_then(|f| f.first())
+        .and_then(|&t| ib.get(t))
+        .unwrap_or([0.0; 3]);
+    // (extent, largest distance from the plane, a distance that is not a number)
+    let spread = |c: &[&[u64]]| {
+        let mut r = (0.0_f64, 0.0_f64, false);
+        for p in c.iter().flat_map(|f| f.iter().filter_map(|&t| ib.get(t))) {
+            let d = sub(p, o);
+            r.0 = r.0.max(dot(d, d).sqrt());
+            let off = dot(d, n).abs();
+            r.1 = r.1.max(off);
+            r.2 |= off.is_nan();
+        }
+        r
+    };
+    let (extent, off, nan) = faces.par_chunks(CHUNK).map(spread).reduce(
+        || (0.0, 0.0, false),
+        |a, b| (a.0.max(b.0), a.1.max(b.1), a.2 || b.2),
+    );
+    (!nan && off <= 1e-10 * extent.max(f64::MIN_POSITIVE)).then_some(n)
 }
 
 /// The per-surface part of [`check_invariants`].
 fn check_surface(
-    before: &Mesh,
+    before: &Before,
+    sb: &SurfaceBefore,
     after: &Mesh,
-    ib: &NodeIndex,
-    ia: &NodeIndex,
-    lb: &[Edge],
+    ia: &TagCoords,
     s: i32,
 ) -> Result<(), String> {
+    let ib = &before.index;
     let new_node = |t: u64| ib.get(t).is_none();
-    let fb = faces_of(before, s);
     let fa = faces_of(after, s);
     if let Some(f) = fa
         .iter()
@@ -266,33 +473,28 @@ fn check_surface(
             nodes_text(f)
         ));
     }
-    // speed: the three sorted lists are independent (two cores: two at a time)
-    let ((eb, ea), db) = rayon::join(
-        || rayon::join(|| edge_counts(&fb), || edge_counts(&fa)),
-        || Directed::new(directed(&fb)),
-    );
-    if let Some((e, c)) = ea.iter().find(|(e, c)| *c > 2 && count_of(&eb, e) <= 2) {
+    let eb = &sb.edges;
+    let ea = edge_counts(&fa);
+    if let Some((e, c)) = ea.iter().find(|(e, c)| *c > 2 && eb.count(e) <= 2) {
         return Err(format!(
             "surface {s}: the edge {}-{} is shared by {c} faces",
             e.0, e.1
         ));
     }
-    let boundary = |counts: &[(Edge, u32)]| -> Vec<Edge> {
-        counts
-            .iter()
-            .filter(|(_, c)| *c == 1)
-            .map(|(e, _)| *e)
-            .collect()
-    };
-    let bb = boundary(&eb);
     let ba = boundary(&ea);
-    check_split_sets(&bb, &ba, &new_node, &format!("surface {s} boundary edges"))?;
+    check_split_sets(
+        &sb.boundary,
+        &ba,
+        &new_node,
+        &format!("surface {s} boundary edges"),
+    )?;
     // curve segments of `before` that are no longer edges must be split in two at a new
     // node (found through the nodes next to each node along the edges of `after`, built
     // only when some segment is missing)
-    let missing: Vec<&Edge> = lb
+    let missing: Vec<&Edge> = before
+        .lines
         .iter()
-        .filter(|e| count_of(&eb, e) > 0 && count_of(&ea, e) == 0)
+        .filter(|e| eb.count(e) > 0 && count_of(&ea, e) == 0)
         .collect();
     if !missing.is_empty() {
         let mut nbr: Vec<Edge> = Vec::with_capacity(2 * ea.len());
@@ -319,7 +521,7 @@ fn check_surface(
     let against = |f: &[u64]| -> Option<Edge> {
         (0..f.len())
             .map(|i| (f[i], f[(i + 1) % f.len()]))
-            .find(|&(p, q)| db.contains(q, p) && !db.contains(p, q))
+            .find(|&(p, q)| eb.runs(q, p) && !eb.runs(p, q))
     };
     if let Some((f, (p, q))) = fa
         .par_iter()
@@ -331,83 +533,12 @@ fn check_surface(
             nodes_text(f)
         ));
     }
-    // planar area (faces have 3 or 4 nodes: no allocation per face)
-    let pts4 = |f: &[u64], m: &Mesh, idx: &NodeIndex| -> Option<([[f64; 3]; 4], usize)> {
-        let mut p = [[0.0; 3]; 4];
-        for (x, &t) in p.iter_mut().zip(f) {
-            *x = coord(m, idx, t)?;
-        }
-        Some((p, f.len().min(4)))
-    };
-    // twice the summed vector area of `faces` projected on `n` (`None`: the vector itself),
-    // by chunks of faces in parallel added in order (the same sum for any thread count);
-    // the first face with an unknown node is an error
-    let area = |faces: &[&[u64]], m: &Mesh, idx: &NodeIndex, what: &str| {
-        let parts: Vec<Result<[f64; 3], String>> = faces
-            .par_chunks(CHUNK)
-            .map(|c| {
-                let mut t = [0.0; 3];
-                for f in c {
-                    let p = pts4(f, m, idx).ok_or_else(|| {
-                        format!(
-                            "surface {s}: the {what} face with nodes {} has an unknown node",
-                            nodes_text(f)
-                        )
-                    })?;
-                    let a = vector_area(&p.0[..p.1]);
-                    for k in 0..3 {
-                        t[k] += a[k];
-                    }
-                }
-                Ok(t)
-            })
-            .collect();
-        let mut total = [0.0; 3];
-        for p in parts {
-            let p = p?;
-            for k in 0..3 {
-                total[k] += p[k];
-            }
-        }
-        Ok::<[f64; 3], String>(total)
-    };
-    let total = area(&fb, before, ib, "input")?;
-    let norm = dot(total, total).sqrt();
-    if norm == 0.0 {
+    // planar area
+    let total = sb.total.clone()?;
+    let Some(n) = sb.plane else {
         return Ok(());
-    }
-    let n = total.map(|x| x / norm);
-    // planar: every corner of the input faces within 1e-10 of the extent (the largest
-    // distance from the first corner) of the plane through the first corner
-    let o = fb
-        .first()
-        .and_then(|f| f.first())
-        .and_then(|&t| coord(before, ib, t))
-        .unwrap_or([0.0; 3]);
-    // (extent, largest distance from the plane, a distance that is not a number)
-    let spread = |c: &[&[u64]]| {
-        let mut r = (0.0_f64, 0.0_f64, false);
-        for p in c
-            .iter()
-            .flat_map(|f| f.iter().filter_map(|&t| coord(before, ib, t)))
-        {
-            let d = sub(p, o);
-            r.0 = r.0.max(dot(d, d).sqrt());
-            let off = dot(d, n).abs();
-            r.1 = r.1.max(off);
-            r.2 |= off.is_nan();
-        }
-        r
     };
-    let (extent, off, nan) = fb.par_chunks(CHUNK).map(spread).reduce(
-        || (0.0, 0.0, false),
-        |a, b| (a.0.max(b.0), a.1.max(b.1), a.2 || b.2),
-    );
-    let planar = !nan && off <= 1e-10 * extent.max(f64::MIN_POSITIVE);
-    if !planar {
-        return Ok(());
-    }
-    let area_after = dot(area(&fa, after, ia, "output")?, n);
+    let area_after = dot(area(&fa, ia, s, "output")?, n);
     let area_before = dot(total, n);
     if ((area_after - area_before) / area_before).abs() > 1e-9 {
         return Err(format!(

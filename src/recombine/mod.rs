@@ -186,7 +186,7 @@ pub use graph::{
     bad_extra_edge_cost, extra_edge_cost, split_halves_cost, COST_SCALE, HOPELESS_COST,
     MAX_REAL_COST,
 };
-pub use invariants::check_invariants;
+pub use invariants::{check_invariants, Before};
 
 /// A copy of `mesh` without the triangles that repeat another triangle's three nodes on
 /// the same surface (a triangle and its reverse cancel: a zero-area pocket such as Gmsh
@@ -236,6 +236,9 @@ pub struct RecombineOptions {
     pub split_nodes_from: Option<u64>,
     /// Where stage times and matching graphs go (see [`crate::profile`]); `None`: nowhere.
     pub trace: Option<crate::profile::Trace>,
+    /// The caller already removed repeated triangles ([`drop_repeated_triangles`] returned
+    /// `None` or its mesh is the one given): [`recombine`] does not look for them again.
+    pub repeated_dropped: bool,
 }
 
 impl Default for RecombineOptions {
@@ -249,6 +252,7 @@ impl Default for RecombineOptions {
             harmonic_cross_field: false,
             split_nodes_from: None,
             trace: None,
+            repeated_dropped: false,
         }
     }
 }
@@ -461,17 +465,23 @@ pub fn recombine(
     opts: &RecombineOptions,
 ) -> Result<RecombineReport, RecombineError> {
     let start = Instant::now();
+    let mut tm = StageTimer::new(opts.trace.as_ref(), "recombine", 0);
     let mut report = RecombineReport::default();
     // repeated triangles (zero-area pockets) go first: the checks below compare with the
     // mesh without them
-    if let Some((cleaned, lines)) = input::drop_repeated_triangles(mesh) {
+    let cleaned = (!opts.repeated_dropped)
+        .then(|| input::drop_repeated_triangles(mesh))
+        .flatten();
+    if let Some((cleaned, lines)) = cleaned {
         *mesh = cleaned;
         report
             .log
             .extend(lines.into_iter().map(|l| format!("warning: {l}")));
     }
+    tm.lap("repeated triangles");
     let before = opts.verify.then(|| mesh.clone());
     check_input(mesh, opts, &mut report)?;
+    tm.lap("input checks");
 
     // Topology, parity, matching. A surface whose triangles are enclosed by quads so that
     // they cannot be made even or matched (isolated triangles left by a partial
@@ -522,6 +532,7 @@ pub fn recombine(
             Err(e) => return Err(e),
         }
     };
+    tm.lap("surfaces");
     for (r, w) in results.iter_mut().zip(&work) {
         r.report.parity_splits = report
             .parity_splits
@@ -538,6 +549,7 @@ pub fn recombine(
         ));
     }
     mesh.invalidate_element_data();
+    tm.lap("write back");
     for r in &results {
         let s = &r.report;
         report.log.push(format!(
@@ -549,6 +561,8 @@ pub fn recombine(
     if let Some(before) = before {
         check_invariants(&before, mesh).map_err(RecombineError::Invariant)?;
     }
+    tm.lap("verify");
+    tm.done();
     report.time_total = start.elapsed();
     Ok(report)
 }
