@@ -2,10 +2,8 @@
 //! 0-based), solves the minimum-cost perfect matching, checks the optimality certificate and
 //! prints one line `n=… m=… cost=… time_s=… verified=true`.
 //!
-//! Usage: `solve_matching <file> [--stats] [--forest=global|variable]`. `time_s` covers the
-//! solver only (not parsing nor verification, reported separately as `parse_s` and
-//! `verify_s`). `--forest` picks the forest mode of the solver (`blossom::ForestMode`; the
-//! default is the library's, through `matching::solve`).
+//! Usage: `solve_matching <file> [--stats]`. `time_s` covers the solver only (not parsing
+//! nor verification, reported separately as `parse_s` and `verify_s`).
 
 use blossomquad::matching;
 use std::time::Instant;
@@ -44,14 +42,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let path = args
         .get(1)
-        .ok_or("usage: solve_matching <file> [--stats] [--forest=global|variable]")?;
+        .ok_or("usage: solve_matching <file> [--stats]")?;
     let stats = args.iter().any(|a| a == "--stats");
-    let forest = match args.iter().find_map(|a| a.strip_prefix("--forest=")) {
-        None => None,
-        Some("global") => Some(matching::blossom::ForestMode::Global),
-        Some("variable") => Some(matching::blossom::ForestMode::Variable),
-        Some(other) => return Err(format!("unknown forest mode {other}").into()),
-    };
     let t0 = Instant::now();
     let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
     let (n, edges) = parse(&text).map_err(|e| format!("{path}: {e}"))?;
@@ -59,11 +51,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let parse_s = t0.elapsed().as_secs_f64();
     let t1 = Instant::now();
     let c1 = blossomquad::profile::cpu_seconds();
-    let mut solver = matching::blossom::Solver::new(n, &edges);
-    if let Some(mode) = forest {
-        solver.set_forest_mode(mode);
-    }
     let result = if stats {
+        let mut solver = matching::blossom::Solver::new(n, &edges);
         if std::env::var("GREEDY").is_ok() {
             solver.init_greedy();
         } else {
@@ -74,8 +63,6 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let r = solver.solve_rest();
         eprintln!("init {init_s:.3}s {init_stats:?}\ntotal {:?}", solver.stats);
         r
-    } else if forest.is_some() {
-        solver.run()
     } else {
         matching::solve(n, &edges)
     };

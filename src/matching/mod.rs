@@ -20,8 +20,7 @@
 //! vertex, all grown together with lazy O(1) dual changes, each tree with its own dual change
 //! (Blossom V's variable δ: per-tree radix heaps of events — `+`→free edges, `+`↔`+` edges
 //! inside the tree, `−` blossoms with zero dual — and per-pair-of-trees heaps of the edges
-//! between trees, instead of rescans; or, selectable, one global dual change and one heap);
-//! persistent
+//! between trees, instead of rescans); persistent
 //! blossoms expanded only when their dual drops to zero; blossom membership through
 //! path-compressed shortcuts (no relabelling). No per-phase `O(n)` reset, no hash maps, `u32`
 //! indices, `O(n + m)` memory, vertices renumbered for cache locality.
@@ -32,7 +31,8 @@
 //! produced it. [`verify_witness`] checks a Tutte witness.
 
 // Internals, public only for the integration tests, examples and benchmarks (the solver's
-// forest modes and statistics, the brute-force oracle, the radix heap): not part of the API.
+// phases, statistics and invariant check, the brute-force oracle, the radix heap): not part
+// of the API.
 #[doc(hidden)]
 pub mod blossom;
 #[doc(hidden)]
@@ -43,7 +43,9 @@ mod verify;
 
 pub use verify::{verify, verify_witness, CertificateError};
 
-/// Sentinel for "no vertex / no blossom" in the `u32` arrays of this module.
+/// Sentinel for "no vertex / no blossom" in the `u32` arrays of this module: the same value
+/// as `mesh::NONE`, defined again so that this module uses nothing else from the
+/// crate.
 pub const NONE: u32 = u32::MAX;
 
 /// Largest absolute edge cost accepted by [`solve`]. Larger costs are saturated to this value

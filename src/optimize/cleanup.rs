@@ -2,9 +2,8 @@
 //! defect of the mesh, found by a bounded depth-first search.
 //!
 //! The irregular vertices Blossom-Quad leaves on an unstructured triangulation come almost
-//! all as *3-5 pairs* (a valence-3 node next to a valence-5 node: measured on the Gmsh
-//! fixtures, about 9 in 10 irregular interior nodes), the quad analogue of a lattice
-//! dislocation. One edge rotation moves such a pair without changing the defect energy
+//! all as *3-5 pairs* (a valence-3 node next to a valence-5 node), the quad analogue of a
+//! lattice dislocation. One edge rotation moves such a pair without changing the defect energy
 //! E = Σ_v (d_v − d*_v)² (d* = 4 inside, on fixed nodes the boundary angle in right angles,
 //! see [`ideal_valence`]); two pairs that meet cancel. A greedy single rotation therefore
 //! never removes them, but a short sequence does: [`cleanup`] looks, from every interior edge
@@ -161,7 +160,7 @@ impl<'a> Topo<'a> {
         let (ideal, angle) = ideal_valence(l);
         let region = focus.map(|f| {
             let mut mark: Vec<bool> = (0..n).map(|v| f.get(v) == Some(&true)).collect();
-            super::grow_rings(l, &mut mark, REACH_RINGS);
+            super::local::grow_rings(l, &mut mark, REACH_RINGS);
             mark
         });
         let in_region = |v: u32| region.as_ref().is_none_or(|r| r[v as usize]);
@@ -665,8 +664,9 @@ pub(crate) fn cleanup(
 pub(crate) mod tests {
     use super::*;
     use crate::mesh::Mesh;
+    use crate::optimize::extract::{extract, node_owners, write_back, PendingNodes};
     use crate::optimize::synth::{self, Soup};
-    use crate::optimize::{extract, node_owners, write_back, OptimizeReport, PendingNodes};
+    use crate::optimize::OptimizeReport;
     use crate::quality::FlatNodes;
 
     /// The single surface of `m` as a [`Local`], with its node → quads adjacency.

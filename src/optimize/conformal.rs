@@ -19,8 +19,7 @@
 //! target size at the quad's nodes) makes each quad's term scale-free. `E` is quadratic; with the fixed
 //! nodes (curves, points, shared nodes) as Dirichlet data its minimizer solves a Hermitian
 //! positive definite system, solved by conjugate gradients from the current positions
-//! (at most [`MAX_ITERATIONS`]; measured on the 1e5 fixtures, 50 iterations lose up to 0.025
-//! of η̄). The product runs on blocks of nodes in parallel and the vector updates are fused
+//! (at most [`MAX_ITERATIONS`]). The product runs on blocks of nodes in parallel and the vector updates are fused
 //! with the dot products; every sum is taken in a fixed order, so the result does not
 //! depend on the thread count.
 //!
@@ -456,7 +455,8 @@ mod tests {
             let (_, mut l) = local_of(&m);
             // the state the solve sees in the pipeline: smoothed, topology done
             let opts = crate::optimize::OptimizeOptions::default();
-            let (mut ops, mut tm, mut gate) = crate::optimize::after_topology_rounds(&mut l, &opts);
+            let (mut ops, mut tm, mut gate) =
+                crate::optimize::schedule::after_topology_rounds(&mut l, &opts);
             let mut square = l.clone();
             let mut aspect = l;
             let walls: Vec<(usize, DVec3)> = (0..aspect.pos.len())
@@ -464,8 +464,15 @@ mod tests {
                 .map(|v| (v, aspect.pos[v]))
                 .collect();
             let mut square_gate = gate.clone();
-            crate::optimize::finish(&mut square, &opts, &mut ops, &mut tm, 0.0, &mut square_gate);
-            crate::optimize::finish(
+            crate::optimize::schedule::finish(
+                &mut square,
+                &opts,
+                &mut ops,
+                &mut tm,
+                0.0,
+                &mut square_gate,
+            );
+            crate::optimize::schedule::finish(
                 &mut aspect,
                 &opts,
                 &mut ops,
@@ -504,8 +511,8 @@ mod tests {
             let opts = crate::optimize::OptimizeOptions::default();
             let mut plain = l.clone();
             let (mut ops, mut tm, mut gate) =
-                crate::optimize::after_topology_rounds(&mut plain, &opts);
-            crate::optimize::finish(&mut plain, &opts, &mut ops, &mut tm, 0.0, &mut gate);
+                crate::optimize::schedule::after_topology_rounds(&mut plain, &opts);
+            crate::optimize::schedule::finish(&mut plain, &opts, &mut ops, &mut tm, 0.0, &mut gate);
             let base = plain.stats();
             let mut chosen = l;
             let rep = crate::optimize::run_surface(&mut chosen, &opts, &|_| {});

@@ -6,15 +6,14 @@
 //! it. Fixed nodes (on curves, points, the boundary, or used by any element that is not a
 //! quad of this surface) never move and are never removed.
 
-use super::valid::VALID_KEY;
 use crate::quality::eta::eta_signed_fast;
 use crate::quality::locate::TriSurface;
 use crate::quality::size::{inverse_linear_integral, tau_deviation};
 use glam::DVec3;
 use rayon::prelude::*;
 
-/// Sentinel for "none".
-pub(crate) const NONE: u32 = u32::MAX;
+/// Sentinel for "no node / no quad / no triangle".
+pub(crate) use crate::mesh::NONE;
 
 /// One surface's quads and nodes.
 #[derive(Clone)]
@@ -84,7 +83,7 @@ impl Local {
     pub fn prepare_sweeps(&mut self) {
         if !self.sweep_ready {
             self.refresh_quad_normals();
-            self.colours = super::smooth::colour_free_nodes(self);
+            self.colours = colour_free_nodes(self);
             self.sweep_ready = true;
         }
     }
@@ -260,6 +259,56 @@ impl Local {
                 100.0
             },
         }
+    }
+}
+
+/// Free nodes grouped by colour: no two nodes of a group share a quad.
+fn colour_free_nodes(l: &Local) -> Vec<Vec<u32>> {
+    let n = l.pos.len();
+    let mut colour = vec![u8::MAX; n];
+    let mut groups: Vec<Vec<u32>> = Vec::new();
+    for v in 0..n as u32 {
+        if l.fixed[v as usize] || l.removed[v as usize] || l.star(v).is_empty() {
+            continue;
+        }
+        let mut used: u64 = 0;
+        for &q in l.star(v) {
+            for &w in &l.quads[q as usize] {
+                let c = colour[w as usize];
+                if c < 64 {
+                    used |= 1 << c;
+                }
+            }
+        }
+        let c = (!used).trailing_zeros().min(63) as usize;
+        colour[v as usize] = c as u8;
+        if groups.len() <= c {
+            groups.resize(c + 1, Vec::new());
+        }
+        groups[c].push(v);
+    }
+    groups
+}
+
+/// Adds to `mark` every node within `rings` quad rings of a marked node. Needs a current
+/// adjacency.
+pub(crate) fn grow_rings(l: &Local, mark: &mut [bool], rings: usize) {
+    let mut frontier: Vec<u32> = (0..l.pos.len() as u32)
+        .filter(|&v| mark[v as usize])
+        .collect();
+    for _ in 0..rings {
+        let mut next = Vec::new();
+        for &v in &frontier {
+            for &q in l.star(v) {
+                for &w in &l.quads[q as usize] {
+                    if !mark[w as usize] {
+                        mark[w as usize] = true;
+                        next.push(w);
+                    }
+                }
+            }
+        }
+        frontier = next;
     }
 }
 
@@ -520,6 +569,13 @@ impl<'a> StarEval<'a> {
         Some((min, sum))
     }
 }
+
+/// Smallest signed η (eq. 3) of a valid quad (the optimizer's rule, `valid`): a corner
+/// within 0.09° of 0° or 180° fails.
+pub(crate) const VALID_ETA: f64 = 1e-3;
+
+/// [`VALID_ETA`] as a [`shape_key`]: `1 / (1 + cot(VALID_ETA·π/2))`.
+pub(crate) const VALID_KEY: f64 = 1.568_334_083_280_948e-3;
 
 /// A key ordered like the signed quality η (eq. 3) of the quad `p` about the unit normal
 /// `n`, without trigonometry: for a valid quad (every corner turning positively) it is

@@ -10,8 +10,7 @@
 //! is a max over corners), the node goes where the edges fit the size field.
 //!
 //! The worst quads are lifted before this by [`super::smooth::polish_worst`] (max-min
-//! pattern search); measured on the 1e5 fixtures, a second max-min pass here after the mean
-//! polish changed nothing, so there is none.
+//! pattern search); there is no second max-min pass after the mean polish.
 //!
 //! Cost: 2 colour-parallel sweeps over the free nodes (4 on surfaces under 20k quads).
 
@@ -314,7 +313,7 @@ mod tests {
                 l.quads.iter().map(|q| &q[..]),
             );
             let opts = crate::optimize::OptimizeOptions::default();
-            crate::optimize::after_topology_rounds(&mut l, &opts);
+            crate::optimize::schedule::after_topology_rounds(&mut l, &opts);
             for (k, w) in [0.0, SIZE_WEIGHT].into_iter().enumerate() {
                 let mut p = l.clone();
                 p.build_adjacency();

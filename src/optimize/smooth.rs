@@ -22,10 +22,9 @@
 //!
 //! [`polish_worst`] lifts the quads with η < 0.6 by a max-min pattern search, and
 //! [`optimize_angles`] then polishes nodes around poor quads by a pattern search on the
-//! star's mean η that keeps every star's worst. Measured on a 15k-triangle Gmsh rectangle:
-//! η̄ +0.024, η_w +0.03, but τ −1 point, because η (eq. 3) sees angles only and accepts
-//! elongated rectangles; the max-min polish adds about +0.09 to η_w (0.51 -> 0.60 on the
-//! 1e5-triangle fixtures) for −0.001 of η̄.
+//! star's mean η that keeps every star's worst. η (eq. 3) sees angles only and accepts
+//! elongated rectangles, so these raise η̄ and η_w at some cost in τ (figures in
+//! BENCHMARKS.md).
 
 use super::local::{rotate_to, Local, StarEval};
 use glam::DVec3;
@@ -33,34 +32,6 @@ use rayon::prelude::*;
 
 /// A move proposal for one node: its new position and reference triangle, or none.
 type Propose<'a> = dyn Fn(&Local, u32) -> Option<(DVec3, u32)> + Sync + 'a;
-
-/// Free nodes grouped by colour: no two nodes of a group share a quad.
-pub(crate) fn colour_free_nodes(l: &Local) -> Vec<Vec<u32>> {
-    let n = l.pos.len();
-    let mut colour = vec![u8::MAX; n];
-    let mut groups: Vec<Vec<u32>> = Vec::new();
-    for v in 0..n as u32 {
-        if l.fixed[v as usize] || l.removed[v as usize] || l.star(v).is_empty() {
-            continue;
-        }
-        let mut used: u64 = 0;
-        for &q in l.star(v) {
-            for &w in &l.quads[q as usize] {
-                let c = colour[w as usize];
-                if c < 64 {
-                    used |= 1 << c;
-                }
-            }
-        }
-        let c = (!used).trailing_zeros().min(63) as usize;
-        colour[v as usize] = c as u8;
-        if groups.len() <= c {
-            groups.resize(c + 1, Vec::new());
-        }
-        groups[c].push(v);
-    }
-    groups
-}
 
 /// Runs the `active` nodes of `groups` (independent nodes) through `propose` (in parallel)
 /// and applies the accepted moves. Returns the number of moves; nodes that moved by more than

@@ -12,8 +12,8 @@
 //! 3. **Edge rotation**: the edge shared by two quads is replaced by another diagonal of the
 //!    hexagon they form, when that lowers the valence defect Σ (d − d*)² (d* = 4 inside; on
 //!    the boundary the number of right angles in the boundary angle, at least 1) and the two
-//!    new quads are valid (requiring them to be as good as the old pair before smoothing was
-//!    measured to block two thirds of the useful rotations); or, whatever the
+//!    new quads are valid (they need not be as good as the old pair: judged before
+//!    smoothing, that would block most useful rotations); or, whatever the
 //!    valences (defect up by 2 at most), when it lifts a bad pair (worst η < 0.2) by more
 //!    than 0.2 (e.g. a quad with two boundary edges in line, a straight angle).
 //! 4. **Valence cleanup** ([`cleanup`](super::cleanup)): sequences of up to
@@ -22,8 +22,7 @@
 //!    node's flat corner.
 //!
 //! Quad-vertex merge never leaves a fixed node with a corner wider than
-//! [`MAX_FIXED_CORNER`] (it cannot move to open it: measured, such merges set η_w on the CAD
-//! fixture, 0.129).
+//! [`MAX_FIXED_CORNER`] (a fixed node cannot move to open it).
 //!
 //! Every operator keeps the orientation (quads are rewritten from the oriented boundary of the
 //! region they replace) and never moves or removes a fixed node.

@@ -16,14 +16,9 @@
 //! state that passed (the state after a stage), and in the end to the input itself.
 
 use super::local::Local;
+pub(crate) use super::local::{VALID_ETA, VALID_KEY};
 use glam::DVec3;
 use rayon::prelude::*;
-
-/// Smallest signed η (eq. 3) of a valid quad: a corner within 0.09° of 0° or 180° fails.
-pub(crate) const VALID_ETA: f64 = 1e-3;
-
-/// [`VALID_ETA`] as a [`shape_key`](super::local::shape_key): `1 / (1 + cot(VALID_ETA·π/2))`.
-pub(crate) const VALID_KEY: f64 = 1.568_334_083_280_948e-3;
 
 /// Shortest edge of a valid quad, relative to the mean target size of its two ends.
 pub(crate) const MIN_EDGE_REL: f64 = 1e-3;

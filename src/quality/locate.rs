@@ -11,8 +11,8 @@
 use glam::DVec3;
 use rayon::slice::ParallelSliceMut;
 
-/// Sentinel for "no neighbour" in [`TriSurface`] adjacency.
-pub const NONE: u32 = u32::MAX;
+/// Sentinel for "no neighbour" in [`TriSurface`] adjacency (the crate's one sentinel).
+pub use crate::mesh::NONE;
 
 /// Result of a closest-point query.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -10,7 +10,7 @@
 //! that wall's direction (several walls are averaged in the `4θ` representation; a triangle
 //! whose walls disagree too much, as at a sharp corner, stays free). This is a harmonic
 //! interpolation of the walls' directions: unlike the nearest-wall field
-//! ([`super::graph::boundary_cross_field`]), which jumps on the medial axis, it turns
+//! ([`boundary_cross_field`]), which jumps on the medial axis, it turns
 //! gradually between walls, and its magnitude `|z|` drops towards 0 near the field's
 //! singularities, where no direction is meaningful.
 //!
@@ -21,7 +21,9 @@
 //! mesh size.
 
 use glam::DVec3;
+use rayon::prelude::*;
 
+use super::geometry::NodeSet;
 use super::topology::{SurfaceTopo, NONE};
 
 /// Cap on conjugate-gradient iterations. The field only steers a cost; a direction error of
@@ -95,7 +97,7 @@ fn in_frame(f: (DVec3, DVec3), d: DVec3) -> C {
 }
 
 /// Solves for the smooth cross field (module docs). `coords` are indexed by the global node
-/// ids of `topo.tris`; `normals` are the triangles' `graph::triangle_normals`.
+/// ids of `topo.tris`; `normals` are the triangles' `geometry::triangle_normals`.
 pub(crate) fn smooth_cross_field(
     topo: &SurfaceTopo,
     coords: &[DVec3],
@@ -131,14 +133,14 @@ pub(crate) fn smooth_cross_field(
     }
     if !fixed.iter().any(|&f| f) {
         // no usable wall: keep the nearest-wall field (a fixed global direction)
-        let t1 = super::graph::boundary_cross_field(topo, coords, normals);
+        let t1 = boundary_cross_field(topo, coords, normals);
         return CrossField {
             t1,
             weight: vec![1.0; n],
         };
     }
     // initial guess on the free triangles: the nearest-wall field
-    let bfs = super::graph::boundary_cross_field(topo, coords, normals);
+    let bfs = boundary_cross_field(topo, coords, normals);
     for t in 0..n {
         if !fixed[t] {
             z[t] = in_frame(frames[t], bfs[t]).pow4();
@@ -229,10 +231,92 @@ pub(crate) fn smooth_cross_field(
     CrossField { t1, weight }
 }
 
+/// A cross field on the triangles of a surface (paper section 4.2, eq. 7): per triangle one
+/// unit tangent `t1` (with `t2 = n × t1`), the direction of the nearest wall edge in
+/// graph steps (multi-source breadth-first search from the triangles with a wall edge),
+/// carried from triangle to triangle by projection on each one's plane. Surfaces without
+/// walls get the projection of the x axis (or y where x is normal). `normals` are the
+/// triangles' [`triangle_normals`](super::geometry::triangle_normals).
+pub(crate) fn boundary_cross_field(
+    topo: &SurfaceTopo,
+    coords: &[DVec3],
+    normals: &[DVec3],
+) -> Vec<DVec3> {
+    let n = topo.len();
+    let mut t1 = vec![DVec3::ZERO; n];
+    let mut queue: std::collections::VecDeque<u32> = std::collections::VecDeque::new();
+    // unit normals up front, in parallel (the search below then reads one array)
+    let unit: Vec<DVec3> = normals
+        .par_iter()
+        .with_min_len(4096)
+        .map(|nrm| nrm.normalize_or_zero())
+        .collect();
+    let unit_n = |t: usize| unit[t];
+    let project = |d: DVec3, nrm: DVec3| (d - nrm * d.dot(nrm)).normalize_or_zero();
+    for (t, dir) in t1.iter_mut().enumerate() {
+        for k in 0..3 {
+            if topo.nbr[3 * t + k] == NONE {
+                let (a, b) = (topo.tris[t][k], topo.tris[t][(k + 1) % 3]);
+                let d = project(coords[b as usize] - coords[a as usize], unit_n(t));
+                if d != DVec3::ZERO {
+                    *dir = d;
+                    queue.push_back(t as u32);
+                    break;
+                }
+            }
+        }
+    }
+    if queue.is_empty() && n > 0 {
+        let nrm = unit_n(0);
+        let d = project(DVec3::X, nrm);
+        t1[0] = if d == DVec3::ZERO {
+            project(DVec3::Y, nrm)
+        } else {
+            d
+        };
+        queue.push_back(0);
+    }
+    // speed: "t1 is set" (non-zero) as a bitmap, which stays in cache (t1 does not)
+    let mut set = NodeSet::with_len(n);
+    for (t, d) in t1.iter().enumerate() {
+        if *d != DVec3::ZERO {
+            set.insert(t as u32);
+        }
+    }
+    while let Some(t) = queue.pop_front() {
+        let t = t as usize;
+        for k in 0..3 {
+            let u = topo.nbr[3 * t + k];
+            if u == NONE || set.contains(u) {
+                continue;
+            }
+            let d = project(t1[t], unit_n(u as usize));
+            let val = if d == DVec3::ZERO { t1[t] } else { d };
+            t1[u as usize] = val;
+            if val != DVec3::ZERO {
+                set.insert(u);
+            }
+            queue.push_back(u);
+        }
+    }
+    t1
+}
+
+/// Eq. 7: `(max(|e·t1|, |e·t2|) − √2/2) / (1 − √2/2)` for the unit direction `e` of the
+/// shared edge (the new quad's diagonal): 0 when the diagonal bisects the cross, so the
+/// quad's edges follow it, 1 when it is aligned with it.
+pub(crate) fn cross_cost(e: DVec3, t1: DVec3, normal: DVec3) -> f64 {
+    let e = e.normalize_or_zero();
+    let t2 = normal.normalize_or_zero().cross(t1);
+    let m = e.dot(t1).abs().max(e.dot(t2).abs());
+    let h = std::f64::consts::FRAC_1_SQRT_2;
+    ((m - h) / (1.0 - h)).clamp(0.0, 1.0)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::recombine::graph::{boundary_cross_field, cross_cost, triangle_normals};
+    use crate::recombine::geometry::triangle_normals;
 
     /// A structured triangulation of `[0, 1]²` (`m × m` cells, each split in two) mapped by
     /// `f`, with its adjacency: edges used once are walls.
@@ -337,5 +421,21 @@ mod tests {
         let a = angles(&f.t1);
         let mid = 2 * (12 * 24 + 12); // a triangle of the centre cell
         assert!(a[mid] > 0.02 && a[mid] < 0.45, "{}", a[mid]);
+    }
+
+    #[test]
+    fn cross_cost_is_zero_on_the_bisector_and_one_along_the_cross() {
+        let n = DVec3::new(0.0, 0.0, 2.0);
+        let t1 = DVec3::X;
+        assert!(cross_cost(DVec3::new(1.0, 1.0, 0.0), t1, n).abs() < 1e-12);
+        assert!(cross_cost(DVec3::new(-3.0, 3.0, 0.0), t1, n).abs() < 1e-12);
+        assert!((cross_cost(DVec3::new(0.0, -2.0, 0.0), t1, n) - 1.0).abs() < 1e-12);
+        assert!((cross_cost(DVec3::new(5.0, 0.0, 0.0), t1, n) - 1.0).abs() < 1e-12);
+        let mid = cross_cost(
+            DVec3::new(1.0, (std::f64::consts::PI / 8.0).tan(), 0.0),
+            t1,
+            n,
+        );
+        assert!(mid > 0.2 && mid < 0.8, "{mid}");
     }
 }

@@ -154,28 +154,37 @@
 
 mod cross_field;
 mod fallback;
+mod fan;
+mod geometry;
 mod graph;
 mod input;
 mod invariants;
 mod parity;
 mod periodic;
 mod post;
+mod surface;
 mod topology;
+mod write_back;
 
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
 use crate::mesh::{element_dim, etype, ElementBlock, Mesh};
-use crate::profile::{StageTimer, Trace, TraceEvent};
-use topology::{CurveInfo, NodeTable, SurfaceTopo};
+use crate::profile::StageTimer;
+pub(crate) use surface::SurfaceWork;
+use surface::{match_surface, surface_work, SurfaceResult};
+use topology::{CurveInfo, NodeTable};
+use write_back::write_back;
 
 pub use fallback::{split_triangles, FallbackSplit};
 // the cost model's constants, public for the tests (not the API)
 #[doc(hidden)]
+pub use geometry::FIXED_CORNER_MIN_ETA;
+#[doc(hidden)]
 pub use graph::{
-    bad_extra_edge_cost, extra_edge_cost, split_halves_cost, COST_SCALE, FIXED_CORNER_MIN_ETA,
-    HOPELESS_COST, MAX_REAL_COST,
+    bad_extra_edge_cost, extra_edge_cost, split_halves_cost, COST_SCALE, HOPELESS_COST,
+    MAX_REAL_COST,
 };
 pub use invariants::{check_invariants, Before};
 
@@ -444,27 +453,6 @@ pub enum RecombineError {
     /// [`check_invariants`] failed after recombination.
     #[error("invariant check failed: {0}")]
     Invariant(String),
-}
-
-/// Triangles of one surface, ready for parity analysis and matching.
-pub(crate) struct SurfaceWork {
-    pub tag: i32,
-    pub topo: SurfaceTopo,
-    pub region: Vec<u32>,
-    pub n_regions: usize,
-    /// Element tag of each triangle.
-    pub elem_tags: Vec<u64>,
-    /// MSH 2 partition tags of each triangle, when its block had some.
-    pub partitions: Vec<Option<Vec<i32>>>,
-    /// Quads already on the surface.
-    pub quads_kept: usize,
-    pub time: Duration,
-}
-
-/// Result of one surface's matching and post-processing.
-struct SurfaceResult {
-    faces: post::Faces,
-    report: SurfaceReport,
 }
 
 /// Turns every surface's tri3 triangles into quad4 quads (see the module documentation).
@@ -804,58 +792,6 @@ fn surface_tags(mesh: &Mesh) -> Vec<i32> {
     tags
 }
 
-/// Step 2: every surface's triangles, topology and regions.
-fn surface_work(
-    mesh: &Mesh,
-    nodes: &NodeTable,
-    curves: &CurveInfo,
-    trace: Option<&Trace>,
-) -> Result<Vec<SurfaceWork>, RecombineError> {
-    surface_tags(mesh)
-        .into_par_iter()
-        .map(|tag| {
-            let t0 = Instant::now();
-            let mut tm = StageTimer::new(trace, "topology", tag);
-            let mut tris = Vec::new();
-            let mut elem_tags = Vec::new();
-            let mut partitions = Vec::new();
-            for b in mesh.element_blocks.iter().filter(|b| {
-                b.element_type == etype::TRI3 && b.entity_dim == 2 && b.entity_tag == tag
-            }) {
-                for i in 0..b.len() {
-                    tris.push(nodes.ids::<3>(b.element(i), 2, tag, b.tags[i])?);
-                    elem_tags.push(b.tags[i]);
-                    partitions.push(b.partitions.as_ref().and_then(|p| p.get(i).cloned()));
-                }
-            }
-            let quads_kept = mesh
-                .element_blocks
-                .iter()
-                .filter(|b| {
-                    b.element_type == etype::QUAD4 && b.entity_dim == 2 && b.entity_tag == tag
-                })
-                .map(|b| b.len())
-                .sum();
-            tm.lap("ids");
-            let topo = SurfaceTopo::new(tris, nodes, curves);
-            tm.lap("adjacency");
-            let (region, n_regions) = topo.regions();
-            tm.lap("regions");
-            tm.done();
-            Ok(SurfaceWork {
-                tag,
-                topo,
-                region,
-                n_regions,
-                elem_tags,
-                partitions,
-                quads_kept,
-                time: t0.elapsed(),
-            })
-        })
-        .collect()
-}
-
 /// `1, 2, 3`: entity tags for messages.
 pub(crate) fn list_tags(tags: &[i32]) -> String {
     tags.iter()
@@ -921,155 +857,5 @@ fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
         regions: plan.odd.clone(),
         curves,
         message: msg,
-    }
-}
-
-/// Steps 4–7 for one surface.
-fn match_surface(
-    w: &SurfaceWork,
-    coords: &[glam::DVec3],
-    split_nodes: &[u32],
-    n_global: u32,
-    opts: &RecombineOptions,
-) -> Result<SurfaceResult, RecombineError> {
-    let t0 = Instant::now();
-    let cross = opts.cross_field_weight.clamp(0.0, 5.0);
-    let g = graph::build(
-        &w.topo,
-        coords,
-        split_nodes,
-        cross,
-        opts.harmonic_cross_field,
-        opts.extra_edges,
-        opts.trace.as_ref(),
-    );
-    let time_graph = w.time + t0.elapsed();
-    if let Some(trace) = &opts.trace {
-        trace.emit(&TraceEvent::MatchingGraph {
-            surface: w.tag,
-            vertices: w.topo.len(),
-            edges: &g.edges,
-        });
-    }
-    let t1 = Instant::now();
-    let n = w.topo.len();
-    let m = crate::matching::solve(n, &g.edges).map_err(|e| RecombineError::NoPerfectMatching {
-        surface: w.tag,
-        triangles: n,
-        witness: e.witness.len(),
-        odd_components: e.odd_components.len(),
-    })?;
-    if opts.verify {
-        crate::matching::verify(n, &g.edges, &m).map_err(|e| RecombineError::Certificate {
-            surface: w.tag,
-            detail: e.to_string(),
-        })?;
-    }
-    let time_matching = t1.elapsed();
-    let t2 = Instant::now();
-    let faces = post::build_faces(&w.topo, &g, &m.mate, coords, n_global).map_err(|detail| {
-        RecombineError::PostProcess {
-            surface: w.tag,
-            detail,
-        }
-    })?;
-    let report = SurfaceReport {
-        surface: w.tag,
-        triangles_in: n,
-        quads_out: faces.quads.len(),
-        quads_kept: w.quads_kept,
-        parity_splits: 0,
-        graph_edges: g.real,
-        extra_edges_added: g.edges.len() - g.real,
-        extra_edges_used: faces.extra_used,
-        edge_swaps: faces.swaps,
-        vertex_duplications: faces.duplications,
-        matching_cost: m.cost,
-        time_graph,
-        time_matching,
-        time_post: t2.elapsed(),
-    };
-    Ok(SurfaceResult { faces, report })
-}
-
-/// Step 8: new nodes, then each surface's triangle blocks replaced by quads.
-fn write_back(mesh: &mut Mesh, nodes: &NodeTable, work: &[SurfaceWork], results: &[SurfaceResult]) {
-    let n_global = nodes.coords.len() as u32;
-    let mut next_node = mesh.max_node_tag() + 1;
-    for (w, r) in work.iter().zip(results) {
-        let new_tags: Vec<u64> = r
-            .faces
-            .new_nodes
-            .iter()
-            .map(|nn| {
-                let tag = next_node;
-                next_node += 1;
-                parity::add_node(mesh, nodes, 2, w.tag, tag, nn.pos, &nn.near);
-                tag
-            })
-            .collect();
-        let tag_of = |id: u32| -> u64 {
-            if id < n_global {
-                nodes.tags[id as usize]
-            } else {
-                new_tags[(id - n_global) as usize]
-            }
-        };
-        let mut quad_nodes = Vec::with_capacity(4 * r.faces.quads.len());
-        for q in &r.faces.quads {
-            quad_nodes.extend(q.iter().map(|&i| tag_of(i)));
-        }
-        let quad_tags: Vec<u64> = r
-            .faces
-            .source
-            .iter()
-            .map(|&t| w.elem_tags[t as usize])
-            .collect();
-        let any_parts = w.partitions.iter().any(|p| p.is_some());
-        let parts: Option<Vec<Vec<i32>>> = any_parts.then(|| {
-            r.faces
-                .source
-                .iter()
-                .map(|&t| w.partitions[t as usize].clone().unwrap_or_default())
-                .collect()
-        });
-        let is_tri = |b: &ElementBlock| {
-            b.element_type == etype::TRI3 && b.entity_dim == 2 && b.entity_tag == w.tag
-        };
-        let first_tri = mesh.element_blocks.iter().position(is_tri);
-        let quad_block = mesh.element_blocks.iter().position(|b| {
-            b.element_type == etype::QUAD4 && b.entity_dim == 2 && b.entity_tag == w.tag
-        });
-        match quad_block {
-            Some(qb) => {
-                let b = &mut mesh.element_blocks[qb];
-                b.tags.extend_from_slice(&quad_tags);
-                b.nodes.extend_from_slice(&quad_nodes);
-                match (b.partitions.as_mut(), parts) {
-                    (Some(p), Some(new)) => p.extend(new),
-                    (Some(p), None) => p.extend(quad_tags.iter().map(|_| Vec::new())),
-                    (None, Some(new)) => {
-                        let mut all = vec![Vec::new(); b.tags.len() - new.len()];
-                        all.extend(new);
-                        b.partitions = Some(all);
-                    }
-                    (None, None) => {}
-                }
-                mesh.element_blocks.retain(|b| !is_tri(b));
-            }
-            None => {
-                let block = ElementBlock {
-                    entity_dim: 2,
-                    entity_tag: w.tag,
-                    element_type: etype::QUAD4,
-                    tags: quad_tags,
-                    nodes: quad_nodes,
-                    partitions: parts,
-                };
-                let at = first_tri.unwrap_or(mesh.element_blocks.len());
-                mesh.element_blocks.insert(at, block);
-                mesh.element_blocks.retain(|b| !is_tri(b));
-            }
-        }
     }
 }

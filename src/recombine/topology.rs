@@ -11,7 +11,7 @@ use rayon::prelude::*;
 use super::RecombineError;
 
 /// Sentinel for "no triangle / no node".
-pub(crate) const NONE: u32 = u32::MAX;
+pub(crate) use crate::mesh::NONE;
 
 /// Key of the undirected edge `{a, b}`.
 #[inline]

@@ -2,7 +2,7 @@
 
 use blossomquad::matching::{
     self,
-    blossom::{ForestMode, Solver, Stats},
+    blossom::{Solver, Stats},
     oracle::brute_force_min_cost,
 };
 use std::cell::RefCell;
@@ -24,7 +24,7 @@ fn random_graph(rng: &mut Rng, n: usize, p_percent: u64, cost_range: i64) -> Vec
 }
 
 thread_local! {
-    /// Variable-δ forest counters summed over the checks of this thread:
+    /// Forest counters summed over the checks of this thread:
     /// (dual updates, split updates, joins, pair augmentations).
     static VAR: RefCell<[usize; 4]> = const { RefCell::new([0; 4]) };
 }
@@ -44,22 +44,13 @@ fn add_var(st: &Stats) {
 fn check(n: usize, edges: &[(u32, u32, i64)]) -> usize {
     let mut cross = 0;
     let expect = brute_force_min_cost(n, edges);
-    // Ten starts: fractional (default: the variable-δ forest, the path of `Solver::run`,
-    // which `matching::solve` below takes), then in the global-ε forest mode none, greedy
-    // only, fractional with local-search budgets 0 and 1 (work left to the global pass), main
-    // phase with single-tree budgets 0 and 1 (work left to the forest grown together); then
-    // in the variable-δ forest mode: plain start with main budget 0 (every tree in the
-    // forest, blossoms from scratch), greedy with main budget 0, fractional with both
-    // budgets 0.
+    // Ten starts: fractional (the path of `Solver::run`, which `matching::solve` below
+    // takes), then none, greedy only, fractional with local-search budgets 0 and 1 (work left
+    // to the forest), main phase with single-tree budgets 0 and 1 (work left to the forest);
+    // then plain start with main budget 0 (every tree in the forest, blossoms from scratch),
+    // greedy with main budget 0, fractional with both budgets 0.
     for start in 0..10 {
         let mut s = Solver::new(n, edges);
-        // Start 0 is the default (variable δ); 1-6 grow the global-ε forest; 7-9 the
-        // variable-δ forest.
-        if (1..7).contains(&start) {
-            s.set_forest_mode(ForestMode::Global);
-        } else if start >= 7 {
-            s.set_forest_mode(ForestMode::Variable);
-        }
         let res = match start {
             0 => {
                 s.init_fractional();
@@ -138,10 +129,10 @@ fn random_dense_and_sparse_graphs() {
         let edges = random_graph(&mut rng, n, p, range.max(1));
         cross += check(n, &edges);
     }
-    // The forest starts (budget 0) must reach the dissolve path that re-pushes the edges
-    // other trees had into a dissolved tree's `−` nodes.
+    // The forest starts must reach the dissolve path that re-pushes the edges other trees
+    // had into a dissolved tree's nodes.
     assert!(cross > 0, "no cross-edge event was ever pushed");
-    // The variable-δ starts must really give trees different dual changes, join trees
+    // The forest starts must really give trees different dual changes, join trees
     // through tight `(+, −)` edges and augment between trees.
     let [rounds, split, joins, pair_aug] = VAR.with(|v| *v.borrow());
     eprintln!("variable δ: rounds {rounds} split {split} joins {joins} pair augments {pair_aug}");

@@ -4,10 +4,7 @@
 //! optimality certificate on mesh-like graphs of 10^5 and 10^6 vertices.
 
 use blossomquad::matching::{
-    self,
-    blossom::{ForestMode, Solver},
-    oracle::brute_force_min_cost,
-    CertificateError,
+    self, blossom::Solver, oracle::brute_force_min_cost, CertificateError,
 };
 
 type Edges = Vec<(u32, u32, i64)>;
@@ -19,16 +16,13 @@ mod gen_matching_graph;
 use crate::matching_common;
 use matching_common::Rng;
 
-/// Solves (global-ε forest) from the plain start (no jump start), from the greedy start only, from the
+/// Solves from the plain start (no jump start), from the greedy start only, from the
 /// fractional start with local-search budgets 0 and 2 (nearly all work, or the abandoned
-/// searches, left to the global pass), and with main-phase single-tree budgets 0 and 3,
-/// and with the variable-δ forest (budgets 0 for both phases, and the plain start with main
-/// budget 0): other dual trajectories than [`matching::solve`]'s; checks every certificate,
-/// returns the costs.
+/// searches, left to the forest), and with main-phase single-tree budgets 0 and 3, and with
+/// budgets 0 for both phases and the plain start with main budget 0: other dual trajectories
+/// than [`matching::solve`]'s; checks every certificate, returns the costs.
 fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 8] {
-    let mut plain = Solver::new(n, edges);
-    plain.set_forest_mode(ForestMode::Global);
-    let plain = plain.run_plain().expect("plain start");
+    let plain = Solver::new(n, edges).run_plain().expect("plain start");
     assert!(matching::verify(n, edges, &plain).is_ok());
     let mut costs = [plain.cost; 8];
     let starts = [
@@ -40,7 +34,6 @@ fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 8] {
     ];
     for (i, (frac, main)) in starts.into_iter().enumerate() {
         let mut s = Solver::new(n, edges);
-        s.set_forest_mode(ForestMode::Global);
         match frac {
             None => s.init_greedy(),
             Some(budget) => s.init_fractional_with(budget),
@@ -54,7 +47,6 @@ fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 8] {
     }
     for (i, plain) in [false, true].into_iter().enumerate() {
         let mut s = Solver::new(n, edges);
-        s.set_forest_mode(ForestMode::Variable);
         if plain {
             s.init_plain();
         } else {
@@ -127,14 +119,13 @@ fn paper_figure6_triangulations_have_no_perfect_matching() {
     expect_witness(n, &e);
 }
 
-/// No perfect matching, solved in the variable-δ forest mode with every tree left to the
+/// No perfect matching, solved with every tree left to the
 /// forests (budgets 0): the witness must verify; returns how many stuck components the
 /// forests found.
 fn witness_variable(n: usize, edges: &[(u32, u32, i64)]) -> usize {
     let mut stuck = 0;
     for start in 0..3 {
         let mut s = Solver::new(n, edges);
-        s.set_forest_mode(ForestMode::Variable);
         match start {
             0 => s.init_plain(),
             1 => s.init_greedy(),

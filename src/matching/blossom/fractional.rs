@@ -16,9 +16,8 @@
 //! nearby memory; a search that needs too many grow steps is abandoned (its dual changes are
 //! kept). A *global* pass then grows the remaining trees together, so that they can meet
 //! half-way (on near-bipartite lattice meshes the last exposed vertices are far apart), in the
-//! solver's forest mode: variable δ (the `var` module, with `Kind::Frac`: a tight `+`–`+` edge
-//! inside a tree closes an odd cycle and a component that can move without bound is dissolved
-//! and left to the main phase) or one global `ε`.
+//! `forest` module with `Kind::Frac`: a tight `+`–`+` edge inside a tree closes an odd cycle,
+//! and a component that can move without bound is dissolved and left to the main phase.
 
 use super::{Solver, MINUS, NONE, PLUS};
 
@@ -54,10 +53,7 @@ impl Solver {
         self.stats.phase_s[1] = t.elapsed().as_secs_f64();
         self.stats.phase_counts[1] = (self.stats.grows, self.stats.evals, self.stats.pops);
         let t = std::time::Instant::now();
-        match self.forest_mode {
-            super::ForestMode::Global => self.fractional_global(&mut cy),
-            super::ForestMode::Variable => self.fractional_global_var(&mut cy),
-        }
+        self.fractional_global_var(&mut cy);
         self.stats.phase_s[2] = t.elapsed().as_secs_f64();
         self.stats.phase_counts[2] = (self.stats.grows, self.stats.evals, self.stats.pops);
         for cycle in &cy.list {
@@ -141,61 +137,6 @@ impl Solver {
         for &y in &cycle {
             cy.id[y as usize] = NONE;
         }
-    }
-
-    /// Global pass: a tree from every remaining exposed vertex, all grown together under one
-    /// dual change `ε` (the trees meet half-way, which the local pass cannot do).
-    fn fractional_global(&mut self, cy: &mut Cycles) {
-        self.eps = 0;
-        self.heap.clear();
-        let roots: Vec<u32> = (0..self.n as u32)
-            .filter(|&v| self.mate[v as usize] == NONE && cy.id[v as usize] == NONE)
-            .collect();
-        self.stats.forest_trees[0] = roots.len();
-        self.new_trees(roots.len());
-        for (t, &r) in roots.iter().enumerate() {
-            self.make_root(r, t as u32);
-        }
-        for &r in &roots {
-            self.push_edges_of(r);
-        }
-        let mut alive = roots.len();
-        while alive > 0 {
-            let Some((u, v)) = self.pop_edge_event() else {
-                break; // some tree is stuck: leave it to the main phase
-            };
-            let (pu, pv) = (self.in_tree(u, PLUS), self.in_tree(v, PLUS));
-            if pu && pv {
-                let (ta, tb) = (self.nd[u as usize].tree, self.nd[v as usize].tree);
-                if ta == tb {
-                    self.close_cycle(cy, u, v);
-                    self.dissolve(ta);
-                    alive -= 1;
-                } else {
-                    self.augment_path(u, v);
-                    self.augment_path(v, u);
-                    self.dissolve(ta);
-                    self.dissolve(tb);
-                    alive -= 2;
-                }
-            } else {
-                let (x, w) = if pu { (u, v) } else { (v, u) };
-                if self.mate[w as usize] == NONE && cy.id[w as usize] != NONE {
-                    let ta = self.nd[x as usize].tree;
-                    self.augment_into_cycle(cy, x, w);
-                    self.dissolve(ta);
-                    alive -= 1;
-                } else {
-                    self.grow(x, w);
-                }
-            }
-            self.push_freed();
-        }
-        // Stuck trees (if any) are dissolved; their alternating structure is a valid matching.
-        for t in 0..self.tree_lists.len() {
-            self.dissolve(t as u32);
-        }
-        self.freed.clear();
     }
 
     /// Matches the odd cycle `cycle` (consecutive vertices joined by tight edges) minus vertex

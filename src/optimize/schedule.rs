@@ -1,0 +1,301 @@
+//! The stages of one surface and their order (see the module docs of `optimize`): first
+//! smoothing, topology rounds with smoothing near their changes, the conformal solve, the
+//! polish stages, and on small planar surfaces the choice among three schedules.
+
+use super::local::{grow_rings, Local, Stats};
+use super::{conformal, polish, smooth, topo, valid};
+use super::{OperationCounts, OptimizeOptions, SurfaceOptimizeReport};
+use crate::profile::StageTimer;
+use glam::DVec3;
+
+/// Optimizes one surface (see the module docs for the schedule).
+pub(super) fn run_surface(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    tick: &(dyn Fn(usize) + Sync),
+) -> SurfaceOptimizeReport {
+    let mut tm = StageTimer::new(opts.trace, "optimize", l.surface);
+    l.build_adjacency();
+    let before = l.stats();
+    // validity: the start state and its invalid quads (valid.rs)
+    let mut gate = valid::Gate::new(l);
+    tm.lap("adj+stats");
+    let mut ops = OperationCounts {
+        smoothing_moves: smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
+        ..Default::default()
+    };
+    gate.check(l, true, "smoothing");
+    tm.lap("smooth");
+    tick(1);
+    let polish = opts.angle_sweeps > 0 && opts.smooth_iterations > 0;
+    // speed: surfaces already good after the first smoothing skip the alternative schedules
+    let small_planar = polish
+        && l.planar
+        && l.quads.len() < RESMOOTH_ALL_BELOW
+        && l.stats().eta_mean < ALTERNATIVES_BELOW;
+    // the state before the topology rounds, for the unsheared schedule
+    let mut unsheared = (small_planar && opts.topology).then(|| (l.clone(), ops, gate.clone()));
+    let mut ticks = 1;
+    if small_planar {
+        // quality: small planar surfaces try three schedules and keep the best (see
+        // `better` and the module docs): finishing with square targets (β = 0), with the
+        // aspect-keeping solve, and topology rounds each followed by a conformal solve.
+        // speed: the schedules are independent, so they run side by side (each is
+        // deterministic, so the kept one does not depend on the thread count)
+        let mut plain_ops = ops;
+        let (mut plain, ()) = rayon::join(
+            || {
+                if opts.topology {
+                    ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
+                }
+                // the square finish starts from the state after the topology rounds
+                plain_ops = ops;
+                let mut plain = l.clone();
+                let mut plain_gate = gate.clone();
+                let mut tp = StageTimer::new(opts.trace, "optimize (square finish)", l.surface);
+                rayon::join(
+                    || {
+                        finish(
+                            &mut plain,
+                            opts,
+                            &mut plain_ops,
+                            &mut tp,
+                            0.0,
+                            &mut plain_gate,
+                        )
+                    },
+                    || {
+                        finish(
+                            l,
+                            opts,
+                            &mut ops,
+                            &mut tm,
+                            conformal::KEEP_ASPECT,
+                            &mut gate,
+                        )
+                    },
+                );
+                tp.done();
+                plain
+            },
+            || {
+                if let Some((u, u_ops, u_gate)) = unsheared.as_mut() {
+                    let mut tu =
+                        StageTimer::new(opts.trace, "optimize (conformal rounds)", u.surface);
+                    topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
+                    finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT, u_gate);
+                    tu.done();
+                }
+            },
+        );
+        let base = (plain.stats(), plain.tau_estimate());
+        let mut best = (l.stats(), l.tau_estimate());
+        if !better(&best, &base) {
+            std::mem::swap(l, &mut plain);
+            ops = plain_ops;
+            best = base;
+        }
+        if let Some((u, u_ops, _)) = unsheared.as_mut() {
+            let cand = (u.stats(), u.tau_estimate());
+            if better(&cand, &best) && better(&cand, &base) {
+                std::mem::swap(l, u);
+                ops = *u_ops;
+            }
+        }
+    } else {
+        if opts.topology {
+            ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
+        }
+        finish(
+            l,
+            opts,
+            &mut ops,
+            &mut tm,
+            conformal::KEEP_ASPECT,
+            &mut gate,
+        );
+    }
+    // validity: every schedule ends in a state its gate passed; check the kept one against
+    // the start (rolls back to the start, the matching's quads, if it does not pass)
+    gate.check(l, false, "optimization");
+    tick(1 + opts.max_rounds - ticks);
+    let after = l.stats();
+    tm.lap("stats");
+    tm.done();
+    SurfaceOptimizeReport {
+        surface: l.surface,
+        before,
+        after,
+        operations: ops,
+    }
+}
+
+/// True when `cand` (stats, τ estimate) should replace `base`: a higher η̄, η_w at most
+/// [`ETA_W_SLACK`] lower and τ at most [`TAU_SLACK`] points lower.
+fn better(cand: &(Stats, f64), base: &(Stats, f64)) -> bool {
+    cand.0.eta_mean > base.0.eta_mean
+        && cand.0.eta_worst >= base.0.eta_worst - ETA_W_SLACK
+        && cand.1 >= base.1 - TAU_SLACK
+}
+
+/// How much lower η_w a schedule may end with than the plain one and still be chosen.
+const ETA_W_SLACK: f64 = 0.002;
+
+/// How many points lower τ ([`Local::tau_estimate`]) a schedule may end with than the plain
+/// one and still be chosen (module docs: the 1e4 square with a hole needs 0.6 for its
+/// conformal-rounds schedule, the 1e4 rectangle's costs 1.5).
+const TAU_SLACK: f64 = 0.7;
+
+/// Tests: `l` in the state the last stages see in the pipeline (the first smoothing and the
+/// topology rounds done), with the counts, timer and gate those stages continue with.
+#[cfg(test)]
+pub(crate) fn after_topology_rounds<'a>(
+    l: &mut Local,
+    opts: &OptimizeOptions<'a>,
+) -> (OperationCounts, StageTimer<'a>, valid::Gate) {
+    let mut ops = OperationCounts::default();
+    let mut tm = StageTimer::new(opts.trace, "optimize", 0);
+    smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight);
+    let mut gate = valid::Gate::new(l);
+    topology_rounds(l, opts, &mut ops, &mut tm, &|_| {}, false, &mut gate);
+    (ops, tm, gate)
+}
+
+/// Up to `opts.max_rounds` rounds of (topology pass, smoothing near the changes), each
+/// followed by the conformal solve when `unshear` (the next pass then judges rotations and
+/// merges on squarer quads and finds more: d4 +1.5 point on the 1e4 square with a hole).
+/// Returns the progress ticks given.
+fn topology_rounds(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    ops: &mut OperationCounts,
+    tm: &mut StageTimer<'_>,
+    tick: &(dyn Fn(usize) + Sync),
+    unshear: bool,
+    gate: &mut valid::Gate,
+) -> usize {
+    let mut ticks = 1;
+    // speed: around the changes of a topology pass on a large surface, 3/5 of the sweeps
+    let near_its = (opts.smooth_iterations * NEAR_SWEEPS_NUM).div_ceil(5);
+    // speed: after a pass, smooth only around what it changed (see `near_changes`), and
+    // let the next pass's operators search only there (elsewhere they found nothing;
+    // measured on the 1e5 fixtures: d4 within 0.02 point, same η)
+    let mut focus: Option<Vec<bool>> = None;
+    for _ in 0..opts.max_rounds {
+        // the state before the pass, to find what it changed (a pass never adds quads,
+        // so the surface size decides before it)
+        let snapshot = (l.quads.len() >= RESMOOTH_ALL_BELOW)
+            .then(|| (l.quads.clone(), l.alive.clone(), l.pos.clone()));
+        let changed = topo::pass(l, ops, focus.as_deref());
+        tm.lap("topo");
+        if changed == 0 {
+            break;
+        }
+        l.build_adjacency();
+        ops.smoothing_moves += match &snapshot {
+            None => smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
+            Some(snapshot) => {
+                let active = near_changes(l, snapshot, RESMOOTH_RINGS);
+                focus = Some(active.clone());
+                smooth::smooth_near(l, near_its, opts.diagonal_weight, active)
+            }
+        };
+        tm.lap("resmooth");
+        if unshear {
+            ops.smoothing_moves += conformal::unshear(l, conformal::KEEP_ASPECT);
+        }
+        gate.check(l, true, "topology round");
+        tick(1);
+        ticks += 1;
+    }
+    ticks
+}
+
+/// The last stages: conformal solve (keeping `keep_aspect` of the aspect ratios), max-min
+/// polish, pattern sweeps, mean-η polish.
+pub(super) fn finish(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    ops: &mut OperationCounts,
+    tm: &mut StageTimer<'_>,
+    keep_aspect: f64,
+    gate: &mut valid::Gate,
+) {
+    // quality: undo global shear the node-by-node smoothers cannot (conformal.rs)
+    if opts.angle_sweeps > 0 && opts.smooth_iterations > 0 {
+        ops.smoothing_moves += conformal::unshear(l, keep_aspect);
+        gate.check(l, true, "conformal solve");
+        tm.lap("conformal");
+    }
+    // quality: lift the worst quads (max-min) first; the pattern search after it keeps
+    // every star's worst key, so η_w stays
+    if opts.angle_sweeps > 0 {
+        ops.smoothing_moves += smooth::polish_worst(l, 4);
+        gate.check(l, true, "max-min polish");
+        tm.lap("polish_worst");
+        ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
+        gate.check(l, true, "pattern search");
+        tm.lap("angles");
+    }
+    // then maximize the mean η, the worst of every star kept (polish.rs)
+    if opts.smooth_iterations > 0 {
+        let sweeps = if l.quads.len() < RESMOOTH_ALL_BELOW {
+            polish::MEAN_SWEEPS_SMALL
+        } else {
+            polish::MEAN_SWEEPS
+        };
+        ops.smoothing_moves += polish::polish_mean(l, sweeps);
+        gate.check(l, true, "mean polish");
+        tm.lap("polish_mean");
+    }
+}
+
+/// After a topological pass, smoothing starts from the nodes within this many quad rings of
+/// the changes (measured on 1.6e5 and 1e6-triangle rectangles: η̄ within 0.001 of smoothing
+/// every node, at a fraction of the work).
+const RESMOOTH_RINGS: usize = 2;
+
+/// Sweeps of the smoothing around a topology pass's changes on surfaces of
+/// [`RESMOOTH_ALL_BELOW`] quads or more, in fifths of `smooth_iterations` (rounded up: 3 of
+/// the default 5). Measured on the 1e5 fixtures: 3 keep η_w, η̄, τ and d4 within 0.001 /
+/// 0.1 point; 2 or 1 lose up to 0.017 of η_w or 0.003 of η̄ on some.
+const NEAR_SWEEPS_NUM: usize = 3;
+
+/// Surfaces with fewer quads re-smooth every node after each topological pass: cheap there,
+/// and measured on the 1e5-triangle cad_solid fixture (14 curved surfaces of 500 to 5,000
+/// quads) local re-smoothing alone loses 0.008 of η̄ (0.840 -> 0.831).
+pub(super) const RESMOOTH_ALL_BELOW: usize = 20_000;
+
+/// Small planar surfaces try the alternative schedules (module docs) only when their mean η
+/// after the first smoothing is below this. Measured on the 1e4/1e5 fixtures: surfaces at
+/// 0.84 or more there (cad_solid 1e5's largest faces at 0.844-0.862, even_curves 1e5's
+/// 18k-quad face at 0.915) gained at most 0.0015 of η̄ from them, for most of their time;
+/// the surfaces that need them start at 0.70-0.84 (square_hole 1e4: 0.72, +0.007).
+const ALTERNATIVES_BELOW: f64 = 0.84;
+
+/// Nodes within `rings` quad rings of what a topological pass changed, given the quads,
+/// liveness and positions before it: nodes of quads that were rewritten, created or removed,
+/// and nodes that moved. Needs a current adjacency.
+fn near_changes(
+    l: &Local,
+    (quads, alive, pos): &(Vec<[u32; 4]>, Vec<bool>, Vec<DVec3>),
+    rings: usize,
+) -> Vec<bool> {
+    let n = l.pos.len();
+    let mut mark = vec![false; n];
+    for (q, quad) in l.quads.iter().enumerate() {
+        let same = quads.get(q) == Some(quad) && alive.get(q) == Some(&l.alive[q]);
+        if !same {
+            for &v in quad.iter().chain(quads.get(q).into_iter().flatten()) {
+                mark[v as usize] = true;
+            }
+        }
+    }
+    for (v, m) in mark.iter_mut().enumerate() {
+        if pos.get(v) != Some(&l.pos[v]) {
+            *m = true;
+        }
+    }
+    grow_rings(l, &mut mark, rings);
+    mark
+}
