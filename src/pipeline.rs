@@ -192,13 +192,18 @@ pub enum Error {
     #[error(transparent)]
     Optimize(#[from] optimize::OptimizeError),
     /// The result broke an invariant (a bug: please report it with the input).
-    #[error("internal check failed after {stage}: {detail}")]
+    #[error("internal check failed after {stage}: {violation}")]
     Invariant {
         /// The stage after which the check failed.
         stage: &'static str,
         /// What failed.
-        detail: String,
+        #[source]
+        violation: recombine::InvariantViolation,
     },
+    /// The fallback ran out of rounds without a verdict (a bug: please report it with the
+    /// input).
+    #[error("internal error: the fallback ended without a result")]
+    FallbackExhausted,
     /// Some quads are not valid even after the fallback.
     #[error("{}", invalid_message(.0))]
     Invalid(Vec<BadQuad>),
@@ -326,13 +331,13 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
             || invariants_of(&mesh),
             || checks.validity.invalid_quads(&mesh),
         );
-        invariants.map_err(|detail| Error::Invariant {
+        invariants.map_err(|violation| Error::Invariant {
             stage: if opts.optimize {
                 "optimization"
             } else {
                 "recombination"
             },
-            detail,
+            violation,
         })?;
         if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
             let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
@@ -399,10 +404,7 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         chosen.extend(more);
     }
     // every path of the last round returns; this is only a guard
-    Err(Error::Invariant {
-        stage: "the fallback",
-        detail: "no round left".into(),
-    })
+    Err(Error::FallbackExhausted)
 }
 
 /// `mesh` with the quads and the surface-classified nodes of `surfaces` taken from `pre`

@@ -470,7 +470,9 @@ mod tests {
         // invariant check (which allows triangles only through `--allow-triangles`-like
         // use, so compare the quads' validity and the rest separately)
         let before = two_surfaces();
-        let msg = crate::recombine::check_invariants(&before, &m).unwrap_err();
+        let msg = crate::recombine::check_invariants(&before, &m)
+            .unwrap_err()
+            .to_string();
         assert!(msg.contains("still has 2 triangles"), "{msg}");
         crate::optimize::check::check_surface_mesh(&{
             let mut lined = m.clone();

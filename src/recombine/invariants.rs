@@ -189,6 +189,160 @@ fn nodes_text(f: &[u64]) -> String {
         .join(" ")
 }
 
+/// The edges a split-set comparison is about.
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum EdgeSet {
+    /// The 2-node line elements.
+    LineElements,
+    /// The boundary edges (one face) of a surface.
+    Boundary {
+        /// Surface entity tag.
+        surface: i32,
+    },
+}
+
+impl std::fmt::Display for EdgeSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            EdgeSet::LineElements => write!(f, "line elements"),
+            EdgeSet::Boundary { surface } => write!(f, "surface {surface} boundary edges"),
+        }
+    }
+}
+
+/// What [`check_invariants`] found broken, with the entities and nodes involved. Its text
+/// (`Display`) is one line in words.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum InvariantViolation {
+    /// The entities or their physical groups differ.
+    #[error("entities (or their physical groups) changed")]
+    EntitiesChanged,
+    /// The physical names differ.
+    #[error("physical names changed")]
+    PhysicalNamesChanged,
+    /// A surface still has 3-node triangles.
+    #[error("surface {surface} still has {count} triangles")]
+    TrianglesLeft {
+        /// Surface entity tag.
+        surface: i32,
+        /// Triangles in the block found.
+        count: usize,
+    },
+    /// A node classified on a curve or point moved.
+    #[error("node {node} on entity ({}, {}) moved from ({}, {}, {}) to ({}, {}, {})", .entity.0, .entity.1, .from[0], .from[1], .from[2], .to[0], .to[1], .to[2])]
+    NodeMoved {
+        /// Node tag.
+        node: u64,
+        /// The node's entity (dimension, tag).
+        entity: (i32, i32),
+        /// Position before.
+        from: [f64; 3],
+        /// Position after.
+        to: [f64; 3],
+    },
+    /// A node classified on a curve or point is gone.
+    #[error("node {node} on entity ({}, {}) disappeared", .entity.0, .entity.1)]
+    NodeDisappeared {
+        /// Node tag.
+        node: u64,
+        /// The node's entity (dimension, tag).
+        entity: (i32, i32),
+    },
+    /// An edge of `after` is neither an edge of `before` nor half of one split at a new
+    /// node.
+    #[error("{set}: the edge {}-{} is new", .edge.0, .edge.1)]
+    NewEdge {
+        /// The edges compared.
+        set: EdgeSet,
+        /// The edge.
+        edge: (u64, u64),
+    },
+    /// A new node is on a number of new edges other than two.
+    #[error("{set}: new node {node} is on {halves} of them, not 2")]
+    SplitNode {
+        /// The edges compared.
+        set: EdgeSet,
+        /// The new node.
+        node: u64,
+        /// New edges at it.
+        halves: usize,
+    },
+    /// An edge of `before` is gone without being split.
+    #[error("{set}: the edge {}-{} disappeared", .edge.0, .edge.1)]
+    EdgeDisappeared {
+        /// The edges compared.
+        set: EdgeSet,
+        /// The edge.
+        edge: (u64, u64),
+    },
+    /// Two new half-edges rebuild an edge `before` does not lose.
+    #[error("{set}: the split edge {}-{} was not one of them", .edge.0, .edge.1)]
+    UnknownSplit {
+        /// The edges compared.
+        set: EdgeSet,
+        /// The edge the halves rebuild.
+        edge: (u64, u64),
+    },
+    /// A face names a node twice.
+    #[error("surface {surface}: the face with nodes {} repeats a node", nodes_text(.nodes))]
+    RepeatedNode {
+        /// Surface entity tag.
+        surface: i32,
+        /// The face's nodes.
+        nodes: Vec<u64>,
+    },
+    /// An edge is shared by more than two faces (and was not before).
+    #[error("surface {surface}: the edge {}-{} is shared by {faces} faces", .edge.0, .edge.1)]
+    EdgeShared {
+        /// Surface entity tag.
+        surface: i32,
+        /// The edge.
+        edge: (u64, u64),
+        /// Faces using it.
+        faces: u32,
+    },
+    /// A curve segment of `before` is no longer an edge, nor split at a new node.
+    #[error("surface {surface}: the curve segment {}-{} is no longer an edge", .segment.0, .segment.1)]
+    CurveSegmentLost {
+        /// Surface entity tag.
+        surface: i32,
+        /// The segment.
+        segment: (u64, u64),
+    },
+    /// A face runs an edge against the direction the input's faces run it.
+    #[error("surface {surface}: the face with nodes {} runs edge {}->{} against the orientation of the input triangles", nodes_text(.nodes), .edge.0, .edge.1)]
+    Orientation {
+        /// Surface entity tag.
+        surface: i32,
+        /// The face's nodes.
+        nodes: Vec<u64>,
+        /// The edge, as the face runs it.
+        edge: (u64, u64),
+    },
+    /// A face names a node that does not exist.
+    #[error("surface {surface}: the {} face with nodes {} has an unknown node", if *.input { "input" } else { "output" }, nodes_text(.nodes))]
+    UnknownNode {
+        /// Surface entity tag.
+        surface: i32,
+        /// The face is one of `before` (else of `after`).
+        input: bool,
+        /// The face's nodes.
+        nodes: Vec<u64>,
+    },
+    /// The area of a planar surface changed (more than 1e-9 relative).
+    #[error("surface {surface}: planar area changed from {before} to {after}")]
+    AreaChanged {
+        /// Surface entity tag.
+        surface: i32,
+        /// Area before.
+        before: f64,
+        /// Area after.
+        after: f64,
+    },
+}
+
 /// Checks what recombination promises, comparing the mesh `before` with the result `after`:
 ///
 /// - no 3-node triangle is left on any surface; no face repeats a node;
@@ -204,9 +358,9 @@ fn nodes_text(f: &[u64]) -> String {
 ///   the direction opposite to the one the surface's triangles used);
 /// - entities and physical groups are identical.
 ///
-/// Returns the first violation found (the lowest surface tag first), in words, with the
-/// surface and nodes involved.
-pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), String> {
+/// Returns the first violation found (the lowest surface tag first), with the surface and
+/// nodes involved.
+pub fn check_invariants(before: &Mesh, after: &Mesh) -> Result<(), InvariantViolation> {
     Before::new(before).check(after)
 }
 
@@ -241,7 +395,7 @@ struct SurfaceBefore {
     edges: EdgeTable,
     boundary: Vec<Edge>,
     /// Twice the summed vector area of the faces (an error: a face has an unknown node).
-    total: Result<[f64; 3], String>,
+    total: Result<[f64; 3], InvariantViolation>,
     /// The unit normal of a planar surface (`None`: not planar, or no area).
     plane: Option<[f64; 3]>,
 }
@@ -272,21 +426,20 @@ impl<'a> Before<'a> {
     }
 
     /// [`check_invariants`] of `after` against this `before`.
-    pub fn check(&self, after: &Mesh) -> Result<(), String> {
+    pub fn check(&self, after: &Mesh) -> Result<(), InvariantViolation> {
         let before = self.mesh;
         if before.entities != after.entities {
-            return Err("entities (or their physical groups) changed".into());
+            return Err(InvariantViolation::EntitiesChanged);
         }
         if before.physical_names != after.physical_names {
-            return Err("physical names changed".into());
+            return Err(InvariantViolation::PhysicalNamesChanged);
         }
         for b in &after.element_blocks {
             if b.element_type == etype::TRI3 && !b.is_empty() {
-                return Err(format!(
-                    "surface {} still has {} triangles",
-                    b.entity_tag,
-                    b.len()
-                ));
+                return Err(InvariantViolation::TrianglesLeft {
+                    surface: b.entity_tag,
+                    count: b.len(),
+                });
             }
         }
         let ib = &self.index;
@@ -301,23 +454,25 @@ impl<'a> Before<'a> {
                 match ia.get(*t) {
                     Some(x) if x == *c => {}
                     Some(x) => {
-                        return Err(format!(
-                            "node {t} on entity ({}, {}) moved from ({}, {}, {}) to ({}, {}, {})",
-                            b.entity_dim, b.entity_tag, c[0], c[1], c[2], x[0], x[1], x[2]
-                        ))
+                        return Err(InvariantViolation::NodeMoved {
+                            node: *t,
+                            entity: (b.entity_dim, b.entity_tag),
+                            from: *c,
+                            to: x,
+                        })
                     }
                     None => {
-                        return Err(format!(
-                            "node {t} on entity ({}, {}) disappeared",
-                            b.entity_dim, b.entity_tag
-                        ))
+                        return Err(InvariantViolation::NodeDisappeared {
+                            node: *t,
+                            entity: (b.entity_dim, b.entity_tag),
+                        })
                     }
                 }
             }
         }
         // line elements: kept or split in two at a new node
         let la = lines(after);
-        check_split_sets(&self.lines, &la, &new_node, "line elements")?;
+        check_split_sets(&self.lines, &la, &new_node, EdgeSet::LineElements)?;
         let mut surfaces: Vec<i32> = self
             .surfaces
             .iter()
@@ -332,7 +487,7 @@ impl<'a> Before<'a> {
             .collect();
         surfaces.sort_unstable();
         surfaces.dedup();
-        let results: Vec<Result<(), String>> = surfaces
+        let results: Vec<Result<(), InvariantViolation>> = surfaces
             .par_iter()
             .map(|&s| {
                 // a surface with no face before
@@ -354,7 +509,12 @@ impl<'a> Before<'a> {
 /// Twice the summed vector area of `faces` of `m` (by chunks of faces in parallel added in
 /// order: the same sum for any thread count); the first face with an unknown node is an
 /// error.
-fn area(faces: &[&[u64]], idx: &TagCoords, s: i32, what: &str) -> Result<[f64; 3], String> {
+fn area(
+    faces: &[&[u64]],
+    idx: &TagCoords,
+    s: i32,
+    input: bool,
+) -> Result<[f64; 3], InvariantViolation> {
     // faces have 3 or 4 nodes: no allocation per face
     let pts4 = |f: &[u64]| -> Option<([[f64; 3]; 4], usize)> {
         let mut p = [[0.0; 3]; 4];
@@ -363,16 +523,15 @@ fn area(faces: &[&[u64]], idx: &TagCoords, s: i32, what: &str) -> Result<[f64; 3
         }
         Some((p, f.len().min(4)))
     };
-    let parts: Vec<Result<[f64; 3], String>> = faces
+    let parts: Vec<Result<[f64; 3], InvariantViolation>> = faces
         .par_chunks(CHUNK)
         .map(|c| {
             let mut t = [0.0; 3];
             for f in c {
-                let p = pts4(f).ok_or_else(|| {
-                    format!(
-                        "surface {s}: the {what} face with nodes {} has an unknown node",
-                        nodes_text(f)
-                    )
+                let p = pts4(f).ok_or_else(|| InvariantViolation::UnknownNode {
+                    surface: s,
+                    input,
+                    nodes: f.to_vec(),
                 })?;
                 let a = vector_area(&p.0[..p.1]);
                 for k in 0..3 {
@@ -395,8 +554,7 @@ fn area(faces: &[&[u64]], idx: &TagCoords, s: i32, what: &str) -> Result<[f64; 3
 impl SurfaceBefore {
     fn new(before: &Mesh, ib: &TagCoords, s: i32) -> Self {
         let faces = faces_of(before, s);
-        let (edges, total) =
-            rayon::join(|| EdgeTable::new(&faces), || area(&faces, ib, s, "input"));
+        let (edges, total) = rayon::join(|| EdgeTable::new(&faces), || area(&faces, ib, s, true));
         let boundary = edges.boundary();
         let plane = total
             .as_ref()
@@ -460,7 +618,7 @@ fn check_surface(
     after: &Mesh,
     ia: &TagCoords,
     s: i32,
-) -> Result<(), String> {
+) -> Result<(), InvariantViolation> {
     let ib = &before.index;
     let new_node = |t: u64| ib.get(t).is_none();
     let fa = faces_of(after, s);
@@ -468,25 +626,26 @@ fn check_surface(
         .iter()
         .find(|f| (1..f.len()).any(|j| f[..j].contains(&f[j])))
     {
-        return Err(format!(
-            "surface {s}: the face with nodes {} repeats a node",
-            nodes_text(f)
-        ));
+        return Err(InvariantViolation::RepeatedNode {
+            surface: s,
+            nodes: f.to_vec(),
+        });
     }
     let eb = &sb.edges;
     let ea = edge_counts(&fa);
     if let Some((e, c)) = ea.iter().find(|(e, c)| *c > 2 && eb.count(e) <= 2) {
-        return Err(format!(
-            "surface {s}: the edge {}-{} is shared by {c} faces",
-            e.0, e.1
-        ));
+        return Err(InvariantViolation::EdgeShared {
+            surface: s,
+            edge: *e,
+            faces: *c,
+        });
     }
     let ba = boundary(&ea);
     check_split_sets(
         &sb.boundary,
         &ba,
         &new_node,
-        &format!("surface {s} boundary edges"),
+        EdgeSet::Boundary { surface: s },
     )?;
     // curve segments of `before` that are no longer edges must be split in two at a new
     // node (found through the nodes next to each node along the edges of `after`, built
@@ -511,10 +670,10 @@ fn check_surface(
                 .any(|&(_, m)| new_node(m) && count_of(&ea, &undirected(m, e.1)) > 0)
         };
         if let Some(e) = missing.into_iter().find(|e| !split_present(e)) {
-            return Err(format!(
-                "surface {s}: the curve segment {}-{} is no longer an edge",
-                e.0, e.1
-            ));
+            return Err(InvariantViolation::CurveSegmentLost {
+                surface: s,
+                segment: *e,
+            });
         }
     }
     // orientation (faces in parallel; the first offending face in order is reported)
@@ -528,24 +687,25 @@ fn check_surface(
         .with_min_len(CHUNK)
         .find_map_first(|f| against(f).map(|e| (f, e)))
     {
-        return Err(format!(
-            "surface {s}: the face with nodes {} runs edge {p}->{q} against the orientation of the input triangles",
-            nodes_text(f)
-        ));
+        return Err(InvariantViolation::Orientation {
+            surface: s,
+            nodes: f.to_vec(),
+            edge: (p, q),
+        });
     }
     // planar area
     let total = sb.total.clone()?;
     let Some(n) = sb.plane else {
         return Ok(());
     };
-    let area_after = dot(area(&fa, ia, s, "output")?, n);
+    let area_after = dot(area(&fa, ia, s, false)?, n);
     let area_before = dot(total, n);
     if ((area_after - area_before) / area_before).abs() > 1e-9 {
-        return Err(format!(
-            "surface {s}: planar area changed from {} to {}",
-            area_before / 2.0,
-            area_after / 2.0
-        ));
+        return Err(InvariantViolation::AreaChanged {
+            surface: s,
+            before: area_before / 2.0,
+            after: area_after / 2.0,
+        });
     }
     Ok(())
 }
@@ -556,15 +716,15 @@ fn check_split_sets(
     before: &[Edge],
     after: &[Edge],
     new_node: &dyn Fn(u64) -> bool,
-    what: &str,
-) -> Result<(), String> {
+    set: EdgeSet,
+) -> Result<(), InvariantViolation> {
     // the halves, as (new node, far end), sorted: pairs of them rebuild a split edge
     let mut halves: Vec<(u64, u64)> = Vec::new();
     for &(x, y) in after.iter().filter(|e| !has(before, e)) {
         match (new_node(x), new_node(y)) {
             (true, false) => halves.push((x, y)),
             (false, true) => halves.push((y, x)),
-            _ => return Err(format!("{what}: the edge {x}-{y} is new")),
+            _ => return Err(InvariantViolation::NewEdge { set, edge: (x, y) }),
         }
     }
     halves.sort_unstable();
@@ -574,10 +734,11 @@ fn check_split_sets(
         let m = halves[i].0;
         let j = halves[i..].partition_point(|h| h.0 == m) + i;
         if j - i != 2 {
-            return Err(format!(
-                "{what}: new node {m} is on {} of them, not 2",
-                j - i
-            ));
+            return Err(InvariantViolation::SplitNode {
+                set,
+                node: m,
+                halves: j - i,
+            });
         }
         rebuilt.push(undirected(halves[i].1, halves[i + 1].1));
         i = j;
@@ -589,15 +750,12 @@ fn check_split_sets(
         let from = rebuilt.partition_point(|r| r < e);
         match (from..rebuilt.len()).find(|&k| rebuilt[k] == *e && !used[k]) {
             Some(k) => used[k] = true,
-            None => return Err(format!("{what}: the edge {}-{} disappeared", e.0, e.1)),
+            None => return Err(InvariantViolation::EdgeDisappeared { set, edge: *e }),
         }
     }
     if let Some(k) = used.iter().position(|u| !u) {
         let e = rebuilt[k];
-        return Err(format!(
-            "{what}: the split edge {}-{} was not one of them",
-            e.0, e.1
-        ));
+        return Err(InvariantViolation::UnknownSplit { set, edge: e });
     }
     Ok(())
 }
@@ -686,7 +844,7 @@ mod tests {
             match expected {
                 None => assert_eq!(once, Ok(())),
                 Some(text) => {
-                    let e = once.expect_err(text);
+                    let e = once.expect_err(text).to_string();
                     assert!(e.contains(text), "{e}");
                 }
             }

@@ -186,7 +186,7 @@ pub use graph::{
     bad_extra_edge_cost, extra_edge_cost, split_halves_cost, COST_SCALE, HOPELESS_COST,
     MAX_REAL_COST,
 };
-pub use invariants::{check_invariants, Before};
+pub use invariants::{check_invariants, Before, EdgeSet, InvariantViolation};
 
 /// A copy of `mesh` without the triangles that repeat another triangle's three nodes on
 /// the same surface (a triangle and its reverse cancel: a zero-area pocket such as Gmsh
@@ -322,7 +322,7 @@ pub struct RecombineReport {
 }
 
 /// Why [`recombine`] refused or failed.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum RecombineError {
     /// Volume elements are present (recombining their boundary would break conformity).
     #[error("the mesh has {count} volume elements (volumes {}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone (--drop-volumes)", list_tags(.volumes))]
@@ -452,7 +452,7 @@ pub enum RecombineError {
     },
     /// [`check_invariants`] failed after recombination.
     #[error("invariant check failed: {0}")]
-    Invariant(String),
+    Invariant(#[source] InvariantViolation),
 }
 
 /// Turns every surface's tri3 triangles into quad4 quads (see the module documentation).

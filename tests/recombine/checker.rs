@@ -6,7 +6,7 @@
 use crate::recombine_util;
 
 use blossomquad::mesh::{etype, ElementBlock, Mesh};
-use blossomquad::recombine::{check_invariants, recombine};
+use blossomquad::recombine::{check_invariants, recombine, InvariantViolation};
 use recombine_util::*;
 
 /// A jittered 6 × 6 grid (72 triangles) and its verified recombination.
@@ -31,19 +31,24 @@ fn quad_block(m: &mut Mesh) -> &mut ElementBlock {
         .expect("a quad block on surface 1")
 }
 
-/// `tamper` applied to a correct output must be reported with a message containing `what`.
-fn rejected(what: &str, tamper: impl FnOnce(&mut Mesh)) {
+/// `tamper` applied to a correct output must be reported with a message containing `what`;
+/// returns the violation.
+fn rejected(what: &str, tamper: impl FnOnce(&mut Mesh)) -> InvariantViolation {
     let (before, mut after) = recombined();
     tamper(&mut after);
     match check_invariants(&before, &after) {
         Ok(()) => panic!("tampered output accepted (expected: {what})"),
-        Err(e) => assert!(e.contains(what), "expected `{what}`, got `{e}`"),
+        Err(e) => {
+            let text = e.to_string();
+            assert!(text.contains(what), "expected `{what}`, got `{text}`");
+            e
+        }
     }
 }
 
 #[test]
 fn triangle_left_is_rejected() {
-    rejected("still has 2 triangles", |m| {
+    let e = rejected("still has 2 triangles", |m| {
         let q = quad_block(m);
         let n: Vec<u64> = q.nodes.drain(..4).collect();
         let t = q.tags.remove(0);
@@ -54,6 +59,16 @@ fn triangle_left_is_rejected() {
         tri.partitions = None;
         m.element_blocks.push(tri);
     });
+    assert!(
+        matches!(
+            e,
+            InvariantViolation::TrianglesLeft {
+                surface: 1,
+                count: 2
+            }
+        ),
+        "{e:?}"
+    );
 }
 
 #[test]
