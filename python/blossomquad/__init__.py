@@ -45,14 +45,20 @@ _OPTIONS = {
 }
 
 
-def _options(options: Dict[str, Any]) -> str:
+# options that only make sense when a file is written (Python keyword -> Options field)
+_FILE_OPTIONS = {"quality_view": "quality_view"}
+
+
+def _options(options: Dict[str, Any], file: bool = False) -> str:
     """The options as the JSON the Rust side reads; unknown names and bad values raise
-    ``TypeError`` / ``ValueError`` here, in words."""
+    ``TypeError`` / ``ValueError`` here, in words. ``file``: the file options are known
+    too."""
+    known = dict(_OPTIONS, **_FILE_OPTIONS) if file else _OPTIONS
     out: Dict[str, Any] = {}
     for key, value in options.items():
-        if key not in _OPTIONS:
+        if key not in known:
             raise TypeError(
-                f"unknown option {key!r} (known: {', '.join(sorted(_OPTIONS))}, progress)"
+                f"unknown option {key!r} (known: {', '.join(sorted(known))}, progress)"
             )
         if key == "parity":
             if value not in ("repair", "error"):
@@ -71,7 +77,7 @@ def _options(options: Dict[str, Any]) -> str:
                 raise ValueError(f"cross_field must be in [0, 5], not {value!r}")
         elif not isinstance(value, bool):
             raise ValueError(f"{key} must be True or False, not {value!r}")
-        out[_OPTIONS[key]] = value
+        out[known[key]] = value
     return json.dumps(out)
 
 
@@ -82,13 +88,14 @@ def recombine_file(
     job: the output keeps the input's MSH version and encoding, every physical group, entity
     and node tag). Options as the command line's flags: ``parity`` ('repair' or 'error'),
     ``cross_field`` (float), ``harmonic_cross_field``, ``refine`` (0-3), ``smooth``
-    (sweeps), ``topology``, ``optimize``, ``verify``, ``drop_volumes``, ``allow_invalid``.
-    ``progress(stage, done, total)`` is called as the work advances. Returns the report
+    (sweeps), ``topology``, ``optimize``, ``verify``, ``drop_volumes``, ``allow_invalid``,
+    ``incomplete``, and ``quality_view`` (adds the "eta", "scaled jacobian" and "valence"
+    views to the output, coloured by ``gmsh OUTPUT``). ``progress(stage, done, total)`` is called as the work advances. Returns the report
     (what was done per surface, times, log lines) as a dict. Nothing is written on error."""
     import os
 
     report = _native.recombine_file(
-        os.fspath(input), os.fspath(output), _options(options), progress
+        os.fspath(input), os.fspath(output), _options(options, file=True), progress
     )
     return json.loads(report)
 

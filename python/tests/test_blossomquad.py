@@ -64,6 +64,28 @@ def test_recombine_file_writes_quads_and_returns_the_report(tmp_path):
     assert "quad" in kinds and "triangle" not in kinds
 
 
+def test_recombine_file_quality_view_adds_one_value_per_quad(tmp_path):
+    out = tmp_path / "q.msh"
+    blossomquad.recombine_file(RECTANGLE, out, quality_view=True)
+    gmsh.initialize(["-v", "0"])
+    try:
+        gmsh.open(str(out))
+        quads = sum(len(t) for t in gmsh.model.mesh.getElements(2)[1])
+        views = {
+            gmsh.option.getString(f"View[{gmsh.view.getIndex(v)}].Name"): v
+            for v in gmsh.view.getTags()
+        }
+        assert {"eta", "scaled jacobian", "valence"} <= set(views)
+        kind, tags, data, _, _ = gmsh.view.getModelData(views["eta"], 0)
+        assert kind == "ElementData" and len(tags) == quads
+        assert all(0.0 < d[0] <= 1.0 for d in data)
+    finally:
+        gmsh.finalize()
+    # the in-memory and array entry points write no file: the option is refused there
+    with pytest.raises(TypeError, match="unknown option 'quality_view'"):
+        blossomquad.quadrangulate(*grid(), quality_view=True)
+
+
 def test_recombine_file_errors_are_one_line_and_write_nothing(tmp_path):
     bad = tmp_path / "bad.msh"
     bad.write_text("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 2\n")
