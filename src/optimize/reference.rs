@@ -13,7 +13,7 @@ use glam::DVec3;
 use rayon::prelude::*;
 
 /// The reference triangulation of every surface of a triangle mesh, prepared for
-/// [`optimize_prepared`]: per surface its triangles on compact point indices, the nodal
+/// [`optimize_prepared`](super::optimize_prepared): per surface its triangles on compact point indices, the nodal
 /// sizes (mean incident edge length) and a triangle at each point. It depends on the
 /// triangle mesh only, so it can be built while the recombination runs (the CLI does).
 pub struct PreparedReference {

@@ -27,7 +27,7 @@
 //! - `check`: [`Solver::check_invariants`], what every phase keeps (tests call it).
 //!
 //! **Lazy duals.** When a node joins a tree its stored dual is offset by `−ε` (`+` node) or
-//! `+ε` (`−` node), `ε` being the dual change of its tree so far ([`Solver::off`]), so a dual
+//! `+ε` (`−` node), `ε` being the dual change of its tree so far (`Solver::off`), so a dual
 //! change costs O(1); dissolving the tree commits the current values.
 //!
 //! **Events.** A single-tree search keeps its events in one monotone radix heap
