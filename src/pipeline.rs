@@ -317,7 +317,7 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         // refinement splits every boundary segment once more: its output is the baseline.
         // speed: the two checks are independent, so they run side by side (an invariant
         // failure still comes first)
-        let checks = checks.get_or_insert_with(|| Checks::new(input, false));
+        let checks = checks.get_or_insert_with(|| Checks::new(input, opts.refine == 0));
         // after a refinement the refined mesh is the baseline of the invariants
         let refined_before = refined.as_ref().map(recombine::Before::new);
         let before = refined_before.as_ref().or(checks.invariants.as_ref());

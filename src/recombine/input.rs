@@ -25,7 +25,7 @@ use rayon::prelude::*;
 
 use super::RecombineError;
 use crate::keysort::{bits, bucket_sort, sort_by_prefix};
-use crate::mesh::{etype, Mesh};
+use crate::mesh::{etype, Mesh, TagCoords};
 
 /// Largest accepted coordinate magnitude of a surface element's node. Quality measures
 /// multiply up to four coordinate differences; beyond this they overflow to infinity.
@@ -92,8 +92,7 @@ pub(crate) fn check_tag_room(mesh: &Mesh) -> Result<(), RecombineError> {
 /// Checks every 3-node triangle and 4-node quad of every surface (see the module doc).
 /// Unknown nodes are left to the later stages, which name them.
 pub(crate) fn check_surface_elements(mesh: &Mesh) -> Result<(), RecombineError> {
-    let coords = crate::mesh::TagCoords::new(mesh);
-    let coord = |tag: u64| -> Option<V> { coords.get(tag) };
+    let coords = TagCoords::new(mesh);
     let mut surfaces: Vec<i32> = mesh
         .element_blocks
         .iter()
@@ -106,7 +105,7 @@ pub(crate) fn check_surface_elements(mesh: &Mesh) -> Result<(), RecombineError> 
     surfaces.dedup();
     surfaces
         .par_iter()
-        .map(|&s| check_surface(mesh, s, &coord))
+        .map(|&s| check_surface(mesh, s, &coords))
         .collect::<Result<Vec<()>, _>>()
         .map(|_| ())
 }
@@ -123,7 +122,7 @@ fn check_element(
     b: &crate::mesh::ElementBlock,
     i: usize,
     surface: i32,
-    coord: &(dyn Fn(u64) -> Option<V> + Sync),
+    coords: &TagCoords,
 ) -> Result<Option<FoldTri>, RecombineError> {
     let k = if b.element_type == etype::TRI3 { 3 } else { 4 };
     let nodes = &b.element(i)[..k];
@@ -142,7 +141,7 @@ fn check_element(
     }
     let mut p = [[0.0; 3]; 4];
     for (j, &v) in nodes.iter().enumerate() {
-        let Some(c) = coord(v) else {
+        let Some(c) = coords.get(v) else {
             // unknown node: reported by the topology stage
             return Ok(None);
         };
@@ -189,11 +188,7 @@ fn check_element(
     Ok(Some(([nodes[0], nodes[1], nodes[2]], tag, unit)))
 }
 
-fn check_surface(
-    mesh: &Mesh,
-    surface: i32,
-    coord: &(dyn Fn(u64) -> Option<V> + Sync),
-) -> Result<(), RecombineError> {
+fn check_surface(mesh: &Mesh, surface: i32, coords: &TagCoords) -> Result<(), RecombineError> {
     // triangles with their normals, for the fold check; elements checked by chunks in
     // parallel, the first refused one in block order reported
     let mut tris: Vec<FoldTri> = Vec::new();
@@ -208,7 +203,7 @@ fn check_surface(
             .map(|from| {
                 let mut out = Vec::new();
                 for i in from..(from + CHUNK).min(b.len()) {
-                    if let Some(t) = check_element(b, i, surface, coord)? {
+                    if let Some(t) = check_element(b, i, surface, coords)? {
                         out.push(t);
                     }
                 }
