@@ -21,7 +21,8 @@ pub(crate) struct SurfaceWork {
     pub n_regions: usize,
     /// Element tag of each triangle.
     pub elem_tags: Vec<u64>,
-    /// MSH 2 partition tags of each triangle, when its block had some.
+    /// MSH 2 partition tags of each triangle, when its block had some; empty when no
+    /// block of the surface has any.
     pub partitions: Vec<Option<Vec<i32>>>,
     /// Quads already on the surface.
     pub quads_kept: usize,
@@ -46,16 +47,26 @@ pub(super) fn surface_work(
         .map(|tag| {
             let t0 = Instant::now();
             let mut tm = StageTimer::new(trace, "topology", tag);
-            let mut tris = Vec::new();
-            let mut elem_tags = Vec::new();
-            let mut partitions = Vec::new();
-            for b in mesh.element_blocks.iter().filter(|b| {
-                b.element_type == etype::TRI3 && b.entity_dim == 2 && b.entity_tag == tag
-            }) {
+            let blocks = || {
+                mesh.element_blocks.iter().filter(|b| {
+                    b.element_type == etype::TRI3 && b.entity_dim == 2 && b.entity_tag == tag
+                })
+            };
+            // sized up front (no regrowth copies); partitions only when a block has some
+            let count: usize = blocks().map(|b| b.len()).sum();
+            let any_parts = blocks().any(|b| b.partitions.is_some());
+            let mut tris = Vec::with_capacity(count);
+            let mut elem_tags = Vec::with_capacity(count);
+            let mut partitions = Vec::with_capacity(if any_parts { count } else { 0 });
+            for b in blocks() {
                 for i in 0..b.len() {
                     tris.push(nodes.ids::<3>(b.element(i), 2, tag, b.tags[i])?);
-                    elem_tags.push(b.tags[i]);
-                    partitions.push(b.partitions.as_ref().and_then(|p| p.get(i).cloned()));
+                }
+                elem_tags.extend_from_slice(&b.tags);
+                if any_parts {
+                    partitions.extend(
+                        (0..b.len()).map(|i| b.partitions.as_ref().and_then(|p| p.get(i).cloned())),
+                    );
                 }
             }
             let quads_kept = mesh
