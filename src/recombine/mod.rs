@@ -10,10 +10,8 @@
 //!    link of dimension 2) is not recombined: after step 8 it gets the image of its master's
 //!    quads (`periodic.rs`); it is refused ([`RecombineError::PeriodicSurface`]) only when
 //!    its triangles are not the image of its master's.
-//! 2. **Topology** (per surface, in parallel). Nodes get dense global `u32` ids; a big
-//!    surface's triangles are renumbered along a Hilbert curve of their centroids (`renumber`:
-//!    internal only, everything that leaves the surface's work is in input numbering and
-//!    order); each surface's half-edges are sorted by `u64` edge key (an LSD radix sort of key and
+//! 2. **Topology** (per surface, in parallel). Nodes get dense global `u32` ids; each
+//!    surface's half-edges are sorted by `u64` edge key (an LSD radix sort of key and
 //!    half-edge packed in one `u64`; no hash maps). An edge shared by two triangles of the
 //!    surface is a *graph edge* unless it is a *wall*: it lies on a model curve, or the two
 //!    triangles are oriented inconsistently, or three or more triangles share it. "On a
