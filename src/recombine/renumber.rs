@@ -15,12 +15,8 @@ use rayon::prelude::*;
 /// Surfaces with fewer triangles keep the input numbering (their arrays fit in cache).
 pub(crate) const MIN_TRIANGLES: usize = 1 << 14;
 
-/// Bits per axis of the Hilbert grid over the bounding box of `n` triangles: two more than
-/// half of log2(n) (a grid of about 16 cells per triangle on a flat surface, finer than the
-/// triangles; ties keep input order), at most 16.
-fn grid_bits(n: usize) -> u32 {
-    (crate::keysort::bits(n as u64) / 2 + 2).clamp(4, 16)
-}
+/// Bits per axis of the Hilbert key (a 2^16 grid per axis over the bounding box).
+const BITS: u32 = 16;
 
 /// A permutation of a surface's triangles: `new → input` and `input → new`, or the identity
 /// (both empty).
@@ -104,8 +100,7 @@ pub(crate) fn hilbert_order(tris: &[[u32; 3]], coords: &[DVec3]) -> Renumbering 
     if !(ext > 0.0 && ext.is_finite()) {
         return Renumbering::default();
     }
-    let bits = grid_bits(tris.len());
-    let scale = ((1u64 << bits) - 1) as f64 / ext;
+    let scale = ((1u64 << BITS) - 1) as f64 / ext;
     let mut keyed: Vec<(u64, u32)> = tris
         .par_iter()
         .with_min_len(4096)
@@ -113,7 +108,7 @@ pub(crate) fn hilbert_order(tris: &[[u32; 3]], coords: &[DVec3]) -> Renumbering 
         .map(|(i, t)| {
             let c = (centroid(t) - lo) * scale;
             let q = |x: f64| if x.is_finite() { x.max(0.0) as u32 } else { 0 };
-            (hilbert_key([q(c.x), q(c.y), q(c.z)], bits), i as u32)
+            (hilbert_key([q(c.x), q(c.y), q(c.z)], BITS), i as u32)
         })
         .collect();
     crate::keysort::radix_sort_by_key(&mut keyed, |x| x.0);
