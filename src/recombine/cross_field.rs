@@ -177,11 +177,7 @@ pub(crate) fn smooth_cross_field(
     // b_t = Σ_{u fixed} s_tu z_u; r = b − A x0 computed as −(full operator applied to z)
     let mut r = vec![C::default(); n];
     let mut bnorm2 = 0.0;
-    // sums run in input order (`renum`), so the field does not depend on the internal
-    // numbering to the last bit
-    let renum = &topo.renum;
-    for i in 0..n as u32 {
-        let t = renum.new_of(i) as usize;
+    for t in 0..n {
         if fixed[t] {
             continue;
         }
@@ -191,15 +187,7 @@ pub(crate) fn smooth_cross_field(
     }
     let dot = |a: &[C], b: &[C]| -> f64 {
         // Re <a, b>; for the Hermitian system the needed products are real
-        if renum.is_identity() {
-            return a.iter().zip(b).map(|(x, y)| x.0 * y.0 + x.1 * y.1).sum();
-        }
-        (0..n as u32)
-            .map(|i| {
-                let t = renum.new_of(i) as usize;
-                a[t].0 * b[t].0 + a[t].1 * b[t].1
-            })
-            .sum()
+        a.iter().zip(b).map(|(x, y)| x.0 * y.0 + x.1 * y.1).sum()
     };
     let mut p = r.clone();
     let mut ap = vec![C::default(); n];
@@ -265,16 +253,13 @@ pub(crate) fn boundary_cross_field(
         .collect();
     let unit_n = |t: usize| unit[t];
     let project = |d: DVec3, nrm: DVec3| (d - nrm * d.dot(nrm)).normalize_or_zero();
-    // seeds in input order, so the search reaches each triangle from the same neighbour
-    // whatever the internal numbering
-    for i in 0..n as u32 {
-        let t = topo.renum.new_of(i) as usize;
+    for (t, dir) in t1.iter_mut().enumerate() {
         for k in 0..3 {
             if topo.nbr[3 * t + k] == NONE {
                 let (a, b) = (topo.tris[t][k], topo.tris[t][(k + 1) % 3]);
                 let d = project(coords[b as usize] - coords[a as usize], unit_n(t));
                 if d != DVec3::ZERO {
-                    t1[t] = d;
+                    *dir = d;
                     queue.push_back(t as u32);
                     break;
                 }
@@ -282,15 +267,14 @@ pub(crate) fn boundary_cross_field(
         }
     }
     if queue.is_empty() && n > 0 {
-        let first = topo.renum.new_of(0);
-        let nrm = unit_n(first as usize);
+        let nrm = unit_n(0);
         let d = project(DVec3::X, nrm);
-        t1[first as usize] = if d == DVec3::ZERO {
+        t1[0] = if d == DVec3::ZERO {
             project(DVec3::Y, nrm)
         } else {
             d
         };
-        queue.push_back(first);
+        queue.push_back(0);
     }
     // speed: "t1 is set" (non-zero) as a bitmap, which stays in cache (t1 does not)
     let mut set = NodeSet::with_len(n);
@@ -371,14 +355,7 @@ mod tests {
                 }
             }
         }
-        (
-            SurfaceTopo {
-                tris,
-                nbr,
-                renum: Default::default(),
-            },
-            coords,
-        )
+        (SurfaceTopo { tris, nbr }, coords)
     }
 
     /// Angle of the cross of every triangle in `[0, π/2)` (planar meshes in the xy plane).

@@ -7,7 +7,6 @@ use rayon::prelude::*;
 use super::cross_field::{boundary_cross_field, cross_cost, smooth_cross_field, CrossField};
 use super::fan::{duplication_margin, fans, Fan};
 use super::geometry::{has_hopeless_corner, merged_quad, triangle_normals, NodeSet};
-use super::renumber::Renumbering;
 use super::topology::{SurfaceTopo, NONE};
 use crate::quality::eta_signed_fast;
 
@@ -121,36 +120,12 @@ pub(crate) fn wall_nodes(topo: &SurfaceTopo) -> Vec<u32> {
 
 /// The matching graph of one surface.
 pub(crate) struct Graph {
-    /// `(t, t', cost)` with `t < t'` the triangles' input positions (not the numbers of
-    /// [`SurfaceTopo::tris`] when they are renumbered): real graph edges first (`real` of
-    /// them, by `t` then local edge of `t`), then extra edges (by `(t, t')`).
+    /// `(t, t', cost)`: real graph edges first (`real` of them), then extra edges.
     pub edges: Vec<(u32, u32, i64)>,
     /// Number of real graph edges at the front of `edges`.
     pub real: usize,
-    /// For extra edge `real + i`, the fan it joins the ends of (triangles numbered as in
-    /// [`SurfaceTopo::tris`]).
+    /// For extra edge `real + i`, the fan it joins the ends of.
     pub extra_fans: Vec<Fan>,
-}
-
-/// Turns the real edges `(3t + k, u, cost)` (`t`, `u` numbered as in [`SurfaceTopo::tris`],
-/// in `t` order) into `(input position of t, input position of u, cost)` ordered by the
-/// input position of `t`, then `k`: the edge list the surface had without renumbering.
-fn in_input_order(edges: &mut Vec<(u32, u32, i64)>, renum: &Renumbering) {
-    if renum.is_identity() {
-        for e in edges.iter_mut() {
-            e.0 /= 3;
-        }
-        return;
-    }
-    edges.par_iter_mut().with_min_len(4096).for_each(|e| {
-        let (t, k) = (e.0 / 3, e.0 % 3);
-        e.0 = 3 * renum.orig(t) + k;
-        e.1 = renum.orig(e.1);
-    });
-    crate::keysort::radix_sort_by_key(edges, |e| e.0 as u64);
-    for e in edges.iter_mut() {
-        e.0 /= 3;
-    }
 }
 
 /// Builds the graph: one edge per graph edge with its cost (eq. 4), plus one extra edge per
@@ -187,16 +162,13 @@ pub(crate) fn build(
     };
     let field = &field;
     tm.lap("cross field");
-    // each edge is costed from the triangle that comes first in input order (as without
-    // the renumbering: the quad's corners are then visited in the same order)
-    let renum = &topo.renum;
     let mut edges: Vec<(u32, u32, i64)> = (0..n)
         .into_par_iter()
         .with_min_len(4096)
         .flat_map_iter(|t| {
             (0..3).filter_map(move |k| {
                 let u = topo.nbr[3 * t + k];
-                (u != NONE && renum.orig(t as u32) < renum.orig(u)).then(|| {
+                (u != NONE && (t as u32) < u).then(|| {
                     let mut c =
                         edge_cost(topo, coords, normals, walls, split_nodes, split_cost, t, k);
                     if cross_w > 0.0 && c <= 2 * COST_SCALE {
@@ -207,12 +179,11 @@ pub(crate) fn build(
                         c += (COST_SCALE as f64 * cross_w * wt * cross_cost(e, field.t1[t], nrm))
                             .round() as i64;
                     }
-                    (3 * t as u32 + k as u32, u, c)
+                    (t as u32, u, c)
                 })
             })
         })
         .collect();
-    in_input_order(&mut edges, renum);
     let real = edges.len();
     tm.lap("edges");
     let mut extra_fans = Vec::new();
@@ -223,17 +194,11 @@ pub(crate) fn build(
             .filter_map(|fan| {
                 let (a, b) = (fan.tris[0], fan.tris[fan.tris.len() - 1]);
                 let adjacent = (0..3).any(|k| topo.nbr[3 * a as usize + k] == b);
-                let (a, b) = (renum.orig(a), renum.orig(b));
                 (a != b && !adjacent).then_some(((a.min(b), a.max(b)), fan))
             })
             .collect();
-        // one extra edge per pair of end triangles (the first fan found in input order is
-        // kept: fans start at their first triangle's corner at `v`)
-        ends.sort_by_key(|(ab, fan)| {
-            let t = fan.tris[0];
-            let corner = topo.tris[t as usize].iter().position(|&x| x == fan.v);
-            (*ab, renum.orig(t), corner)
-        });
+        // one extra edge per pair of end triangles (stable: the first fan found is kept)
+        ends.sort_by_key(|e| e.0);
         ends.dedup_by_key(|e| e.0);
         let costs: Vec<i64> = ends
             .par_iter()

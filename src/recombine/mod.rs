@@ -162,7 +162,6 @@ mod invariants;
 mod parity;
 mod periodic;
 mod post;
-mod renumber;
 mod surface;
 mod topology;
 mod write_back;

@@ -24,7 +24,7 @@ pub(crate) struct NewNode {
 pub(crate) struct Faces {
     /// Quads as node ids: global ids, or `n_global + j` for `new_nodes[j]`.
     pub quads: Vec<[u32; 4]>,
-    /// For each quad, the input position of the triangle whose element tag it reuses.
+    /// For each quad, the triangle whose element tag it reuses.
     pub source: Vec<u32>,
     /// Nodes created by vertex duplication.
     pub new_nodes: Vec<NewNode>,
@@ -57,8 +57,7 @@ fn merge(a: &[u32], b: &[u32]) -> Option<Vec<u32>> {
     None
 }
 
-/// Builds the quads from the matching `mate` (a perfect matching of `graph`, indexed and
-/// valued by the numbers of `topo.tris`).
+/// Builds the quads from the matching `mate` (a perfect matching of `graph`).
 pub(crate) fn build_faces(
     topo: &SurfaceTopo,
     graph: &Graph,
@@ -71,23 +70,19 @@ pub(crate) fn build_faces(
     let mut source: Vec<u32> = Vec::with_capacity(n / 2 + 8);
     let mut alive: Vec<bool> = Vec::with_capacity(n / 2 + 8);
     let mut tri_face = vec![NONE; n];
-    let renum = &topo.renum;
-    // triangles in input order, so the quads come out in the order (and with the source
-    // triangles) they have without the renumbering
-    for i in 0..n as u32 {
-        let t = renum.new_of(i) as usize;
+    for t in 0..n {
         if tri_face[t] != NONE {
             continue;
         }
         let m = mate[t];
         if m as usize >= n {
-            return Err(format!("triangle {i} is unmatched"));
+            return Err(format!("triangle {t} is unmatched"));
         }
         if let Some(k) = (0..3).find(|&k| topo.nbr[3 * t + k] == m) {
             tri_face[t] = faces.len() as u32;
             tri_face[m as usize] = faces.len() as u32;
             faces.push(merged_quad(topo, t, k).to_vec());
-            source.push(i);
+            source.push(t as u32);
             alive.push(true);
         }
     }
@@ -100,20 +95,15 @@ pub(crate) fn build_faces(
             for t in [a, b] {
                 tri_face[t as usize] = faces.len() as u32;
                 faces.push(topo.tris[t as usize].to_vec());
-                source.push(renum.orig(t));
+                source.push(t);
                 alive.push(true);
             }
         }
     }
     if let Some(t) = tri_face.iter().position(|&f| f == NONE) {
         return Err(format!(
-            "triangle {} is matched to {} through no graph edge",
-            renum.orig(t as u32),
-            if (mate[t] as usize) < n {
-                renum.orig(mate[t])
-            } else {
-                mate[t]
-            }
+            "triangle {t} is matched to {} through no graph edge",
+            mate[t]
         ));
     }
     let mut out = Faces {

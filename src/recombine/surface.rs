@@ -140,26 +140,7 @@ pub(super) fn match_surface(
     }
     let time_matching = t1.elapsed();
     let t2 = Instant::now();
-    // the matching is in input positions (the graph's numbering); post-processing works on
-    // the renumbered triangles
-    let renum = &w.topo.renum;
-    let mate: Vec<u32> = if renum.is_identity() {
-        m.mate.clone()
-    } else {
-        (0..n as u32)
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|t| {
-                let x = m.mate[renum.orig(t) as usize];
-                if (x as usize) < n {
-                    renum.new_of(x)
-                } else {
-                    x
-                }
-            })
-            .collect()
-    };
-    let faces = post::build_faces(&w.topo, &g, &mate, coords, n_global).map_err(|detail| {
+    let faces = post::build_faces(&w.topo, &g, &m.mate, coords, n_global).map_err(|detail| {
         RecombineError::PostProcess {
             surface: w.tag,
             detail,

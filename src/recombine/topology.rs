@@ -8,7 +8,6 @@ use crate::mesh::{etype, Mesh};
 use glam::DVec3;
 use rayon::prelude::*;
 
-use super::renumber::Renumbering;
 use super::RecombineError;
 
 /// Sentinel for "no triangle / no node".
@@ -316,22 +315,16 @@ pub(crate) fn sorted_half_edges(tris: &[[u32; 3]]) -> SortedHalves {
 
 /// One surface's triangles and their adjacency.
 pub(crate) struct SurfaceTopo {
-    /// Triangles as global node ids, in the order of `renum` (Hilbert order of their
-    /// centroids on big surfaces, else input order).
+    /// Triangles as global node ids, in input order.
     pub tris: Vec<[u32; 3]>,
     /// `nbr[3t + k]`: the triangle across local edge `k` (`tris[t][k] → tris[t][k+1]`) when
     /// that edge is a graph edge, else [`NONE`].
     pub nbr: Vec<u32>,
-    /// Triangle numbers against input positions (the identity on small surfaces).
-    pub renum: Renumbering,
 }
 
 impl SurfaceTopo {
-    /// Renumbers `tris` (in input order) along the Hilbert curve when the surface is big
-    /// ([`super::renumber::hilbert_order`]), then builds their adjacency.
+    /// Builds the adjacency of `tris`.
     pub fn new(tris: Vec<[u32; 3]>, nodes: &NodeTable, curves: &CurveInfo) -> Self {
-        let renum = super::renumber::hilbert_order(&tris, &nodes.coords);
-        let tris = renum.apply(tris);
         let n = tris.len();
         let keys = sorted_half_edges(&tris);
         // bare curves that carry a boundary edge of this surface bound it: their segments
@@ -375,7 +368,7 @@ impl SurfaceTopo {
                 }
             }
         });
-        SurfaceTopo { tris, nbr, renum }
+        SurfaceTopo { tris, nbr }
     }
 
     /// Number of triangles.
@@ -386,32 +379,15 @@ impl SurfaceTopo {
     /// Connected components of the graph (graph edges only): component id per triangle and
     /// the number of components.
     ///
-    /// Components are numbered in the order of their first triangle in input order. Large surfaces join the
+    /// Components are numbered in the order of their first triangle. Large surfaces join the
     /// triangles across graph edges in parallel (a union-find whose root is always the
     /// smallest triangle of its tree, so each root is its component's first triangle).
     pub fn regions(&self) -> (Vec<u32>, usize) {
         let n = self.len();
-        let (mut id, count) = if n >= PARALLEL_REGIONS {
-            self.regions_parallel()
-        } else {
-            self.regions_serial()
-        };
-        if !self.renum.is_identity() && count > 1 {
-            // number the components in input order, as without the renumbering
-            let mut label = vec![NONE; count];
-            let mut next = 0u32;
-            for i in 0..n as u32 {
-                let r = &mut label[id[self.renum.new_of(i) as usize] as usize];
-                if *r == NONE {
-                    *r = next;
-                    next += 1;
-                }
-            }
-            for r in id.iter_mut() {
-                *r = label[*r as usize];
-            }
+        if n >= PARALLEL_REGIONS {
+            return self.regions_parallel();
         }
-        (id, count)
+        self.regions_serial()
     }
 
     /// [`SurfaceTopo::regions`] by one depth-first search (the numbering the parallel version
@@ -536,11 +512,7 @@ mod tests {
             nbr[3 * t] = (n - 1 - t) as u32;
             nbr[3 * (n - 1 - t)] = t as u32;
         }
-        let topo = SurfaceTopo {
-            tris,
-            nbr,
-            renum: Renumbering::default(),
-        };
+        let topo = SurfaceTopo { tris, nbr };
         let (par, count) = topo.regions_parallel();
         let (id, c) = topo.regions_serial();
         assert!(count > 100, "{count}");
