@@ -71,10 +71,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::mesh::NodeTable;
 use crate::mesh::{element_dim, element_node_count, etype, ElementBlock, Mesh, NodeBlock};
 use crate::pipeline::{Error, Options, Report};
 use crate::quality::locate::TriSurface;
-use crate::quality::FlatNodes;
 use crate::recombine::RecombineError;
 
 /// Hasher of the maps below, whose keys are node tags, tag pairs and entity tags: a
@@ -469,7 +469,7 @@ impl SurfaceGeometry {
 struct Geometry<'a> {
     input: &'a Mesh,
     /// Every input node (coordinates by tag).
-    nodes: FlatNodes,
+    nodes: NodeTable,
     /// Input edge (sorted corner tags) -> its mid-edge node.
     mid: FastMap<(u64, u64), u64>,
     /// Input 9-node quad (sorted corner tags) -> its face node.
@@ -500,7 +500,7 @@ impl<'a> Geometry<'a> {
     }
 
     fn new(input: &'a Mesh) -> Geometry<'a> {
-        let nodes = FlatNodes::new(input);
+        let nodes = NodeTable::new(input);
         let coords = &nodes;
         let mut mid = FastMap::default();
         let mut face = FastMap::default();
@@ -671,7 +671,7 @@ pub fn elevate(
     }
     let geo = Geometry::new(input);
     // the linear job's nodes (flat positions)
-    let flat = FlatNodes::new(&out);
+    let flat = NodeTable::new(&out);
     let pos = |t: u64| flat.at(t).unwrap_or(DVec3::ZERO);
     let moved = |t: u64| geo.at(t).is_none_or(|c| Some(c) != flat.at(t));
 

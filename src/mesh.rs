@@ -11,7 +11,10 @@
 //!
 //! **Invariant:** this module does no I/O; only `msh` and the CLI touch files.
 
-use std::collections::HashMap;
+mod nodes;
+
+pub use nodes::{NodeIndex, NodeRef};
+pub(crate) use nodes::{NodeTable, TagCoords};
 
 /// Sentinel for "no index" in the crate's `u32` index arrays (no node, no triangle, no
 /// neighbour); `matching` has its own of the same value.
@@ -312,101 +315,6 @@ impl Mesh {
             self.warnings.push(format!(
                 "dropped {dropped} $ElementData/$ElementNodeData section(s): elements changed, their values no longer apply"
             ));
-        }
-    }
-}
-
-/// Position of a node in the model: block index and index inside the block.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct NodeRef {
-    /// Index into [`Mesh::node_blocks`].
-    pub block: u32,
-    /// Index inside the block.
-    pub index: u32,
-}
-
-/// Lookup from node tag to its position, dense when tags are compact, hashed otherwise.
-#[derive(Debug, Clone)]
-pub struct NodeIndex {
-    dense: Vec<Option<NodeRef>>,
-    sparse: HashMap<u64, NodeRef>,
-}
-
-impl NodeIndex {
-    /// Builds the index for all nodes of `mesh`. Later duplicates of a tag win.
-    pub fn new(mesh: &Mesh) -> Self {
-        let n = mesh.node_count();
-        let max = mesh.max_node_tag();
-        let use_dense = max <= (4 * n as u64).max(1024);
-        let mut dense = Vec::new();
-        let mut sparse = HashMap::new();
-        if use_dense {
-            dense = vec![None; max as usize + 1];
-        }
-        for (bi, b) in mesh.node_blocks.iter().enumerate() {
-            for (i, &t) in b.tags.iter().enumerate() {
-                let r = NodeRef {
-                    block: bi as u32,
-                    index: i as u32,
-                };
-                if use_dense {
-                    dense[t as usize] = Some(r);
-                } else {
-                    sparse.insert(t, r);
-                }
-            }
-        }
-        NodeIndex { dense, sparse }
-    }
-
-    /// Where node `tag` lives, if it exists.
-    pub fn get(&self, tag: u64) -> Option<NodeRef> {
-        if self.dense.is_empty() {
-            self.sparse.get(&tag).copied()
-        } else {
-            self.dense.get(tag as usize).copied().flatten()
-        }
-    }
-}
-
-/// Node coordinates by tag, for lookups in element order: one memory access per node where
-/// tags are compact (a table indexed by tag), else through a [`NodeIndex`]. Checkers that
-/// visit every element use it: elements name their nodes in no spatial order, so each
-/// lookup is a cache miss, and a table of coordinates makes it one instead of two.
-pub(crate) enum TagCoords<'m> {
-    Dense(Vec<Option<[f64; 3]>>),
-    Indexed(&'m Mesh, NodeIndex),
-}
-
-impl<'m> TagCoords<'m> {
-    /// The coordinates of `mesh`'s nodes by tag (later duplicates of a tag win).
-    pub(crate) fn new(mesh: &'m Mesh) -> Self {
-        let n = mesh.node_count();
-        let max = mesh.max_node_tag();
-        if max > (4 * n as u64).max(1024) {
-            return TagCoords::Indexed(mesh, mesh.node_index());
-        }
-        let mut dense = vec![None; max as usize + 1];
-        for b in &mesh.node_blocks {
-            for (&t, c) in b.tags.iter().zip(&b.coords) {
-                dense[t as usize] = Some(*c);
-            }
-        }
-        TagCoords::Dense(dense)
-    }
-
-    /// The coordinates of node `tag`, if it exists.
-    #[inline]
-    pub(crate) fn get(&self, tag: u64) -> Option<[f64; 3]> {
-        match self {
-            TagCoords::Dense(d) => d.get(tag as usize).copied().flatten(),
-            TagCoords::Indexed(m, index) => index.get(tag).and_then(|r| {
-                m.node_blocks
-                    .get(r.block as usize)?
-                    .coords
-                    .get(r.index as usize)
-                    .copied()
-            }),
         }
     }
 }

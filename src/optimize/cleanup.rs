@@ -664,14 +664,14 @@ pub(crate) fn cleanup(
 pub(crate) mod tests {
     use super::*;
     use crate::mesh::Mesh;
+    use crate::mesh::NodeTable;
     use crate::optimize::extract::{extract, node_owners, write_back, PendingNodes};
     use crate::optimize::synth::{self, Soup};
     use crate::optimize::OptimizeReport;
-    use crate::quality::FlatNodes;
 
     /// The single surface of `m` as a [`Local`], with its node → quads adjacency.
-    pub(crate) fn local_of(m: &Mesh) -> (FlatNodes, Local) {
-        let flat = FlatNodes::new(m);
+    pub(crate) fn local_of(m: &Mesh) -> (NodeTable, Local) {
+        let flat = NodeTable::new(m);
         let owner = node_owners(m, &flat, &[1]).expect("owners");
         let mut scratch = vec![crate::optimize::local::NONE; flat.coords.len()];
         let mut l = extract(m, &flat, &owner, (0, 1), &mut scratch).expect("extract");

@@ -32,7 +32,7 @@ pub(crate) struct Local {
     pub removed: Vec<bool>,
     /// Reference triangle each node lies on (projection hint), [`NONE`] if unknown.
     pub tri: Vec<u32>,
-    /// Flat node index in the mesh (see `quality::FlatNodes`).
+    /// Node id in the mesh (see `mesh::NodeTable`).
     pub global: Vec<u32>,
     /// Node tags.
     pub tags: Vec<u64>,

@@ -70,9 +70,9 @@ pub mod check;
 pub use local::Stats;
 pub use reference::PreparedReference;
 
+use crate::mesh::NodeTable;
 use crate::mesh::{etype, DataKind, Mesh};
 use crate::profile::StageTimer;
-use crate::quality::FlatNodes;
 use extract::{extract, node_owners, write_back, PendingNodes};
 use local::{Local, NONE};
 use reference::{attach_reference, SurfaceReference};
@@ -233,7 +233,7 @@ pub fn optimize_prepared(
     opts: &OptimizeOptions,
 ) -> Result<OptimizeReport, OptimizeError> {
     let mut tm = StageTimer::new(opts.trace, "optimize setup", 0);
-    let flat = FlatNodes::new(mesh);
+    let flat = NodeTable::new(mesh);
     tm.lap("flat");
     let surfaces = surface_tags(mesh, etype::QUAD4);
     let owner = node_owners(mesh, &flat, &surfaces)?;

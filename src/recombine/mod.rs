@@ -170,11 +170,11 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use crate::mesh::{element_dim, etype, ElementBlock, Mesh};
+use crate::mesh::{element_dim, etype, ElementBlock, Mesh, NodeTable};
 use crate::profile::StageTimer;
 pub(crate) use surface::SurfaceWork;
 use surface::{match_surface, surface_work, SurfaceResult};
-use topology::{CurveInfo, NodeTable};
+use topology::CurveInfo;
 use write_back::write_back;
 
 pub use fallback::{split_triangles, FallbackSplit};

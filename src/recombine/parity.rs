@@ -5,9 +5,9 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
-use super::topology::{edge_key, NodeTable, NONE};
+use super::topology::{edge_key, NONE};
 use super::{ParitySplit, RecombineError, SurfaceWork};
-use crate::mesh::{etype, Mesh, NodeBlock};
+use crate::mesh::{etype, Mesh, NodeBlock, NodeTable};
 
 /// One odd triangle region.
 #[derive(Debug, Clone, PartialEq, Eq)]

@@ -7,10 +7,10 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 
 use super::surface_tags;
-use super::topology::{CurveInfo, NodeTable, SurfaceTopo};
+use super::topology::{CurveInfo, SurfaceTopo};
 use super::{graph, post};
 use super::{RecombineError, RecombineOptions, SurfaceReport};
-use crate::mesh::{etype, Mesh};
+use crate::mesh::{etype, Mesh, NodeTable};
 use crate::profile::{StageTimer, Trace, TraceEvent};
 
 /// Triangles of one surface, ready for parity analysis and matching.
@@ -53,7 +53,14 @@ pub(super) fn surface_work(
                 b.element_type == etype::TRI3 && b.entity_dim == 2 && b.entity_tag == tag
             }) {
                 for i in 0..b.len() {
-                    tris.push(nodes.ids::<3>(b.element(i), 2, tag, b.tags[i])?);
+                    tris.push(nodes.ids::<3>(b.element(i)).map_err(|node| {
+                        RecombineError::UnknownNode {
+                            dim: 2,
+                            entity: tag,
+                            element: b.tags[i],
+                            node,
+                        }
+                    })?);
                     elem_tags.push(b.tags[i]);
                     partitions.push(b.partitions.as_ref().and_then(|p| p.get(i).cloned()));
                 }
