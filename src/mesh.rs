@@ -152,6 +152,12 @@ impl ElementBlock {
         let k = self.nodes_per_element();
         &self.nodes[i * k..(i + 1) * k]
     }
+    /// True for a block of 3-node triangles or 4-node quads on a surface (entity dimension
+    /// 2): the faces recombination, its checks and the periodic mapping work on.
+    pub(crate) fn is_linear_face(&self) -> bool {
+        self.entity_dim == 2
+            && (self.element_type == etype::TRI3 || self.element_type == etype::QUAD4)
+    }
 }
 
 /// One `$Periodic` link: the nodes of entity (`dim`, `tag`) are images of those of `master_tag`.
@@ -290,6 +296,20 @@ impl Mesh {
             .flat_map(|b| b.tags.iter().copied())
             .max()
             .unwrap_or(0)
+    }
+
+    /// The tags of the surfaces (entity dimension 2) having an element block for which `keep`
+    /// holds, sorted and without repeats.
+    pub(crate) fn sorted_surfaces(&self, keep: impl Fn(&ElementBlock) -> bool) -> Vec<i32> {
+        let mut tags: Vec<i32> = self
+            .element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 2 && keep(b))
+            .map(|b| b.entity_tag)
+            .collect();
+        tags.sort_unstable();
+        tags.dedup();
+        tags
     }
 
     /// A map from node tag to coordinates, for stages that look nodes up by tag.

@@ -144,15 +144,8 @@ impl<'a> Reference<'a> {
     /// Prepares the check against `input`.
     pub fn new(input: &'a Mesh) -> Self {
         let coords = TagCoords::new(input);
-        let mut tags: Vec<i32> = input
-            .element_blocks
-            .iter()
-            .filter(|b| is_face_block(b, None))
-            .map(|b| b.entity_tag)
-            .collect();
-        tags.sort_unstable();
-        tags.dedup();
-        let surfaces = tags
+        let surfaces = input
+            .sorted_surfaces(|b| b.is_linear_face())
             .par_iter()
             .map(|&s| (s, SurfaceReference::new(input, &coords, s)))
             .collect();
@@ -168,15 +161,8 @@ impl<'a> Reference<'a> {
         let out_coords = TagCoords::new(output);
         let extent = extent(output);
         let min_edge = MIN_EDGE * extent;
-        let mut surfaces: Vec<i32> = output
-            .element_blocks
-            .iter()
-            .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4 && !b.is_empty())
-            .map(|b| b.entity_tag)
-            .collect();
-        surfaces.sort_unstable();
-        surfaces.dedup();
-        surfaces
+        output
+            .sorted_surfaces(|b| b.element_type == etype::QUAD4 && !b.is_empty())
             .par_iter()
             .flat_map_iter(|&s| {
                 // a surface the input has no face of: no normal, no nearest face
@@ -229,13 +215,6 @@ impl SurfaceReference {
             nearest: std::sync::OnceLock::new(),
         }
     }
-}
-
-/// A block of 3-node triangles or 4-node quads on a surface (`s`, or any with `None`).
-fn is_face_block(b: &crate::mesh::ElementBlock, s: Option<i32>) -> bool {
-    b.entity_dim == 2
-        && s.is_none_or(|s| b.entity_tag == s)
-        && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
 }
 
 /// The diagonal of the bounding box of all nodes (1 for an empty mesh).
@@ -303,7 +282,7 @@ fn input_faces(input: &Mesh, coords: &TagCoords, s: i32) -> Vec<Face> {
     for b in input
         .element_blocks
         .iter()
-        .filter(|b| is_face_block(b, Some(s)))
+        .filter(|b| b.entity_tag == s && b.is_linear_face())
     {
         let k = b.nodes_per_element();
         for i in 0..b.len() {
@@ -326,7 +305,7 @@ fn input_normals(input: &Mesh, coords: &TagCoords, s: i32) -> Normals {
         input
             .element_blocks
             .iter()
-            .filter(|b| is_face_block(b, Some(s)))
+            .filter(|b| b.entity_tag == s && b.is_linear_face())
     };
     // each face's twice vector area, computed in parallel (`None`: a node is unknown, the
     // face does not count), then added at its nodes in face order (the same sums as one

@@ -214,16 +214,14 @@ pub fn optimize(
     optimize_prepared(mesh, PreparedReference::new(reference), opts)
 }
 /// The surfaces of `mesh` with elements of type `element_type`, in increasing tag order.
+///
+/// Sorted because surfaces are found by binary search: a node's owning surface
+/// (`extract::node_owners`) and each quad surface's reference triangles (the prepared
+/// reference is listed by the same order). The order does not reach the output: every
+/// surface writes back into its own blocks, whatever the order. (Recombination's list keeps
+/// file order instead, see `recombine`.)
 pub(super) fn surface_tags(mesh: &Mesh, element_type: u32) -> Vec<i32> {
-    let mut tags: Vec<i32> = mesh
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == element_type && !b.is_empty())
-        .map(|b| b.entity_tag)
-        .collect();
-    tags.sort_unstable();
-    tags.dedup();
-    tags
+    mesh.sorted_surfaces(|b| b.element_type == element_type && !b.is_empty())
 }
 /// [`optimize`] with the reference triangulation already prepared (from the triangle mesh
 /// before recombination).

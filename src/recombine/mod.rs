@@ -774,7 +774,13 @@ fn check_input(
     Ok(())
 }
 
-/// Surface tags with 3-node triangles, in first-appearance order.
+/// Surface tags with 3-node triangles, in first-appearance order (the order of the element
+/// blocks in the file), periodic slaves left out.
+///
+/// The order is part of the output: `write_back` gives the surfaces' new nodes (vertex
+/// duplications) their tags in this order, so sorting it (as `optimize` does) would
+/// renumber nodes of the written mesh. Periodic slaves are not recombined: they get the
+/// image of their master's quads (`periodic`).
 fn surface_tags(mesh: &Mesh) -> Vec<i32> {
     // periodic slaves are not recombined: they get the image of their master
     let slaves = periodic::slave_surfaces(mesh);
@@ -817,15 +823,7 @@ fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
         msg.push_str(&format!(
             "  surface {}{}: {} triangles\n",
             o.surface,
-            if o.region.1 > 1 {
-                format!(
-                    " (region {} of {}, separated by embedded curves)",
-                    o.region.0 + 1,
-                    o.region.1
-                )
-            } else {
-                String::new()
-            },
+            parity::region_note(o),
             o.triangles
         ));
     }
