@@ -12,6 +12,8 @@
 //! **Invariant:** this module does no I/O; only `msh` and the CLI touch files.
 
 mod nodes;
+#[cfg(test)]
+pub(crate) mod testing;
 
 pub use nodes::{NodeIndex, NodeRef};
 pub(crate) use nodes::{NodeTable, TagCoords};

@@ -531,26 +531,11 @@ fn check_quad<'n>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{ElementBlock, NodeBlock};
+    use crate::mesh::testing::{node_block, one_surface};
 
     fn mesh(coords: &[[f64; 3]], etype_: u32, elems: &[&[u64]]) -> Mesh {
-        let mut m = Mesh::default();
-        m.node_blocks.push(NodeBlock {
-            entity_dim: 2,
-            entity_tag: 1,
-            tags: (1..=coords.len() as u64).collect(),
-            coords: coords.to_vec(),
-            params: None,
-        });
-        m.element_blocks.push(ElementBlock {
-            entity_dim: 2,
-            entity_tag: 1,
-            element_type: etype_,
-            tags: (1..=elems.len() as u64).collect(),
-            nodes: elems.iter().flat_map(|e| e.iter().copied()).collect(),
-            partitions: None,
-        });
-        m
+        let tags = (1..=coords.len() as u64).collect();
+        one_surface(vec![node_block(2, tags, coords.to_vec())], etype_, elems)
     }
 
     const SQUARE: [[f64; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];
