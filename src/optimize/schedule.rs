@@ -36,25 +36,25 @@ pub(super) fn run_surface(
     // the state before the topology rounds, for the unsheared schedule
     let mut unsheared = (small_planar && opts.topology).then(|| (l.clone(), ops, gate.clone()));
     let mut ticks = 1;
-    if small_planar {
-        // quality: small planar surfaces try three schedules and keep the best (see
-        // `better` and the module docs): finishing with square targets (β = 0), with the
-        // aspect-keeping solve, and topology rounds each followed by a conformal solve.
-        // speed: the schedules are independent, so they run side by side (each is
-        // deterministic, so the kept one does not depend on the thread count)
-        let mut plain_ops = ops;
-        let (mut plain, ()) = rayon::join(
-            || {
-                if opts.topology {
-                    ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
-                }
-                // the square finish starts from the state after the topology rounds
-                plain_ops = ops;
-                let mut plain = l.clone();
-                let mut plain_gate = gate.clone();
-                let mut tp = StageTimer::new(opts.trace, "optimize (square finish)", l.surface);
-                rayon::join(
-                    || {
+    // quality: small planar surfaces try three schedules and keep the best (see `better` and
+    // the module docs): after the topology rounds, finishing with square targets (β = 0)
+    // beside the aspect-keeping finish, and topology rounds each followed by a conformal
+    // solve. Other surfaces run the aspect-keeping one alone.
+    // speed: the schedules are independent, so they run side by side (each is
+    // deterministic, so the kept one does not depend on the thread count)
+    let mut square: Option<(Local, OperationCounts)> = None;
+    rayon::join(
+        || {
+            if opts.topology {
+                ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
+            }
+            // the square finish starts from the state after the topology rounds
+            let fork = small_planar.then(|| (l.clone(), ops, gate.clone()));
+            rayon::join(
+                || {
+                    if let Some((mut plain, mut plain_ops, mut plain_gate)) = fork {
+                        let mut tp =
+                            StageTimer::new(opts.trace, "optimize (square finish)", plain.surface);
                         finish(
                             &mut plain,
                             opts,
@@ -62,32 +62,27 @@ pub(super) fn run_surface(
                             &mut tp,
                             0.0,
                             &mut plain_gate,
-                        )
-                    },
-                    || {
-                        finish(
-                            l,
-                            opts,
-                            &mut ops,
-                            &mut tm,
-                            conformal::KEEP_ASPECT,
-                            &mut gate,
-                        )
-                    },
-                );
-                tp.done();
-                plain
-            },
-            || {
-                if let Some((u, u_ops, u_gate)) = unsheared.as_mut() {
-                    let mut tu =
-                        StageTimer::new(opts.trace, "optimize (conformal rounds)", u.surface);
-                    topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
-                    finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT, u_gate);
-                    tu.done();
-                }
-            },
-        );
+                        );
+                        tp.done();
+                        square = Some((plain, plain_ops));
+                    }
+                },
+                || {
+                    let keep = conformal::KEEP_ASPECT;
+                    finish(l, opts, &mut ops, &mut tm, keep, &mut gate)
+                },
+            );
+        },
+        || {
+            if let Some((u, u_ops, u_gate)) = unsheared.as_mut() {
+                let mut tu = StageTimer::new(opts.trace, "optimize (conformal rounds)", u.surface);
+                topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
+                finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT, u_gate);
+                tu.done();
+            }
+        },
+    );
+    if let Some((mut plain, plain_ops)) = square {
         let base = (plain.stats(), plain.tau_estimate());
         let mut best = (l.stats(), l.tau_estimate());
         if !better(&best, &base) {
@@ -102,18 +97,6 @@ pub(super) fn run_surface(
                 ops = *u_ops;
             }
         }
-    } else {
-        if opts.topology {
-            ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
-        }
-        finish(
-            l,
-            opts,
-            &mut ops,
-            &mut tm,
-            conformal::KEEP_ASPECT,
-            &mut gate,
-        );
     }
     // validity: every schedule ends in a state its gate passed; check the kept one against
     // the start (rolls back to the start, the matching's quads, if it does not pass)
