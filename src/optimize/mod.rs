@@ -110,10 +110,10 @@ pub struct OptimizeOptions<'a> {
 }
 
 impl Default for OptimizeOptions<'_> {
-    /// Defaults chosen by measurement (`examples/optimize_bench`, a 15k-triangle Gmsh
-    /// rectangle and 10k-triangle Delaunay squares): 5 smoothing sweeps give the same η̄ as
-    /// 10, 20 or 40; topology rounds converge within 4; 2 final pattern-search sweeps add
-    /// about 0.015 to η̄ (4 add 0.004 more at twice the cost).
+    /// Defaults: 5 smoothing sweeps, topology on for at most 4 rounds, diagonal
+    /// weight 0.5, 2 final pattern-search sweeps, no size scale. They were chosen by
+    /// measurement with `examples/optimize_bench` (figures in BENCHMARKS.md, "Figures moved
+    /// out of doc comments (issue 13)").
     fn default() -> Self {
         OptimizeOptions {
             smooth_iterations: 5,
