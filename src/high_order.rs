@@ -267,8 +267,10 @@ pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Erro
         .flat_map(|b| b.tags.iter().copied())
         .collect();
     for b in &input.element_blocks {
+        // the linear job's rule: a block of a type of unknown size is left to the match below
+        // (kept when empty, refused as unsupported otherwise)
         let k = b.nodes_per_element();
-        if k == 0 || b.nodes.len() != b.len() * k {
+        if !b.is_well_formed() {
             return Err(RecombineError::MalformedBlock {
                 dim: b.entity_dim,
                 entity: b.entity_tag,
@@ -1726,6 +1728,45 @@ mod tests {
             partitions: None,
         });
         m
+    }
+
+    #[test]
+    fn linearize_checks_blocks_as_the_linear_job_does() {
+        let malformed =
+            |e: &Error| matches!(e, Error::Recombine(RecombineError::MalformedBlock { .. }));
+        // a type of unknown size: kept when empty, unsupported (not malformed) otherwise
+        let mut m = two_tri6();
+        let unknown = ElementBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            element_type: 1000,
+            tags: vec![],
+            nodes: vec![],
+            partitions: None,
+        };
+        m.element_blocks.push(unknown.clone());
+        let (lin, _) = linearize(&m, false).expect("an empty block of any type is kept");
+        assert!(lin.element_blocks.iter().any(|b| b.element_type == 1000));
+        m.element_blocks.pop();
+        m.element_blocks.push(ElementBlock {
+            tags: vec![7],
+            nodes: vec![1, 2, 3],
+            ..unknown
+        });
+        let e = linearize(&m, false).expect_err("unknown type refused");
+        assert!(
+            matches!(e, Error::SecondOrder(HighOrderError::Unsupported { .. })),
+            "{e}"
+        );
+        // one partition list per element, as recombination requires
+        let mut m = two_tri6();
+        m.element_blocks[0].partitions = Some(vec![vec![1]]);
+        let e = linearize(&m, false).expect_err("partitions of one element for two");
+        assert!(malformed(&e), "{e}");
+        let mut m = two_tri6();
+        m.element_blocks[0].nodes.pop();
+        let e = linearize(&m, false).expect_err("a node short");
+        assert!(malformed(&e), "{e}");
     }
 
     #[test]

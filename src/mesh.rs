@@ -154,6 +154,18 @@ impl ElementBlock {
         let k = self.nodes_per_element();
         &self.nodes[i * k..(i + 1) * k]
     }
+    /// True when the block's arrays agree: one node list of the type's size per element
+    /// (not checkable for a type of unknown size) and, when given, one partition list per
+    /// element. Stages refuse a block that is not, as
+    /// [`MalformedBlock`](crate::recombine::RecombineError::MalformedBlock).
+    pub(crate) fn is_well_formed(&self) -> bool {
+        let k = self.nodes_per_element();
+        (k == 0 || self.nodes.len() == self.len() * k)
+            && self
+                .partitions
+                .as_ref()
+                .is_none_or(|p| p.len() == self.len())
+    }
     /// True for a block of 3-node triangles or 4-node quads on a surface (entity dimension
     /// 2): the faces recombination, its checks and the periodic mapping work on.
     pub(crate) fn is_linear_face(&self) -> bool {

@@ -719,10 +719,7 @@ fn check_input(
     report: &mut RecombineReport,
 ) -> Result<(), RecombineError> {
     for b in &mesh.element_blocks {
-        let k = b.nodes_per_element();
-        let ok = (k == 0 || b.nodes.len() == b.len() * k)
-            && b.partitions.as_ref().is_none_or(|p| p.len() == b.len());
-        if !ok {
+        if !b.is_well_formed() {
             return Err(RecombineError::MalformedBlock {
                 dim: b.entity_dim,
                 entity: b.entity_tag,
