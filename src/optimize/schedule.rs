@@ -25,7 +25,7 @@ pub(super) fn run_surface(
         ..Default::default()
     };
     gate.check(l, true, "smoothing");
-    tm.lap("smooth");
+    lap_with_quality(&mut tm, l, "smooth");
     tick(1);
     let polish = opts.angle_sweeps > 0 && opts.smooth_iterations > 0;
     // speed: surfaces already good after the first smoothing skip the alternative schedules
@@ -184,7 +184,7 @@ fn topology_rounds(
                 smooth::smooth_near(l, near_its, opts.diagonal_weight, active)
             }
         };
-        tm.lap("resmooth");
+        lap_with_quality(tm, l, "resmooth");
         if unshear {
             ops.smoothing_moves += conformal::unshear(l, conformal::KEEP_ASPECT);
         }
@@ -209,17 +209,17 @@ pub(super) fn finish(
     if opts.angle_sweeps > 0 && opts.smooth_iterations > 0 {
         ops.smoothing_moves += conformal::unshear(l, keep_aspect);
         gate.check(l, true, "conformal solve");
-        tm.lap("conformal");
+        lap_with_quality(tm, l, "conformal");
     }
     // quality: lift the worst quads (max-min) first; the pattern search after it keeps
     // every star's worst key, so η_w stays
     if opts.angle_sweeps > 0 {
         ops.smoothing_moves += smooth::polish_worst(l, 4);
         gate.check(l, true, "max-min polish");
-        tm.lap("polish_worst");
+        lap_with_quality(tm, l, "polish_worst");
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
         gate.check(l, true, "pattern search");
-        tm.lap("angles");
+        lap_with_quality(tm, l, "angles");
     }
     // then maximize the mean η, the worst of every star kept (polish.rs)
     if opts.smooth_iterations > 0 {
@@ -230,7 +230,7 @@ pub(super) fn finish(
         };
         ops.smoothing_moves += polish::polish_mean(l, sweeps);
         gate.check(l, true, "mean polish");
-        tm.lap("polish_mean");
+        lap_with_quality(tm, l, "polish_mean");
     }
 }
 
@@ -281,4 +281,25 @@ fn near_changes(
     }
     grow_rings(l, &mut mark, rings);
     mark
+}
+
+/// Ends stage `name` of `tm`; with a trace sink, also sends the quads' quality after it
+/// ([`TraceEvent::StageQuality`](crate::profile::TraceEvent::StageQuality)), computed off
+/// the clock. The adjacency of `l` must be current (its d4 count reads it).
+fn lap_with_quality(tm: &mut StageTimer<'_>, l: &Local, name: &'static str) {
+    tm.lap(name);
+    if let Some(trace) = tm.trace() {
+        let s = l.stats();
+        let (group, surface) = tm.step();
+        trace.emit(&crate::profile::TraceEvent::StageQuality {
+            group,
+            surface,
+            stage: name,
+            quads: s.quads,
+            eta_worst: s.eta_worst,
+            eta_mean: s.eta_mean,
+            d4_percent: s.d4_percent,
+        });
+        tm.restart();
+    }
 }
