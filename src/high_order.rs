@@ -269,17 +269,8 @@ pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Erro
     for b in &input.element_blocks {
         // the linear job's rule: a block of a type of unknown size is left to the match below
         // (kept when empty, refused as unsupported otherwise)
+        crate::recombine::check_block(b)?;
         let k = b.nodes_per_element();
-        if !b.is_well_formed() {
-            return Err(RecombineError::MalformedBlock {
-                dim: b.entity_dim,
-                entity: b.entity_tag,
-                element_type: b.element_type,
-                nodes: b.nodes.len(),
-                elements: b.len(),
-            }
-            .into());
-        }
         let dim = element_dim(b.element_type);
         let lower = match (dim, b.element_type) {
             (Some(3), _) => {

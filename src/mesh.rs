@@ -157,7 +157,8 @@ impl ElementBlock {
     /// True when the block's arrays agree: one node list of the type's size per element
     /// (not checkable for a type of unknown size) and, when given, one partition list per
     /// element. Stages refuse a block that is not, as
-    /// [`MalformedBlock`](crate::recombine::RecombineError::MalformedBlock).
+    /// [`MalformedBlock`](crate::recombine::RecombineError::MalformedBlock)
+    /// (`recombine::check_block`).
     pub(crate) fn is_well_formed(&self) -> bool {
         let k = self.nodes_per_element();
         (k == 0 || self.nodes.len() == self.len() * k)

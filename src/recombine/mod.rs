@@ -712,6 +712,21 @@ fn retriangulate(mesh: &mut Mesh, surfaces: &[i32], report: &mut RecombineReport
     mesh.invalidate_element_data();
 }
 
+/// Refuses a block whose node or partition lists do not fit its element count
+/// ([`ElementBlock::is_well_formed`]); `high_order` uses it too.
+pub(crate) fn check_block(b: &ElementBlock) -> Result<(), RecombineError> {
+    if b.is_well_formed() {
+        return Ok(());
+    }
+    Err(RecombineError::MalformedBlock {
+        dim: b.entity_dim,
+        entity: b.entity_tag,
+        element_type: b.element_type,
+        nodes: b.nodes.len(),
+        elements: b.len(),
+    })
+}
+
 /// Step 1 of the pipeline: refuses what cannot be recombined, drops volumes when asked.
 fn check_input(
     mesh: &mut Mesh,
@@ -719,15 +734,7 @@ fn check_input(
     report: &mut RecombineReport,
 ) -> Result<(), RecombineError> {
     for b in &mesh.element_blocks {
-        if !b.is_well_formed() {
-            return Err(RecombineError::MalformedBlock {
-                dim: b.entity_dim,
-                entity: b.entity_tag,
-                element_type: b.element_type,
-                nodes: b.nodes.len(),
-                elements: b.len(),
-            });
-        }
+        check_block(b)?;
     }
     let mut volumes: Vec<i32> = Vec::new();
     let mut count = 0;
