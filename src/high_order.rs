@@ -71,10 +71,10 @@ use glam::DVec3;
 use rayon::prelude::*;
 use serde::Serialize;
 
+use crate::mesh::NodeTable;
 use crate::mesh::{element_dim, element_node_count, etype, ElementBlock, Mesh, NodeBlock};
 use crate::pipeline::{Error, Options, Report};
 use crate::quality::locate::TriSurface;
-use crate::quality::FlatNodes;
 use crate::recombine::RecombineError;
 
 /// Hasher of the maps below, whose keys are node tags, tag pairs and entity tags: a
@@ -267,17 +267,10 @@ pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Erro
         .flat_map(|b| b.tags.iter().copied())
         .collect();
     for b in &input.element_blocks {
+        // the linear job's rule: a block of a type of unknown size is left to the match below
+        // (kept when empty, refused as unsupported otherwise)
+        crate::recombine::check_block(b)?;
         let k = b.nodes_per_element();
-        if k == 0 || b.nodes.len() != b.len() * k {
-            return Err(RecombineError::MalformedBlock {
-                dim: b.entity_dim,
-                entity: b.entity_tag,
-                element_type: b.element_type,
-                nodes: b.nodes.len(),
-                elements: b.len(),
-            }
-            .into());
-        }
         let dim = element_dim(b.element_type);
         let lower = match (dim, b.element_type) {
             (Some(3), _) => {
@@ -469,7 +462,7 @@ impl SurfaceGeometry {
 struct Geometry<'a> {
     input: &'a Mesh,
     /// Every input node (coordinates by tag).
-    nodes: FlatNodes,
+    nodes: NodeTable,
     /// Input edge (sorted corner tags) -> its mid-edge node.
     mid: FastMap<(u64, u64), u64>,
     /// Input 9-node quad (sorted corner tags) -> its face node.
@@ -500,7 +493,7 @@ impl<'a> Geometry<'a> {
     }
 
     fn new(input: &'a Mesh) -> Geometry<'a> {
-        let nodes = FlatNodes::new(input);
+        let nodes = NodeTable::new(input);
         let coords = &nodes;
         let mut mid = FastMap::default();
         let mut face = FastMap::default();
@@ -671,7 +664,7 @@ pub fn elevate(
     }
     let geo = Geometry::new(input);
     // the linear job's nodes (flat positions)
-    let flat = FlatNodes::new(&out);
+    let flat = NodeTable::new(&out);
     let pos = |t: u64| flat.at(t).unwrap_or(DVec3::ZERO);
     let moved = |t: u64| geo.at(t).is_none_or(|c| Some(c) != flat.at(t));
 
@@ -1726,6 +1719,45 @@ mod tests {
             partitions: None,
         });
         m
+    }
+
+    #[test]
+    fn linearize_checks_blocks_as_the_linear_job_does() {
+        let malformed =
+            |e: &Error| matches!(e, Error::Recombine(RecombineError::MalformedBlock { .. }));
+        // a type of unknown size: kept when empty, unsupported (not malformed) otherwise
+        let mut m = two_tri6();
+        let unknown = ElementBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            element_type: 1000,
+            tags: vec![],
+            nodes: vec![],
+            partitions: None,
+        };
+        m.element_blocks.push(unknown.clone());
+        let (lin, _) = linearize(&m, false).expect("an empty block of any type is kept");
+        assert!(lin.element_blocks.iter().any(|b| b.element_type == 1000));
+        m.element_blocks.pop();
+        m.element_blocks.push(ElementBlock {
+            tags: vec![7],
+            nodes: vec![1, 2, 3],
+            ..unknown
+        });
+        let e = linearize(&m, false).expect_err("unknown type refused");
+        assert!(
+            matches!(e, Error::SecondOrder(HighOrderError::Unsupported { .. })),
+            "{e}"
+        );
+        // one partition list per element, as recombination requires
+        let mut m = two_tri6();
+        m.element_blocks[0].partitions = Some(vec![vec![1]]);
+        let e = linearize(&m, false).expect_err("partitions of one element for two");
+        assert!(malformed(&e), "{e}");
+        let mut m = two_tri6();
+        m.element_blocks[0].nodes.pop();
+        let e = linearize(&m, false).expect_err("a node short");
+        assert!(malformed(&e), "{e}");
     }
 
     #[test]

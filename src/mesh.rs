@@ -11,7 +11,12 @@
 //!
 //! **Invariant:** this module does no I/O; only `msh` and the CLI touch files.
 
-use std::collections::HashMap;
+mod nodes;
+#[cfg(test)]
+pub(crate) mod testing;
+
+pub use nodes::{NodeIndex, NodeRef};
+pub(crate) use nodes::{NodeTable, TagCoords};
 
 /// Sentinel for "no index" in the crate's `u32` index arrays (no node, no triangle, no
 /// neighbour); `matching` has its own of the same value.
@@ -148,6 +153,25 @@ impl ElementBlock {
     pub fn element(&self, i: usize) -> &[u64] {
         let k = self.nodes_per_element();
         &self.nodes[i * k..(i + 1) * k]
+    }
+    /// True when the block's arrays agree: one node list of the type's size per element
+    /// (not checkable for a type of unknown size) and, when given, one partition list per
+    /// element. Stages refuse a block that is not, as
+    /// [`MalformedBlock`](crate::recombine::RecombineError::MalformedBlock)
+    /// (`recombine::check_block`).
+    pub(crate) fn is_well_formed(&self) -> bool {
+        let k = self.nodes_per_element();
+        (k == 0 || self.nodes.len() == self.len() * k)
+            && self
+                .partitions
+                .as_ref()
+                .is_none_or(|p| p.len() == self.len())
+    }
+    /// True for a block of 3-node triangles or 4-node quads on a surface (entity dimension
+    /// 2): the faces recombination, its checks and the periodic mapping work on.
+    pub(crate) fn is_linear_face(&self) -> bool {
+        self.entity_dim == 2
+            && (self.element_type == etype::TRI3 || self.element_type == etype::QUAD4)
     }
 }
 
@@ -289,6 +313,20 @@ impl Mesh {
             .unwrap_or(0)
     }
 
+    /// The tags of the surfaces (entity dimension 2) having an element block for which `keep`
+    /// holds, sorted and without repeats.
+    pub(crate) fn sorted_surfaces(&self, keep: impl Fn(&ElementBlock) -> bool) -> Vec<i32> {
+        let mut tags: Vec<i32> = self
+            .element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 2 && keep(b))
+            .map(|b| b.entity_tag)
+            .collect();
+        tags.sort_unstable();
+        tags.dedup();
+        tags
+    }
+
     /// A map from node tag to coordinates, for stages that look nodes up by tag.
     pub fn node_index(&self) -> NodeIndex {
         NodeIndex::new(self)
@@ -312,101 +350,6 @@ impl Mesh {
             self.warnings.push(format!(
                 "dropped {dropped} $ElementData/$ElementNodeData section(s): elements changed, their values no longer apply"
             ));
-        }
-    }
-}
-
-/// Position of a node in the model: block index and index inside the block.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct NodeRef {
-    /// Index into [`Mesh::node_blocks`].
-    pub block: u32,
-    /// Index inside the block.
-    pub index: u32,
-}
-
-/// Lookup from node tag to its position, dense when tags are compact, hashed otherwise.
-#[derive(Debug, Clone)]
-pub struct NodeIndex {
-    dense: Vec<Option<NodeRef>>,
-    sparse: HashMap<u64, NodeRef>,
-}
-
-impl NodeIndex {
-    /// Builds the index for all nodes of `mesh`. Later duplicates of a tag win.
-    pub fn new(mesh: &Mesh) -> Self {
-        let n = mesh.node_count();
-        let max = mesh.max_node_tag();
-        let use_dense = max <= (4 * n as u64).max(1024);
-        let mut dense = Vec::new();
-        let mut sparse = HashMap::new();
-        if use_dense {
-            dense = vec![None; max as usize + 1];
-        }
-        for (bi, b) in mesh.node_blocks.iter().enumerate() {
-            for (i, &t) in b.tags.iter().enumerate() {
-                let r = NodeRef {
-                    block: bi as u32,
-                    index: i as u32,
-                };
-                if use_dense {
-                    dense[t as usize] = Some(r);
-                } else {
-                    sparse.insert(t, r);
-                }
-            }
-        }
-        NodeIndex { dense, sparse }
-    }
-
-    /// Where node `tag` lives, if it exists.
-    pub fn get(&self, tag: u64) -> Option<NodeRef> {
-        if self.dense.is_empty() {
-            self.sparse.get(&tag).copied()
-        } else {
-            self.dense.get(tag as usize).copied().flatten()
-        }
-    }
-}
-
-/// Node coordinates by tag, for lookups in element order: one memory access per node where
-/// tags are compact (a table indexed by tag), else through a [`NodeIndex`]. Checkers that
-/// visit every element use it: elements name their nodes in no spatial order, so each
-/// lookup is a cache miss, and a table of coordinates makes it one instead of two.
-pub(crate) enum TagCoords<'m> {
-    Dense(Vec<Option<[f64; 3]>>),
-    Indexed(&'m Mesh, NodeIndex),
-}
-
-impl<'m> TagCoords<'m> {
-    /// The coordinates of `mesh`'s nodes by tag (later duplicates of a tag win).
-    pub(crate) fn new(mesh: &'m Mesh) -> Self {
-        let n = mesh.node_count();
-        let max = mesh.max_node_tag();
-        if max > (4 * n as u64).max(1024) {
-            return TagCoords::Indexed(mesh, mesh.node_index());
-        }
-        let mut dense = vec![None; max as usize + 1];
-        for b in &mesh.node_blocks {
-            for (&t, c) in b.tags.iter().zip(&b.coords) {
-                dense[t as usize] = Some(*c);
-            }
-        }
-        TagCoords::Dense(dense)
-    }
-
-    /// The coordinates of node `tag`, if it exists.
-    #[inline]
-    pub(crate) fn get(&self, tag: u64) -> Option<[f64; 3]> {
-        match self {
-            TagCoords::Dense(d) => d.get(tag as usize).copied().flatten(),
-            TagCoords::Indexed(m, index) => index.get(tag).and_then(|r| {
-                m.node_blocks
-                    .get(r.block as usize)?
-                    .coords
-                    .get(r.index as usize)
-                    .copied()
-            }),
         }
     }
 }

@@ -144,15 +144,8 @@ impl<'a> Reference<'a> {
     /// Prepares the check against `input`.
     pub fn new(input: &'a Mesh) -> Self {
         let coords = TagCoords::new(input);
-        let mut tags: Vec<i32> = input
-            .element_blocks
-            .iter()
-            .filter(|b| is_face_block(b, None))
-            .map(|b| b.entity_tag)
-            .collect();
-        tags.sort_unstable();
-        tags.dedup();
-        let surfaces = tags
+        let surfaces = input
+            .sorted_surfaces(|b| b.is_linear_face())
             .par_iter()
             .map(|&s| (s, SurfaceReference::new(input, &coords, s)))
             .collect();
@@ -168,15 +161,8 @@ impl<'a> Reference<'a> {
         let out_coords = TagCoords::new(output);
         let extent = extent(output);
         let min_edge = MIN_EDGE * extent;
-        let mut surfaces: Vec<i32> = output
-            .element_blocks
-            .iter()
-            .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4 && !b.is_empty())
-            .map(|b| b.entity_tag)
-            .collect();
-        surfaces.sort_unstable();
-        surfaces.dedup();
-        surfaces
+        output
+            .sorted_surfaces(|b| b.element_type == etype::QUAD4 && !b.is_empty())
             .par_iter()
             .flat_map_iter(|&s| {
                 // a surface the input has no face of: no normal, no nearest face
@@ -229,13 +215,6 @@ impl SurfaceReference {
             nearest: std::sync::OnceLock::new(),
         }
     }
-}
-
-/// A block of 3-node triangles or 4-node quads on a surface (`s`, or any with `None`).
-fn is_face_block(b: &crate::mesh::ElementBlock, s: Option<i32>) -> bool {
-    b.entity_dim == 2
-        && s.is_none_or(|s| b.entity_tag == s)
-        && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
 }
 
 /// The diagonal of the bounding box of all nodes (1 for an empty mesh).
@@ -303,7 +282,7 @@ fn input_faces(input: &Mesh, coords: &TagCoords, s: i32) -> Vec<Face> {
     for b in input
         .element_blocks
         .iter()
-        .filter(|b| is_face_block(b, Some(s)))
+        .filter(|b| b.entity_tag == s && b.is_linear_face())
     {
         let k = b.nodes_per_element();
         for i in 0..b.len() {
@@ -326,7 +305,7 @@ fn input_normals(input: &Mesh, coords: &TagCoords, s: i32) -> Normals {
         input
             .element_blocks
             .iter()
-            .filter(|b| is_face_block(b, Some(s)))
+            .filter(|b| b.entity_tag == s && b.is_linear_face())
     };
     // each face's twice vector area, computed in parallel (`None`: a node is unknown, the
     // face does not count), then added at its nodes in face order (the same sums as one
@@ -552,26 +531,11 @@ fn check_quad<'n>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{ElementBlock, NodeBlock};
+    use crate::mesh::testing::{node_block, one_surface};
 
     fn mesh(coords: &[[f64; 3]], etype_: u32, elems: &[&[u64]]) -> Mesh {
-        let mut m = Mesh::default();
-        m.node_blocks.push(NodeBlock {
-            entity_dim: 2,
-            entity_tag: 1,
-            tags: (1..=coords.len() as u64).collect(),
-            coords: coords.to_vec(),
-            params: None,
-        });
-        m.element_blocks.push(ElementBlock {
-            entity_dim: 2,
-            entity_tag: 1,
-            element_type: etype_,
-            tags: (1..=elems.len() as u64).collect(),
-            nodes: elems.iter().flat_map(|e| e.iter().copied()).collect(),
-            partitions: None,
-        });
-        m
+        let tags = (1..=coords.len() as u64).collect();
+        one_surface(vec![node_block(2, tags, coords.to_vec())], etype_, elems)
     }
 
     const SQUARE: [[f64; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];

@@ -61,10 +61,9 @@ const RELOCATED_MIN_ETA: f64 = 0.2;
 /// ring for those fans.
 const REACH_RINGS: usize = WIDE_DEPTH + 2;
 
-/// Longest rotation sequence searched from a quad with a node of [`Topo::wide_corner`]
-/// (measured on the island domain at 1e4 triangles, seeds 1, 2, 11: η_w 0.191, 0.010, 0.262
-/// with depth 2 or with prefixes that may not raise the energy; 0.263, 0.196, 0.330 with
-/// both this depth and [`WIDE_FLOOR`]).
+/// Longest rotation sequence searched from a quad with a node of [`Topo::wide_corner`]: one
+/// more than elsewhere, which together with [`WIDE_FLOOR`] lifts the worst quad next to
+/// wide corners (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 const WIDE_DEPTH: usize = 3;
 
 /// How much the prefixes of a sequence searched from a wide corner may raise the energy:
@@ -664,14 +663,14 @@ pub(crate) fn cleanup(
 pub(crate) mod tests {
     use super::*;
     use crate::mesh::Mesh;
+    use crate::mesh::NodeTable;
     use crate::optimize::extract::{extract, node_owners, write_back, PendingNodes};
     use crate::optimize::synth::{self, Soup};
     use crate::optimize::OptimizeReport;
-    use crate::quality::FlatNodes;
 
     /// The single surface of `m` as a [`Local`], with its node → quads adjacency.
-    pub(crate) fn local_of(m: &Mesh) -> (FlatNodes, Local) {
-        let flat = FlatNodes::new(m);
+    pub(crate) fn local_of(m: &Mesh) -> (NodeTable, Local) {
+        let flat = NodeTable::new(m);
         let owner = node_owners(m, &flat, &[1]).expect("owners");
         let mut scratch = vec![crate::optimize::local::NONE; flat.coords.len()];
         let mut l = extract(m, &flat, &owner, (0, 1), &mut scratch).expect("extract");

@@ -37,17 +37,14 @@ use rayon::prelude::*;
 /// the low-frequency shear modes).
 pub(crate) const MAX_ITERATIONS: usize = 100;
 
-/// Share β of the current corner aspect ratio the energy keeps (module docs). Measured on the
-/// eight 1e4/1e5 fixture runs against β = 0 (pure squares): η̄ +0.001 to +0.002 and τ
-/// +0.1 to +0.2 point on most; β = 0.5 gains a little more η̄ at 1e4 but loses η_w
-/// (even_curves 1e5 0.596 -> 0.592), β = 1 (aspect fully kept) loses τ (−0.7 point).
+/// Share β of the current corner aspect ratio the energy keeps (module docs): between pure
+/// squares (β = 0) and the aspect fully kept (β = 1), the value that did best on the
+/// fixtures (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 pub(crate) const KEEP_ASPECT: f64 = 0.3;
 
 /// Rounds of reverting the nodes of quads a step made invalid (or worse, if invalid
-/// already) to their positions before the solve, before the step is rejected. Measured on
-/// island domains (corpus/island_domain.py, 1.3e4 triangles, sharper variants): rejecting the
-/// whole step at the first such quad ends with η̄ 0.766-0.808 where reverting ends with
-/// 0.800-0.811 (the same on the 1.1e5 domain, 0.857).
+/// already) to their positions before the solve, before the step is rejected: reverting
+/// keeps most of a step that rejecting it whole would lose (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 const REVERT_ROUNDS: usize = 4;
 
 /// Relative residual at which the solve stops.

@@ -3,8 +3,8 @@
 
 use super::local::{csr, Local, NONE};
 use super::{OptimizeError, OptimizeReport};
+use crate::mesh::NodeTable;
 use crate::mesh::{etype, Mesh};
-use crate::quality::FlatNodes;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -16,13 +16,14 @@ const SHARED: u32 = u32::MAX - 1;
 /// block), or `UNSET` when unused.
 pub(crate) fn node_owners(
     mesh: &Mesh,
-    flat: &FlatNodes,
+    flat: &NodeTable,
     surfaces: &[i32],
 ) -> Result<Vec<u32>, OptimizeError> {
     let mut owner = vec![UNSET; flat.coords.len()];
     for (bi, b) in mesh.node_blocks.iter().enumerate() {
         if b.entity_dim != 2 {
-            owner[flat.offsets[bi]..flat.offsets[bi] + b.tags.len()].fill(SHARED);
+            let start = flat.block_start[bi] as usize;
+            owner[start..start + b.tags.len()].fill(SHARED);
         }
     }
     for b in &mesh.element_blocks {
@@ -34,7 +35,7 @@ pub(crate) fn node_owners(
             SHARED
         };
         for (k, &t) in b.nodes.iter().enumerate() {
-            let Some(i) = flat.get(t) else {
+            let Some(i) = flat.id(t) else {
                 let per = b.nodes_per_element().max(1);
                 return Err(OptimizeError::MissingNode {
                     surface: b.entity_tag,
@@ -57,7 +58,7 @@ pub(crate) fn node_owners(
 /// entry per flat node, all [`NONE`], and is left so.
 pub(crate) fn extract(
     mesh: &Mesh,
-    flat: &FlatNodes,
+    flat: &NodeTable,
     owner: &[u32],
     (sid, s): (u32, i32),
     scratch: &mut [u32],
@@ -71,7 +72,7 @@ pub(crate) fn extract(
         for e in 0..b.len() {
             let mut q = [0u32; 4];
             for (k, &t) in b.element(e).iter().enumerate() {
-                q[k] = flat.get(t).ok_or(OptimizeError::MissingNode {
+                q[k] = flat.id(t).ok_or(OptimizeError::MissingNode {
                     surface: s,
                     element: b.tags[e],
                     node: t,
@@ -102,13 +103,7 @@ pub(crate) fn extract(
     for &g in &global {
         scratch[g as usize] = NONE;
     }
-    let node_tags: Vec<u64> = global
-        .iter()
-        .map(|&g| {
-            let b = flat.offsets.partition_point(|&o| o <= g as usize) - 1;
-            mesh.node_blocks[b].tags[g as usize - flat.offsets[b]]
-        })
-        .collect();
+    let node_tags: Vec<u64> = global.iter().map(|&g| flat.tags[g as usize]).collect();
     let n = global.len();
     let pos: Vec<DVec3> = global.iter().map(|&g| flat.coords[g as usize]).collect();
     let mut fixed: Vec<bool> = global.iter().map(|&g| owner[g as usize] != sid).collect();
@@ -306,15 +301,15 @@ impl PendingNodes {
 /// removed nodes go to `pending` (see [`PendingNodes`]).
 pub(crate) fn write_back(
     mesh: &mut Mesh,
-    flat: &FlatNodes,
+    flat: &NodeTable,
     l: &Local,
     report: &mut OptimizeReport,
     pending: &mut PendingNodes,
 ) {
     // nodes: flat index -> (block, index)
     let block_of = |g: usize| {
-        let b = flat.offsets.partition_point(|&o| o <= g) - 1;
-        (b, g - flat.offsets[b])
+        let b = flat.block[g] as usize;
+        (b, g - flat.block_start[b] as usize)
     };
     let tag_of = |g: u32| {
         let (b, i) = block_of(g as usize);

@@ -32,7 +32,7 @@ pub(crate) struct Local {
     pub removed: Vec<bool>,
     /// Reference triangle each node lies on (projection hint), [`NONE`] if unknown.
     pub tri: Vec<u32>,
-    /// Flat node index in the mesh (see `quality::FlatNodes`).
+    /// Node id in the mesh (see `mesh::NodeTable`).
     pub global: Vec<u32>,
     /// Node tags.
     pub tags: Vec<u64>,
@@ -174,8 +174,7 @@ impl Local {
     /// (eq. 1 then integrates exactly), as `blossomquad quality --reference` measures it;
     /// else the nodes' own target sizes. Nodes move by up to about h during the
     /// optimization: on a graded field the size where a node started is not the size where
-    /// it is (measured on the 1e4 rectangle, the start sizes saw −0.2 point where the
-    /// reference field saw −1.4).
+    /// it is (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
     pub fn tau_estimate(&self) -> f64 {
         let h: std::borrow::Cow<[f64]> = match (&self.reference, self.ref_sizes.is_empty()) {
             (Some(r), false) => (0..self.pos.len())

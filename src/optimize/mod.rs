@@ -70,9 +70,9 @@ pub mod check;
 pub use local::Stats;
 pub use reference::PreparedReference;
 
+use crate::mesh::NodeTable;
 use crate::mesh::{etype, DataKind, Mesh};
 use crate::profile::StageTimer;
-use crate::quality::FlatNodes;
 use extract::{extract, node_owners, write_back, PendingNodes};
 use local::{Local, NONE};
 use reference::{attach_reference, SurfaceReference};
@@ -110,10 +110,10 @@ pub struct OptimizeOptions<'a> {
 }
 
 impl Default for OptimizeOptions<'_> {
-    /// Defaults chosen by measurement (`examples/optimize_bench`, a 15k-triangle Gmsh
-    /// rectangle and 10k-triangle Delaunay squares): 5 smoothing sweeps give the same η̄ as
-    /// 10, 20 or 40; topology rounds converge within 4; 2 final pattern-search sweeps add
-    /// about 0.015 to η̄ (4 add 0.004 more at twice the cost).
+    /// Defaults: 5 smoothing sweeps, topology on for at most 4 rounds, diagonal
+    /// weight 0.5, 2 final pattern-search sweeps, no size scale. They were chosen by
+    /// measurement with `examples/optimize_bench` (figures in BENCHMARKS.md, "Figures moved
+    /// out of doc comments (issue 13)").
     fn default() -> Self {
         OptimizeOptions {
             smooth_iterations: 5,
@@ -214,16 +214,14 @@ pub fn optimize(
     optimize_prepared(mesh, PreparedReference::new(reference), opts)
 }
 /// The surfaces of `mesh` with elements of type `element_type`, in increasing tag order.
+///
+/// Sorted because surfaces are found by binary search: a node's owning surface
+/// (`extract::node_owners`) and each quad surface's reference triangles (the prepared
+/// reference is listed by the same order). The order does not reach the output: every
+/// surface writes back into its own blocks, whatever the order. (Recombination's list keeps
+/// file order instead, see `recombine`.)
 pub(super) fn surface_tags(mesh: &Mesh, element_type: u32) -> Vec<i32> {
-    let mut tags: Vec<i32> = mesh
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == element_type && !b.is_empty())
-        .map(|b| b.entity_tag)
-        .collect();
-    tags.sort_unstable();
-    tags.dedup();
-    tags
+    mesh.sorted_surfaces(|b| b.element_type == element_type && !b.is_empty())
 }
 /// [`optimize`] with the reference triangulation already prepared (from the triangle mesh
 /// before recombination).
@@ -233,7 +231,7 @@ pub fn optimize_prepared(
     opts: &OptimizeOptions,
 ) -> Result<OptimizeReport, OptimizeError> {
     let mut tm = StageTimer::new(opts.trace, "optimize setup", 0);
-    let flat = FlatNodes::new(mesh);
+    let flat = NodeTable::new(mesh);
     tm.lap("flat");
     let surfaces = surface_tags(mesh, etype::QUAD4);
     let owner = node_owners(mesh, &flat, &surfaces)?;

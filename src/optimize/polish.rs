@@ -18,16 +18,12 @@ use super::local::{Local, StarEval, STAR_MAX};
 use super::smooth::pattern_search8;
 use glam::DVec3;
 
-/// Sweeps of [`polish_mean`]. Measured on the Gmsh fixtures at 10^5 triangles: 2 sweeps add
-/// 0.010 to η̄ (rectangle 0.810 → 0.820, CAD block 0.846 → 0.852) for 0.5 point of τ and
-/// about 0.35 s of CPU per 10^5 quads; 3 add 0.002 more; skipping stars whose worst η is
-/// above 0.9 saves 10 % of that time but loses a third of the gain.
+/// Sweeps of [`polish_mean`] (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 pub(crate) const MEAN_SWEEPS: usize = 2;
 
-/// Weight of the size term (module docs) against the star's summed η. Measured on the eight
-/// 1e4/1e5 fixture runs: τ +0.2 to +0.8 point for η̄ 0 to −0.002; 0.5 gains 0.3 point
-/// more τ for another −0.003 of η̄; without [`SIZE_TERM_MAX_COT`], η_w drops up to 0.01
-/// (the polish no longer lifts the quads the max-min polish left just under 0.6).
+/// Weight of the size term (module docs) against the star's summed η: it trades a little
+/// mean η for τ; [`SIZE_TERM_MAX_COT`] keeps it off the stars whose worst quad the polish
+/// must still lift (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 const SIZE_WEIGHT: f64 = 0.3;
 
 /// The size term applies only to stars whose worst |cot α| is at most this (worst corner
@@ -37,16 +33,13 @@ const SIZE_TERM_MAX_COT: f64 = 0.68;
 /// Stars with more edges than this get no size term (valence above 8 is rare).
 const MAX_SIZE_EDGES: usize = 8;
 
-/// Sweeps of [`polish_mean`] on surfaces under 20k quads, where they are cheap. Measured on
-/// the 1e4 fixtures: η̄ +0.001 to +0.002 over 2 sweeps (CAD block 0.849 -> 0.851, τ −0.1
-/// point), the 1e5 CAD block +0.001; 8 sweeps add at most 0.001 more for up to −0.2 point
-/// of τ.
+/// Sweeps of [`polish_mean`] on surfaces under 20k quads, where they are cheap (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 pub(crate) const MEAN_SWEEPS_SMALL: usize = 4;
 
 /// `atan(t)` for `t ≥ 0` within about 1e-5 rad (a minimax polynomial on [0, 1] and
 /// `atan t = π/2 − atan(1/t)` above): the polish compares sums of η over a star, so a
-/// consistent approximation is enough and the library `atan` was a tenth of a 1e6-triangle
-/// run.
+/// consistent approximation is enough, and the library `atan` was a large share of the
+/// polish's time (BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 fn atan_fast(t: f64) -> f64 {
     let (x, flip) = if t > 1.0 { (1.0 / t, true) } else { (t, false) };
     let x2 = x * x;

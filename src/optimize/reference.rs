@@ -5,10 +5,10 @@
 use super::local::{Local, NONE};
 use super::schedule::RESMOOTH_ALL_BELOW;
 use super::surface_tags;
+use crate::mesh::NodeTable;
 use crate::mesh::{etype, Mesh};
 use crate::quality::locate::TriSurface;
 use crate::quality::size::mean_incident_edge_length;
-use crate::quality::FlatNodes;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -17,7 +17,7 @@ use rayon::prelude::*;
 /// sizes (mean incident edge length) and a triangle at each point. It depends on the
 /// triangle mesh only, so it can be built while the recombination runs (the CLI does).
 pub struct PreparedReference {
-    pub(super) nodes: FlatNodes,
+    pub(super) nodes: NodeTable,
     /// By increasing surface tag.
     pub(super) surfaces: Vec<(i32, SurfaceReference)>,
 }
@@ -65,7 +65,7 @@ impl SurfaceReference {
 impl PreparedReference {
     /// Prepares the triangles (3-node) of every surface of `reference` (in parallel).
     pub fn new(reference: &Mesh) -> Self {
-        let nodes = FlatNodes::new(reference);
+        let nodes = NodeTable::new(reference);
         let tags = surface_tags(reference, etype::TRI3);
         let surfaces = tags
             .par_iter()
@@ -75,7 +75,7 @@ impl PreparedReference {
     }
 }
 /// The reference triangles of surface `s` on compact point indices (first use order).
-pub(super) fn surface_reference(reference: &Mesh, rnodes: &FlatNodes, s: i32) -> SurfaceReference {
+pub(super) fn surface_reference(reference: &Mesh, rnodes: &NodeTable, s: i32) -> SurfaceReference {
     let total = rnodes.coords.len();
     let count: usize = reference
         .element_blocks
@@ -98,7 +98,7 @@ pub(super) fn surface_reference(reference: &Mesh, rnodes: &FlatNodes, s: i32) ->
             .with_min_len(4096)
             .map(|e| {
                 let el = b.element(e);
-                [el[0], el[1], el[2]].map(|t| rnodes.get(t).unwrap_or(NONE))
+                [el[0], el[1], el[2]].map(|t| rnodes.id(t).unwrap_or(NONE))
             })
             .collect();
         for t3 in ids {
@@ -145,7 +145,7 @@ pub(super) fn surface_reference(reference: &Mesh, rnodes: &FlatNodes, s: i32) ->
 pub(super) fn attach_reference(
     l: &mut Local,
     sref: Option<SurfaceReference>,
-    rnodes: &FlatNodes,
+    rnodes: &NodeTable,
     size_scale: f64,
 ) {
     let mut sref = sref.unwrap_or_else(SurfaceReference::empty);
@@ -187,7 +187,7 @@ pub(super) fn attach_reference(
             .with_min_len(4096)
             .map(|v| {
                 rnodes
-                    .get(l.tags[v])
+                    .id(l.tags[v])
                     .and_then(|id| compact(id).filter(|_| rnodes.coords[id as usize] == l.pos[v]))
                     .filter(|&i| incident[i as usize] != NONE)
             })
@@ -287,7 +287,7 @@ mod tests {
             .expect("a matchable seed");
         let reference = synth::to_mesh(&tris);
         let (_, mut l) = local_of(&synth::to_mesh(&quads));
-        let rnodes = FlatNodes::new(&reference);
+        let rnodes = NodeTable::new(&reference);
         let sref = surface_reference(&reference, &rnodes, l.surface);
         attach_reference(&mut l, Some(sref), &rnodes, 1.0);
         assert!(l.planar && !l.ref_sizes.is_empty() && l.reference.is_some());

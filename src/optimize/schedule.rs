@@ -36,25 +36,25 @@ pub(super) fn run_surface(
     // the state before the topology rounds, for the unsheared schedule
     let mut unsheared = (small_planar && opts.topology).then(|| (l.clone(), ops, gate.clone()));
     let mut ticks = 1;
-    if small_planar {
-        // quality: small planar surfaces try three schedules and keep the best (see
-        // `better` and the module docs): finishing with square targets (β = 0), with the
-        // aspect-keeping solve, and topology rounds each followed by a conformal solve.
-        // speed: the schedules are independent, so they run side by side (each is
-        // deterministic, so the kept one does not depend on the thread count)
-        let mut plain_ops = ops;
-        let (mut plain, ()) = rayon::join(
-            || {
-                if opts.topology {
-                    ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
-                }
-                // the square finish starts from the state after the topology rounds
-                plain_ops = ops;
-                let mut plain = l.clone();
-                let mut plain_gate = gate.clone();
-                let mut tp = StageTimer::new(opts.trace, "optimize (square finish)", l.surface);
-                rayon::join(
-                    || {
+    // quality: small planar surfaces try three schedules and keep the best (see `better` and
+    // the module docs): after the topology rounds, finishing with square targets (β = 0)
+    // beside the aspect-keeping finish, and topology rounds each followed by a conformal
+    // solve. Other surfaces run the aspect-keeping one alone.
+    // speed: the schedules are independent, so they run side by side (each is
+    // deterministic, so the kept one does not depend on the thread count)
+    let mut square: Option<(Local, OperationCounts)> = None;
+    rayon::join(
+        || {
+            if opts.topology {
+                ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
+            }
+            // the square finish starts from the state after the topology rounds
+            let fork = small_planar.then(|| (l.clone(), ops, gate.clone()));
+            rayon::join(
+                || {
+                    if let Some((mut plain, mut plain_ops, mut plain_gate)) = fork {
+                        let mut tp =
+                            StageTimer::new(opts.trace, "optimize (square finish)", plain.surface);
                         finish(
                             &mut plain,
                             opts,
@@ -62,32 +62,27 @@ pub(super) fn run_surface(
                             &mut tp,
                             0.0,
                             &mut plain_gate,
-                        )
-                    },
-                    || {
-                        finish(
-                            l,
-                            opts,
-                            &mut ops,
-                            &mut tm,
-                            conformal::KEEP_ASPECT,
-                            &mut gate,
-                        )
-                    },
-                );
-                tp.done();
-                plain
-            },
-            || {
-                if let Some((u, u_ops, u_gate)) = unsheared.as_mut() {
-                    let mut tu =
-                        StageTimer::new(opts.trace, "optimize (conformal rounds)", u.surface);
-                    topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
-                    finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT, u_gate);
-                    tu.done();
-                }
-            },
-        );
+                        );
+                        tp.done();
+                        square = Some((plain, plain_ops));
+                    }
+                },
+                || {
+                    let keep = conformal::KEEP_ASPECT;
+                    finish(l, opts, &mut ops, &mut tm, keep, &mut gate)
+                },
+            );
+        },
+        || {
+            if let Some((u, u_ops, u_gate)) = unsheared.as_mut() {
+                let mut tu = StageTimer::new(opts.trace, "optimize (conformal rounds)", u.surface);
+                topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
+                finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT, u_gate);
+                tu.done();
+            }
+        },
+    );
+    if let Some((mut plain, plain_ops)) = square {
         let base = (plain.stats(), plain.tau_estimate());
         let mut best = (l.stats(), l.tau_estimate());
         if !better(&best, &base) {
@@ -102,18 +97,6 @@ pub(super) fn run_surface(
                 ops = *u_ops;
             }
         }
-    } else {
-        if opts.topology {
-            ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
-        }
-        finish(
-            l,
-            opts,
-            &mut ops,
-            &mut tm,
-            conformal::KEEP_ASPECT,
-            &mut gate,
-        );
     }
     // validity: every schedule ends in a state its gate passed; check the kept one against
     // the start (rolls back to the start, the matching's quads, if it does not pass)
@@ -142,8 +125,9 @@ fn better(cand: &(Stats, f64), base: &(Stats, f64)) -> bool {
 const ETA_W_SLACK: f64 = 0.002;
 
 /// How many points lower τ ([`Local::tau_estimate`]) a schedule may end with than the plain
-/// one and still be chosen (module docs: the 1e4 square with a hole needs 0.6 for its
-/// conformal-rounds schedule, the 1e4 rectangle's costs 1.5).
+/// one and still be chosen: above what a schedule worth keeping has cost, below what a
+/// harmful one has (the fixtures' figures are in BENCHMARKS.md, "Figures moved out of doc
+/// comments (issue 13)").
 const TAU_SLACK: f64 = 0.7;
 
 /// Tests: `l` in the state the last stages see in the pipeline (the first smoothing and the
@@ -163,7 +147,7 @@ pub(crate) fn after_topology_rounds<'a>(
 
 /// Up to `opts.max_rounds` rounds of (topology pass, smoothing near the changes), each
 /// followed by the conformal solve when `unshear` (the next pass then judges rotations and
-/// merges on squarer quads and finds more: d4 +1.5 point on the 1e4 square with a hole).
+/// merges on squarer quads and finds more).
 /// Returns the progress ticks given.
 fn topology_rounds(
     l: &mut Local,
@@ -178,8 +162,8 @@ fn topology_rounds(
     // speed: around the changes of a topology pass on a large surface, 3/5 of the sweeps
     let near_its = (opts.smooth_iterations * NEAR_SWEEPS_NUM).div_ceil(5);
     // speed: after a pass, smooth only around what it changed (see `near_changes`), and
-    // let the next pass's operators search only there (elsewhere they found nothing;
-    // measured on the 1e5 fixtures: d4 within 0.02 point, same η)
+    // let the next pass's operators search only there (elsewhere they found nothing; see
+    // BENCHMARKS.md)
     let mut focus: Option<Vec<bool>> = None;
     for _ in 0..opts.max_rounds {
         // the state before the pass, to find what it changed (a pass never adds quads,
@@ -251,26 +235,25 @@ pub(super) fn finish(
 }
 
 /// After a topological pass, smoothing starts from the nodes within this many quad rings of
-/// the changes (measured on 1.6e5 and 1e6-triangle rectangles: η̄ within 0.001 of smoothing
-/// every node, at a fraction of the work).
+/// the changes: about the quality of smoothing every node, at a fraction of the work
+/// (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 const RESMOOTH_RINGS: usize = 2;
 
 /// Sweeps of the smoothing around a topology pass's changes on surfaces of
 /// [`RESMOOTH_ALL_BELOW`] quads or more, in fifths of `smooth_iterations` (rounded up: 3 of
-/// the default 5). Measured on the 1e5 fixtures: 3 keep η_w, η̄, τ and d4 within 0.001 /
-/// 0.1 point; 2 or 1 lose up to 0.017 of η_w or 0.003 of η̄ on some.
+/// the default 5): the fewest that keep the quality of full sweeps (figures in
+/// BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 const NEAR_SWEEPS_NUM: usize = 3;
 
 /// Surfaces with fewer quads re-smooth every node after each topological pass: cheap there,
-/// and measured on the 1e5-triangle cad_solid fixture (14 curved surfaces of 500 to 5,000
-/// quads) local re-smoothing alone loses 0.008 of η̄ (0.840 -> 0.831).
+/// and on small curved surfaces local re-smoothing alone loses mean quality (figures in
+/// BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 pub(super) const RESMOOTH_ALL_BELOW: usize = 20_000;
 
 /// Small planar surfaces try the alternative schedules (module docs) only when their mean η
-/// after the first smoothing is below this. Measured on the 1e4/1e5 fixtures: surfaces at
-/// 0.84 or more there (cad_solid 1e5's largest faces at 0.844-0.862, even_curves 1e5's
-/// 18k-quad face at 0.915) gained at most 0.0015 of η̄ from them, for most of their time;
-/// the surfaces that need them start at 0.70-0.84 (square_hole 1e4: 0.72, +0.007).
+/// after the first smoothing is below this: surfaces already above it gain next to nothing
+/// from them, for most of their time (figures in BENCHMARKS.md, "Figures moved out of doc
+/// comments (issue 13)").
 const ALTERNATIVES_BELOW: f64 = 0.84;
 
 /// Nodes within `rings` quad rings of what a topological pass changed, given the quads,

@@ -69,9 +69,9 @@ fn sweep(
     moves
 }
 
-/// A node whose move exceeds `MOVE_TOL` · h makes its neighbours active for the next sweep.
-/// Measured on 1.6e5 and 1e6-triangle rectangles: 1e-3 instead of 1e-4 costs no η̄ and cuts
-/// the work of later sweeps.
+/// A node whose move exceeds `MOVE_TOL` · h makes its neighbours active for the next sweep:
+/// small enough to cost no mean quality, large enough to cut the work of later sweeps
+/// (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 const MOVE_TOL: f64 = 1e-3;
 
 /// Sweeps `propose` over the free nodes up to `sweeps` times, each sweep only over the nodes

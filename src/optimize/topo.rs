@@ -33,9 +33,8 @@ use super::valid::{self, quad_valid};
 use super::OperationCounts;
 use glam::DVec3;
 
-/// Longest rotation sequence [`cleanup`](super::cleanup) searches (measured on the Gmsh
-/// fixtures at 10^5 triangles: depth 1 adds 0.5 point of d4, depth 2 adds 2, depth 3 one
-/// more at twice the cost).
+/// Longest rotation sequence [`cleanup`](super::cleanup) searches: deeper searches find
+/// more regular nodes at a growing cost (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
 const CLEANUP_DEPTH: usize = 2;
 
 /// One pass of the operators; returns how many were applied. Leaves the adjacency stale:

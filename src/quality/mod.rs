@@ -17,7 +17,7 @@ pub mod view;
 pub use eta::{eta, eta_signed, eta_signed_fast};
 pub use size::{ReferenceSize, SizeExpr, SizeField};
 
-use crate::mesh::{etype, Mesh};
+use crate::mesh::{etype, Mesh, NodeTable};
 use glam::DVec3;
 use serde::Serialize;
 use std::fmt;
@@ -170,52 +170,10 @@ impl fmt::Display for QualityReport {
     }
 }
 
-/// Nodes of a mesh flattened into one index space (block after block), with coordinates.
-pub(crate) struct FlatNodes {
-    /// Coordinates per flat index.
-    pub coords: Vec<DVec3>,
-    /// First flat index of each node block.
-    pub offsets: Vec<usize>,
-    index: crate::mesh::NodeIndex,
-}
-
-impl FlatNodes {
-    pub(crate) fn new(mesh: &Mesh) -> Self {
-        let mut offsets = Vec::with_capacity(mesh.node_blocks.len());
-        let mut coords = Vec::with_capacity(mesh.node_count());
-        for b in &mesh.node_blocks {
-            offsets.push(coords.len());
-            coords.extend(b.coords.iter().map(|&c| DVec3::from_array(c)));
-        }
-        FlatNodes {
-            coords,
-            offsets,
-            index: mesh.node_index(),
-        }
-    }
-
-    /// Block and index of node `tag` in its mesh.
-    pub(crate) fn node_ref(&self, tag: u64) -> Option<crate::mesh::NodeRef> {
-        self.index.get(tag)
-    }
-
-    /// Coordinates of node `tag`.
-    pub(crate) fn at(&self, tag: u64) -> Option<DVec3> {
-        self.get(tag).map(|i| self.coords[i as usize])
-    }
-
-    /// Flat index of node `tag`.
-    pub(crate) fn get(&self, tag: u64) -> Option<u32> {
-        self.index
-            .get(tag)
-            .map(|r| (self.offsets[r.block as usize] + r.index as usize) as u32)
-    }
-}
-
 /// Per-quad quality η (eq. 3) of every quadrangle (4-node, and 8- and 9-node on their
 /// corners), as `(element tag, η)` in file order. Quads naming missing nodes are skipped.
 pub fn quad_etas(mesh: &Mesh) -> Vec<(u64, f64)> {
-    let nodes = FlatNodes::new(mesh);
+    let nodes = NodeTable::new(mesh);
     let mut out = Vec::new();
     for b in &mesh.element_blocks {
         if !matches!(b.element_type, etype::QUAD4 | etype::QUAD8 | etype::QUAD9) {
@@ -224,12 +182,11 @@ pub fn quad_etas(mesh: &Mesh) -> Vec<(u64, f64)> {
         for e in 0..b.len() {
             let el = b.element(e);
             let mut p = [DVec3::ZERO; 4];
-            if el.iter().zip(p.iter_mut()).all(|(&t, q)| {
-                nodes
-                    .get(t)
-                    .map(|i| *q = nodes.coords[i as usize])
-                    .is_some()
-            }) {
+            if el
+                .iter()
+                .zip(p.iter_mut())
+                .all(|(&t, q)| nodes.id(t).map(|i| *q = nodes.coords[i as usize]).is_some())
+            {
                 out.push((b.tags[e], eta(&p)));
             }
         }
@@ -320,7 +277,7 @@ impl Acc {
 /// elements, each with l^h from eq. (1) (see [`size`] for the integration and the choice of
 /// field). Fails only when a size expression fails somewhere.
 pub fn report(mesh: &Mesh, size: &SizeField) -> Result<QualityReport, QualityError> {
-    let nodes = FlatNodes::new(mesh);
+    let nodes = NodeTable::new(mesh);
     let nn = nodes.coords.len();
     let mut surf_tags: Vec<i32> = mesh
         .element_blocks
@@ -340,14 +297,15 @@ pub fn report(mesh: &Mesh, size: &SizeField) -> Result<QualityReport, QualityErr
     let mut on_curve = vec![false; nn];
     for (bi, b) in mesh.node_blocks.iter().enumerate() {
         if b.entity_dim < 2 {
-            on_curve[nodes.offsets[bi]..nodes.offsets[bi] + b.tags.len()].fill(true);
+            let start = nodes.block_start[bi] as usize;
+            on_curve[start..start + b.tags.len()].fill(true);
         }
     }
     for b in &mesh.element_blocks {
         let dim = crate::mesh::element_dim(b.element_type);
         if matches!(dim, Some(0) | Some(1)) {
             for &t in &b.nodes {
-                if let Some(i) = nodes.get(t) {
+                if let Some(i) = nodes.id(t) {
                     on_curve[i as usize] = true;
                 }
             }
@@ -374,7 +332,7 @@ pub fn report(mesh: &Mesh, size: &SizeField) -> Result<QualityReport, QualityErr
             if !el
                 .iter()
                 .zip(ids.iter_mut())
-                .all(|(&t, id)| nodes.get(t).map(|i| *id = i).is_some())
+                .all(|(&t, id)| nodes.id(t).map(|i| *id = i).is_some())
             {
                 skipped += 1;
                 continue;
@@ -383,7 +341,7 @@ pub fn report(mesh: &Mesh, size: &SizeField) -> Result<QualityReport, QualityErr
                 // the scaled Jacobian needs every node of a second-order quad
                 let all: Option<Vec<DVec3>> = b.element(e)[..full]
                     .iter()
-                    .map(|&t| nodes.get(t).map(|i| nodes.coords[i as usize]))
+                    .map(|&t| nodes.id(t).map(|i| nodes.coords[i as usize]))
                     .collect();
                 let Some(sj) = all.as_deref().and_then(view::scaled_jacobian) else {
                     skipped += 1;

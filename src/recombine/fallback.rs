@@ -69,7 +69,7 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
     let mut at_edge: HashMap<(u64, u64), Vec<u32>> = HashMap::new();
     let mut marked: Vec<bool> = Vec::new();
     for (bi, b) in mesh.element_blocks.iter().enumerate() {
-        if !matches!(b.element_type, etype::TRI3 | etype::QUAD4) || b.entity_dim != 2 {
+        if !b.is_linear_face() {
             continue;
         }
         let k = b.nodes_per_element();

@@ -40,10 +40,9 @@ pub(crate) fn triangle_normals(topo: &SurfaceTopo, coords: &[DVec3]) -> Vec<DVec
 
 /// Corner quality below which a corner at a wall node makes a quad as bad as a folded one
 /// (see the edge cost): η of the corner alone ≤ 0.25, i.e. an angle above 157.5° or below
-/// 22.5°. Measured on the cad_solid fixture at 1e4 triangles: with 0.1 (171°) the matching
-/// put three wall nodes of a curved edge into one quad with a 165° corner that no smoothing
-/// can open (η_w 0.167 after optimization); with 0.25 η_w is 0.601, and the other fixtures
-/// at 1e4 and 1e5 are unchanged.
+/// 22.5°. A lower bound lets the matching put consecutive wall nodes of a curved edge into
+/// one quad with a corner no smoothing can open (figures in BENCHMARKS.md, "Figures moved
+/// out of doc comments (issue 13)").
 pub const FIXED_CORNER_MIN_ETA: f64 = 0.25;
 
 /// A set of ids (global node ids, or triangles) as a bitmap.

@@ -93,17 +93,7 @@ pub(crate) fn check_tag_room(mesh: &Mesh) -> Result<(), RecombineError> {
 /// Unknown nodes are left to the later stages, which name them.
 pub(crate) fn check_surface_elements(mesh: &Mesh) -> Result<(), RecombineError> {
     let coords = TagCoords::new(mesh);
-    let mut surfaces: Vec<i32> = mesh
-        .element_blocks
-        .iter()
-        .filter(|b| {
-            b.entity_dim == 2 && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
-        })
-        .map(|b| b.entity_tag)
-        .collect();
-    surfaces.sort_unstable();
-    surfaces.dedup();
-    surfaces
+    mesh.sorted_surfaces(|b| b.is_linear_face())
         .par_iter()
         .map(|&s| check_surface(mesh, s, &coords))
         .collect::<Result<Vec<()>, _>>()
@@ -192,11 +182,11 @@ fn check_surface(mesh: &Mesh, surface: i32, coords: &TagCoords) -> Result<(), Re
     // triangles with their normals, for the fold check; elements checked by chunks in
     // parallel, the first refused one in block order reported
     let mut tris: Vec<FoldTri> = Vec::new();
-    for b in mesh.element_blocks.iter().filter(|b| {
-        b.entity_dim == 2
-            && b.entity_tag == surface
-            && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
-    }) {
+    for b in mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_tag == surface && b.is_linear_face())
+    {
         let chunks: Vec<Result<Vec<FoldTri>, RecombineError>> = (0..b.len())
             .into_par_iter()
             .step_by(CHUNK)

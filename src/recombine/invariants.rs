@@ -763,12 +763,11 @@ fn check_split_sets(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::mesh::{ElementBlock, NodeBlock};
+    use crate::mesh::testing::{node_block, one_surface};
 
     /// A 3×3-node unit square: corner nodes on points, the rest on the surface; `elems` of
     /// `etype_` on surface 1.
     fn square(etype_: u32, elems: &[&[u64]], moved: Option<(u64, [f64; 3])>) -> Mesh {
-        let mut m = Mesh::default();
         let mut coords: Vec<[f64; 3]> = (0..9)
             .map(|i| [(i % 3) as f64 * 0.5, (i / 3) as f64 * 0.5, 0.0])
             .collect();
@@ -776,25 +775,12 @@ mod tests {
             coords[t as usize - 1] = c;
         }
         let corners = [1u64, 3, 7, 9];
-        for (dim, pick) in [(0, true), (2, false)] {
+        let blocks = [(0, true), (2, false)].map(|(dim, pick)| {
             let tags: Vec<u64> = (1..=9u64).filter(|t| corners.contains(t) == pick).collect();
-            m.node_blocks.push(NodeBlock {
-                entity_dim: dim,
-                entity_tag: 1,
-                coords: tags.iter().map(|&t| coords[t as usize - 1]).collect(),
-                tags,
-                params: None,
-            });
-        }
-        m.element_blocks.push(ElementBlock {
-            entity_dim: 2,
-            entity_tag: 1,
-            element_type: etype_,
-            tags: (1..=elems.len() as u64).collect(),
-            nodes: elems.iter().flat_map(|e| e.iter().copied()).collect(),
-            partitions: None,
+            let at = tags.iter().map(|&t| coords[t as usize - 1]).collect();
+            node_block(dim, tags, at)
         });
-        m
+        one_surface(blocks.into(), etype_, elems)
     }
 
     const TRIS: [&[u64]; 8] = [

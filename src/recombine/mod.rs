@@ -170,11 +170,11 @@ use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
 
-use crate::mesh::{element_dim, etype, ElementBlock, Mesh};
+use crate::mesh::{element_dim, etype, ElementBlock, Mesh, NodeTable};
 use crate::profile::StageTimer;
 pub(crate) use surface::SurfaceWork;
 use surface::{match_surface, surface_work, SurfaceResult};
-use topology::{CurveInfo, NodeTable};
+use topology::CurveInfo;
 use write_back::write_back;
 
 pub use fallback::{split_triangles, FallbackSplit};
@@ -712,6 +712,21 @@ fn retriangulate(mesh: &mut Mesh, surfaces: &[i32], report: &mut RecombineReport
     mesh.invalidate_element_data();
 }
 
+/// Refuses a block whose node or partition lists do not fit its element count
+/// ([`ElementBlock::is_well_formed`]); `high_order` uses it too.
+pub(crate) fn check_block(b: &ElementBlock) -> Result<(), RecombineError> {
+    if b.is_well_formed() {
+        return Ok(());
+    }
+    Err(RecombineError::MalformedBlock {
+        dim: b.entity_dim,
+        entity: b.entity_tag,
+        element_type: b.element_type,
+        nodes: b.nodes.len(),
+        elements: b.len(),
+    })
+}
+
 /// Step 1 of the pipeline: refuses what cannot be recombined, drops volumes when asked.
 fn check_input(
     mesh: &mut Mesh,
@@ -719,18 +734,7 @@ fn check_input(
     report: &mut RecombineReport,
 ) -> Result<(), RecombineError> {
     for b in &mesh.element_blocks {
-        let k = b.nodes_per_element();
-        let ok = (k == 0 || b.nodes.len() == b.len() * k)
-            && b.partitions.as_ref().is_none_or(|p| p.len() == b.len());
-        if !ok {
-            return Err(RecombineError::MalformedBlock {
-                dim: b.entity_dim,
-                entity: b.entity_tag,
-                element_type: b.element_type,
-                nodes: b.nodes.len(),
-                elements: b.len(),
-            });
-        }
+        check_block(b)?;
     }
     let mut volumes: Vec<i32> = Vec::new();
     let mut count = 0;
@@ -774,7 +778,13 @@ fn check_input(
     Ok(())
 }
 
-/// Surface tags with 3-node triangles, in first-appearance order.
+/// Surface tags with 3-node triangles, in first-appearance order (the order of the element
+/// blocks in the file), periodic slaves left out.
+///
+/// The order is part of the output: `write_back` gives the surfaces' new nodes (vertex
+/// duplications) their tags in this order, so sorting it (as `optimize` does) would
+/// renumber nodes of the written mesh. Periodic slaves are not recombined: they get the
+/// image of their master's quads (`periodic`).
 fn surface_tags(mesh: &Mesh) -> Vec<i32> {
     // periodic slaves are not recombined: they get the image of their master
     let slaves = periodic::slave_surfaces(mesh);
@@ -817,15 +827,7 @@ fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
         msg.push_str(&format!(
             "  surface {}{}: {} triangles\n",
             o.surface,
-            if o.region.1 > 1 {
-                format!(
-                    " (region {} of {}, separated by embedded curves)",
-                    o.region.0 + 1,
-                    o.region.1
-                )
-            } else {
-                String::new()
-            },
+            parity::region_note(o),
             o.triangles
         ));
     }

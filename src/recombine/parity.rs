@@ -5,9 +5,9 @@ use std::collections::HashMap;
 
 use glam::DVec3;
 
-use super::topology::{edge_key, NodeTable, NONE};
+use super::topology::{edge_key, NONE};
 use super::{ParitySplit, RecombineError, SurfaceWork};
-use crate::mesh::{etype, Mesh, NodeBlock};
+use crate::mesh::{etype, Mesh, NodeBlock, NodeTable};
 
 /// One odd triangle region.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -323,9 +323,10 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
     }
 }
 
-/// "surface 2 (region 1 of 3) has 117 triangles (odd)".
-fn describe(o: &OddRegion) -> String {
-    let region = if o.region.1 > 1 {
+/// " (region 1 of 3, separated by embedded curves)" when `o`'s surface has several regions,
+/// else nothing.
+pub(crate) fn region_note(o: &OddRegion) -> String {
+    if o.region.1 > 1 {
         format!(
             " (region {} of {}, separated by embedded curves)",
             o.region.0 + 1,
@@ -333,10 +334,16 @@ fn describe(o: &OddRegion) -> String {
         )
     } else {
         String::new()
-    };
+    }
+}
+
+/// "surface 2 (region 1 of 3, separated by embedded curves) has 117 triangles (odd)".
+fn describe(o: &OddRegion) -> String {
     format!(
-        "surface {}{region} has {} triangles (odd)",
-        o.surface, o.triangles
+        "surface {}{} has {} triangles (odd)",
+        o.surface,
+        region_note(o),
+        o.triangles
     )
 }
 

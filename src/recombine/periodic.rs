@@ -48,22 +48,16 @@ pub(crate) fn slave_surfaces(mesh: &Mesh) -> Vec<i32> {
 }
 
 fn has_faces(mesh: &Mesh, s: i32) -> bool {
-    mesh.element_blocks.iter().any(|b| {
-        b.entity_dim == 2
-            && b.entity_tag == s
-            && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
-            && !b.is_empty()
-    })
+    mesh.element_blocks
+        .iter()
+        .any(|b| b.entity_tag == s && b.is_linear_face() && !b.is_empty())
 }
 
 /// The faces (triangles and quads) of surface `s`, with their tags.
 fn faces(mesh: &Mesh, s: i32) -> Vec<(u64, Vec<u64>)> {
     let mut out = Vec::new();
     for b in &mesh.element_blocks {
-        if b.entity_dim == 2
-            && b.entity_tag == s
-            && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4)
-        {
+        if b.entity_tag == s && b.is_linear_face() {
             for i in 0..b.len() {
                 out.push((b.tags[i], b.element(i).to_vec()));
             }
@@ -332,11 +326,8 @@ pub(crate) fn map_slaves(
             .iter()
             .position(|b| b.entity_dim == 2 && b.entity_tag == s)
             .unwrap_or(mesh.element_blocks.len());
-        mesh.element_blocks.retain(|b| {
-            !(b.entity_dim == 2
-                && b.entity_tag == s
-                && (b.element_type == etype::TRI3 || b.element_type == etype::QUAD4))
-        });
+        mesh.element_blocks
+            .retain(|b| !(b.entity_tag == s && b.is_linear_face()));
         let at = first.min(mesh.element_blocks.len());
         for (ty, list) in [(etype::TRI3, out_tri), (etype::QUAD4, out_quad)] {
             if list.is_empty() {

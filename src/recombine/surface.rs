@@ -7,10 +7,10 @@ use std::time::{Duration, Instant};
 use rayon::prelude::*;
 
 use super::surface_tags;
-use super::topology::{CurveInfo, NodeTable, SurfaceTopo};
+use super::topology::{CurveInfo, SurfaceTopo};
 use super::{graph, post};
 use super::{RecombineError, RecombineOptions, SurfaceReport};
-use crate::mesh::{etype, Mesh};
+use crate::mesh::{etype, Mesh, NodeTable};
 use crate::profile::{StageTimer, Trace, TraceEvent};
 
 /// Triangles of one surface, ready for parity analysis and matching.
@@ -60,7 +60,14 @@ pub(super) fn surface_work(
             let mut partitions = Vec::with_capacity(if any_parts { count } else { 0 });
             for b in blocks() {
                 for i in 0..b.len() {
-                    tris.push(nodes.ids::<3>(b.element(i), 2, tag, b.tags[i])?);
+                    tris.push(nodes.ids::<3>(b.element(i)).map_err(|node| {
+                        RecombineError::UnknownNode {
+                            dim: 2,
+                            entity: tag,
+                            element: b.tags[i],
+                            node,
+                        }
+                    })?);
                 }
                 elem_tags.extend_from_slice(&b.tags);
                 if any_parts {

@@ -1,11 +1,10 @@
-//! Surface extraction and triangle adjacency: global node numbering, which mesh edges lie on
+//! Surface extraction and triangle adjacency: which mesh edges lie on
 //! model curves (walls), and each surface's triangle-adjacency graph.
 //!
 //! Hot path: edges are found by sorting `u64` keys `(min << 32) | max` of global `u32` node
-//! ids, never with hash maps.
+//! ids (the ids of [`NodeTable`]), never with hash maps.
 
-use crate::mesh::{etype, Mesh};
-use glam::DVec3;
+use crate::mesh::{etype, Mesh, NodeTable};
 use rayon::prelude::*;
 
 use super::RecombineError;
@@ -18,79 +17,6 @@ pub(crate) use crate::mesh::NONE;
 pub(crate) fn edge_key(a: u32, b: u32) -> u64 {
     let (lo, hi) = if a < b { (a, b) } else { (b, a) };
     ((lo as u64) << 32) | hi as u64
-}
-
-/// Every node of the mesh with a dense global id (its position in block order).
-pub(crate) struct NodeTable {
-    /// Coordinates by global id.
-    pub coords: Vec<DVec3>,
-    /// Node tag by global id.
-    pub tags: Vec<u64>,
-    /// Index of the node block holding each global id.
-    pub block: Vec<u32>,
-    /// First global id of each node block.
-    pub block_start: Vec<u32>,
-    index: crate::mesh::NodeIndex,
-}
-
-impl NodeTable {
-    /// Numbers the nodes of `mesh` in block order.
-    pub fn new(mesh: &Mesh) -> Self {
-        let mut coords = Vec::with_capacity(mesh.node_count());
-        let mut tags = Vec::with_capacity(mesh.node_count());
-        let mut block = Vec::with_capacity(mesh.node_count());
-        let mut block_start = Vec::with_capacity(mesh.node_blocks.len());
-        for (bi, b) in mesh.node_blocks.iter().enumerate() {
-            block_start.push(coords.len() as u32);
-            for (t, c) in b.tags.iter().zip(&b.coords) {
-                coords.push(DVec3::from_array(*c));
-                tags.push(*t);
-                block.push(bi as u32);
-            }
-        }
-        NodeTable {
-            coords,
-            tags,
-            block,
-            block_start,
-            index: mesh.node_index(),
-        }
-    }
-
-    /// Global id of node `tag`.
-    #[inline]
-    pub fn id(&self, tag: u64) -> Option<u32> {
-        self.index
-            .get(tag)
-            .map(|r| self.block_start[r.block as usize] + r.index)
-    }
-
-    /// `(dim, tag)` of the entity classifying global node `id`.
-    #[inline]
-    pub fn entity(&self, mesh: &Mesh, id: u32) -> (i32, i32) {
-        let b = &mesh.node_blocks[self.block[id as usize] as usize];
-        (b.entity_dim, b.entity_tag)
-    }
-
-    /// Global ids of an element's nodes, or an error naming the element.
-    pub fn ids<const K: usize>(
-        &self,
-        nodes: &[u64],
-        dim: i32,
-        entity: i32,
-        element: u64,
-    ) -> Result<[u32; K], RecombineError> {
-        let mut out = [0u32; K];
-        for (o, &t) in out.iter_mut().zip(nodes) {
-            *o = self.id(t).ok_or(RecombineError::UnknownNode {
-                dim,
-                entity,
-                element,
-                node: t,
-            })?;
-        }
-        Ok(out)
-    }
 }
 
 /// What the whole mesh says about model curves: edges carried by line elements, and for
@@ -122,7 +48,15 @@ impl CurveInfo {
             }
             curves_with_lines.push(b.entity_tag);
             for i in 0..b.len() {
-                let [a, c] = nodes.ids::<2>(b.element(i), b.entity_dim, b.entity_tag, b.tags[i])?;
+                let [a, c] =
+                    nodes
+                        .ids::<2>(b.element(i))
+                        .map_err(|node| RecombineError::UnknownNode {
+                            dim: b.entity_dim,
+                            entity: b.entity_tag,
+                            element: b.tags[i],
+                            node,
+                        })?;
                 line_edges.push(edge_key(a, c));
                 line_node[a as usize] = true;
                 line_node[c as usize] = true;

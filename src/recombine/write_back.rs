@@ -2,8 +2,7 @@
 
 use super::parity;
 use super::surface::{SurfaceResult, SurfaceWork};
-use super::topology::NodeTable;
-use crate::mesh::{etype, ElementBlock, Mesh};
+use crate::mesh::{etype, ElementBlock, Mesh, NodeTable};
 
 /// Step 8: new nodes, then each surface's triangle blocks replaced by quads.
 pub(super) fn write_back(
