@@ -601,3 +601,28 @@ fn check_not_input(input: &Path, output: &Path, force: bool) -> Result<(), Strin
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Progress, Stage};
+
+    #[test]
+    fn the_progress_line_shows_stage_bar_percent_and_surfaces() {
+        let one = Progress::new(Stage::Matching, 48, 100).with_surfaces(0, 1);
+        assert_eq!(
+            progress_line(&one),
+            "matching   [##############                ]  48%  surface 1/1"
+        );
+        let many = Progress::new(Stage::Optimize, 1, 1).with_surfaces(12, 12);
+        assert_eq!(
+            progress_line(&many),
+            "optimizing [##############################] 100%  12/12 surfaces done"
+        );
+        let read = Progress::new(Stage::Read, 0, 1);
+        assert_eq!(
+            progress_line(&read),
+            "reading    [                              ]   0%"
+        );
+    }
+}

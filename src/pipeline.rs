@@ -830,3 +830,127 @@ fn run_once<'a>(
     }
     Ok((report, refined, unoptimized))
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Mutex;
+
+    /// Every report of one `quadrangulate` of the repository's rectangle (1792 triangles,
+    /// one surface).
+    fn reports(opts: Options) -> (Vec<Progress>, Report) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("geo/rectangle.msh");
+        let mut mesh = crate::msh::read_file(&path).expect("geo/rectangle.msh");
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let sink = Arc::clone(&seen);
+        let opts = Options {
+            progress: Some(ProgressFn::new(move |p| {
+                sink.lock().expect("lock").push(p);
+            })),
+            ..opts
+        };
+        let report = quadrangulate(&mut mesh, &opts).expect("quadrangulate");
+        let seen = seen.lock().expect("lock").clone();
+        (seen, report)
+    }
+
+    #[test]
+    fn progress_comes_in_stage_order_and_ends_every_stage() {
+        let (seen, report) = reports(Options::default());
+        assert_eq!(report.rounds, 1);
+        let stages: Vec<Stage> = seen.iter().map(|p| p.stage).collect();
+        let mut order = stages.clone();
+        order.dedup();
+        assert_eq!(
+            order,
+            [
+                Stage::Topology,
+                Stage::Graph,
+                Stage::Matching,
+                Stage::Optimize,
+                Stage::Check
+            ]
+        );
+        for stage in &order {
+            let of: Vec<&Progress> = seen.iter().filter(|p| p.stage == *stage).collect();
+            for w in of.windows(2) {
+                assert!(w[0].fraction() <= w[1].fraction(), "{stage:?}: {w:?}");
+            }
+            for p in &of {
+                assert!(p.total > 0 && p.done <= p.total, "{p:?}");
+                assert!((0.0..=1.0).contains(&p.fraction()));
+            }
+            let last = of.last().expect("a report");
+            assert_eq!(last.done, last.total, "{stage:?} does not end complete");
+        }
+        // the solver's progress shows inside the matching stage, not only its ends
+        assert!(
+            seen.iter()
+                .any(|p| p.stage == Stage::Matching && p.done > 0 && p.done < p.total),
+            "{seen:?}"
+        );
+        let matching = seen.iter().find(|p| p.stage == Stage::Matching);
+        assert_eq!(matching.map(|p| (p.surfaces, p.total)), Some((1, 1792)));
+        // optimizer steps, not one jump
+        let optimize = seen.iter().filter(|p| p.stage == Stage::Optimize).count();
+        assert!(optimize >= 4, "{seen:?}");
+        // throttled: far fewer reports than triangles
+        assert!(seen.len() < 400, "{} reports", seen.len());
+    }
+
+    #[test]
+    fn progress_reports_refinement_levels_in_order() {
+        let (seen, _) = reports(Options {
+            refine: 1,
+            optimize: false,
+            ..Options::default()
+        });
+        let mut order: Vec<Stage> = seen.iter().map(|p| p.stage).collect();
+        order.dedup();
+        assert_eq!(
+            order,
+            [
+                Stage::Topology,
+                Stage::Graph,
+                Stage::Matching,
+                Stage::Refine,
+                Stage::Check
+            ]
+        );
+        let refine = seen.iter().rfind(|p| p.stage == Stage::Refine);
+        assert_eq!(refine.map(|p| (p.done, p.total)), Some((1, 1)));
+    }
+
+    #[test]
+    fn the_reporter_drops_late_and_small_steps_and_ends_a_stage_overtaken() {
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let sink = Arc::clone(&seen);
+        let r = Reporter::wrap(&ProgressFn::new(move |p| {
+            sink.lock().expect("lock").push((p.stage, p.done))
+        }));
+        for (stage, done) in [
+            (Stage::Graph, 0),
+            (Stage::Graph, 1), // less than 1/200 more: dropped
+            (Stage::Graph, 500),
+            (Stage::Graph, 400),   // went back: dropped
+            (Stage::Matching, 10), // Graph ends first
+            (Stage::Graph, 1000),  // an earlier stage: dropped
+            (Stage::Matching, 1000),
+            (Stage::Matching, 1000), // already ended: dropped
+            (Stage::Topology, 0),    // a new round
+        ] {
+            r.report(Progress::new(stage, done, 1000));
+        }
+        assert_eq!(
+            *seen.lock().expect("lock"),
+            [
+                (Stage::Graph, 0),
+                (Stage::Graph, 500),
+                (Stage::Graph, 1000),
+                (Stage::Matching, 10),
+                (Stage::Matching, 1000),
+                (Stage::Topology, 0),
+            ]
+        );
+    }
+}
