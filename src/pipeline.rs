@@ -46,7 +46,7 @@ pub enum Stage {
     /// Reading the input file (`done`/`total`: bytes).
     Read,
     /// Input checks, each surface's triangles, adjacency and regions, and parity repair
-    /// (`done`/`total`: 0/1, then 1/1).
+    /// (`done`/`total`: steps of these four).
     Topology,
     /// The matching graphs and their costs (`done`/`total`: triangles of the surfaces whose
     /// graph is built, of all).

@@ -485,12 +485,11 @@ pub fn recombine(
             .extend(lines.into_iter().map(|l| format!("warning: {l}")));
     }
     tm.lap("repeated triangles");
-    if let Some(p) = &opts.progress {
-        p.report(crate::Progress::new(crate::Stage::Topology, 0, 1));
-    }
+    topology_progress(opts, 0);
     let before = opts.verify.then(|| mesh.clone());
     check_input(mesh, opts, &mut report)?;
     tm.lap("input checks");
+    topology_progress(opts, 1);
 
     // Topology, parity, matching. A surface whose triangles are enclosed by quads so that
     // they cannot be made even or matched (isolated triangles left by a partial
@@ -513,7 +512,7 @@ pub fn recombine(
             split_nodes.sort_unstable();
             let split_nodes = &split_nodes;
             let tracker = opts.progress.as_ref().map(|p| {
-                p.report(crate::Progress::new(crate::Stage::Topology, 1, 1));
+                p.report(crate::Progress::new(crate::Stage::Topology, 4, 4));
                 let t = Arc::new(surface::Tracker::new(p.clone(), &work));
                 t.emit();
                 t
@@ -594,6 +593,14 @@ pub fn sync_periodic(mesh: &mut Mesh) -> Result<usize, RecombineError> {
 }
 
 /// Steps 2–3: topology of every surface, then parity repair (one round, checked).
+/// [`crate::Stage::Topology`] progress: `step` of its four steps (input checks, node table,
+/// surface topology, parity repair) done.
+fn topology_progress(opts: &RecombineOptions, step: u64) {
+    if let Some(p) = &opts.progress {
+        p.report(crate::Progress::new(crate::Stage::Topology, step, 4));
+    }
+}
+
 fn parity_stage(
     mesh: &mut Mesh,
     opts: &RecombineOptions,
@@ -602,10 +609,12 @@ fn parity_stage(
     let mut tm = StageTimer::new(opts.trace.as_ref(), "parity stage", 0);
     let nodes = NodeTable::new(mesh);
     tm.lap("node table");
+    topology_progress(opts, 2);
     let curves = CurveInfo::new(mesh, &nodes)?;
     tm.lap("curves");
     let work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref())?;
     tm.lap("surface work");
+    topology_progress(opts, 3);
     let plan = parity::plan(mesh, &nodes, &work);
     tm.lap("plan");
     tm.done();
