@@ -360,7 +360,8 @@ fn run(cli: Cli) -> Result<(), String> {
 }
 
 /// The developer hooks the environment asks for: `BLOSSOMQUAD_STAGE_TIMES` (set: stage
-/// times and optimizer rollbacks on stderr, one line each) and `BLOSSOMQUAD_DUMP_GRAPHS=DIR`
+/// times, the optimizer's quality after each stage and its rollbacks on stderr, one line
+/// each) and `BLOSSOMQUAD_DUMP_GRAPHS=DIR`
 /// (each surface's matching graph as `DIR/surface-TAG.txt`: a line `n m`, then `u v cost`
 /// per edge, the input format of `examples/solve_matching`).
 fn trace_from_env() -> Option<crate::profile::Trace> {
@@ -400,6 +401,19 @@ fn trace_from_env() -> Option<crate::profile::Trace> {
             eprintln!(
                 "surface {surface}: the {stage} left {count} invalid quad(s) (nodes {}); rolled back",
                 q.join(", ")
+            );
+        }
+        TraceEvent::StageQuality {
+            group,
+            surface,
+            stage,
+            quads,
+            eta_worst,
+            eta_mean,
+            d4_percent,
+        } if times => {
+            eprintln!(
+                "{group} surface {surface} after {stage}: {quads} quads, eta_w {eta_worst:.4}, mean eta {eta_mean:.4}, d4 {d4_percent:.2} %"
             );
         }
         TraceEvent::MatchingGraph {

@@ -34,6 +34,24 @@ pub enum TraceEvent<'a> {
         /// Node tags of the first few.
         quads: &'a [[u64; 4]],
     },
+    /// The quads of one surface after an optimizer stage (sent with the stage times, so
+    /// what each stage gains can be read beside what it costs).
+    StageQuality {
+        /// The timed step, e.g. "optimize".
+        group: &'static str,
+        /// Surface entity tag.
+        surface: i32,
+        /// The stage just ended, e.g. "smooth".
+        stage: &'static str,
+        /// Alive quads.
+        quads: usize,
+        /// Worst η (eq. 3).
+        eta_worst: f64,
+        /// Mean η.
+        eta_mean: f64,
+        /// Percentage of interior vertices with four quads.
+        d4_percent: f64,
+    },
     /// The matching graph of one surface, before it is solved: `vertices` triangles, edges
     /// `(u, v, cost)` (the input of `matching::solve`).
     MatchingGraph {
@@ -116,6 +134,25 @@ impl<'t> StageTimer<'t> {
                 .push((name, c - self.cpu, (w - self.wall).as_secs_f64()));
             self.cpu = c;
             self.wall = w;
+        }
+    }
+
+    /// The sink, when there is one.
+    pub(crate) fn trace(&self) -> Option<&'t Trace> {
+        self.trace
+    }
+
+    /// The step's name and surface.
+    pub(crate) fn step(&self) -> (&'static str, i32) {
+        (self.group, self.surface)
+    }
+
+    /// Restarts the clocks without a lap: what ran since the last lap is billed to no
+    /// stage (the trace's own measurements).
+    pub(crate) fn restart(&mut self) {
+        if self.trace.is_some() {
+            self.cpu = cpu_seconds();
+            self.wall = Instant::now();
         }
     }
 

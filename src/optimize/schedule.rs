@@ -25,7 +25,7 @@ pub(super) fn run_surface(
         ..Default::default()
     };
     gate.check(l, true, "smoothing");
-    tm.lap("smooth");
+    lap_with_quality(&mut tm, l, "smooth");
     // progress: the steps given so far (the last call gives the rest of STEPS)
     let given = std::sync::atomic::AtomicUsize::new(0);
     let tick = |k: usize| {
@@ -207,7 +207,7 @@ fn topology_rounds(
                 smooth::smooth_near(l, near_its, opts.diagonal_weight, active)
             }
         };
-        tm.lap("resmooth");
+        lap_with_quality(tm, l, "resmooth");
         if unshear {
             ops.smoothing_moves += conformal::unshear(l, conformal::KEEP_ASPECT);
         }
@@ -249,7 +249,7 @@ fn finish_ticking(
     if opts.angle_sweeps > 0 && opts.smooth_iterations > 0 {
         ops.smoothing_moves += conformal::unshear(l, keep_aspect);
         gate.check(l, true, "conformal solve");
-        tm.lap("conformal");
+        lap_with_quality(tm, l, "conformal");
     }
     tick(1);
     // quality: lift the worst quads (max-min) first; the pattern search after it keeps
@@ -257,11 +257,11 @@ fn finish_ticking(
     if opts.angle_sweeps > 0 {
         ops.smoothing_moves += smooth::polish_worst(l, 4);
         gate.check(l, true, "max-min polish");
-        tm.lap("polish_worst");
+        lap_with_quality(tm, l, "polish_worst");
         tick(1);
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
         gate.check(l, true, "pattern search");
-        tm.lap("angles");
+        lap_with_quality(tm, l, "angles");
         tick(1);
     }
     // then maximize the mean η, the worst of every star kept (polish.rs)
@@ -273,7 +273,7 @@ fn finish_ticking(
         };
         ops.smoothing_moves += polish::polish_mean(l, sweeps);
         gate.check(l, true, "mean polish");
-        tm.lap("polish_mean");
+        lap_with_quality(tm, l, "polish_mean");
     }
     tick(1);
 }
@@ -326,4 +326,25 @@ fn near_changes(
     }
     grow_rings(l, &mut mark, rings);
     mark
+}
+
+/// Ends stage `name` of `tm`; with a trace sink, also sends the quads' quality after it
+/// ([`TraceEvent::StageQuality`](crate::profile::TraceEvent::StageQuality)), computed off
+/// the clock. The adjacency of `l` must be current (its d4 count reads it).
+fn lap_with_quality(tm: &mut StageTimer<'_>, l: &Local, name: &'static str) {
+    tm.lap(name);
+    if let Some(trace) = tm.trace() {
+        let s = l.stats();
+        let (group, surface) = tm.step();
+        trace.emit(&crate::profile::TraceEvent::StageQuality {
+            group,
+            surface,
+            stage: name,
+            quads: s.quads,
+            eta_worst: s.eta_worst,
+            eta_mean: s.eta_mean,
+            d4_percent: s.d4_percent,
+        });
+        tm.restart();
+    }
 }

@@ -34,8 +34,15 @@ pub(crate) fn reference_normal(l: &Local, q: u32) -> DVec3 {
     }
 }
 
+/// Largest |cot| of a valid corner: `1 / (1 + cot) >= VALID_KEY` written without a
+/// division per corner.
+const MAX_COT: f64 = 1.0 / VALID_KEY - 1.0;
+
 /// True when the quad `nodes` at the current positions is valid about `normal` (module
-/// docs).
+/// docs): per corner, the sine about the unit normal is positive and |cot| at most
+/// [`MAX_COT`]; every edge is longer than [`MIN_EDGE_REL`] times its ends' mean size.
+/// Written with squared lengths and no division per corner (it runs on every quad at
+/// every gate check); NaN anywhere fails.
 pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
     for i in 0..4 {
         for j in i + 1..4 {
@@ -44,29 +51,31 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
             }
         }
     }
-    let n = normal.normalize_or_zero();
-    if n == DVec3::ZERO {
+    let n_len = normal.length();
+    if !(n_len > 0.0 && n_len.is_finite()) {
         return false;
     }
     let p = nodes.map(|v| l.pos[v as usize]);
-    let mut worst = 0.0_f64;
+    // edge k runs from corner k to corner k + 1
+    let e = [p[1] - p[0], p[2] - p[1], p[3] - p[2], p[0] - p[3]];
     for k in 0..4 {
-        let a = p[(k + 1) & 3] - p[k];
-        let b = p[(k + 3) & 3] - p[k];
-        let (va, vb) = (nodes[k] as usize, nodes[(k + 1) & 3] as usize);
-        let h = 0.5 * (l.h[va] + l.h[vb]);
-        let len = a.length();
-        if !(len.is_finite() && len > MIN_EDGE_REL * h) {
+        let h = MIN_EDGE_REL * 0.5 * (l.h[nodes[k] as usize] + l.h[nodes[(k + 1) & 3] as usize]);
+        let len2 = e[k].length_squared();
+        if !(len2.is_finite() && len2 > h * h) {
             return false;
         }
-        let s = n.dot(a.cross(b));
-        // NaN fails too
-        if s.is_nan() || s <= 0.0 {
-            return false;
-        }
-        worst = worst.max(a.dot(b).abs() / s);
     }
-    1.0 / (1.0 + worst) >= VALID_KEY
+    for k in 0..4 {
+        // corner k between the edge out (a) and the edge back (b)
+        let (a, b) = (e[k], -e[(k + 3) & 3]);
+        // n_len times the sine about the unit normal (times |a||b|)
+        let s = normal.dot(a.cross(b));
+        // NaN fails too
+        if !(s > 0.0 && a.dot(b).abs() * n_len <= MAX_COT * s) {
+            return false;
+        }
+    }
+    true
 }
 
 /// True when alive quad `q` is valid (module docs). It depends only on the quad's nodes and

@@ -203,7 +203,8 @@ fn trace_hooks_reach_the_sink_and_change_nothing() {
         .map(|b| b.len())
         .sum();
     let mut plain = input.clone();
-    blossomquad::quadrangulate(&mut plain, &blossomquad::Options::default()).expect("plain");
+    let plain_report =
+        blossomquad::quadrangulate(&mut plain, &blossomquad::Options::default()).expect("plain");
     let seen: Arc<Mutex<Vec<String>>> = Arc::default();
     let sink = seen.clone();
     let mut opts = blossomquad::Options::default();
@@ -213,6 +214,13 @@ fn trace_hooks_reach_the_sink_and_change_nothing() {
                 vertices, edges, ..
             } => format!("graph {vertices} {}", edges.len()),
             TraceEvent::StageTimes { group, laps, .. } => format!("times {group} {}", laps.len()),
+            TraceEvent::StageQuality {
+                stage,
+                quads,
+                eta_worst,
+                eta_mean,
+                ..
+            } => format!("quality {stage} {quads} {eta_worst} {eta_mean}"),
             _ => "other".to_string(),
         };
         sink.lock().expect("sink").push(line);
@@ -247,6 +255,41 @@ fn trace_hooks_reach_the_sink_and_change_nothing() {
             "no {group:?} laps: {seen:?}"
         );
     }
+
+    // the quality after each optimizer stage: every stage of the schedule reported, with
+    // η in [0, 1]; the schedule kept ends where the report's figures are
+    let quality: Vec<(String, usize, f64, f64)> = seen
+        .iter()
+        .filter_map(|l| l.strip_prefix("quality "))
+        .map(|l| {
+            let f: Vec<&str> = l.split(' ').collect();
+            let num = |i: usize| f[i].parse::<f64>().expect("number");
+            (f[0].to_string(), num(1) as usize, num(2), num(3))
+        })
+        .collect();
+    for stage in [
+        "smooth",
+        "resmooth",
+        "conformal",
+        "polish_worst",
+        "angles",
+        "polish_mean",
+    ] {
+        assert!(
+            quality.iter().any(|q| q.0 == stage),
+            "no quality after {stage}: {seen:?}"
+        );
+    }
+    assert!(quality
+        .iter()
+        .all(|q| q.1 > 0 && (0.0..=1.0).contains(&q.2) && q.2 <= q.3 && q.3 <= 1.0));
+    let after = &plain_report.optimize.as_ref().expect("optimized").surfaces[0].after;
+    assert!(
+        quality
+            .iter()
+            .any(|q| q.0 == "polish_mean" && q.1 == after.quads && q.3 == after.eta_mean),
+        "no polish_mean quality equal to the report's {after:?}: {quality:?}"
+    );
 
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("out.msh");
