@@ -173,7 +173,7 @@ struct Reporter {
 }
 
 impl Reporter {
-    /// Reports per stage at most (plus changes of the surface count).
+    /// Reports per stage at most (plus the one that ends it).
     const STEPS: u64 = 200;
 
     /// A callback forwarding to `f` what is due.
@@ -200,8 +200,9 @@ impl Reporter {
             if p.stage == l.stage {
                 let ended = p.done == p.total && l.done < l.total;
                 let moved = (p.fraction() - l.fraction()) * Self::STEPS as f64 >= 1.0;
-                let surface = p.surfaces_done > l.surfaces_done;
-                if p.fraction() < l.fraction() || !(ended || moved || surface) {
+                // the last surfaces may finish after the units are all done
+                let last_surfaces = p.done == p.total && p.surfaces_done > l.surfaces_done;
+                if p.fraction() < l.fraction() || !(ended || moved || last_surfaces) {
                     return;
                 }
             } else if l.done < l.total && p.stage > l.stage {
@@ -891,6 +892,11 @@ mod tests {
         );
         let matching = seen.iter().find(|p| p.stage == Stage::Matching);
         assert_eq!(matching.map(|p| (p.surfaces, p.total)), Some((1, 1792)));
+        // the stages that go surface by surface end with every surface done
+        for stage in [Stage::Graph, Stage::Matching, Stage::Optimize] {
+            let last = seen.iter().rfind(|p| p.stage == stage);
+            assert_eq!(last.map(|p| (p.surfaces_done, p.surfaces)), Some((1, 1)));
+        }
         // optimizer steps, not one jump
         let optimize = seen.iter().filter(|p| p.stage == Stage::Optimize).count();
         assert!(optimize >= 4, "{seen:?}");
