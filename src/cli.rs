@@ -203,17 +203,89 @@ pub fn main() -> ExitCode {
     ExitCode::from(run_args(std::env::args_os()))
 }
 
-/// Log sink: prints to stderr unless quiet.
+/// Log sink: prints to stderr unless quiet (above the progress line when there is one).
 struct Log {
     quiet: bool,
+    bar: Option<indicatif::ProgressBar>,
 }
 
 impl Log {
     fn say(&self, msg: impl AsRef<str>) {
-        if !self.quiet {
-            eprintln!("{}", msg.as_ref());
+        if self.quiet {
+            return;
+        }
+        match &self.bar {
+            Some(b) => b.suspend(|| eprintln!("{}", msg.as_ref())),
+            None => eprintln!("{}", msg.as_ref()),
         }
     }
+
+    /// Prints every line, the progress line hidden once for all of them.
+    fn say_all(&self, lines: &[String]) {
+        if self.quiet {
+            return;
+        }
+        let print = || {
+            for line in lines {
+                eprintln!("{line}");
+            }
+        };
+        match &self.bar {
+            Some(b) => b.suspend(print),
+            None => print(),
+        }
+    }
+}
+
+/// The progress line of the main job on stderr, rewritten in place (at most 20 times a
+/// second): the stage, a bar and its percentage, and the surfaces when the stage goes
+/// surface by surface, e.g. `matching   [##############                ]  48%  surface 1/1`.
+/// Only on a terminal and without `--quiet` (`None` otherwise: nothing is drawn, no
+/// callback is installed).
+fn progress_bar(quiet: bool) -> Option<indicatif::ProgressBar> {
+    if quiet || !std::io::stderr().is_terminal() {
+        return None;
+    }
+    let b = indicatif::ProgressBar::new(1);
+    // one message holds the whole line, so a report is one redraw
+    b.set_style(
+        indicatif::ProgressStyle::with_template("{wide_msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
+    );
+    Some(b)
+}
+
+/// Shows `p` on the progress line.
+fn show_progress(b: &indicatif::ProgressBar, p: &crate::Progress) {
+    b.set_message(progress_line(p));
+}
+
+/// The progress line of `p` (see [`progress_bar`]).
+fn progress_line(p: &crate::Progress) -> String {
+    const WIDTH: usize = 30;
+    let label = match p.stage {
+        crate::Stage::Read => "reading",
+        crate::Stage::Topology => "topology",
+        crate::Stage::Graph => "graph",
+        crate::Stage::Matching => "matching",
+        crate::Stage::Refine => "refining",
+        crate::Stage::Optimize => "optimizing",
+        crate::Stage::Check => "checking",
+        crate::Stage::Write => "writing",
+    };
+    let f = p.fraction();
+    let filled = ((f * WIDTH as f64) as usize).min(WIDTH);
+    let surfaces = match p.surfaces {
+        0 => String::new(),
+        1 => "  surface 1/1".to_string(),
+        n => format!("  {}/{n} surfaces done", p.surfaces_done),
+    };
+    format!(
+        "{label:<10} [{}{}] {:>3}%{surfaces}",
+        "#".repeat(filled),
+        " ".repeat(WIDTH - filled),
+        (f * 100.0) as u32
+    )
 }
 
 fn run(cli: Cli) -> Result<(), String> {
@@ -226,7 +298,10 @@ fn run(cli: Cli) -> Result<(), String> {
         }) => {
             check_not_input(&input, &output, force)?;
             let mesh = read(&input)?;
-            let log = Log { quiet: false };
+            let log = Log {
+                quiet: false,
+                bar: None,
+            };
             print_warnings(&mesh, &log);
             write(&mesh, &output, &format, &log)
         }
@@ -374,9 +449,25 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     };
     check_not_input(&input, &output, args.force)?;
     let quiet = args.quiet;
-    let log = Log { quiet };
+    let bar = progress_bar(quiet);
+    let log = Log {
+        quiet,
+        bar: bar.clone(),
+    };
+    let stage = |stage: crate::Stage, done: u64| {
+        if let Some(b) = &bar {
+            show_progress(b, &crate::Progress::new(stage, done, 1));
+        }
+    };
     let t0 = Instant::now();
-    let mut mesh = read(&input)?;
+    stage(crate::Stage::Read, 0);
+    let read_result = read(&input);
+    stage(crate::Stage::Read, 1);
+    let mut mesh = read_result.inspect_err(|_| {
+        if let Some(b) = &bar {
+            b.finish_and_clear();
+        }
+    })?;
     let t_read = t0.elapsed().as_secs_f64();
     print_warnings(&mesh, &log);
 
@@ -398,43 +489,31 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         trace: trace_from_env(),
         ..Default::default()
     };
-    let bar = (!quiet && std::io::stderr().is_terminal()).then(|| {
-        let b = indicatif::ProgressBar::new(0);
-        b.set_style(
-            indicatif::ProgressStyle::with_template("{msg:10} {bar:40} {pos}/{len}")
-                .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
-        );
-        b
-    });
     if let Some(b) = bar.clone() {
-        opts.progress = Some(crate::ProgressFn(std::sync::Arc::new(
-            move |p: crate::Progress| {
-                b.set_message(match p.stage {
-                    crate::Stage::Recombine => "recombine",
-                    crate::Stage::Refine => "refine",
-                    crate::Stage::Optimize => "optimize",
-                    _ => "check",
-                });
-                b.set_length(p.total as u64);
-                b.set_position(p.done as u64);
-            },
-        )));
+        opts.progress = Some(crate::ProgressFn::new(move |p: crate::Progress| {
+            show_progress(&b, &p)
+        }));
     }
     let result = crate::quadrangulate(&mut mesh, &opts);
-    if let Some(b) = bar {
-        b.finish_and_clear();
-    }
-    let report = result.map_err(|e| format!("{}: {e}", input.display()))?;
-    for line in &report.log {
-        log.say(line);
-    }
+    let finish = || {
+        if let Some(b) = &bar {
+            b.finish_and_clear();
+        }
+    };
+    let report = result
+        .inspect_err(|_| finish())
+        .map_err(|e| format!("{}: {e}", input.display()))?;
+    log.say_all(&report.log);
     if args.quality_view {
         // encoded for the format written (the library option encodes for the default one)
         let binary = output_format(&mesh, &args.format).binary;
         quality::view::add_views(&mut mesh, binary);
     }
     let t3 = Instant::now();
-    write(&mesh, &output, &args.format, &log)?;
+    stage(crate::Stage::Write, 0);
+    let written = write(&mesh, &output, &args.format, &log);
+    finish();
+    written?;
     let t_write = t3.elapsed().as_secs_f64();
     let times = &report.times;
     let refine_time = if args.refine > 0 {
@@ -535,4 +614,29 @@ fn check_not_input(input: &Path, output: &Path, force: bool) -> Result<(), Strin
         ));
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{Progress, Stage};
+
+    #[test]
+    fn the_progress_line_shows_stage_bar_percent_and_surfaces() {
+        let one = Progress::new(Stage::Matching, 48, 100).with_surfaces(0, 1);
+        assert_eq!(
+            progress_line(&one),
+            "matching   [##############                ]  48%  surface 1/1"
+        );
+        let many = Progress::new(Stage::Optimize, 1, 1).with_surfaces(12, 12);
+        assert_eq!(
+            progress_line(&many),
+            "optimizing [##############################] 100%  12/12 surfaces done"
+        );
+        let read = Progress::new(Stage::Read, 0, 1);
+        assert_eq!(
+            progress_line(&read),
+            "reading    [                              ]   0%"
+        );
+    }
 }

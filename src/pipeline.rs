@@ -36,38 +36,187 @@ use crate::{optimize, recombine, refine, validity};
 /// adds triangles, and a surface split whole has no halved triangle left).
 pub const FALLBACK_ROUNDS: usize = 8;
 
-/// The stage a [`Progress`] report is about.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+/// The stage a [`Progress`] report is about, in pipeline order. [`quadrangulate`] reports
+/// the stages from [`Stage::Topology`] to [`Stage::Check`]; reading and writing are the
+/// caller's (the command line reports them too).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
+#[serde(rename_all = "lowercase")]
 #[non_exhaustive]
 pub enum Stage {
-    /// Parity, graphs, matching and quads.
-    Recombine,
-    /// Uniform refinement.
+    /// Reading the input file (`done`/`total`: bytes).
+    Read,
+    /// Input checks, each surface's triangles, adjacency and regions, and parity repair
+    /// (`done`/`total`: steps of these four).
+    Topology,
+    /// The matching graphs and their costs (`done`/`total`: triangles of the surfaces whose
+    /// graph is built, of all).
+    Graph,
+    /// The minimum-cost perfect matchings and the quads made from them (`done`/`total`:
+    /// triangles, each surface counting its share of the solver's progress).
+    Matching,
+    /// Uniform refinement (`done`/`total`: levels).
     Refine,
-    /// Smoothing and topological optimization (`done`/`total` count surface steps).
+    /// Smoothing and topological optimization (`done`/`total`: quads times the steps of
+    /// the optimizer's schedule, summed over surfaces).
     Optimize,
-    /// The validity check.
+    /// The invariant and validity checks (`done`/`total`: 0/1, then 1/1).
     Check,
+    /// Writing the output file (`done`/`total`: 0/1, then 1/1).
+    Write,
 }
 
-/// A progress report: `done` of `total` steps of `stage` (total 0 when unknown).
+impl Stage {
+    /// The stage's name in lower case, as serialized ("read", "topology", "graph",
+    /// "matching", "refine", "optimize", "check", "write").
+    pub fn name(self) -> &'static str {
+        match self {
+            Stage::Read => "read",
+            Stage::Topology => "topology",
+            Stage::Graph => "graph",
+            Stage::Matching => "matching",
+            Stage::Refine => "refine",
+            Stage::Optimize => "optimize",
+            Stage::Check => "check",
+            Stage::Write => "write",
+        }
+    }
+}
+
+/// A progress report: `done` of `total` units of `stage` (see [`Stage`] for the units),
+/// and for the stages that go surface by surface, how many surfaces are finished with it.
+///
+/// What stays true of the reports one [`quadrangulate`] call sends (fallback rounds start
+/// the stages again from [`Stage::Topology`]): within a round, stages come in [`Stage`]
+/// order; within a stage `done` never decreases and `done <= total`, `total > 0`; each stage
+/// a round goes through ends with a report where `done == total`. Reports are throttled (a
+/// few hundred per call at most, whatever the mesh size), so a callback may redraw on each.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[non_exhaustive]
 pub struct Progress {
     /// The stage.
     pub stage: Stage,
-    /// Steps done.
-    pub done: usize,
-    /// Steps in all.
-    pub total: usize,
+    /// Units done.
+    pub done: u64,
+    /// Units in all (> 0).
+    pub total: u64,
+    /// Surfaces finished with this stage (0 for the stages that are not per surface).
+    pub surfaces_done: usize,
+    /// Surfaces the stage works on (0 for the stages that are not per surface).
+    pub surfaces: usize,
 }
 
-/// A progress callback, called from any thread.
+impl Progress {
+    /// `done` of `total` units of `stage`, no surface count (`total` 0: nothing to do, so
+    /// 1 of 1).
+    pub fn new(stage: Stage, done: u64, total: u64) -> Self {
+        let (done, total) = if total == 0 { (1, 1) } else { (done, total) };
+        Progress {
+            stage,
+            done: done.min(total),
+            total,
+            surfaces_done: 0,
+            surfaces: 0,
+        }
+    }
+
+    /// The same report with a surface count.
+    pub fn with_surfaces(mut self, done: usize, surfaces: usize) -> Self {
+        self.surfaces_done = done.min(surfaces);
+        self.surfaces = surfaces;
+        self
+    }
+
+    /// `done / total`, in [0, 1].
+    pub fn fraction(&self) -> f64 {
+        (self.done as f64 / self.total.max(1) as f64).clamp(0.0, 1.0)
+    }
+}
+
+/// A progress callback, called from any thread (one call at a time).
 #[derive(Clone)]
 pub struct ProgressFn(pub Arc<dyn Fn(Progress) + Send + Sync>);
+
+impl ProgressFn {
+    /// A callback calling `f` with every report.
+    pub fn new(f: impl Fn(Progress) + Send + Sync + 'static) -> Self {
+        ProgressFn(Arc::new(f))
+    }
+
+    /// Calls the callback.
+    pub fn report(&self, p: Progress) {
+        (self.0)(p)
+    }
+}
 
 impl std::fmt::Debug for ProgressFn {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.write_str("ProgressFn")
+    }
+}
+
+impl PartialEq for ProgressFn {
+    /// The same callback.
+    fn eq(&self, other: &Self) -> bool {
+        Arc::ptr_eq(&self.0, &other.0)
+    }
+}
+
+/// Where the stages send their progress: forwards to a [`ProgressFn`] only what keeps the
+/// promises of [`Progress`] (stage order, `done` not decreasing) and what moved by at least
+/// 1/[`Reporter::STEPS`] of the stage since the last report, or ends it; one call at a time,
+/// so reports from several threads arrive in order. A report of [`Stage::Topology`] at 0
+/// starts a new round.
+struct Reporter {
+    f: ProgressFn,
+    /// The last report forwarded.
+    last: std::sync::Mutex<Option<Progress>>,
+}
+
+impl Reporter {
+    /// Reports per stage at most (plus the one that ends it).
+    const STEPS: u64 = 200;
+
+    /// A callback forwarding to `f` what is due.
+    pub(crate) fn wrap(f: &ProgressFn) -> ProgressFn {
+        let r = Reporter {
+            f: f.clone(),
+            last: std::sync::Mutex::new(None),
+        };
+        ProgressFn::new(move |p| r.report(p))
+    }
+
+    /// Forwards `p` if it is due (see the type's docs).
+    fn report(&self, p: Progress) {
+        // a poisoned lock means a callback panicked: report nothing more
+        let Ok(mut last) = self.last.lock() else {
+            return;
+        };
+        if let Some(l) = *last {
+            // a fallback round starts again from the first stage
+            let restart = p.stage == Stage::Topology && p.done == 0;
+            if p.stage < l.stage && !restart {
+                return;
+            }
+            if p.stage == l.stage {
+                let ended = p.done == p.total && l.done < l.total;
+                let moved = (p.fraction() - l.fraction()) * Self::STEPS as f64 >= 1.0;
+                // the last surfaces may finish after the units are all done
+                let last_surfaces = p.done == p.total && p.surfaces_done > l.surfaces_done;
+                if p.fraction() < l.fraction() || !(ended || moved || last_surfaces) {
+                    return;
+                }
+            } else if l.done < l.total && p.stage > l.stage {
+                // a later stage started, so this one ended (its last report may have
+                // been overtaken by another thread's)
+                (self.f.0)(Progress {
+                    done: l.total,
+                    surfaces_done: l.surfaces,
+                    ..l
+                });
+            }
+        }
+        *last = Some(p);
+        (self.f.0)(p);
     }
 }
 
@@ -244,6 +393,18 @@ pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
 
 /// [`quadrangulate`] of a linear mesh.
 fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
+    // every stage reports through one reporter (order, throttling)
+    let wrapped;
+    let opts = match &opts.progress {
+        Some(p) => {
+            wrapped = Options {
+                progress: Some(Reporter::wrap(p)),
+                ..opts.clone()
+            };
+            &wrapped
+        }
+        None => opts,
+    };
     let input = std::mem::take(mesh);
     // triangles repeating another's nodes (zero-area pockets) are removed once, up front:
     // every check below compares with the input without them
@@ -271,7 +432,7 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
 
 fn progress(opts: &Options, stage: Stage, done: usize, total: usize) {
     if let Some(p) = &opts.progress {
-        (p.0)(Progress { stage, done, total });
+        p.report(Progress::new(stage, done as u64, total as u64));
     }
 }
 
@@ -548,12 +709,12 @@ fn run_once<'a>(
         // the fallback's edge-split nodes (tags above the input's) are split nodes too
         split_nodes_from: Some(input.max_node_tag() + 1),
         trace: opts.trace.clone(),
+        progress: opts.progress.clone(),
         // `quadrangulate` removed them from `input` (the fallback's splits add none)
         repeated_dropped: true,
         ..Default::default()
     };
     let t = Instant::now();
-    progress(opts, Stage::Recombine, 0, 1);
     // the optimizer's reference and the input side of the final checks depend on the input
     // only: prepared on their own thread while the recombination runs (its matching is
     // serial per surface)
@@ -579,7 +740,6 @@ fn run_once<'a>(
         *checks = ready;
     }
     let rreport = recombined?;
-    progress(opts, Stage::Recombine, 1, 1);
     times.recombine += t.elapsed();
     let mut report = Report {
         log: rreport.log.clone(),
@@ -602,6 +762,14 @@ fn run_once<'a>(
         ));
         report.refine.push(r);
     }
+    if opts.refine > 0 {
+        progress(
+            opts,
+            Stage::Refine,
+            usize::from(opts.refine),
+            usize::from(opts.refine),
+        );
+    }
     times.refine += t.elapsed();
     let refined = (opts.refine > 0).then(|| mesh.clone());
     let unoptimized = keep_unoptimized.then(|| mesh.clone());
@@ -616,8 +784,14 @@ fn run_once<'a>(
             .unwrap_or(oopts.smooth_iterations << opts.refine);
         oopts.topology = opts.topology;
         oopts.reference_size_scale = 0.5f64.powi(i32::from(opts.refine));
-        let cb = |done: usize, total: usize| progress(opts, Stage::Optimize, done, total);
-        oopts.progress = Some(&cb);
+        let cb = |p: Progress| {
+            if let Some(f) = &opts.progress {
+                f.report(p);
+            }
+        };
+        if opts.progress.is_some() {
+            oopts.progress = Some(&cb);
+        }
         oopts.trace = opts.trace.as_ref();
         let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
         // periodic surfaces keep the matching's quads (master and slave stay images of
@@ -656,4 +830,133 @@ fn run_once<'a>(
         times.optimize += t.elapsed();
     }
     Ok((report, refined, unoptimized))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::sync::Mutex;
+
+    /// Every report of one `quadrangulate` of the repository's rectangle (1792 triangles,
+    /// one surface).
+    fn reports(opts: Options) -> (Vec<Progress>, Report) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("geo/rectangle.msh");
+        let mut mesh = crate::msh::read_file(&path).expect("geo/rectangle.msh");
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let sink = Arc::clone(&seen);
+        let opts = Options {
+            progress: Some(ProgressFn::new(move |p| {
+                sink.lock().expect("lock").push(p);
+            })),
+            ..opts
+        };
+        let report = quadrangulate(&mut mesh, &opts).expect("quadrangulate");
+        let seen = seen.lock().expect("lock").clone();
+        (seen, report)
+    }
+
+    #[test]
+    fn progress_comes_in_stage_order_and_ends_every_stage() {
+        let (seen, report) = reports(Options::default());
+        assert_eq!(report.rounds, 1);
+        let stages: Vec<Stage> = seen.iter().map(|p| p.stage).collect();
+        let mut order = stages.clone();
+        order.dedup();
+        assert_eq!(
+            order,
+            [
+                Stage::Topology,
+                Stage::Graph,
+                Stage::Matching,
+                Stage::Optimize,
+                Stage::Check
+            ]
+        );
+        for stage in &order {
+            let of: Vec<&Progress> = seen.iter().filter(|p| p.stage == *stage).collect();
+            for w in of.windows(2) {
+                assert!(w[0].fraction() <= w[1].fraction(), "{stage:?}: {w:?}");
+            }
+            for p in &of {
+                assert!(p.total > 0 && p.done <= p.total, "{p:?}");
+                assert!((0.0..=1.0).contains(&p.fraction()));
+            }
+            let last = of.last().expect("a report");
+            assert_eq!(last.done, last.total, "{stage:?} does not end complete");
+        }
+        // the solver's progress shows inside the matching stage, not only its ends
+        assert!(
+            seen.iter()
+                .any(|p| p.stage == Stage::Matching && p.done > 0 && p.done < p.total),
+            "{seen:?}"
+        );
+        let matching = seen.iter().find(|p| p.stage == Stage::Matching);
+        assert_eq!(matching.map(|p| (p.surfaces, p.total)), Some((1, 1792)));
+        // the stages that go surface by surface end with every surface done
+        for stage in [Stage::Graph, Stage::Matching, Stage::Optimize] {
+            let last = seen.iter().rfind(|p| p.stage == stage);
+            assert_eq!(last.map(|p| (p.surfaces_done, p.surfaces)), Some((1, 1)));
+        }
+        // optimizer steps, not one jump
+        let optimize = seen.iter().filter(|p| p.stage == Stage::Optimize).count();
+        assert!(optimize >= 4, "{seen:?}");
+        // throttled: far fewer reports than triangles
+        assert!(seen.len() < 400, "{} reports", seen.len());
+    }
+
+    #[test]
+    fn progress_reports_refinement_levels_in_order() {
+        let (seen, _) = reports(Options {
+            refine: 1,
+            optimize: false,
+            ..Options::default()
+        });
+        let mut order: Vec<Stage> = seen.iter().map(|p| p.stage).collect();
+        order.dedup();
+        assert_eq!(
+            order,
+            [
+                Stage::Topology,
+                Stage::Graph,
+                Stage::Matching,
+                Stage::Refine,
+                Stage::Check
+            ]
+        );
+        let refine = seen.iter().rfind(|p| p.stage == Stage::Refine);
+        assert_eq!(refine.map(|p| (p.done, p.total)), Some((1, 1)));
+    }
+
+    #[test]
+    fn the_reporter_drops_late_and_small_steps_and_ends_a_stage_overtaken() {
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let sink = Arc::clone(&seen);
+        let r = Reporter::wrap(&ProgressFn::new(move |p| {
+            sink.lock().expect("lock").push((p.stage, p.done))
+        }));
+        for (stage, done) in [
+            (Stage::Graph, 0),
+            (Stage::Graph, 1), // less than 1/200 more: dropped
+            (Stage::Graph, 500),
+            (Stage::Graph, 400),   // went back: dropped
+            (Stage::Matching, 10), // Graph ends first
+            (Stage::Graph, 1000),  // an earlier stage: dropped
+            (Stage::Matching, 1000),
+            (Stage::Matching, 1000), // already ended: dropped
+            (Stage::Topology, 0),    // a new round
+        ] {
+            r.report(Progress::new(stage, done, 1000));
+        }
+        assert_eq!(
+            *seen.lock().expect("lock"),
+            [
+                (Stage::Graph, 0),
+                (Stage::Graph, 500),
+                (Stage::Graph, 1000),
+                (Stage::Matching, 10),
+                (Stage::Matching, 1000),
+                (Stage::Topology, 0),
+            ]
+        );
+    }
 }

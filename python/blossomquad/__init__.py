@@ -28,6 +28,10 @@ __version__: str = _native.__version__
 __all__ = ["Error", "__version__", "quadrangulate", "recombine_file", "recombine_gmsh"]
 
 ProgressCallback = Callable[[str, int, int], None]
+"""``progress(stage, done, total)``: ``done`` of ``total`` (> 0) units of ``stage``, one of
+"topology", "graph", "matching", "refine", "optimize", "check", in that order (a fallback
+round starts again from "topology"); within a stage ``done / total`` never decreases, and
+each stage ends with ``done == total``. Calls are throttled (a few hundred per run)."""
 
 # Python keyword -> field of the library's Options
 _OPTIONS = {
@@ -90,7 +94,8 @@ def recombine_file(
     ``cross_field`` (float), ``harmonic_cross_field``, ``refine`` (0-3), ``smooth``
     (sweeps), ``topology``, ``optimize``, ``verify``, ``drop_volumes``, ``allow_invalid``,
     ``incomplete``, and ``quality_view`` (adds the "eta", "scaled jacobian" and "valence"
-    views to the output, coloured by ``gmsh OUTPUT``). ``progress(stage, done, total)`` is called as the work advances. Returns the report
+    views to the output, coloured by ``gmsh OUTPUT``). ``progress(stage, done, total)`` is called as the work advances (see
+    ``ProgressCallback``). Returns the report
     (what was done per surface, times, log lines) as a dict. Nothing is written on error."""
     import os
 

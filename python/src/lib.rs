@@ -21,21 +21,16 @@ create_exception!(
 );
 
 /// The options of `blossomquad::Options` from their JSON form, with `progress` (a callable
-/// taking `(stage, done, total)`) as the progress callback.
+/// taking `(stage, done, total)`: the stage's name, as `blossomquad::Stage::name` gives it,
+/// and `done` of `total > 0` units of it) as the progress callback.
 fn parse_options(json: &str, progress: Option<Py<PyAny>>) -> PyResult<blossomquad::Options> {
     let mut opts: blossomquad::Options = serde_json::from_str(json)
         .map_err(|e| PyValueError::new_err(format!("bad options: {e}")))?;
     if let Some(cb) = progress {
         opts.progress = Some(blossomquad::ProgressFn(Arc::new(
             move |p: blossomquad::Progress| {
-                let stage = match p.stage {
-                    blossomquad::Stage::Recombine => "recombine",
-                    blossomquad::Stage::Refine => "refine",
-                    blossomquad::Stage::Optimize => "optimize",
-                    _ => "check",
-                };
                 Python::attach(|py| {
-                    if let Err(e) = cb.call1(py, (stage, p.done, p.total)) {
+                    if let Err(e) = cb.call1(py, (p.stage.name(), p.done, p.total)) {
                         e.write_unraisable(py, None);
                     }
                 });

@@ -58,10 +58,29 @@ def test_recombine_file_writes_quads_and_returns_the_report(tmp_path):
     )
     assert report["recombine"]["surfaces"][0]["quads_out"] > 0
     assert "times" in report and report["invalid"] == []
-    assert {c[0] for c in calls} >= {"recombine", "optimize"}
+    assert {c[0] for c in calls} >= {"graph", "matching", "optimize"}
     m = meshio.read(out)
     kinds = {c.type for c in m.cells}
     assert "quad" in kinds and "triangle" not in kinds
+
+
+def test_progress_stages_arrive_in_order_with_growing_fractions(tmp_path):
+    calls = []
+    blossomquad.recombine_file(
+        RECTANGLE, tmp_path / "q.msh", progress=lambda s, d, t: calls.append((s, d, t))
+    )
+    order = ["topology", "graph", "matching", "refine", "optimize", "check"]
+    stages = [s for s, _, _ in calls]
+    seen = [s for i, s in enumerate(stages) if i == 0 or stages[i - 1] != s]
+    assert seen == ["topology", "graph", "matching", "optimize", "check"]
+    assert [order.index(s) for s in stages] == sorted(order.index(s) for s in stages)
+    for stage in seen:
+        fractions = [d / t for s, d, t in calls if s == stage]
+        assert all(0.0 <= f <= 1.0 for f in fractions), (stage, fractions)
+        assert fractions == sorted(fractions), (stage, fractions)
+        assert fractions[-1] == 1.0, (stage, fractions)
+    # the matching stage reports between its ends
+    assert any(s == "matching" and 0 < d < t for s, d, t in calls), calls
 
 
 def test_recombine_file_quality_view_adds_one_value_per_quad(tmp_path):

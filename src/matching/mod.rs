@@ -147,6 +147,22 @@ pub fn solve(n: usize, edges: &[(u32, u32, i64)]) -> Result<Matching, NoPerfectM
     blossom::Solver::new(n, edges).run()
 }
 
+/// [`solve`] reporting its progress to `progress` as `(done, total)`: `total` fixed,
+/// `done` growing, a few dozen calls per solve at most, from the calling thread (see
+/// [`blossom::Solver::set_progress`]).
+pub fn solve_with_progress(
+    n: usize,
+    edges: &[(u32, u32, i64)],
+    progress: blossom::ProgressCallback,
+) -> Result<Matching, NoPerfectMatching> {
+    if let Some(err) = odd_component_witness(n, edges) {
+        return Err(err);
+    }
+    let mut solver = blossom::Solver::new(n, edges);
+    solver.set_progress(progress);
+    solver.run()
+}
+
 /// Scale factor applied by [`solve_f64`]: the power of two `S` such that the largest finite
 /// `|cost| · S` is at most 2^31 (or 1 when all costs are 0). Costs are then rounded to the
 /// nearest integer, so the optimum is exact for the rounded costs, and within `n/2 · 0.5 / S`

@@ -79,7 +79,7 @@ use reference::{attach_reference, SurfaceReference};
 use schedule::run_surface;
 
 use rayon::prelude::*;
-use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 /// Options of [`optimize`].
 #[derive(Clone, Copy)]
@@ -101,8 +101,10 @@ pub struct OptimizeOptions<'a> {
     /// after N uniform refinements ([`crate::refine`]), whose quads are 2^N times smaller
     /// than the triangles they came from.
     pub reference_size_scale: f64,
-    /// Called with (steps done, total steps) as surfaces progress, from any thread.
-    pub progress: Option<&'a (dyn Fn(usize, usize) + Sync)>,
+    /// Called with the [`crate::Stage::Optimize`] progress as surfaces progress (units:
+    /// each surface's quads times the steps of its schedule), from any thread, a few times
+    /// per surface; `done` may arrive out of order from several threads.
+    pub progress: Option<&'a (dyn Fn(crate::Progress) + Sync)>,
     /// Surfaces left as they are (their nodes count as shared, so neighbours keep them).
     pub skip: &'a [i32],
     /// Where stage times and rollbacks go (see [`crate::profile`]); `None`: nowhere.
@@ -247,14 +249,27 @@ pub fn optimize_prepared(
         locals.push(l);
     }
     tm.lap("extract");
-    let total = locals.len() * (1 + opts.max_rounds);
-    let done = AtomicUsize::new(0);
-    let tick = |n: usize| {
-        let d = done.fetch_add(n, Ordering::Relaxed) + n;
+    // progress: a surface's steps weigh its quads
+    let weight = |l: &Local| l.quads.len().max(1) as u64;
+    let steps = schedule::steps(opts) as u64;
+    let total: u64 = locals.iter().map(|l| weight(l) * steps).sum();
+    let surfaces = locals.len();
+    let done = AtomicU64::new(0);
+    let finished = AtomicUsize::new(0);
+    let tick = |units: u64, surface_done: bool| {
+        let d = done.fetch_add(units, Ordering::Relaxed) + units;
+        let f = finished.fetch_add(usize::from(surface_done), Ordering::Relaxed)
+            + usize::from(surface_done);
         if let Some(p) = opts.progress {
-            p(d.min(total), total);
+            p(
+                crate::Progress::new(crate::Stage::Optimize, d.min(total), total)
+                    .with_surfaces(f, surfaces),
+            );
         }
     };
+    if let Some(p) = opts.progress {
+        p(crate::Progress::new(crate::Stage::Optimize, 0, total).with_surfaces(0, surfaces));
+    }
     let PreparedReference {
         nodes: refnodes,
         surfaces: mut prepared,
@@ -278,7 +293,9 @@ pub fn optimize_prepared(
             attach_reference(&mut l, sref, refnodes, opts.reference_size_scale);
             tr.lap("attach_reference");
             tr.done();
-            let rep = run_surface(&mut l, opts, &tick);
+            let w = weight(&l);
+            let rep = run_surface(&mut l, opts, &|k| tick(k as u64 * w, false));
+            tick(0, true);
             (l, rep)
         })
         .collect();

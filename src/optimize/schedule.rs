@@ -26,6 +26,13 @@ pub(super) fn run_surface(
     };
     gate.check(l, true, "smoothing");
     lap_with_quality(&mut tm, l, "smooth");
+    // progress: the steps given so far (the last call gives the rest of STEPS)
+    let given = std::sync::atomic::AtomicUsize::new(0);
+    let tick = |k: usize| {
+        given.fetch_add(k, std::sync::atomic::Ordering::Relaxed);
+        tick(k);
+    };
+    let tick = &tick;
     tick(1);
     let polish = opts.angle_sweeps > 0 && opts.smooth_iterations > 0;
     // speed: surfaces already good after the first smoothing skip the alternative schedules
@@ -35,7 +42,6 @@ pub(super) fn run_surface(
         && l.stats().eta_mean < ALTERNATIVES_BELOW;
     // the state before the topology rounds, for the unsheared schedule
     let mut unsheared = (small_planar && opts.topology).then(|| (l.clone(), ops, gate.clone()));
-    let mut ticks = 1;
     // quality: small planar surfaces try three schedules and keep the best (see `better` and
     // the module docs): after the topology rounds, finishing with square targets (β = 0)
     // beside the aspect-keeping finish, and topology rounds each followed by a conformal
@@ -46,7 +52,7 @@ pub(super) fn run_surface(
     rayon::join(
         || {
             if opts.topology {
-                ticks = topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
+                topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
             }
             // the square finish starts from the state after the topology rounds
             let fork = small_planar.then(|| (l.clone(), ops, gate.clone()));
@@ -69,7 +75,7 @@ pub(super) fn run_surface(
                 },
                 || {
                     let keep = conformal::KEEP_ASPECT;
-                    finish(l, opts, &mut ops, &mut tm, keep, &mut gate)
+                    finish_ticking(l, opts, &mut ops, &mut tm, keep, &mut gate, tick)
                 },
             );
         },
@@ -101,7 +107,7 @@ pub(super) fn run_surface(
     // validity: every schedule ends in a state its gate passed; check the kept one against
     // the start (rolls back to the start, the matching's quads, if it does not pass)
     gate.check(l, false, "optimization");
-    tick(1 + opts.max_rounds - ticks);
+    tick(steps(opts).saturating_sub(given.load(std::sync::atomic::Ordering::Relaxed)));
     let after = l.stats();
     tm.lap("stats");
     tm.done();
@@ -148,7 +154,7 @@ pub(crate) fn after_topology_rounds<'a>(
 /// Up to `opts.max_rounds` rounds of (topology pass, smoothing near the changes), each
 /// followed by the conformal solve when `unshear` (the next pass then judges rotations and
 /// merges on squarer quads and finds more).
-/// Returns the progress ticks given.
+/// Gives a progress tick per round.
 fn topology_rounds(
     l: &mut Local,
     opts: &OptimizeOptions,
@@ -157,8 +163,7 @@ fn topology_rounds(
     tick: &(dyn Fn(usize) + Sync),
     unshear: bool,
     gate: &mut valid::Gate,
-) -> usize {
-    let mut ticks = 1;
+) {
     // speed: around the changes of a topology pass on a large surface, 3/5 of the sweeps
     let near_its = (opts.smooth_iterations * NEAR_SWEEPS_NUM).div_ceil(5);
     // speed: after a pass, smooth only around what it changed (see `near_changes`), and
@@ -190,9 +195,7 @@ fn topology_rounds(
         }
         gate.check(l, true, "topology round");
         tick(1);
-        ticks += 1;
     }
-    ticks
 }
 
 /// The last stages: conformal solve (keeping `keep_aspect` of the aspect ratios), max-min
@@ -205,21 +208,43 @@ pub(super) fn finish(
     keep_aspect: f64,
     gate: &mut valid::Gate,
 ) {
+    finish_ticking(l, opts, ops, tm, keep_aspect, gate, &|_| {});
+}
+
+/// The progress steps of one surface: the first smoothing, each topology round, and the
+/// four steps of [`finish`].
+pub(super) fn steps(opts: &OptimizeOptions) -> usize {
+    1 + opts.max_rounds + 4
+}
+
+/// [`finish`], giving a progress tick after each of its four steps.
+fn finish_ticking(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    ops: &mut OperationCounts,
+    tm: &mut StageTimer<'_>,
+    keep_aspect: f64,
+    gate: &mut valid::Gate,
+    tick: &(dyn Fn(usize) + Sync),
+) {
     // quality: undo global shear the node-by-node smoothers cannot (conformal.rs)
     if opts.angle_sweeps > 0 && opts.smooth_iterations > 0 {
         ops.smoothing_moves += conformal::unshear(l, keep_aspect);
         gate.check(l, true, "conformal solve");
         lap_with_quality(tm, l, "conformal");
     }
+    tick(1);
     // quality: lift the worst quads (max-min) first; the pattern search after it keeps
     // every star's worst key, so η_w stays
     if opts.angle_sweeps > 0 {
         ops.smoothing_moves += smooth::polish_worst(l, 4);
         gate.check(l, true, "max-min polish");
         lap_with_quality(tm, l, "polish_worst");
+        tick(1);
         ops.smoothing_moves += smooth::optimize_angles(l, opts.angle_sweeps);
         gate.check(l, true, "pattern search");
         lap_with_quality(tm, l, "angles");
+        tick(1);
     }
     // then maximize the mean η, the worst of every star kept (polish.rs)
     if opts.smooth_iterations > 0 {
@@ -232,6 +257,7 @@ pub(super) fn finish(
         gate.check(l, true, "mean polish");
         lap_with_quality(tm, l, "polish_mean");
     }
+    tick(1);
 }
 
 /// After a topological pass, smoothing starts from the nodes within this many quad rings of

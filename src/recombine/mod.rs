@@ -166,6 +166,7 @@ mod surface;
 mod topology;
 mod write_back;
 
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -236,6 +237,10 @@ pub struct RecombineOptions {
     pub split_nodes_from: Option<u64>,
     /// Where stage times and matching graphs go (see [`crate::profile`]); `None`: nowhere.
     pub trace: Option<crate::profile::Trace>,
+    /// Where the progress of the stages [`crate::Stage::Topology`], [`crate::Stage::Graph`]
+    /// and [`crate::Stage::Matching`] goes (called from any thread, a few hundred times at
+    /// most; a surface's solver reports from its own thread); `None`: nowhere.
+    pub progress: Option<crate::ProgressFn>,
     /// The caller already removed repeated triangles ([`drop_repeated_triangles`] returned
     /// `None` or its mesh is the one given): [`recombine`] does not look for them again.
     pub repeated_dropped: bool,
@@ -252,6 +257,7 @@ impl Default for RecombineOptions {
             harmonic_cross_field: false,
             split_nodes_from: None,
             trace: None,
+            progress: None,
             repeated_dropped: false,
         }
     }
@@ -479,9 +485,11 @@ pub fn recombine(
             .extend(lines.into_iter().map(|l| format!("warning: {l}")));
     }
     tm.lap("repeated triangles");
+    topology_progress(opts, 0);
     let before = opts.verify.then(|| mesh.clone());
     check_input(mesh, opts, &mut report)?;
     tm.lap("input checks");
+    topology_progress(opts, 1);
 
     // Topology, parity, matching. A surface whose triangles are enclosed by quads so that
     // they cannot be made even or matched (isolated triangles left by a partial
@@ -503,10 +511,19 @@ pub fn recombine(
             }
             split_nodes.sort_unstable();
             let split_nodes = &split_nodes;
+            let tracker = opts.progress.as_ref().map(|p| {
+                p.report(crate::Progress::new(crate::Stage::Topology, 4, 4));
+                let t = Arc::new(surface::Tracker::new(p.clone(), &work));
+                t.emit();
+                t
+            });
             let results: Result<Vec<SurfaceResult>, RecombineError> = work
                 .par_iter()
-                .map(|w| match_surface(w, coords, split_nodes, n_global, opts))
+                .map(|w| match_surface(w, coords, split_nodes, n_global, opts, tracker.as_ref()))
                 .collect();
+            if let Some(t) = &tracker {
+                t.emit();
+            }
             results.map(|r| (nodes, work, r))
         });
         match staged {
@@ -576,6 +593,14 @@ pub fn sync_periodic(mesh: &mut Mesh) -> Result<usize, RecombineError> {
 }
 
 /// Steps 2–3: topology of every surface, then parity repair (one round, checked).
+/// [`crate::Stage::Topology`] progress: `step` of its four steps (input checks, node table,
+/// surface topology, parity repair) done.
+fn topology_progress(opts: &RecombineOptions, step: u64) {
+    if let Some(p) = &opts.progress {
+        p.report(crate::Progress::new(crate::Stage::Topology, step, 4));
+    }
+}
+
 fn parity_stage(
     mesh: &mut Mesh,
     opts: &RecombineOptions,
@@ -584,10 +609,12 @@ fn parity_stage(
     let mut tm = StageTimer::new(opts.trace.as_ref(), "parity stage", 0);
     let nodes = NodeTable::new(mesh);
     tm.lap("node table");
+    topology_progress(opts, 2);
     let curves = CurveInfo::new(mesh, &nodes)?;
     tm.lap("curves");
     let work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref())?;
     tm.lap("surface work");
+    topology_progress(opts, 3);
     let plan = parity::plan(mesh, &nodes, &work);
     tm.lap("plan");
     tm.done();

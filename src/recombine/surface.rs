@@ -2,6 +2,8 @@
 //! each surface (step 2 of the module docs), then the graph, the matching and the
 //! post-processing (steps 4–7).
 
+use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
+use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use rayon::prelude::*;
@@ -111,6 +113,7 @@ pub(super) fn match_surface(
     split_nodes: &[u32],
     n_global: u32,
     opts: &RecombineOptions,
+    tracker: Option<&Arc<Tracker>>,
 ) -> Result<SurfaceResult, RecombineError> {
     let t0 = Instant::now();
     let cross = opts.cross_field_weight.clamp(0.0, 5.0);
@@ -133,7 +136,22 @@ pub(super) fn match_surface(
     }
     let t1 = Instant::now();
     let n = w.topo.len();
-    let m = crate::matching::solve(n, &g.edges).map_err(|e| RecombineError::NoPerfectMatching {
+    let sent = Arc::new(AtomicU64::new(0));
+    let solved = match tracker {
+        None => crate::matching::solve(n, &g.edges),
+        Some(t) => {
+            t.graph_built(n);
+            let (t, sent) = (Arc::clone(t), Arc::clone(&sent));
+            // the solver's (done, total) as this surface's share of the triangles
+            let f = move |done: usize, total: usize| {
+                let units = (n as u128 * done as u128 / total.max(1) as u128) as u64;
+                let before = sent.fetch_max(units, Ordering::Relaxed);
+                t.matched(units.saturating_sub(before), false);
+            };
+            crate::matching::solve_with_progress(n, &g.edges, Box::new(f))
+        }
+    };
+    let m = solved.map_err(|e| RecombineError::NoPerfectMatching {
         surface: w.tag,
         triangles: n,
         witness: e.witness.len(),
@@ -153,6 +171,10 @@ pub(super) fn match_surface(
             detail,
         }
     })?;
+    if let Some(t) = tracker {
+        let before = sent.swap(n as u64, Ordering::Relaxed);
+        t.matched((n as u64).saturating_sub(before), true);
+    }
     let report = SurfaceReport {
         surface: w.tag,
         triangles_in: n,
@@ -170,4 +192,72 @@ pub(super) fn match_surface(
         time_post: t2.elapsed(),
     };
     Ok(SurfaceResult { faces, report })
+}
+
+/// The progress of the graphs and matchings of all surfaces, which run side by side (see
+/// [`crate::Stage::Graph`] and [`crate::Stage::Matching`]): the graph stage until every
+/// surface has its graph, then the matching stage, both counted in triangles.
+pub(super) struct Tracker {
+    f: crate::ProgressFn,
+    /// Triangles of all surfaces.
+    triangles: u64,
+    surfaces: usize,
+    /// Triangles of the surfaces whose graph is built, and those surfaces.
+    graph_triangles: AtomicU64,
+    graphs: AtomicUsize,
+    /// Triangles matched (each surface's share of its solver's progress), and the surfaces
+    /// with their quads made.
+    matched: AtomicU64,
+    finished: AtomicUsize,
+}
+
+impl Tracker {
+    pub(super) fn new(f: crate::ProgressFn, work: &[SurfaceWork]) -> Self {
+        Tracker {
+            f,
+            triangles: work.iter().map(|w| w.topo.len() as u64).sum(),
+            surfaces: work.len(),
+            graph_triangles: AtomicU64::new(0),
+            graphs: AtomicUsize::new(0),
+            matched: AtomicU64::new(0),
+            finished: AtomicUsize::new(0),
+        }
+    }
+
+    /// A surface of `n` triangles has its graph.
+    fn graph_built(&self, n: usize) {
+        self.graph_triangles.fetch_add(n as u64, Ordering::Relaxed);
+        self.graphs.fetch_add(1, Ordering::Relaxed);
+        self.emit();
+    }
+
+    /// `units` more triangles matched; `finished`: a surface has its quads.
+    fn matched(&self, units: u64, finished: bool) {
+        self.matched.fetch_add(units, Ordering::Relaxed);
+        if finished {
+            self.finished.fetch_add(1, Ordering::Relaxed);
+        }
+        self.emit();
+    }
+
+    /// Reports the current state (the pipeline's reporter drops what is not due).
+    pub(super) fn emit(&self) {
+        let graphs = self.graphs.load(Ordering::Relaxed);
+        let p = if graphs < self.surfaces {
+            crate::Progress::new(
+                crate::Stage::Graph,
+                self.graph_triangles.load(Ordering::Relaxed),
+                self.triangles,
+            )
+            .with_surfaces(graphs, self.surfaces)
+        } else {
+            crate::Progress::new(
+                crate::Stage::Matching,
+                self.matched.load(Ordering::Relaxed),
+                self.triangles,
+            )
+            .with_surfaces(self.finished.load(Ordering::Relaxed), self.surfaces)
+        };
+        self.f.report(p);
+    }
 }

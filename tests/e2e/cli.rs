@@ -329,3 +329,41 @@ fn trace_hooks_reach_the_sink_and_change_nothing() {
         "header {first:?}"
     );
 }
+
+/// With stderr not a terminal (captured here), the main job prints its log lines and no
+/// progress line: no carriage return, no escape sequence, no bar; with `--quiet`, nothing.
+#[test]
+fn no_progress_line_when_stderr_is_not_a_terminal() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("out.msh");
+    let input = geo_dir().join("rectangle.msh");
+    let run = blossomquad()
+        .arg(&input)
+        .arg("-o")
+        .arg(&out)
+        .env_remove("BLOSSOMQUAD_STAGE_TIMES")
+        .env_remove("BLOSSOMQUAD_DUMP_GRAPHS")
+        .assert()
+        .success();
+    let err = String::from_utf8_lossy(&run.get_output().stderr).into_owned();
+    assert!(
+        !err.contains('\r') && !err.contains('\u{1b}') && !err.contains("[#") && !err.contains('%'),
+        "progress output on a pipe:\n{err:?}"
+    );
+    let lines: Vec<&str> = err.lines().collect();
+    assert!(lines.len() >= 3, "{err}");
+    for line in &lines {
+        assert!(
+            line.starts_with("surface ") || line.starts_with("time"),
+            "unexpected line {line:?} in:\n{err}"
+        );
+    }
+    let quiet = blossomquad()
+        .arg(&input)
+        .arg("-o")
+        .arg(&out)
+        .arg("--quiet")
+        .assert()
+        .success();
+    assert!(quiet.get_output().stderr.is_empty());
+}

@@ -247,13 +247,8 @@ fn cylinder_patch_without_reference_triangles_uses_its_own_quads() {
 
 #[test]
 fn progress_reaches_the_total() {
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    let last = AtomicUsize::new(0);
-    let total = AtomicUsize::new(0);
-    let cb = |d: usize, t: usize| {
-        last.store(d, Ordering::SeqCst);
-        total.store(t, Ordering::SeqCst);
-    };
+    let seen = std::sync::Mutex::new(Vec::new());
+    let cb = |p: blossomquad::Progress| seen.lock().expect("lock").push(p);
     let mut m = synth::to_mesh(&diamond_grid());
     let reference = m.clone();
     let opts = OptimizeOptions {
@@ -261,8 +256,16 @@ fn progress_reaches_the_total() {
         ..Default::default()
     };
     optimize(&mut m, &reference, &opts).expect("optimize");
-    assert!(total.load(Ordering::SeqCst) > 0);
-    assert_eq!(last.load(Ordering::SeqCst), total.load(Ordering::SeqCst));
+    let seen = seen.into_inner().expect("lock");
+    // one surface, one thread: in order, from 0 through each schedule step to the total
+    assert!(seen.len() >= 4, "{seen:?}");
+    assert!(seen
+        .iter()
+        .all(|p| p.stage == blossomquad::Stage::Optimize && p.surfaces == 1));
+    assert_eq!(seen[0].done, 0);
+    assert!(seen.windows(2).all(|w| w[0].done <= w[1].done), "{seen:?}");
+    let last = seen.last().expect("reports");
+    assert_eq!((last.done, last.surfaces_done), (last.total, 1));
 }
 
 #[test]

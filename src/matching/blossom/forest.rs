@@ -225,6 +225,8 @@ impl Solver {
             let dead = std::mem::take(&mut self.var.dead);
             self.var.alive.retain(|&t| !dead[t as usize]);
             self.var.dead = dead;
+            let phase = if matches!(kind, Kind::Main) { 3 } else { 1 };
+            self.tick(phase, k - self.var.alive.len(), k);
             if self.var.alive.is_empty() {
                 break Ok(());
             }

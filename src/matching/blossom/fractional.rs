@@ -19,7 +19,7 @@
 //! `forest` module with `Kind::Frac`: a tight `+`–`+` edge inside a tree closes an odd cycle,
 //! and a component that can move without bound is dissolved and left to the main phase.
 
-use super::{Solver, MINUS, NONE, PLUS};
+use super::{Solver, MINUS, NONE, PLUS, PROGRESS_EVERY};
 
 /// Grow steps a local search may take before it is left to the global pass.
 const LOCAL_GROWS: usize = 64;
@@ -75,6 +75,9 @@ impl Solver {
     fn fractional_local(&mut self, cy: &mut Cycles, budget: usize) {
         self.new_trees(1);
         for r in 0..self.n as u32 {
+            if r & PROGRESS_EVERY == 0 {
+                self.tick(0, r as usize, self.n);
+            }
             if self.mate[r as usize] != NONE || cy.id[r as usize] != NONE {
                 continue;
             }

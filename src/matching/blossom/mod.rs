@@ -231,6 +231,31 @@ pub struct Solver {
     stack: Vec<(u32, u32)>,
     /// Statistics: number of vertices left exposed by the jump start, re-scalings.
     pub stats: Stats,
+    /// Where progress goes (see [`Solver::set_progress`]).
+    progress: Option<Ticker>,
+}
+
+/// A progress callback `(done, total)` of the solver (see [`Solver::set_progress`]).
+pub type ProgressCallback = Box<dyn Fn(usize, usize) + Send + Sync>;
+
+/// The solver's progress: four phases after the greedy start (fractional local searches,
+/// fractional forest, main single-tree searches, main forest), `n` units each; a phase's
+/// units are the position of its loop over the vertices, or, for a forest, the share of
+/// its trees done. Calls the callback when at least [`Ticker::STEP`] of the whole has
+/// passed since the last call, never from the inner loops.
+struct Ticker {
+    f: ProgressCallback,
+    /// Units at which the next call is due.
+    next: usize,
+}
+
+/// The loops over the vertices ask [`Solver::tick`] once per this many + 1 vertices (a
+/// power of two minus one, as a mask).
+const PROGRESS_EVERY: u32 = (1 << 10) - 1;
+
+impl Ticker {
+    /// The smallest share of the whole between two calls.
+    const STEP: usize = 64;
 }
 
 /// Counters describing one run (for benchmarks).
@@ -354,6 +379,31 @@ impl Solver {
             mult: 1,
             stack: Vec::new(),
             stats: Stats::default(),
+            progress: None,
+        }
+    }
+
+    /// Reports progress to `f` as `(done, total)` during [`Solver::run`]: `total` is fixed
+    /// (four phases of `n` units), `done` only grows, and calls are rare (at most about
+    /// 64 per run, each between two searches, never inside one). The last call may stop
+    /// short of `total`: the caller knows when the run ends.
+    pub fn set_progress(&mut self, f: ProgressCallback) {
+        self.progress = Some(Ticker { f, next: 0 });
+    }
+
+    /// Progress at `pos` of `of` in phase `phase` (0..4): a call when it is due. Cheap when
+    /// not (one comparison), so loops call it once per iteration.
+    #[inline]
+    pub(super) fn tick(&mut self, phase: usize, pos: usize, of: usize) {
+        if let Some(t) = &mut self.progress {
+            let n = self.n;
+            // units of this phase: `pos / of` of `n` (u128: no overflow for any n)
+            let done = phase * n + (pos as u128 * n as u128 / of.max(1) as u128) as usize;
+            if done >= t.next {
+                let total = 4 * n;
+                t.next = done + (total / Ticker::STEP).max(1);
+                (t.f)(done.min(total), total);
+            }
         }
     }
 

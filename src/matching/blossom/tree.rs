@@ -4,6 +4,7 @@
 
 use super::{
     Event, NoPerfectMatching, Solver, Tight, TreeEdge, DEAD, EXPAND, FREE, MINUS, NONE, PLUS,
+    PROGRESS_EVERY,
 };
 
 impl Solver {
@@ -15,6 +16,9 @@ impl Solver {
     pub(super) fn run_local(&mut self, budget: usize) -> Result<(), NoPerfectMatching> {
         self.new_trees(1);
         for r in 0..self.n as u32 {
+            if r & PROGRESS_EVERY == 0 {
+                self.tick(2, r as usize, self.n);
+            }
             if self.mate[r as usize] != NONE {
                 continue;
             }
