@@ -405,15 +405,8 @@ impl<'a> Before<'a> {
     pub fn new(before: &'a Mesh) -> Self {
         let index = TagCoords::new(before);
         let lines = lines(before);
-        let mut tags: Vec<i32> = before
-            .element_blocks
-            .iter()
-            .filter(|b| b.entity_dim == 2 && element_dim(b.element_type) == Some(2))
-            .map(|b| b.entity_tag)
-            .collect();
-        tags.sort_unstable();
-        tags.dedup();
-        let surfaces = tags
+        let surfaces = before
+            .sorted_surfaces(|b| element_dim(b.element_type) == Some(2))
             .par_iter()
             .map(|&s| (s, SurfaceBefore::new(before, &index, s)))
             .collect();
@@ -473,18 +466,8 @@ impl<'a> Before<'a> {
         // line elements: kept or split in two at a new node
         let la = lines(after);
         check_split_sets(&self.lines, &la, &new_node, EdgeSet::LineElements)?;
-        let mut surfaces: Vec<i32> = self
-            .surfaces
-            .iter()
-            .map(|x| x.0)
-            .chain(
-                after
-                    .element_blocks
-                    .iter()
-                    .filter(|b| b.entity_dim == 2 && element_dim(b.element_type) == Some(2))
-                    .map(|b| b.entity_tag),
-            )
-            .collect();
+        let mut surfaces = after.sorted_surfaces(|b| element_dim(b.element_type) == Some(2));
+        surfaces.extend(self.surfaces.iter().map(|x| x.0));
         surfaces.sort_unstable();
         surfaces.dedup();
         let results: Vec<Result<(), InvariantViolation>> = surfaces
