@@ -357,6 +357,8 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
     let worse = |b: f64, a: f64| if b > VALID_ETA { a <= VALID_ETA } else { a < b };
     let revert = REVERT_ROUNDS;
     let mut trial = l.pos.clone();
+    // live index of each quad, built at the first revert
+    let mut slot: Option<Vec<u32>> = None;
     for step in [1.0, 0.5, 0.25] {
         for v in 0..n {
             if free[v] {
@@ -378,13 +380,32 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
             }
             round += 1;
             // validity: the nodes of the quads the step spoilt go back (their neighbours
-            // are checked again in the next round)
+            // are checked again in the next round); only the quads around a node put back
+            // change, so only they are evaluated again
+            let slot = slot.get_or_insert_with(|| {
+                let mut slot = vec![u32::MAX; l.quads.len()];
+                for (i, &q) in live.iter().enumerate() {
+                    slot[q as usize] = i as u32;
+                }
+                slot
+            });
+            let mut touched: Vec<u32> = Vec::new();
             for &i in &bad {
                 for &v in &l.quads[live[i] as usize] {
-                    trial[v as usize] = l.pos[v as usize];
+                    if trial[v as usize] != l.pos[v as usize] {
+                        trial[v as usize] = l.pos[v as usize];
+                        touched.extend_from_slice(l.star(v));
+                    }
                 }
             }
-            after = eval(&trial);
+            touched.sort_unstable();
+            touched.dedup();
+            for q in touched {
+                if let Some(&i) = slot.get(q as usize).filter(|&&i| i != u32::MAX) {
+                    after[i as usize] =
+                        eta_signed_fast(&l.quads[q as usize].map(|v| trial[v as usize]), normal);
+                }
+            }
         };
         if ok && after.iter().sum::<f64>() > base {
             l.pos = trial;

@@ -7,14 +7,16 @@
 //! - a node of a surface element with a non-finite coordinate, or one so large that
 //!   products of coordinate differences overflow ([`MAX_COORDINATE`]);
 //! - a triangle of zero area (its nodes coincide or are collinear, to rounding);
-//! - an edge shared by three or more triangles of one surface (non-manifold: a parity
-//!   split of it gives edges that no conforming recombination has);
-//! - two triangles running their common edge in the same direction (inconsistent
-//!   orientation: a flipped or overlapping triangle; the optimizer would move the nodes
-//!   of such an edge as if the surface continued across it);
-//! - a fold: two triangles sharing an edge, consistently oriented, whose normals point
-//!   in opposite directions (one is flipped over the other; on a planar surface, an
-//!   inverted triangle).
+//! - an edge shared by three or more triangles of one surface, two triangles running their
+//!   common edge in the same direction, a fold (see
+//!   [`SurfaceTopo::new`](super::topology::SurfaceTopo::new)).
+//!
+//! Quads are checked by [`check_surface_elements`] before any other work. The triangles of
+//! a recombined surface are checked where its topology is built, before parity repair:
+//! [`triangle_normals`] checks each one and gives the normals, then the topology refuses
+//! edges while pairing every edge's triangles, without a sort of its own. Periodic slave
+//! surfaces get no topology (their master's quads are mapped onto them): their triangles
+//! and edges are checked by [`check_surface_elements`].
 //!
 //! Triangles that repeat the three nodes of another triangle of their surface are not
 //! refused: [`drop_repeated_triangles`] removes them first (a triangle and its reverse
@@ -23,9 +25,10 @@
 
 use rayon::prelude::*;
 
+use super::topology::{edge_refusal, EdgeProblem, FOLDED};
 use super::RecombineError;
 use crate::keysort::{bits, bucket_sort, sort_by_prefix};
-use crate::mesh::{etype, Mesh, TagCoords};
+use crate::mesh::{etype, Mesh, NodeTable, TagCoords};
 
 /// Largest accepted coordinate magnitude of a surface element's node. Quality measures
 /// multiply up to four coordinate differences; beyond this they overflow to infinity.
@@ -36,10 +39,6 @@ pub(crate) const MAX_COORDINATE: f64 = 1e60;
 /// `L` about `h / 2L`; slivers of a graded Delaunay mesh reach 5.7·10⁻¹⁴ in
 /// `tests/recombine/random.rs` and are kept).
 const ZERO_AREA: f64 = 1e-15;
-
-/// Two adjacent triangles whose unit normals have a dot product below this are folded
-/// onto each other (a turn of more than ~172° across their common edge).
-const FOLDED: f64 = -0.99;
 
 type V = [f64; 3];
 
@@ -89,13 +88,22 @@ pub(crate) fn check_tag_room(mesh: &Mesh) -> Result<(), RecombineError> {
     Ok(())
 }
 
-/// Checks every 3-node triangle and 4-node quad of every surface (see the module doc).
+/// Checks every 4-node quad of every surface, and the triangles and edges of periodic
+/// slave surfaces (see the module doc; the triangles of the other surfaces are checked
+/// with their topology, [`triangle_normals`]).
 /// Unknown nodes are left to the later stages, which name them.
 pub(crate) fn check_surface_elements(mesh: &Mesh) -> Result<(), RecombineError> {
+    let slaves = super::periodic::slave_surfaces(mesh);
+    // only quads and the faces of periodic slaves are checked here
+    if !mesh.element_blocks.iter().any(|b| {
+        b.is_linear_face() && (b.element_type != etype::TRI3 || slaves.contains(&b.entity_tag))
+    }) {
+        return Ok(());
+    }
     let coords = TagCoords::new(mesh);
     mesh.sorted_surfaces(|b| b.is_linear_face())
         .par_iter()
-        .map(|&s| check_surface(mesh, s, &coords))
+        .map(|&s| check_surface(mesh, s, &coords, slaves.contains(&s)))
         .collect::<Result<Vec<()>, _>>()
         .map(|_| ())
 }
@@ -116,7 +124,21 @@ fn check_element(
 ) -> Result<Option<FoldTri>, RecombineError> {
     let k = if b.element_type == etype::TRI3 { 3 } else { 4 };
     let nodes = &b.element(i)[..k];
-    let tag = b.tags[i];
+    let unit = check_face(surface, b.tags[i], nodes, |j| coords.get(nodes[j]))?;
+    Ok(unit.map(|u| ([nodes[0], nodes[1], nodes[2]], b.tags[i], u)))
+}
+
+/// Checks one 3-node triangle or 4-node quad (element `tag` of `surface`, node tags
+/// `nodes`, `coord(j)` the coordinates of its node `j`, `None` when unknown): its unit
+/// normal when it is a triangle whose nodes are known.
+fn check_face(
+    surface: i32,
+    tag: u64,
+    nodes: &[u64],
+    coord: impl Fn(usize) -> Option<[f64; 3]>,
+) -> Result<Option<V>, RecombineError> {
+    let k = nodes.len();
+
     for (j, &v) in nodes.iter().enumerate() {
         if nodes[..j].contains(&v) {
             return Err(invalid(
@@ -131,7 +153,7 @@ fn check_element(
     }
     let mut p = [[0.0; 3]; 4];
     for (j, &v) in nodes.iter().enumerate() {
-        let Some(c) = coords.get(v) else {
+        let Some(c) = coord(j) else {
             // unknown node: reported by the topology stage
             return Ok(None);
         };
@@ -174,19 +196,56 @@ fn check_element(
             ),
         ));
     }
-    let unit = n.map(|x| x / area2);
-    Ok(Some(([nodes[0], nodes[1], nodes[2]], tag, unit)))
+    Ok(Some(n.map(|x| x / area2)))
 }
 
-fn check_surface(mesh: &Mesh, surface: i32, coords: &TagCoords) -> Result<(), RecombineError> {
-    // triangles with their normals, for the fold check; elements checked by chunks in
+/// Checks the triangles of a recombined surface (`tris` as [`NodeTable`] ids, element tags
+/// `elem_tags`) as [`check_surface_elements`] does the others, the first refused one in
+/// order reported: their unit normals, for the topology's fold check.
+pub(crate) fn triangle_normals(
+    surface: i32,
+    tris: &[[u32; 3]],
+    elem_tags: &[u64],
+    nodes: &NodeTable,
+) -> Result<Vec<glam::DVec3>, RecombineError> {
+    let mut normals = vec![glam::DVec3::ZERO; tris.len()];
+    let first_refused = normals
+        .par_chunks_mut(CHUNK)
+        .enumerate()
+        .find_map_first(|(c, out)| {
+            for (i, n) in out.iter_mut().enumerate() {
+                let t = c * CHUNK + i;
+                let tags = tris[t].map(|v| nodes.tags[v as usize]);
+                let coord = |j: usize| Some(nodes.coords[tris[t][j] as usize].to_array());
+                match check_face(surface, elem_tags[t], &tags, coord) {
+                    Ok(u) => *n = glam::DVec3::from(u.unwrap_or_default()),
+                    Err(e) => return Some(e),
+                }
+            }
+            None
+        });
+    match first_refused {
+        Some(e) => Err(e),
+        None => Ok(normals),
+    }
+}
+
+/// Checks the quads of `surface`, and with `edges` (a periodic slave) its triangles and
+/// edges too (see the module doc).
+fn check_surface(
+    mesh: &Mesh,
+    surface: i32,
+    coords: &TagCoords,
+    edges: bool,
+) -> Result<(), RecombineError> {
+    // triangles with their normals, for the edge checks; elements checked by chunks in
     // parallel, the first refused one in block order reported
     let mut tris: Vec<FoldTri> = Vec::new();
-    for b in mesh
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_tag == surface && b.is_linear_face())
-    {
+    // the triangles of recombined surfaces are checked with their topology
+    // (triangle_normals), those of periodic slaves here
+    for b in mesh.element_blocks.iter().filter(|b| {
+        b.entity_tag == surface && b.is_linear_face() && (edges || b.element_type != etype::TRI3)
+    }) {
         let chunks: Vec<Result<Vec<FoldTri>, RecombineError>> = (0..b.len())
             .into_par_iter()
             .step_by(CHUNK)
@@ -194,7 +253,9 @@ fn check_surface(mesh: &Mesh, surface: i32, coords: &TagCoords) -> Result<(), Re
                 let mut out = Vec::new();
                 for i in from..(from + CHUNK).min(b.len()) {
                     if let Some(t) = check_element(b, i, surface, coords)? {
-                        out.push(t);
+                        if edges {
+                            out.push(t);
+                        }
                     }
                 }
                 Ok(out)
@@ -203,6 +264,9 @@ fn check_surface(mesh: &Mesh, surface: i32, coords: &TagCoords) -> Result<(), Re
         for c in chunks {
             tris.extend(c?);
         }
+    }
+    if !edges {
+        return Ok(());
     }
     // triangles repeating another's three nodes were removed before (drop_repeated_triangles)
     // folds: half-edges (from, to, triangle) sorted by undirected edge; an edge of exactly
@@ -225,54 +289,29 @@ fn check_surface(mesh: &Mesh, surface: i32, coords: &TagCoords) -> Result<(), Re
             half.sort_unstable();
         }
     }
-    let mut i = 0;
-    while i < half.len() {
-        let mut j = i + 1;
-        while j < half.len() && half[j].0 == half[i].0 && half[j].1 == half[i].1 {
-            j += 1;
-        }
-        let run = &half[i..j];
-        if run.len() > 2 {
-            let t = &tris[run[2].3 as usize];
-            return Err(invalid(
-                surface,
-                t.1,
-                format!(
-                    "its edge {}-{} is shared by {} triangles of the surface (non-manifold; triangles {}, {}, ...)",
-                    run[0].0,
-                    run[0].1,
-                    run.len(),
-                    tris[run[0].3 as usize].1,
-                    tris[run[1].3 as usize].1
-                ),
-            ));
-        }
-        if let [a, b] = run {
-            let (ta, tb) = (&tris[a.3 as usize], &tris[b.3 as usize]);
-            if a.2 == b.2 {
-                return Err(invalid(
-                    surface,
-                    tb.1,
-                    format!(
-                        "the triangle runs its edge {}-{} in the same direction as triangle {} (inconsistent orientation: one of them is flipped, or they overlap)",
-                        a.2,
-                        if a.2 == a.0 { a.1 } else { a.0 },
-                        ta.1
-                    ),
-                ));
+    // runs of one edge, in (edge, first node, triangle) order: the first refused one
+    for run in half.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
+        let problem = match run {
+            [_, _, _, ..] => EdgeProblem::NonManifold {
+                tris: run.iter().map(|x| x.3 as usize).collect(),
+            },
+            [a, b] if a.2 == b.2 => EdgeProblem::SameDirection {
+                first: a.3 as usize,
+                second: b.3 as usize,
+                from: a.2,
+                to: if a.2 == a.0 { a.1 } else { a.0 },
+            },
+            [a, b] if dot(tris[a.3 as usize].2, tris[b.3 as usize].2) < FOLDED => {
+                EdgeProblem::Folded {
+                    first: a.3 as usize,
+                    second: b.3 as usize,
+                }
             }
-            if a.2 != b.2 && dot(ta.2, tb.2) < FOLDED {
-                return Err(invalid(
-                    surface,
-                    tb.1,
-                    format!(
-                        "the triangle is folded over triangle {} across their common edge {}-{} (their normals point in opposite directions: overlapping or inverted triangles)",
-                        ta.1, a.0, a.1
-                    ),
-                ));
-            }
-        }
-        i = j;
+            _ => continue,
+        };
+        return Err(edge_refusal(surface, (run[0].0, run[0].1), problem, |t| {
+            tris[t].1
+        }));
     }
     Ok(())
 }
@@ -303,10 +342,34 @@ type TriRef = (i32, [u64; 3], u32, u32, i8);
 /// Per (surface, undirected edge), the directed uses of that edge by remaining triangles.
 type EdgeUses = std::collections::HashMap<(i32, (u64, u64)), Vec<(u64, u64)>>;
 
+/// False when no two 3-node surface triangles of `mesh` have the same three nodes (the
+/// common case, found with one linear sort of the sorted node triples; true may also mean
+/// two triangles of different surfaces on the same nodes, which [`repeated_triangles`]
+/// sorts out).
+fn may_repeat(mesh: &Mesh) -> bool {
+    let mut keys: Vec<[u64; 3]> = Vec::new();
+    for b in mesh.element_blocks.iter().filter(|b| {
+        b.entity_dim == 2 && b.element_type == etype::TRI3 && b.nodes.len() == 3 * b.len()
+    }) {
+        keys.extend(b.nodes.chunks_exact(3).map(|e| {
+            let mut t = [e[0], e[1], e[2]];
+            t.sort_unstable();
+            t
+        }));
+    }
+    if !bucket_sort(&mut keys, |k| k[0]) {
+        keys.par_sort_unstable();
+    }
+    keys.windows(2).any(|w| w[0] == w[1])
+}
+
 /// Which triangles of `mesh` repeat another triangle's three nodes on the same surface and
 /// are to be removed (see [`drop_repeated_triangles`]): per element block, the indices to
 /// remove, and one line per surface saying what goes. Empty lines when there are none.
 fn repeated_triangles(mesh: &Mesh) -> (Vec<Vec<u32>>, Vec<String>) {
+    if !may_repeat(mesh) {
+        return (vec![Vec::new(); mesh.element_blocks.len()], Vec::new());
+    }
     let mut all: Vec<TriRef> = Vec::new();
     for (bi, b) in mesh.element_blocks.iter().enumerate() {
         // a malformed block (node count not 3 per element) is refused later, by name

@@ -87,7 +87,10 @@ pub(super) fn surface_work(
                 .map(|b| b.len())
                 .sum();
             tm.lap("ids");
-            let topo = SurfaceTopo::new(tris, nodes, curves);
+            let normals = super::input::triangle_normals(tag, &tris, &elem_tags, nodes)?;
+            tm.lap("checks");
+            let topo = SurfaceTopo::new(tris, &normals, nodes, curves, tag, &elem_tags)?;
+            drop(normals);
             tm.lap("adjacency");
             let (region, n_regions) = topo.regions();
             tm.lap("regions");

@@ -247,6 +247,149 @@ pub(crate) fn sorted_half_edges(tris: &[[u32; 3]]) -> SortedHalves {
     SortedHalves::Packed { v: a, p }
 }
 
+/// Two adjacent triangles whose unit normals have a dot product below this are folded
+/// onto each other (a turn of more than ~172° across their common edge).
+pub(crate) const FOLDED: f64 = -0.99;
+
+/// Why an edge of a surface is refused (see [`SurfaceTopo::new`]); triangles are indices
+/// into the surface's triangle list.
+pub(crate) enum EdgeProblem {
+    /// Three or more triangles, ordered by (first node tag of their half-edge, index).
+    NonManifold { tris: Vec<usize> },
+    /// Two triangles running the edge `from → to` (node tags) both.
+    SameDirection {
+        first: usize,
+        second: usize,
+        from: u64,
+        to: u64,
+    },
+    /// Two consistently oriented triangles with opposite normals; `first` runs the edge
+    /// from its lower node tag.
+    Folded { first: usize, second: usize },
+}
+
+/// The refusal of surface `surface` for `problem` on its edge `lo-hi` (node tags), with
+/// `tag` giving the element tag of a triangle index.
+pub(crate) fn edge_refusal(
+    surface: i32,
+    (lo, hi): (u64, u64),
+    problem: EdgeProblem,
+    tag: impl Fn(usize) -> u64,
+) -> RecombineError {
+    let (element, problem) = match problem {
+        EdgeProblem::NonManifold { tris } => (
+            tag(tris[2]),
+            format!(
+                "its edge {lo}-{hi} is shared by {} triangles of the surface (non-manifold; triangles {}, {}, ...)",
+                tris.len(),
+                tag(tris[0]),
+                tag(tris[1])
+            ),
+        ),
+        EdgeProblem::SameDirection {
+            first,
+            second,
+            from,
+            to,
+        } => (
+            tag(second),
+            format!(
+                "the triangle runs its edge {from}-{to} in the same direction as triangle {} (inconsistent orientation: one of them is flipped, or they overlap)",
+                tag(first)
+            ),
+        ),
+        EdgeProblem::Folded { first, second } => (
+            tag(second),
+            format!(
+                "the triangle is folded over triangle {} across their common edge {lo}-{hi} (their normals point in opposite directions: overlapping or inverted triangles)",
+                tag(first)
+            ),
+        ),
+    };
+    RecombineError::InvalidElement {
+        surface,
+        element,
+        problem,
+    }
+}
+
+/// The problem of the edge whose half-edges are `run`: three or more of them, or two
+/// running the edge the same way; with the edge's node tags (lower, higher).
+fn structural_problem(
+    run: &[u32],
+    tris: &[[u32; 3]],
+    nodes: &NodeTable,
+) -> ((u64, u64), EdgeProblem) {
+    // (first node, second node) of the half-edge, as tags, and its triangle
+    let half = |h: u32| {
+        let (t, k) = (h as usize / 3, h as usize % 3);
+        let (a, b) = (tris[t][k], tris[t][(k + 1) % 3]);
+        (nodes.tags[a as usize], nodes.tags[b as usize], t)
+    };
+    let (a, b, t0) = half(run[0]);
+    let key = (a.min(b), a.max(b));
+    if run.len() > 2 {
+        let mut ts: Vec<(u64, usize)> = run.iter().map(|&h| half(h)).map(|x| (x.0, x.2)).collect();
+        ts.sort_unstable();
+        let tris = ts.into_iter().map(|x| x.1).collect();
+        return (key, EdgeProblem::NonManifold { tris });
+    }
+    let t1 = run[1] as usize / 3;
+    let (first, second) = (t0.min(t1), t0.max(t1));
+    (
+        key,
+        EdgeProblem::SameDirection {
+            first,
+            second,
+            from: a,
+            to: b,
+        },
+    )
+}
+
+/// The fold with the smallest edge (node tags) among the consistently oriented neighbours:
+/// the graph edges of `nbr` and the `walled` half-edge pairs (neighbours across a curve).
+fn first_fold(
+    tris: &[[u32; 3]],
+    normals: &[glam::DVec3],
+    nbr: &[u32],
+    walled: &[(u32, u32)],
+    nodes: &NodeTable,
+) -> Option<((u64, u64), EdgeProblem)> {
+    // the fold of half-edge `h` of triangle t and its neighbour u, with the edge's tags
+    let fold = |h: usize, t: usize, u: usize| {
+        (normals[t].dot(normals[u]) < FOLDED).then(|| {
+            let (a, b) = (tris[t][h % 3], tris[t][(h % 3 + 1) % 3]);
+            let (a, b) = (nodes.tags[a as usize], nodes.tags[b as usize]);
+            // the triangle running the edge from its lower tag first
+            let (first, second) = if a < b { (t, u) } else { (u, t) };
+            ((a.min(b), a.max(b)), first, second)
+        })
+    };
+    let graph = (0..tris.len())
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter_map(|t| {
+            (3 * t..3 * t + 3)
+                .filter(|&h| nbr[h] != NONE && nbr[h] as usize > t)
+                .filter_map(|h| fold(h, t, nbr[h] as usize))
+                .min()
+        })
+        .min();
+    let curve = walled
+        .iter()
+        .filter_map(|&(h0, h1)| {
+            let (t, u) = (h0 as usize / 3, h1 as usize / 3);
+            fold(h0 as usize, t, u)
+        })
+        .min();
+    graph
+        .into_iter()
+        .chain(curve)
+        .min()
+        .map(|(key, first, second)| (key, EdgeProblem::Folded { first, second }))
+}
+
 /// One surface's triangles and their adjacency.
 pub(crate) struct SurfaceTopo {
     /// Triangles as global node ids, in input order.
@@ -257,8 +400,28 @@ pub(crate) struct SurfaceTopo {
 }
 
 impl SurfaceTopo {
-    /// Builds the adjacency of `tris`.
-    pub fn new(tris: Vec<[u32; 3]>, nodes: &NodeTable, curves: &CurveInfo) -> Self {
+    /// Builds the adjacency of `tris` (the triangles of surface `surface`, element tags
+    /// `elem_tags`, unit normals `normals`), refusing what no recombination can turn into valid quads (found while
+    /// pairing every edge's triangles, so without a sort of its own):
+    ///
+    /// - an edge shared by three or more triangles (non-manifold: a parity split of it
+    ///   gives edges that no conforming recombination has);
+    /// - two triangles running their common edge in the same direction (inconsistent
+    ///   orientation: a flipped or overlapping triangle);
+    /// - a fold: two consistently oriented triangles sharing an edge whose unit normals
+    ///   have a dot product below [`FOLDED`] (one is flipped over the other).
+    ///
+    /// When a surface has several, the one on the edge with the smallest node tags is
+    /// reported, naming its triangles as if the half-edges were sorted by (edge tags, first
+    /// node tag, file order).
+    pub fn new(
+        tris: Vec<[u32; 3]>,
+        normals: &[glam::DVec3],
+        nodes: &NodeTable,
+        curves: &CurveInfo,
+        surface: i32,
+        elem_tags: &[u64],
+    ) -> Result<Self, RecombineError> {
         let n = tris.len();
         let keys = sorted_half_edges(&tris);
         // bare curves that carry a boundary edge of this surface bound it: their segments
@@ -277,8 +440,20 @@ impl SurfaceTopo {
             }
         });
         let mut nbr = vec![NONE; 3 * n];
+        // the refused edge with the smallest (lower, higher) node tags, with its problem
+        let mut refused: Option<((u64, u64), EdgeProblem)> = None;
+        let mut keep_first = |p: ((u64, u64), EdgeProblem)| {
+            if refused.as_ref().is_none_or(|r| p.0 < r.0) {
+                refused = Some(p);
+            }
+        };
+        // consistently oriented neighbours across a curve (not graph edges), for the folds
+        let mut walled: Vec<(u32, u32)> = Vec::new();
         keys.runs(|run| {
-            // three or more triangles: non-manifold, a wall (nbr stays NONE)
+            if run.len() > 2 {
+                // non-manifold: a wall (nbr stays NONE)
+                keep_first(structural_problem(run, &tris, nodes));
+            }
             if let [h0, h1] = run {
                 let (h0, h1) = (*h0 as usize, *h1 as usize);
                 let (t0, k0) = (h0 / 3, h0 % 3);
@@ -288,6 +463,7 @@ impl SurfaceTopo {
                 // consistent orientation: t1 runs the edge b -> a
                 let consistent = tris[t1][k1] == b && tris[t1][(k1 + 1) % 3] == a;
                 let w = if !consistent {
+                    keep_first(structural_problem(run, &tris, nodes));
                     Wall::Inconsistent
                 } else {
                     match curves.on_curve(nodes, a, b) {
@@ -296,13 +472,26 @@ impl SurfaceTopo {
                         _ => Wall::Open,
                     }
                 };
-                if w == Wall::Open {
-                    nbr[h0] = t1 as u32;
-                    nbr[h1] = t0 as u32;
+                match w {
+                    Wall::Open => {
+                        nbr[h0] = t1 as u32;
+                        nbr[h1] = t0 as u32;
+                    }
+                    Wall::Curve => walled.push((h0 as u32, h1 as u32)),
+                    Wall::Inconsistent => {}
                 }
             }
         });
-        SurfaceTopo { tris, nbr }
+        let refused = refused
+            .into_iter()
+            .chain(first_fold(&tris, normals, &nbr, &walled, nodes))
+            .min_by_key(|p| p.0);
+        if let Some((key, problem)) = refused {
+            return Err(edge_refusal(surface, key, problem, |t| {
+                elem_tags.get(t).copied().unwrap_or(0)
+            }));
+        }
+        Ok(SurfaceTopo { tris, nbr })
     }
 
     /// Number of triangles.

@@ -465,3 +465,62 @@ fn large_grid_takes_the_radix_path_and_stays_valid() {
     assert_eq!(r.surfaces[0].quads_out, 130 * 130);
     check_invariants(&before, &m).unwrap();
 }
+
+/// The edge checks (non-manifold, same direction, fold) run in the topology for recombined
+/// surfaces and in the input checks for periodic slaves, which get no topology: both
+/// refuse the same broken surface naming the same element and edge.
+#[test]
+fn edge_checks_agree_on_recombined_and_periodic_slave_surfaces() {
+    let flipped = || {
+        let mut m = grid(&Grid::default());
+        let b = m
+            .element_blocks
+            .iter_mut()
+            .find(|b| b.element_type == etype::TRI3)
+            .unwrap();
+        b.nodes.swap(13, 14); // triangle 5 (0-based 4) runs its nodes the other way
+        m
+    };
+    let folded = || {
+        let mut m = grid(&Grid::default());
+        // the interior node at (0.5, 0.5) moved outside the square: some of its triangles
+        // turn over, and fold over their neighbours
+        let v = node_at(&m, [0.5, 0.5, 0.0]);
+        for nb in &mut m.node_blocks {
+            if let Some(i) = nb.tags.iter().position(|&t| t == v) {
+                nb.coords[i] = [1.9, 1.3, 0.0];
+            }
+        }
+        m
+    };
+    let slave = |mut m: blossomquad::mesh::Mesh| {
+        m.periodic.push(PeriodicLink {
+            dim: 2,
+            tag: 1,
+            master_tag: 5,
+            affine: None,
+            node_pairs: vec![],
+        });
+        m
+    };
+    for (what, make, words) in [
+        (
+            "flipped",
+            &flipped as &dyn Fn() -> _,
+            "same direction as triangle",
+        ),
+        ("folded", &folded, "folded over triangle"),
+    ] {
+        let refuse = |mut m| {
+            let e = recombine(&mut m, &RecombineOptions::default()).unwrap_err();
+            assert!(
+                matches!(e, RecombineError::InvalidElement { surface: 1, .. }),
+                "{what}: {e}"
+            );
+            e.to_string()
+        };
+        let (own, as_slave) = (refuse(make()), refuse(slave(make())));
+        assert!(own.contains(words), "{what}: {own}");
+        assert_eq!(own, as_slave, "{what}");
+    }
+}
