@@ -7,6 +7,9 @@
 use crate::mesh::{etype, Mesh, NodeTable};
 use rayon::prelude::*;
 
+use crate::keysort;
+use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
+
 use super::RecombineError;
 
 /// Sentinel for "no triangle / no node".
@@ -163,42 +166,110 @@ pub(crate) enum SortedHalves {
 
 impl SortedHalves {
     /// Calls `f` with the half-edges of each run of equal keys, in key order.
-    pub fn runs(&self, mut f: impl FnMut(&[u32])) {
-        let mut buf: Vec<u32> = Vec::with_capacity(4);
+    #[cfg(test)]
+    pub fn runs(&self, f: impl FnMut(&[u32])) {
+        match self {
+            SortedHalves::Packed { v, p } => packed_runs(v, *p, f),
+            SortedHalves::Pairs(v) => pair_runs(v, f),
+        }
+    }
+
+    /// [`SortedHalves::runs`] on consecutive pieces of the list in parallel, each cut
+    /// between two runs: every piece folds its runs, in key order, into a state made by
+    /// `init`; the states come back in piece (so key) order. Lists below [`RUN_PIECE`]
+    /// half-edges are one piece.
+    pub fn par_runs<S: Send>(
+        &self,
+        init: impl Fn() -> S + Sync,
+        f: impl Fn(&mut S, &[u32]) + Sync,
+    ) -> Vec<S> {
         match self {
             SortedHalves::Packed { v, p } => {
-                let low = (1u64 << p) - 1;
-                for run in v.chunk_by(|x, y| x >> p == y >> p) {
-                    buf.clear();
-                    buf.extend(run.iter().map(|x| (x & low) as u32));
-                    f(&buf);
-                }
+                let cuts = run_cuts(v.len(), |i| v[i - 1] >> p == v[i] >> p);
+                fold_pieces(&cuts, init, |s, (a, b)| {
+                    packed_runs(&v[a..b], *p, |run| f(s, run))
+                })
             }
             SortedHalves::Pairs(v) => {
-                for run in v.chunk_by(|x, y| x.0 == y.0) {
-                    buf.clear();
-                    buf.extend(run.iter().map(|x| x.1));
-                    f(&buf);
-                }
+                let cuts = run_cuts(v.len(), |i| v[i - 1].0 == v[i].0);
+                fold_pieces(&cuts, init, |s, (a, b)| pair_runs(&v[a..b], |run| f(s, run)))
             }
         }
     }
+}
+
+/// Half-edges per piece of [`SortedHalves::par_runs`] (about).
+const RUN_PIECE: usize = 1 << 16;
+
+/// The runs of packed values `v` (key above bit `p`, half-edge below).
+fn packed_runs(v: &[u64], p: u32, mut f: impl FnMut(&[u32])) {
+    let mut buf: Vec<u32> = Vec::with_capacity(4);
+    let low = (1u64 << p) - 1;
+    for run in v.chunk_by(|x, y| x >> p == y >> p) {
+        buf.clear();
+        buf.extend(run.iter().map(|x| (x & low) as u32));
+        f(&buf);
+    }
+}
+
+/// The runs of `(key, half-edge)` pairs `v`.
+fn pair_runs(v: &[(u64, u32)], mut f: impl FnMut(&[u32])) {
+    let mut buf: Vec<u32> = Vec::with_capacity(4);
+    for run in v.chunk_by(|x, y| x.0 == y.0) {
+        buf.clear();
+        buf.extend(run.iter().map(|x| x.1));
+        f(&buf);
+    }
+}
+
+/// Boundaries `0 = c_0 < c_1 < … < c_m = len` of pieces of about [`RUN_PIECE`] elements of a
+/// list of runs, never inside a run (`same(i)`: elements `i − 1` and `i` are in one run).
+fn run_cuts(len: usize, same: impl Fn(usize) -> bool) -> Vec<usize> {
+    let pieces = len.div_ceil(RUN_PIECE).max(1);
+    let mut cuts = vec![0];
+    for i in 1..pieces {
+        let mut c = (i * len / pieces).max(*cuts.last().unwrap_or(&0));
+        while c > 0 && c < len && same(c) {
+            c += 1;
+        }
+        if c > *cuts.last().unwrap_or(&0) && c < len {
+            cuts.push(c);
+        }
+    }
+    if len > 0 {
+        cuts.push(len);
+    }
+    cuts
+}
+
+/// Folds each piece `(cuts[i], cuts[i + 1])` into a fresh state, in parallel; states in order.
+fn fold_pieces<S: Send>(
+    cuts: &[usize],
+    init: impl Fn() -> S + Sync,
+    f: impl Fn(&mut S, (usize, usize)) + Sync,
+) -> Vec<S> {
+    cuts.par_windows(2)
+        .map(|w| {
+            let mut s = init();
+            f(&mut s, (w[0], w[1]));
+            s
+        })
+        .collect()
 }
 
 /// Sorts the half-edges of `tris` by [`edge_key`].
 ///
 /// When a key and a half-edge index fit in 64 bits together (node ids below 2^b and
 /// half-edges below 2^p with 2b + p ≤ 64: up to about 2^20 nodes and 2^22 half-edges, more
-/// when the other is smaller), they are packed in one `u64` and sorted by an LSD radix sort
-/// on the key bits (stable, so equal keys keep half-edge order); otherwise by a parallel
-/// comparison sort. Both give the same order.
+/// when the other is smaller), they are packed in one `u64` and sorted as integers by
+/// [`sort_packed`]; otherwise by a parallel comparison sort. Both give the same order.
 pub(crate) fn sorted_half_edges(tris: &[[u32; 3]]) -> SortedHalves {
     let halves = 3 * tris.len();
-    let max_id = tris
-        .iter()
-        .map(|t| t[0].max(t[1]).max(t[2]))
-        .max()
-        .unwrap_or(0);
+    let (min_id, max_id) = tris
+        .par_iter()
+        .with_min_len(1 << 14)
+        .map(|t| (t[0].min(t[1]).min(t[2]), t[0].max(t[1]).max(t[2])))
+        .reduce(|| (u32::MAX, 0), |x, y| (x.0.min(y.0), x.1.max(y.1)));
     let bits = |x: u64| 64 - x.leading_zeros();
     let b = bits(max_id as u64);
     let p = bits(halves.saturating_sub(1) as u64);
@@ -212,39 +283,124 @@ pub(crate) fn sorted_half_edges(tris: &[[u32; 3]]) -> SortedHalves {
         keys.par_sort_unstable();
         return SortedHalves::Pairs(keys);
     }
-    let mut a: Vec<u64> = Vec::with_capacity(halves);
-    for (t, tri) in tris.iter().enumerate() {
-        for k in 0..3 {
-            let (x, y) = (tri[k], tri[(k + 1) % 3]);
-            let (lo, hi) = if x < y { (x, y) } else { (y, x) };
-            a.push(((lo as u64) << (b + p)) | ((hi as u64) << p) | (3 * t + k) as u64);
-        }
+    SortedHalves::Packed {
+        v: sort_packed(tris, b, p, min_id..=max_id),
+        p,
     }
-    // LSD radix sort over the 2b key bits, 11 bits per pass
-    const DIGIT: u32 = 11;
-    let mut buf = vec![0u64; halves];
-    let mut shift = p;
-    while shift < p + 2 * b {
-        let mask = (1u64 << DIGIT) - 1;
-        let mut count = vec![0usize; 1 << DIGIT];
-        for &v in &a {
-            count[((v >> shift) & mask) as usize] += 1;
-        }
-        let mut sum = 0;
-        for c in count.iter_mut() {
-            let x = *c;
-            *c = sum;
-            sum += x;
-        }
-        for &v in &a {
-            let d = ((v >> shift) & mask) as usize;
-            buf[count[d]] = v;
-            count[d] += 1;
-        }
-        std::mem::swap(&mut a, &mut buf);
-        shift += DIGIT;
+}
+
+/// Triangles per piece of [`sort_packed`]'s first pass.
+const SORT_PIECE: usize = 1 << 15;
+
+/// The half-edges of `tris` packed as `lo << (b + p) | hi << p | half_edge` (`lo < hi` the
+/// node ids of the edge, in `ids`, below 2^b; half-edges below 2^p), sorted ascending. The
+/// values are distinct, so this is the one order of (edge key, half-edge).
+///
+/// Parallel in two passes: pieces of triangles pack their half-edges and group them by the
+/// top bits of `lo − min` (buckets of a few thousand values); then each bucket gathers its
+/// groups from every piece and sorts itself: by counting on the rest of `lo`, then by
+/// comparison inside each `lo` (a few values), or by comparison alone when `lo` spreads
+/// much wider than the bucket holds values.
+fn sort_packed(tris: &[[u32; 3]], b: u32, p: u32, ids: std::ops::RangeInclusive<u32>) -> Vec<u64> {
+    let halves = 3 * tris.len();
+    let min = *ids.start();
+    let span_bits = keysort::bits(ids.end().saturating_sub(min) as u64);
+    // top bits of lo − min: about 2048 values per bucket, at most 2^12 buckets
+    let top = keysort::bits((halves / 2048) as u64)
+        .saturating_sub(1)
+        .min(12)
+        .min(span_bits);
+    let buckets = 1usize << top;
+    let lo_shift = b + p;
+    let sub_bits = span_bits - top;
+    let sub_mask = (1u64 << sub_bits) - 1;
+    let rel = |v: u64| (v >> lo_shift) - min as u64;
+    let bucket = |v: u64| (rel(v) >> sub_bits) as usize;
+    // pass 1: per piece, its values grouped by bucket and where each group starts
+    let pieces: Vec<(Vec<u64>, Vec<usize>)> = tris
+        .par_chunks(SORT_PIECE)
+        .enumerate()
+        .map(|(c, chunk)| {
+            let first = 3 * c * SORT_PIECE;
+            let mut start = vec![0usize; buckets + 1];
+            let mut vals: Vec<u64> = Vec::with_capacity(3 * chunk.len());
+            for (i, tri) in chunk.iter().enumerate() {
+                for k in 0..3 {
+                    let (x, y) = (tri[k], tri[(k + 1) % 3]);
+                    let (lo, hi) = if x < y { (x, y) } else { (y, x) };
+                    let v = ((lo as u64) << lo_shift)
+                        | ((hi as u64) << p)
+                        | (first + 3 * i + k) as u64;
+                    start[bucket(v) + 1] += 1;
+                    vals.push(v);
+                }
+            }
+            for j in 1..=buckets {
+                start[j] += start[j - 1];
+            }
+            let mut next = start.clone();
+            let mut grouped = vec![0u64; vals.len()];
+            for &v in &vals {
+                let g = bucket(v);
+                grouped[next[g]] = v;
+                next[g] += 1;
+            }
+            (grouped, start)
+        })
+        .collect();
+    // pass 2: each bucket's slice of the output, filled and sorted on its own
+    let mut out = vec![0u64; halves];
+    let mut slices: Vec<&mut [u64]> = Vec::with_capacity(buckets);
+    let mut rest: &mut [u64] = &mut out;
+    for g in 0..buckets {
+        let size: usize = pieces.iter().map(|(_, s)| s[g + 1] - s[g]).sum();
+        let (head, tail) = std::mem::take(&mut rest).split_at_mut(size);
+        slices.push(head);
+        rest = tail;
     }
-    SortedHalves::Packed { v: a, p }
+    slices.into_par_iter().enumerate().for_each_init(
+        || (Vec::new(), Vec::new()),
+        |(tmp, count): &mut (Vec<u64>, Vec<usize>), (g, slice)| {
+            if 1usize << sub_bits > 4 * slice.len() + 64 {
+                // lo spread thin: a comparison sort beats counting over the spread
+                let mut at = 0;
+                for (vals, start) in &pieces {
+                    let part = &vals[start[g]..start[g + 1]];
+                    slice[at..at + part.len()].copy_from_slice(part);
+                    at += part.len();
+                }
+                slice.sort_unstable();
+                return;
+            }
+            tmp.clear();
+            for (vals, start) in &pieces {
+                tmp.extend_from_slice(&vals[start[g]..start[g + 1]]);
+            }
+            // counting sort on the low bits of lo (start of each lo's values, then its end)
+            count.clear();
+            count.resize((1 << sub_bits) + 1, 0);
+            for &v in tmp.iter() {
+                count[(rel(v) & sub_mask) as usize + 1] += 1;
+            }
+            for j in 1..count.len() {
+                count[j] += count[j - 1];
+            }
+            for &v in tmp.iter() {
+                let j = (rel(v) & sub_mask) as usize;
+                slice[count[j]] = v;
+                count[j] += 1;
+            }
+            // count[j] is now where lo j ends, count[j - 1] where it starts
+            let mut from = 0;
+            for &to in count.iter().take(1 << sub_bits) {
+                if to - from > 1 {
+                    slice[from..to].sort_unstable();
+                }
+                from = to;
+            }
+        },
+    );
+    out
 }
 
 /// Two adjacent triangles whose unit normals have a dot product below this are folded
@@ -427,61 +583,82 @@ impl SurfaceTopo {
         // bare curves that carry a boundary edge of this surface bound it: their segments
         // are boundary edges, so an interior edge between two of their nodes is a chord, not
         // a segment (e.g. a triangle with three nodes on a circle)
+        // (runs scanned by pieces in parallel, the pieces' findings merged in key order)
         let mut boundary_curves: Vec<i32> = Vec::new();
-        keys.runs(|run| {
+        let found = keys.par_runs(Vec::new, |curves_here: &mut Vec<i32>, run| {
             if let [h] = run {
                 let (t, k) = (*h as usize / 3, *h as usize % 3);
                 let (a, b) = (tris[t][k], tris[t][(k + 1) % 3]);
                 if let OnCurve::Bare(c) = curves.on_curve(nodes, a, b) {
-                    if !boundary_curves.contains(&c) {
-                        boundary_curves.push(c);
+                    if !curves_here.contains(&c) {
+                        curves_here.push(c);
                     }
                 }
             }
         });
-        let mut nbr = vec![NONE; 3 * n];
-        // the refused edge with the smallest (lower, higher) node tags, with its problem
-        let mut refused: Option<((u64, u64), EdgeProblem)> = None;
-        let mut keep_first = |p: ((u64, u64), EdgeProblem)| {
+        for c in found.into_iter().flatten() {
+            if !boundary_curves.contains(&c) {
+                boundary_curves.push(c);
+            }
+        }
+        let boundary_curves = &boundary_curves;
+        // each half-edge is in one run: the pieces write disjoint entries
+        let nbr: Vec<AtomicU32> = (0..3 * n).map(|_| AtomicU32::new(NONE)).collect();
+        // per piece: the refused edge with the smallest (lower, higher) node tags, with its
+        // problem, and the consistently oriented neighbours across a curve (not graph
+        // edges, for the folds)
+        type Piece = (Option<((u64, u64), EdgeProblem)>, Vec<(u32, u32)>);
+        let keep_first = |refused: &mut Option<((u64, u64), EdgeProblem)>,
+                          p: ((u64, u64), EdgeProblem)| {
             if refused.as_ref().is_none_or(|r| p.0 < r.0) {
-                refused = Some(p);
+                *refused = Some(p);
             }
         };
-        // consistently oriented neighbours across a curve (not graph edges), for the folds
-        let mut walled: Vec<(u32, u32)> = Vec::new();
-        keys.runs(|run| {
-            if run.len() > 2 {
-                // non-manifold: a wall (nbr stays NONE)
-                keep_first(structural_problem(run, &tris, nodes));
-            }
-            if let [h0, h1] = run {
-                let (h0, h1) = (*h0 as usize, *h1 as usize);
-                let (t0, k0) = (h0 / 3, h0 % 3);
-                let (t1, k1) = (h1 / 3, h1 % 3);
-                let a = tris[t0][k0];
-                let b = tris[t0][(k0 + 1) % 3];
-                // consistent orientation: t1 runs the edge b -> a
-                let consistent = tris[t1][k1] == b && tris[t1][(k1 + 1) % 3] == a;
-                let w = if !consistent {
-                    keep_first(structural_problem(run, &tris, nodes));
-                    Wall::Inconsistent
-                } else {
-                    match curves.on_curve(nodes, a, b) {
-                        OnCurve::Line => Wall::Curve,
-                        OnCurve::Bare(c) if !boundary_curves.contains(&c) => Wall::Curve,
-                        _ => Wall::Open,
-                    }
-                };
-                match w {
-                    Wall::Open => {
-                        nbr[h0] = t1 as u32;
-                        nbr[h1] = t0 as u32;
-                    }
-                    Wall::Curve => walled.push((h0 as u32, h1 as u32)),
-                    Wall::Inconsistent => {}
+        let pieces: Vec<Piece> = keys.par_runs(
+            || (None, Vec::new()),
+            |(refused, walled): &mut Piece, run| {
+                if run.len() > 2 {
+                    // non-manifold: a wall (nbr stays NONE)
+                    keep_first(refused, structural_problem(run, &tris, nodes));
                 }
+                if let [h0, h1] = run {
+                    let (h0, h1) = (*h0 as usize, *h1 as usize);
+                    let (t0, k0) = (h0 / 3, h0 % 3);
+                    let (t1, k1) = (h1 / 3, h1 % 3);
+                    let a = tris[t0][k0];
+                    let b = tris[t0][(k0 + 1) % 3];
+                    // consistent orientation: t1 runs the edge b -> a
+                    let consistent = tris[t1][k1] == b && tris[t1][(k1 + 1) % 3] == a;
+                    let w = if !consistent {
+                        keep_first(refused, structural_problem(run, &tris, nodes));
+                        Wall::Inconsistent
+                    } else {
+                        match curves.on_curve(nodes, a, b) {
+                            OnCurve::Line => Wall::Curve,
+                            OnCurve::Bare(c) if !boundary_curves.contains(&c) => Wall::Curve,
+                            _ => Wall::Open,
+                        }
+                    };
+                    match w {
+                        Wall::Open => {
+                            nbr[h0].store(t1 as u32, Relaxed);
+                            nbr[h1].store(t0 as u32, Relaxed);
+                        }
+                        Wall::Curve => walled.push((h0 as u32, h1 as u32)),
+                        Wall::Inconsistent => {}
+                    }
+                }
+            },
+        );
+        let nbr: Vec<u32> = nbr.into_iter().map(AtomicU32::into_inner).collect();
+        let mut refused = None;
+        let mut walled: Vec<(u32, u32)> = Vec::new();
+        for (r, w) in pieces {
+            if let Some(r) = r {
+                keep_first(&mut refused, r);
             }
-        });
+            walled.extend(w);
+        }
         let refused = refused
             .into_iter()
             .chain(first_fold(&tris, normals, &nbr, &walled, nodes))
@@ -542,7 +719,6 @@ impl SurfaceTopo {
 
     /// [`SurfaceTopo::regions`] by a parallel union-find.
     fn regions_parallel(&self) -> (Vec<u32>, usize) {
-        use std::sync::atomic::{AtomicU32, Ordering::Relaxed};
         let n = self.len();
         let parent: Vec<AtomicU32> = (0..n as u32).map(AtomicU32::new).collect();
         let find = |mut x: u32| loop {
@@ -642,6 +818,93 @@ mod tests {
         assert_eq!(count, c);
         assert_eq!(par, id);
         assert_eq!(topo.regions(), (id, count));
+    }
+
+    /// `n` random triangles on nodes `lo..lo + span` (xorshift from `seed`).
+    fn random_tris(n: usize, lo: u32, span: u32, seed: u64) -> Vec<[u32; 3]> {
+        let mut x = seed;
+        let mut next = || {
+            x ^= x << 13;
+            x ^= x >> 7;
+            x ^= x << 17;
+            lo + (x % span as u64) as u32
+        };
+        (0..n).map(|_| [next(), next(), next()]).collect()
+    }
+
+    /// The half-edges of `tris` sorted by (edge key, half-edge) by a plain comparison sort.
+    fn plain_sort(tris: &[[u32; 3]]) -> Vec<(u64, u32)> {
+        let mut v: Vec<(u64, u32)> = Vec::new();
+        for (t, tri) in tris.iter().enumerate() {
+            for k in 0..3 {
+                v.push((edge_key(tri[k], tri[(k + 1) % 3]), (3 * t + k) as u32));
+            }
+        }
+        v.sort_unstable();
+        v
+    }
+
+    #[test]
+    fn the_bucketed_sort_is_a_plain_sort() {
+        // sizes around the piece size (SORT_PIECE triangles), dense and sparse node ids, ids
+        // far from zero, a single node id span (every edge degenerate)
+        let p = SORT_PIECE;
+        for (n, lo, span, seed) in [
+            (p - 1, 0, 40_000, 1),
+            (p, 0, 40_000, 2),
+            (p + 1, 0, 40_000, 3),
+            (2 * p + 7, 0, 30_000, 4),
+            (3 * p - 1, 1_000_000, 50_000, 5),
+            (p + 3, 0, 1 << 22, 6),
+            (p / 2, 7, 1, 7),
+            (p / 2, 0, 3, 8),
+        ] {
+            let tris = random_tris(n, lo, span, seed);
+            let max_id = tris.iter().flatten().copied().max().unwrap_or(0);
+            let min_id = tris.iter().flatten().copied().min().unwrap_or(0);
+            let b = keysort::bits(max_id as u64);
+            let q = keysort::bits(3 * n as u64 - 1);
+            assert!(2 * b + q <= 64);
+            let sorted = sort_packed(&tris, b, q, min_id..=max_id);
+            let low = (1u64 << q) - 1;
+            let got: Vec<(u64, u32)> = sorted
+                .iter()
+                .map(|&v| {
+                    let key = ((v >> (b + q)) << 32) | ((v >> q) & ((1 << b) - 1));
+                    (key, (v & low) as u32)
+                })
+                .collect();
+            assert_eq!(got, plain_sort(&tris), "n {n}, lo {lo}, span {span}");
+        }
+    }
+
+    #[test]
+    fn runs_by_pieces_are_the_runs() {
+        // lists from one piece to several, cut between runs, packed and pairs
+        for (n, span) in [(100, 50), (RUN_PIECE / 3 + 1, 9_000), (3 * RUN_PIECE, 60_000)] {
+            let tris = random_tris(n, 0, span, n as u64);
+            let runs = |k: &SortedHalves| -> Vec<Vec<u32>> {
+                let pieces = k.par_runs(Vec::new, |s: &mut Vec<Vec<u32>>, r| s.push(r.to_vec()));
+                if n >= RUN_PIECE {
+                    assert!(pieces.len() > 1, "n {n}: {} pieces", pieces.len());
+                }
+                pieces.into_iter().flatten().collect()
+            };
+            let keys = sorted_half_edges(&tris);
+            let plain = SortedHalves::Pairs(plain_sort(&tris));
+            assert_eq!(runs(&keys), keys.runs_vec(), "n {n}");
+            assert_eq!(runs(&plain), plain.runs_vec(), "n {n}");
+            assert_eq!(keys.runs_vec(), plain.runs_vec(), "n {n}");
+        }
+        // cuts never split a run, even when one run is longer than a piece
+        let same = |i: usize| i / (RUN_PIECE + 5) == (i - 1) / (RUN_PIECE + 5);
+        let len = 4 * RUN_PIECE + 3;
+        let cuts = run_cuts(len, same);
+        assert_eq!((cuts[0], cuts[cuts.len() - 1]), (0, len));
+        assert!(cuts.windows(2).all(|w| w[0] < w[1]));
+        assert!(cuts[1..cuts.len() - 1].iter().all(|&c| !same(c)));
+        assert!(cuts.len() > 2);
+        assert_eq!(run_cuts(0, same), vec![0]);
     }
 
     #[test]
