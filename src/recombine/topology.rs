@@ -192,7 +192,9 @@ impl SortedHalves {
             }
             SortedHalves::Pairs(v) => {
                 let cuts = run_cuts(v.len(), |i| v[i - 1].0 == v[i].0);
-                fold_pieces(&cuts, init, |s, (a, b)| pair_runs(&v[a..b], |run| f(s, run)))
+                fold_pieces(&cuts, init, |s, (a, b)| {
+                    pair_runs(&v[a..b], |run| f(s, run))
+                })
             }
         }
     }
@@ -328,9 +330,8 @@ fn sort_packed(tris: &[[u32; 3]], b: u32, p: u32, ids: std::ops::RangeInclusive<
                 for k in 0..3 {
                     let (x, y) = (tri[k], tri[(k + 1) % 3]);
                     let (lo, hi) = if x < y { (x, y) } else { (y, x) };
-                    let v = ((lo as u64) << lo_shift)
-                        | ((hi as u64) << p)
-                        | (first + 3 * i + k) as u64;
+                    let v =
+                        ((lo as u64) << lo_shift) | ((hi as u64) << p) | (first + 3 * i + k) as u64;
                     start[bucket(v) + 1] += 1;
                     vals.push(v);
                 }
@@ -881,7 +882,11 @@ mod tests {
     #[test]
     fn runs_by_pieces_are_the_runs() {
         // lists from one piece to several, cut between runs, packed and pairs
-        for (n, span) in [(100, 50), (RUN_PIECE / 3 + 1, 9_000), (3 * RUN_PIECE, 60_000)] {
+        for (n, span) in [
+            (100, 50),
+            (RUN_PIECE / 3 + 1, 9_000),
+            (3 * RUN_PIECE, 60_000),
+        ] {
             let tris = random_tris(n, 0, span, n as u64);
             let runs = |k: &SortedHalves| -> Vec<Vec<u32>> {
                 let pieces = k.par_runs(Vec::new, |s: &mut Vec<Vec<u32>>, r| s.push(r.to_vec()));
