@@ -360,33 +360,33 @@ fn sort_packed(tris: &[[u32; 3]], b: u32, p: u32, ids: std::ops::RangeInclusive<
         rest = tail;
     }
     slices.into_par_iter().enumerate().for_each_init(
-        || (Vec::new(), Vec::new()),
-        |(tmp, count): &mut (Vec<u64>, Vec<usize>), (g, slice)| {
+        Vec::new,
+        |count: &mut Vec<usize>, (g, slice)| {
+            let parts = || {
+                pieces
+                    .iter()
+                    .map(|(vals, start)| &vals[start[g]..start[g + 1]])
+            };
             if 1usize << sub_bits > 4 * slice.len() + 64 {
                 // lo spread thin: a comparison sort beats counting over the spread
                 let mut at = 0;
-                for (vals, start) in &pieces {
-                    let part = &vals[start[g]..start[g + 1]];
+                for part in parts() {
                     slice[at..at + part.len()].copy_from_slice(part);
                     at += part.len();
                 }
                 slice.sort_unstable();
                 return;
             }
-            tmp.clear();
-            for (vals, start) in &pieces {
-                tmp.extend_from_slice(&vals[start[g]..start[g + 1]]);
-            }
             // counting sort on the low bits of lo (start of each lo's values, then its end)
             count.clear();
             count.resize((1 << sub_bits) + 1, 0);
-            for &v in tmp.iter() {
+            for &v in parts().flatten() {
                 count[(rel(v) & sub_mask) as usize + 1] += 1;
             }
             for j in 1..count.len() {
                 count[j] += count[j - 1];
             }
-            for &v in tmp.iter() {
+            for &v in parts().flatten() {
                 let j = (rel(v) & sub_mask) as usize;
                 slice[count[j]] = v;
                 count[j] += 1;
