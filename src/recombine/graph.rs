@@ -151,9 +151,7 @@ pub(crate) fn build(
     let normals = &triangle_normals(topo, coords);
     tm.lap("walls");
     let split_cost = split_halves_cost(n);
-    // the cross field (a serial search) and the edges' quality costs (parallel) do not
-    // depend on each other: computed side by side, the field's share added after
-    let field = || match (cross_w > 0.0, harmonic) {
+    let field = match (cross_w > 0.0, harmonic) {
         (false, _) => CrossField::default(),
         (true, false) => {
             let t1 = boundary_cross_field(topo, coords, normals);
@@ -162,42 +160,30 @@ pub(crate) fn build(
         }
         (true, true) => smooth_cross_field(topo, coords, normals),
     };
-    let quality = || -> Vec<(u32, u32, i64)> {
-        (0..n)
-            .into_par_iter()
-            .with_min_len(4096)
-            .flat_map_iter(|t| {
-                (0..3).filter_map(move |k| {
-                    let u = topo.nbr[3 * t + k];
-                    (u != NONE && (t as u32) < u).then(|| {
-                        let c =
-                            edge_cost(topo, coords, normals, walls, split_nodes, split_cost, t, k);
-                        // the local edge k rides in the two low bits (costs are far below 2^61)
-                        (t as u32, u, c << 2 | k as i64)
-                    })
+    let field = &field;
+    tm.lap("cross field");
+    let mut edges: Vec<(u32, u32, i64)> = (0..n)
+        .into_par_iter()
+        .with_min_len(4096)
+        .flat_map_iter(|t| {
+            (0..3).filter_map(move |k| {
+                let u = topo.nbr[3 * t + k];
+                (u != NONE && (t as u32) < u).then(|| {
+                    let mut c =
+                        edge_cost(topo, coords, normals, walls, split_nodes, split_cost, t, k);
+                    if cross_w > 0.0 && c <= 2 * COST_SCALE {
+                        let tri = topo.tris[t];
+                        let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];
+                        let nrm = normals[t];
+                        let wt = field.weight[t];
+                        c += (COST_SCALE as f64 * cross_w * wt * cross_cost(e, field.t1[t], nrm))
+                            .round() as i64;
+                    }
+                    (t as u32, u, c)
                 })
             })
-            .collect()
-    };
-    let (field, mut edges) = rayon::join(field, quality);
-    tm.lap("cross field and quality");
-    // unpack the costs and add the field's share, in place
-    let field = &field;
-    edges
-        .par_iter_mut()
-        .with_min_len(4096)
-        .for_each(|(t, _, c)| {
-            let k = (*c & 3) as usize;
-            *c >>= 2;
-            if cross_w > 0.0 && *c <= 2 * COST_SCALE {
-                let tri = topo.tris[*t as usize];
-                let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];
-                let nrm = normals[*t as usize];
-                let wt = field.weight[*t as usize];
-                *c += (COST_SCALE as f64 * cross_w * wt * cross_cost(e, field.t1[*t as usize], nrm))
-                    .round() as i64;
-            }
-        });
+        })
+        .collect();
     let real = edges.len();
     tm.lap("edges");
     let mut extra_fans = Vec::new();
