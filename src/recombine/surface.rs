@@ -57,31 +57,19 @@ pub(super) fn surface_work(
             // sized up front (no regrowth copies); partitions only when a block has some
             let count: usize = blocks().map(|b| b.len()).sum();
             let any_parts = blocks().any(|b| b.partitions.is_some());
-            let mut tris = Vec::new();
+            let mut tris = Vec::with_capacity(count);
             let mut elem_tags = Vec::with_capacity(count);
             let mut partitions = Vec::with_capacity(if any_parts { count } else { 0 });
             for b in blocks() {
-                // looked up in parallel; on failure the first unknown node in block order
-                let unknown = |i: usize, node: u64| RecombineError::UnknownNode {
-                    dim: 2,
-                    entity: tag,
-                    element: b.tags[i],
-                    node,
-                };
-                let ids: Result<Vec<[u32; 3]>, u64> = (0..b.len())
-                    .into_par_iter()
-                    .with_min_len(4096)
-                    .map(|i| nodes.ids::<3>(b.element(i)))
-                    .collect();
-                match ids {
-                    Ok(ids) if tris.is_empty() => tris = ids,
-                    Ok(ids) => tris.extend_from_slice(&ids),
-                    Err(node) => {
-                        let (i, node) = (0..b.len())
-                            .find_map(|i| nodes.ids::<3>(b.element(i)).err().map(|n| (i, n)))
-                            .unwrap_or((0, node));
-                        return Err(unknown(i, node));
-                    }
+                for i in 0..b.len() {
+                    tris.push(nodes.ids::<3>(b.element(i)).map_err(|node| {
+                        RecombineError::UnknownNode {
+                            dim: 2,
+                            entity: tag,
+                            element: b.tags[i],
+                            node,
+                        }
+                    })?);
                 }
                 elem_tags.extend_from_slice(&b.tags);
                 if any_parts {
