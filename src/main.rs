@@ -12,20 +12,11 @@ fn main() -> std::process::ExitCode {
 /// turns the adjustment off) gives every large array its own mapping, returned when freed.
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 mod allocator {
-    use std::os::raw::c_int;
-
-    extern "C" {
-        fn mallopt(param: c_int, value: c_int) -> c_int;
-    }
-
-    /// `M_MMAP_THRESHOLD` of glibc's `malloc.h`.
-    const M_MMAP_THRESHOLD: c_int = -3;
-
     pub(crate) fn return_freed_memory() {
         // SAFETY: mallopt only sets a tuning parameter of the allocator; it is called
         // before any other thread exists. A refusal (0) leaves the default, which is fine.
         unsafe {
-            mallopt(M_MMAP_THRESHOLD, 128 * 1024);
+            libc::mallopt(libc::M_MMAP_THRESHOLD, 128 * 1024);
         }
     }
 }
