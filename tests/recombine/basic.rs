@@ -269,6 +269,19 @@ fn volume_elements_are_refused_or_dropped() {
     assert!(m.warnings.iter().any(|w| w.contains("volume")));
 }
 
+/// `m` with surface 1 made a periodic slave of surface 5 (which has no faces), without node
+/// pairs.
+fn slave_of_5(mut m: blossomquad::mesh::Mesh) -> blossomquad::mesh::Mesh {
+    m.periodic.push(PeriodicLink {
+        dim: 2,
+        tag: 1,
+        master_tag: 5,
+        affine: None,
+        node_pairs: vec![],
+    });
+    m
+}
+
 #[test]
 fn high_order_and_periodic_surfaces_are_refused() {
     let mut m = grid(&Grid::default());
@@ -291,14 +304,7 @@ fn high_order_and_periodic_surfaces_are_refused() {
     ));
     assert!(e.to_string().contains("surface 7"));
 
-    let mut m = grid(&Grid::default());
-    m.periodic.push(PeriodicLink {
-        dim: 2,
-        tag: 1,
-        master_tag: 5,
-        affine: None,
-        node_pairs: vec![],
-    });
+    let mut m = slave_of_5(grid(&Grid::default()));
     let e = recombine(&mut m, &RecombineOptions::default()).unwrap_err();
     assert!(matches!(
         e,
@@ -493,16 +499,6 @@ fn edge_checks_agree_on_recombined_and_periodic_slave_surfaces() {
         }
         m
     };
-    let slave = |mut m: blossomquad::mesh::Mesh| {
-        m.periodic.push(PeriodicLink {
-            dim: 2,
-            tag: 1,
-            master_tag: 5,
-            affine: None,
-            node_pairs: vec![],
-        });
-        m
-    };
     for (what, make, words) in [
         (
             "flipped",
@@ -519,7 +515,7 @@ fn edge_checks_agree_on_recombined_and_periodic_slave_surfaces() {
             );
             e.to_string()
         };
-        let (own, as_slave) = (refuse(make()), refuse(slave(make())));
+        let (own, as_slave) = (refuse(make()), refuse(slave_of_5(make())));
         assert!(own.contains(words), "{what}: {own}");
         assert_eq!(own, as_slave, "{what}");
     }
