@@ -307,8 +307,7 @@ fn run(cli: Cli) -> Result<(), String> {
         }
         Some(Command::Info { input }) => {
             let mesh = read(&input)?;
-            print!("{}", msh::summary(&mesh));
-            Ok(())
+            print_out(&msh::summary(&mesh).to_string())
         }
         Some(Command::Quality {
             input,
@@ -349,11 +348,10 @@ fn run(cli: Cli) -> Result<(), String> {
             let report =
                 quality::report(&mesh, &field).map_err(|e| format!("{}: {e}", input.display()))?;
             if json {
-                println!("{}", report.to_json());
+                print_out(&format!("{}\n", report.to_json()))
             } else {
-                print!("{report}");
+                print_out(&report.to_string())
             }
-            Ok(())
         }
         None => recombine_main(cli.run),
     }
@@ -559,6 +557,19 @@ fn parse_weight(s: &str) -> Result<f64, String> {
         Ok(w)
     } else {
         Err(format!("{w} is outside [0, 5]"))
+    }
+}
+
+/// Writes `text` to standard output. A reader that stops early (`| head`) is not an error:
+/// the rest is dropped, as Unix tools do; other write errors are.
+fn print_out(text: &str) -> Result<(), String> {
+    use std::io::Write;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(format!("cannot write to standard output: {e}"))
+        }
+        _ => Ok(()),
     }
 }
 

@@ -26,7 +26,7 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
-use crate::mesh::{etype, Mesh};
+use crate::mesh::{etype, Mesh, TagCoords};
 use crate::validity::BadQuad;
 use crate::{optimize, recombine, refine, validity};
 
@@ -482,16 +482,19 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         // after a refinement the refined mesh is the baseline of the invariants
         let refined_before = refined.as_ref().map(recombine::Before::new);
         let before = refined_before.as_ref().or(checks.invariants.as_ref());
-        let invariants_of = |m: &Mesh| match before {
-            Some(b) => b.check(m),
+        let invariants_of = |m: &Mesh, coords: &TagCoords| match before {
+            Some(b) => b.check_at(m, coords),
             None => recombine::check_invariants(input, m),
         };
+        // memory: one table of the output's coordinates for both checks
+        let coords = TagCoords::new(&mesh);
         // speed: the two checks are independent, so they run side by side (an invariant
         // failure still comes first)
         let (invariants, mut bad) = rayon::join(
-            || invariants_of(&mesh),
-            || checks.validity.invalid_quads(&mesh),
+            || invariants_of(&mesh, &coords),
+            || checks.validity.invalid_quads_at(&mesh, &coords),
         );
+        drop(coords);
         invariants.map_err(|violation| Error::Invariant {
             stage: if opts.optimize {
                 "optimization"
@@ -503,7 +506,10 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
             let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
             let back = revert_surfaces(&mesh, pre, &surfaces);
-            if checks.validity.invalid_quads(&back).is_empty() && invariants_of(&back).is_ok() {
+            let coords = TagCoords::new(&back);
+            if checks.validity.invalid_quads_at(&back, &coords).is_empty()
+                && invariants_of(&back, &coords).is_ok()
+            {
                 run.log.push(format!(
                     "surface(s) {}: optimization undone (it left a quad that is not valid)",
                     sorted_list(&surfaces)
@@ -675,9 +681,11 @@ struct Checks<'a> {
 
 impl<'a> Checks<'a> {
     fn new(input: &'a Mesh, invariants: bool) -> Self {
+        // memory: one table of the input's coordinates for both
+        let coords = Arc::new(TagCoords::new(input));
         let (validity, invariants) = rayon::join(
-            || validity::Reference::new(input),
-            || invariants.then(|| recombine::Before::new(input)),
+            || validity::Reference::with_coords(input, Arc::clone(&coords)),
+            || invariants.then(|| recombine::Before::with_coords(input, Arc::clone(&coords))),
         );
         Checks {
             validity,

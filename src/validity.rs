@@ -129,7 +129,9 @@ pub fn invalid_quads(input: &Mesh, output: &Mesh) -> Vec<BadQuad> {
 /// nearest-face search of a surface is built on the first quad node that needs it).
 pub struct Reference<'a> {
     input: &'a Mesh,
-    coords: TagCoords<'a>,
+    /// The input's coordinates by tag (memory: shared with the invariants' baseline when
+    /// the pipeline prepares both).
+    coords: std::sync::Arc<TagCoords<'a>>,
     /// Input surfaces with faces, by increasing tag.
     surfaces: Vec<(i32, SurfaceReference)>,
 }
@@ -143,7 +145,11 @@ struct SurfaceReference {
 impl<'a> Reference<'a> {
     /// Prepares the check against `input`.
     pub fn new(input: &'a Mesh) -> Self {
-        let coords = TagCoords::new(input);
+        Self::with_coords(input, std::sync::Arc::new(TagCoords::new(input)))
+    }
+
+    /// [`Reference::new`] with `coords`, the coordinates of `input`'s nodes by tag.
+    pub(crate) fn with_coords(input: &'a Mesh, coords: std::sync::Arc<TagCoords<'a>>) -> Self {
         let surfaces = input
             .sorted_surfaces(|b| b.is_linear_face())
             .par_iter()
@@ -158,7 +164,12 @@ impl<'a> Reference<'a> {
 
     /// [`invalid_quads`] of `output` against this input.
     pub fn invalid_quads(&self, output: &Mesh) -> Vec<BadQuad> {
-        let out_coords = TagCoords::new(output);
+        self.invalid_quads_at(output, &TagCoords::new(output))
+    }
+
+    /// [`Reference::invalid_quads`] with `out_coords`, the coordinates of `output`'s nodes
+    /// by tag.
+    pub(crate) fn invalid_quads_at(&self, output: &Mesh, out_coords: &TagCoords) -> Vec<BadQuad> {
         let extent = extent(output);
         let min_edge = MIN_EDGE * extent;
         output
@@ -190,7 +201,7 @@ impl<'a> Reference<'a> {
                         .filter_map(|i| {
                             let e = b.element(i);
                             let nodes = [e[0], e[1], e[2], e[3]];
-                            check_quad(&out_coords, &sr.normals, &nearest, nodes, min_edge).map(
+                            check_quad(out_coords, &sr.normals, &nearest, nodes, min_edge).map(
                                 |defect| BadQuad {
                                     surface: s,
                                     element: b.tags[i],
@@ -258,6 +269,9 @@ impl Normals {
 /// Faces per parallel task.
 const CHUNK: usize = 8192;
 
+/// Faces whose normals are computed (in parallel) before they are added at their nodes.
+const BATCH: usize = 32 * CHUNK;
+
 /// The corners of input face `e` (3 or 4 nodes), `None` when a node is unknown.
 fn face_corners(coords: &TagCoords, e: &[u64]) -> Option<[DVec3; 4]> {
     let mut p = [DVec3::ZERO; 4];
@@ -309,24 +323,28 @@ fn input_normals(input: &Mesh, coords: &TagCoords, s: i32) -> Normals {
     };
     // each face's twice vector area, computed in parallel (`None`: a node is unknown, the
     // face does not count), then added at its nodes in face order (the same sums as one
-    // thread)
-    let normals: Vec<Vec<Option<DVec3>>> = blocks()
-        .map(|b| {
-            let k = b.nodes_per_element();
-            let mut n = vec![None; b.len()];
-            n.par_chunks_mut(CHUNK).enumerate().for_each(|(c, out)| {
-                for (j, x) in out.iter_mut().enumerate() {
-                    *x = face_corners(coords, b.element(c * CHUNK + j)).map(|p| face_normal(&p, k));
-                }
-            });
-            n
-        })
-        .collect();
+    // thread); memory: a batch of faces at a time, not one normal per face of the surface
     let each_face = |f: &mut dyn FnMut(&[u64], DVec3)| {
-        for (b, ns) in blocks().zip(&normals) {
-            for (i, n) in ns.iter().enumerate() {
-                if let Some(n) = *n {
-                    f(b.element(i), n);
+        let mut batch: Vec<Option<DVec3>> = Vec::new();
+        for b in blocks() {
+            let k = b.nodes_per_element();
+            for from in (0..b.len()).step_by(BATCH) {
+                let to = (from + BATCH).min(b.len());
+                batch.clear();
+                batch.resize(to - from, None);
+                batch
+                    .par_chunks_mut(CHUNK)
+                    .enumerate()
+                    .for_each(|(c, out)| {
+                        for (j, x) in out.iter_mut().enumerate() {
+                            let i = from + c * CHUNK + j;
+                            *x = face_corners(coords, b.element(i)).map(|p| face_normal(&p, k));
+                        }
+                    });
+                for (i, n) in (from..to).zip(&batch) {
+                    if let Some(n) = *n {
+                        f(b.element(i), n);
+                    }
                 }
             }
         }

@@ -160,20 +160,32 @@ impl NodeTable {
 /// order, so each lookup is a cache miss, and coordinates indexed by tag make it one miss
 /// instead of two (tag → id, id → coordinates). They need no ids, tags or blocks.
 pub(crate) enum TagCoords<'m> {
-    Dense(Vec<Option<[f64; 3]>>),
+    /// Coordinates by tag; a tag with no node holds [`TagCoords::ABSENT`] (memory: 24 bytes
+    /// a tag instead of the 32 of an `Option`).
+    Dense(Vec<[f64; 3]>),
     Indexed(&'m Mesh, NodeIndex),
 }
 
 impl<'m> TagCoords<'m> {
+    /// The bits of the x coordinate that mark a tag with no node in [`TagCoords::Dense`]: a
+    /// quiet NaN with a payload. A mesh with a node whose x has exactly these bits gets the
+    /// indexed form instead, so no node is ever taken for a missing one.
+    const ABSENT: u64 = 0x7ff8_6e6f_6e6f_6465;
+
     /// The coordinates of `mesh`'s nodes by tag (later duplicates of a tag win).
     pub(crate) fn new(mesh: &'m Mesh) -> Self {
-        let Some(len) = dense_len(mesh) else {
+        let marked = || {
+            mesh.node_blocks
+                .iter()
+                .any(|b| b.coords.iter().any(|c| c[0].to_bits() == Self::ABSENT))
+        };
+        let Some(len) = dense_len(mesh).filter(|_| !marked()) else {
             return TagCoords::Indexed(mesh, NodeIndex::new(mesh));
         };
-        let mut dense = vec![None; len];
+        let mut dense = vec![[f64::from_bits(Self::ABSENT), 0.0, 0.0]; len];
         for b in &mesh.node_blocks {
             for (&t, c) in b.tags.iter().zip(&b.coords) {
-                dense[t as usize] = Some(*c);
+                dense[t as usize] = *c;
             }
         }
         TagCoords::Dense(dense)
@@ -183,7 +195,10 @@ impl<'m> TagCoords<'m> {
     #[inline]
     pub(crate) fn get(&self, tag: u64) -> Option<[f64; 3]> {
         match self {
-            TagCoords::Dense(d) => d.get(tag as usize).copied().flatten(),
+            TagCoords::Dense(d) => d
+                .get(tag as usize)
+                .filter(|c| c[0].to_bits() != Self::ABSENT)
+                .copied(),
             TagCoords::Indexed(m, index) => index.get(tag).and_then(|r| {
                 m.node_blocks
                     .get(r.block as usize)?
@@ -192,5 +207,39 @@ impl<'m> TagCoords<'m> {
                     .copied()
             }),
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::testing::node_block;
+
+    #[test]
+    fn tag_coords_tell_missing_tags_from_nodes_whatever_their_coordinates() {
+        let absent = f64::from_bits(TagCoords::ABSENT);
+        let mut mesh = Mesh::default();
+        mesh.node_blocks.push(node_block(
+            2,
+            vec![1, 3, 4],
+            vec![[0.0, 1.0, 2.0], [f64::NAN, 0.0, 0.0], [1.5, -2.0, 0.25]],
+        ));
+        let dense = TagCoords::new(&mesh);
+        assert!(matches!(dense, TagCoords::Dense(_)));
+        assert_eq!(dense.get(0), None);
+        assert_eq!(dense.get(2), None);
+        assert_eq!(dense.get(5), None);
+        assert_eq!(dense.get(1), Some([0.0, 1.0, 2.0]));
+        assert_eq!(dense.get(4), Some([1.5, -2.0, 0.25]));
+        assert!(dense.get(3).is_some_and(|c| c[0].is_nan()));
+        // a node at the marker's own bits: still found (the indexed form)
+        mesh.node_blocks[0].coords[2] = [absent, 7.0, 8.0];
+        let marked = TagCoords::new(&mesh);
+        assert!(matches!(marked, TagCoords::Indexed(..)));
+        assert_eq!(
+            marked.get(4).map(|c| (c[0].to_bits(), c[1], c[2])),
+            Some((TagCoords::ABSENT, 7.0, 8.0))
+        );
+        assert_eq!(marked.get(2), None);
     }
 }

@@ -271,12 +271,11 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
             1.0
         };
     }
-    let weights = &weights;
     let mut rhos = vec![[1.0f64; 4]; l.quads.len()];
     for &q in &live {
         rhos[q as usize] = corner_ratios(l.quads[q as usize].map(|v| z[v as usize]), keep_aspect);
     }
-    let blocks = Blocks::new(n, &l.quads, &live, weights, &rhos);
+    let blocks = Blocks::new(n, &l.quads, &live, &weights, &rhos);
     // solve A d = −∇E(z) on the free nodes, d = 0 elsewhere, by conjugate gradients with
     // the diagonal of A (Σ w_q (2 + ρ_j² + ρ_{j−1}²) over the node's quads, 4 Σ w_q for
     // squares) as preconditioner: the weights vary like 1/h², so on graded meshes the
@@ -296,6 +295,8 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
         .zip(&free)
         .map(|(&d, &f)| if f && d > 0.0 { 1.0 / d } else { 0.0 })
         .collect();
+    // memory: the blocks hold what the iterations need
+    drop((weights, rhos, diag));
     let mut r = vec![C::default(); n];
     apply(&blocks, &z, &mut r);
     r.iter_mut().for_each(|c| *c = c.scale(-1.0));
@@ -343,6 +344,8 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
                 }
             });
     }
+    // memory: the line search needs only the step
+    drop((r, p, ap, inv, z, blocks));
     // line search on the mean signed η
     let eval = |pos: &[DVec3]| -> Vec<f64> {
         live.par_iter()

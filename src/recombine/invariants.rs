@@ -41,14 +41,16 @@ fn faces_of(mesh: &Mesh, surface: i32) -> Vec<&[u64]> {
 
 /// Every undirected edge of `faces` with the number of faces using it, sorted.
 fn edge_counts(faces: &[&[u64]]) -> Vec<(Edge, u32)> {
-    let mut all: Vec<Edge> = Vec::with_capacity(faces.len() * 4);
+    let mut all: Vec<Edge> = Vec::with_capacity(faces.iter().map(|f| f.len()).sum());
     for f in faces {
         for i in 0..f.len() {
             all.push(undirected(f[i], f[(i + 1) % f.len()]));
         }
     }
     sort_pairs(&mut all);
-    let mut out: Vec<(Edge, u32)> = Vec::with_capacity(all.len() / 2 + 1);
+    // memory: sized exactly (see `EdgeTable::new`)
+    let distinct = 1 + all.windows(2).filter(|w| w[0] != w[1]).count();
+    let mut out: Vec<(Edge, u32)> = Vec::with_capacity(distinct);
     for e in all {
         match out.last_mut() {
             Some((last, c)) if *last == e => *c += 1,
@@ -78,7 +80,7 @@ impl EdgeTable {
     fn new(faces: &[&[u64]]) -> Self {
         // each use as (smaller node, larger node · 2 + runs from the larger): one sort gives
         // the counts and the directions
-        let mut all: Vec<Edge> = Vec::with_capacity(faces.len() * 4);
+        let mut all: Vec<Edge> = Vec::with_capacity(faces.iter().map(|f| f.len()).sum());
         for f in faces {
             for i in 0..f.len() {
                 let (a, b) = (f[i], f[(i + 1) % f.len()]);
@@ -87,7 +89,13 @@ impl EdgeTable {
             }
         }
         sort_pairs(&mut all);
-        let mut edges: Vec<(Edge, u32, u8)> = Vec::with_capacity(all.len() / 2 + 1);
+        // memory: sized exactly (it is held through the whole run; a guess of half the
+        // uses is one short on any surface with a boundary, and the growth doubles it)
+        let distinct = 1 + all
+            .windows(2)
+            .filter(|w| (w[0].0, w[0].1 >> 1) != (w[1].0, w[1].1 >> 1))
+            .count();
+        let mut edges: Vec<(Edge, u32, u8)> = Vec::with_capacity(distinct);
         for (lo, x) in all {
             let e = (lo, x >> 1);
             let dir = 1u8 << (x & 1);
@@ -384,7 +392,9 @@ fn lines(m: &Mesh) -> Vec<Edge> {
 /// the same input (nothing here depends on `after`).
 pub struct Before<'a> {
     mesh: &'a Mesh,
-    index: TagCoords<'a>,
+    /// The coordinates of `mesh` by tag (memory: shared with the validity reference when
+    /// the pipeline prepares both).
+    index: std::sync::Arc<TagCoords<'a>>,
     lines: Vec<Edge>,
     /// Surfaces with faces in `mesh`, by increasing tag.
     surfaces: Vec<(i32, SurfaceBefore)>,
@@ -403,7 +413,11 @@ struct SurfaceBefore {
 impl<'a> Before<'a> {
     /// Prepares the checks against `before`.
     pub fn new(before: &'a Mesh) -> Self {
-        let index = TagCoords::new(before);
+        Self::with_coords(before, std::sync::Arc::new(TagCoords::new(before)))
+    }
+
+    /// [`Before::new`] with `index`, the coordinates of `before`'s nodes by tag.
+    pub(crate) fn with_coords(before: &'a Mesh, index: std::sync::Arc<TagCoords<'a>>) -> Self {
         let lines = lines(before);
         let surfaces = before
             .sorted_surfaces(|b| element_dim(b.element_type) == Some(2))
@@ -420,6 +434,11 @@ impl<'a> Before<'a> {
 
     /// [`check_invariants`] of `after` against this `before`.
     pub fn check(&self, after: &Mesh) -> Result<(), InvariantViolation> {
+        self.check_at(after, &TagCoords::new(after))
+    }
+
+    /// [`Before::check`] with `ia`, the coordinates of `after`'s nodes by tag.
+    pub(crate) fn check_at(&self, after: &Mesh, ia: &TagCoords) -> Result<(), InvariantViolation> {
         let before = self.mesh;
         if before.entities != after.entities {
             return Err(InvariantViolation::EntitiesChanged);
@@ -435,8 +454,7 @@ impl<'a> Before<'a> {
                 });
             }
         }
-        let ib = &self.index;
-        let ia = TagCoords::new(after);
+        let ib = &*self.index;
         let new_node = |t: u64| ib.get(t).is_none();
         // curve and point nodes unmoved
         for b in &before.node_blocks {
@@ -482,7 +500,7 @@ impl<'a> Before<'a> {
                         &absent
                     }
                 };
-                check_surface(self, sb, after, &ia, s)
+                check_surface(self, sb, after, ia, s)
             })
             .collect();
         results.into_iter().collect()

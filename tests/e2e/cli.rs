@@ -45,6 +45,29 @@ fn info_on_shipped_rectangle() {
     );
 }
 
+/// `info` and `quality` piped into a reader that stops at once (`| head -0`): no panic, exit
+/// 0 (the rest of the output is dropped, as Unix tools do).
+#[test]
+fn info_and_quality_into_a_closed_pipe_exit_quietly() {
+    use std::process::{Command, Stdio};
+    let mesh = geo_dir().join("rectangle.msh");
+    for args in [&["info"][..], &["quality"], &["quality", "--json"]] {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_blossomquad"))
+            .args(args)
+            .arg(&mesh)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("start blossomquad");
+        // the reader goes away before the mesh is read and anything is written
+        drop(child.stdout.take());
+        let out = child.wait_with_output().expect("wait for blossomquad");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!stderr.contains("panicked"), "{args:?}: {stderr}");
+        assert_eq!(out.status.code(), Some(0), "{args:?}: {stderr}");
+    }
+}
+
 #[test]
 fn info_reports_odd_surfaces_in_every_variant() {
     let dir = tempfile::tempdir().expect("temp dir");
