@@ -124,17 +124,18 @@ fn check_element(
 ) -> Result<Option<FoldTri>, RecombineError> {
     let k = if b.element_type == etype::TRI3 { 3 } else { 4 };
     let nodes = &b.element(i)[..k];
-    let unit = check_face(surface, b.tags[i], nodes, |j| coords.get(nodes[j]))?;
+    let unit = check_face(surface, b.tags[i], nodes, |v| v, |j| coords.get(nodes[j]))?;
     Ok(unit.map(|u| ([nodes[0], nodes[1], nodes[2]], b.tags[i], u)))
 }
 
 /// Checks one 3-node triangle or 4-node quad (element `tag` of `surface`, node tags
 /// `nodes`, `coord(j)` the coordinates of its node `j`, `None` when unknown): its unit
 /// normal when it is a triangle whose nodes are known.
-fn check_face(
+fn check_face<N: Copy + PartialEq>(
     surface: i32,
     tag: u64,
-    nodes: &[u64],
+    nodes: &[N],
+    node_tag: impl Fn(N) -> u64,
     coord: impl Fn(usize) -> Option<[f64; 3]>,
 ) -> Result<Option<V>, RecombineError> {
     let k = nodes.len();
@@ -145,7 +146,8 @@ fn check_face(
                 surface,
                 tag,
                 format!(
-                    "it names node {v} twice; a {} needs {k} distinct nodes",
+                    "it names node {} twice; a {} needs {k} distinct nodes",
+                    node_tag(v),
                     if k == 3 { "triangle" } else { "quad" }
                 ),
             ));
@@ -166,10 +168,14 @@ fn check_face(
                 tag,
                 if x.is_finite() {
                     format!(
-                        "its node {v} has a coordinate {x:e}, beyond the supported magnitude {MAX_COORDINATE:e}"
+                        "its node {} has a coordinate {x:e}, beyond the supported magnitude {MAX_COORDINATE:e}",
+                        node_tag(v)
                     )
                 } else {
-                    format!("its node {v} has a coordinate that is not a finite number")
+                    format!(
+                        "its node {} has a coordinate that is not a finite number",
+                        node_tag(v)
+                    )
                 },
             ));
         }
@@ -189,9 +195,9 @@ fn check_face(
             tag,
             format!(
                 "the triangle has no area (its nodes {}, {}, {} coincide or are collinear to {:.1e} of its size)",
-                nodes[0],
-                nodes[1],
-                nodes[2],
+                node_tag(nodes[0]),
+                node_tag(nodes[1]),
+                node_tag(nodes[2]),
                 area2 / scale
             ),
         ));
@@ -215,9 +221,9 @@ pub(crate) fn triangle_normals(
         .find_map_first(|(c, out)| {
             for (i, n) in out.iter_mut().enumerate() {
                 let t = c * CHUNK + i;
-                let tags = tris[t].map(|v| nodes.tags[v as usize]);
+                let node_tag = |v: u32| nodes.tags[v as usize];
                 let coord = |j: usize| Some(nodes.coords[tris[t][j] as usize].to_array());
-                match check_face(surface, elem_tags[t], &tags, coord) {
+                match check_face(surface, elem_tags[t], &tris[t], node_tag, coord) {
                     Ok(u) => *n = glam::DVec3::from(u.unwrap_or_default()),
                     Err(e) => return Some(e),
                 }
