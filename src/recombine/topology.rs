@@ -137,20 +137,6 @@ pub(crate) enum OnCurve {
     Bare(i32),
 }
 
-/// Whether an edge shared by two triangles of a surface is a graph edge, and if not why.
-/// (An edge with one triangle of the surface is always a wall: the surface boundary.)
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(crate) enum Wall {
-    /// Graph edge (not a wall).
-    Open,
-    /// Two triangles of the surface share it but it lies on a model curve (embedded curve,
-    /// seam).
-    Curve,
-    /// Two triangles share it with opposite orientations (their merge could not keep both
-    /// orientations), or three or more triangles share it.
-    Inconsistent,
-}
-
 /// The half-edges `3t + k` of a triangle list, sorted by (edge key, half-edge).
 pub(crate) enum SortedHalves {
     /// Key and half-edge packed in one `u64`: `key_bits << p | half_edge`.
@@ -628,25 +614,23 @@ impl SurfaceTopo {
                     let (t1, k1) = (h1 / 3, h1 % 3);
                     let a = tris[t0][k0];
                     let b = tris[t0][(k0 + 1) % 3];
-                    // consistent orientation: t1 runs the edge b -> a
-                    let consistent = tris[t1][k1] == b && tris[t1][(k1 + 1) % 3] == a;
-                    let w = if !consistent {
+                    // consistent orientation: t1 runs the edge b -> a (else refused)
+                    if tris[t1][k1] != b || tris[t1][(k1 + 1) % 3] != a {
                         keep_first(refused, structural_problem(run, &tris, nodes));
-                        Wall::Inconsistent
-                    } else {
-                        match curves.on_curve(nodes, a, b) {
-                            OnCurve::Line => Wall::Curve,
-                            OnCurve::Bare(c) if !boundary_curves.contains(&c) => Wall::Curve,
-                            _ => Wall::Open,
-                        }
+                        return;
+                    }
+                    // an edge on a model curve (embedded curve, seam) is a wall, not a
+                    // graph edge
+                    let on_curve = match curves.on_curve(nodes, a, b) {
+                        OnCurve::Line => true,
+                        OnCurve::Bare(c) => !boundary_curves.contains(&c),
+                        OnCurve::No => false,
                     };
-                    match w {
-                        Wall::Open => {
-                            nbr[h0].store(t1 as u32, Relaxed);
-                            nbr[h1].store(t0 as u32, Relaxed);
-                        }
-                        Wall::Curve => walled.push((h0 as u32, h1 as u32)),
-                        Wall::Inconsistent => {}
+                    if on_curve {
+                        walled.push((h0 as u32, h1 as u32));
+                    } else {
+                        nbr[h0].store(t1 as u32, Relaxed);
+                        nbr[h1].store(t0 as u32, Relaxed);
                     }
                 }
             },
