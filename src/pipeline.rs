@@ -863,13 +863,18 @@ mod tests {
         (seen, report)
     }
 
+    /// The stages of `seen`, each once per stretch of reports.
+    fn stage_order(seen: &[Progress]) -> Vec<Stage> {
+        let mut order: Vec<Stage> = seen.iter().map(|p| p.stage).collect();
+        order.dedup();
+        order
+    }
+
     #[test]
     fn progress_comes_in_stage_order_and_ends_every_stage() {
         let (seen, report) = reports(Options::default());
         assert_eq!(report.rounds, 1);
-        let stages: Vec<Stage> = seen.iter().map(|p| p.stage).collect();
-        let mut order = stages.clone();
-        order.dedup();
+        let order = stage_order(&seen);
         assert_eq!(
             order,
             [
@@ -919,8 +924,7 @@ mod tests {
             optimize: false,
             ..Options::default()
         });
-        let mut order: Vec<Stage> = seen.iter().map(|p| p.stage).collect();
-        order.dedup();
+        let order = stage_order(&seen);
         assert_eq!(
             order,
             [

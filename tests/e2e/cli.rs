@@ -23,6 +23,20 @@ fn quality_json(path: &Path, extra: &[&str]) -> String {
     String::from_utf8_lossy(&out.get_output().stdout).into_owned()
 }
 
+/// The stderr of a successful main job `blossomquad INPUT -o OUT` with the developer hooks'
+/// variables unset.
+fn stderr_without_hooks(input: &Path, out: &Path) -> String {
+    let run = blossomquad()
+        .arg(input)
+        .arg("-o")
+        .arg(out)
+        .env_remove("BLOSSOMQUAD_STAGE_TIMES")
+        .env_remove("BLOSSOMQUAD_DUMP_GRAPHS")
+        .assert()
+        .success();
+    String::from_utf8_lossy(&run.get_output().stderr).into_owned()
+}
+
 /// A number of the `"total"` object of `quality --json` (whole-mesh figures;
 /// per-surface objects come before it).
 fn number(json: &str, key: &str) -> f64 {
@@ -316,15 +330,7 @@ fn trace_hooks_reach_the_sink_and_change_nothing() {
 
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("out.msh");
-    let quiet = blossomquad()
-        .arg(&path)
-        .arg("-o")
-        .arg(&out)
-        .env_remove("BLOSSOMQUAD_STAGE_TIMES")
-        .env_remove("BLOSSOMQUAD_DUMP_GRAPHS")
-        .assert()
-        .success();
-    let err = String::from_utf8_lossy(&quiet.get_output().stderr).into_owned();
+    let err = stderr_without_hooks(&path, &out);
     assert!(
         !err.contains("cpu/wall"),
         "stage times without the variable:\n{err}"
@@ -360,15 +366,7 @@ fn no_progress_line_when_stderr_is_not_a_terminal() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("out.msh");
     let input = geo_dir().join("rectangle.msh");
-    let run = blossomquad()
-        .arg(&input)
-        .arg("-o")
-        .arg(&out)
-        .env_remove("BLOSSOMQUAD_STAGE_TIMES")
-        .env_remove("BLOSSOMQUAD_DUMP_GRAPHS")
-        .assert()
-        .success();
-    let err = String::from_utf8_lossy(&run.get_output().stderr).into_owned();
+    let err = stderr_without_hooks(&input, &out);
     assert!(
         !err.contains('\r') && !err.contains('\u{1b}') && !err.contains("[#") && !err.contains('%'),
         "progress output on a pipe:\n{err:?}"
