@@ -961,6 +961,23 @@ mod tests {
     }
 
     #[test]
+    fn the_memory_release_runs_between_stages() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        static CALLS: AtomicUsize = AtomicUsize::new(0);
+        fn count() {
+            CALLS.fetch_add(1, Ordering::Relaxed);
+        }
+        // the first setting in this test binary (no other test sets one)
+        set_memory_release(count);
+        let before = CALLS.load(Ordering::Relaxed);
+        let (_, report) = reports(Options::default());
+        assert_eq!(report.rounds, 1);
+        // after the topology, before the optimizer, before the checks (the surface is too
+        // small for the one before its solver)
+        assert!(CALLS.load(Ordering::Relaxed) - before >= 3);
+    }
+
+    #[test]
     fn progress_reports_refinement_levels_in_order() {
         let (seen, _) = reports(Options {
             refine: 1,
