@@ -29,7 +29,8 @@
 //! conformal solve) and keep the best by η̄, η_w and estimated τ (`schedule::better`); each
 //! schedule is deterministic, so the result does not depend on the thread count. On large
 //! surfaces the topology passes after the first only look near what the previous pass
-//! changed. Quads are numbered in Morton order of their centroids and nodes by first use.
+//! changed, and the rounds stop after a pass that changed under 1 % of the quads. Quads are
+//! numbered in Morton order of their centroids and nodes by first use.
 //!
 //! **Validity** ([`valid`](self)): every operator accepts a change only if each quad it
 //! touches stays valid (corners strictly inside (0°, 180°) about the reference normal, with

@@ -12,14 +12,16 @@
 //! The worst quads are lifted before this by [`super::smooth::polish_worst`] (max-min
 //! pattern search); there is no second max-min pass after the mean polish.
 //!
-//! Cost: 2 colour-parallel sweeps over the free nodes (4 on surfaces under 20k quads).
+//! Cost: 1 colour-parallel sweep over the free nodes (4 on surfaces under 20k quads).
 
 use super::local::{Local, StarEval, STAR_MAX};
 use super::smooth::pattern_search8;
 use glam::DVec3;
 
-/// Sweeps of [`polish_mean`] (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
-pub(crate) const MEAN_SWEEPS: usize = 2;
+/// Sweeps of [`polish_mean`] on surfaces of 20k quads or more: the second sweep gains about
+/// a third as much η̄ as the first at the same cost (figures in BENCHMARKS.md, "Issue 15:
+/// fewer optimizer passes on large surfaces").
+pub(crate) const MEAN_SWEEPS: usize = 1;
 
 /// Weight of the size term (module docs) against the star's summed η: it trades a little
 /// mean η for τ; [`SIZE_TERM_MAX_COT`] keeps it off the stars whose worst quad the polish

@@ -195,8 +195,19 @@ fn topology_rounds(
         }
         gate.check(l, true, "topology round");
         tick(1);
+        // speed: on a large surface, a pass that changed under 1/ROUNDS_STOP_SHARE of the
+        // quads is the last: the next ones find fewer still (see the constant)
+        if snapshot.is_some() && changed * ROUNDS_STOP_SHARE < l.quads.len() {
+            break;
+        }
     }
 }
+
+/// Surfaces of [`RESMOOTH_ALL_BELOW`] quads or more stop their topology rounds after a pass
+/// that changed fewer than one quad in this many: each pass changes about a tenth as much as
+/// the one before, and the rounds after such a pass gained under 0.0005 η̄ and 0.1 point of
+/// d4 (figures in BENCHMARKS.md, "Issue 15: fewer optimizer passes on large surfaces").
+const ROUNDS_STOP_SHARE: usize = 100;
 
 /// The last stages: conformal solve (keeping `keep_aspect` of the aspect ratios), max-min
 /// polish, pattern sweeps, mean-η polish.
