@@ -41,7 +41,9 @@ pub use mesh::{Mesh, MshFormat};
 
 /// The crate's version (the Python package reports the same).
 pub const VERSION: &str = env!("CARGO_PKG_VERSION");
-pub use pipeline::{quadrangulate, Error, Options, Progress, ProgressFn, Report, Stage};
+pub use pipeline::{
+    quadrangulate, set_memory_release, Error, Options, Progress, ProgressFn, Report, Stage,
+};
 
 /// Reads an MSH file (2.x or 4.x, ASCII or binary; `-` reads stdin).
 pub fn read(path: impl AsRef<std::path::Path>) -> Result<Mesh, Error> {

@@ -30,6 +30,29 @@ use crate::mesh::{etype, Mesh, TagCoords};
 use crate::validity::BadQuad;
 use crate::{optimize, recombine, refine, validity};
 
+/// A function that hands the heap memory freed so far back to the operating system (with
+/// glibc: `malloc_trim(0)`), set once by the program with [`set_memory_release`]. The
+/// library holds no unsafe code, so it cannot call the allocator itself.
+static MEMORY_RELEASE: std::sync::OnceLock<fn()> = std::sync::OnceLock::new();
+
+/// Sets the function [`quadrangulate`] calls at a few stage boundaries (after the
+/// recombination's topology, before the solver of a large surface, before the optimizer,
+/// before the final checks) to hand freed
+/// heap memory back to the operating system. Without it, memory a stage frees may stay
+/// mapped by the allocator and add to the next stages' peak: glibc keeps the free pages of
+/// every thread's arena. Only the first call counts. The `blossomquad` program sets it on
+/// Linux with glibc.
+pub fn set_memory_release(release: fn()) {
+    let _ = MEMORY_RELEASE.set(release);
+}
+
+/// Calls the function set by [`set_memory_release`], if any.
+pub(crate) fn release_memory() {
+    if let Some(f) = MEMORY_RELEASE.get() {
+        f();
+    }
+}
+
 /// Rounds of the fallback after the first run at most: 1-ring, 2-ring, then whole surfaces
 /// (the edge splits of a surface split into quads halve the triangles of its neighbours
 /// along shared curves, which may in turn need their whole surface split; every round
@@ -473,6 +496,8 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
             &mut checks,
             &mut times,
         )?;
+        // memory: the optimizer's arrays are freed; the checks allocate next
+        release_memory();
         let t = Instant::now();
         progress(opts, Stage::Check, 0, 1);
         // refinement splits every boundary segment once more: its output is the baseline.
@@ -724,15 +749,20 @@ fn run_once<'a>(
     };
     let t = Instant::now();
     // the optimizer's reference and the input side of the final checks depend on the input
-    // only: prepared on their own thread while the recombination runs (its matching is
-    // serial per surface)
+    // only: the reference is prepared on its own thread while the recombination runs (its
+    // matching is serial per surface), and so is the checks' input side without the
+    // optimizer
     let optimizing = opts.optimize || !force.is_empty();
     let want_checks = checks.is_none();
+    // memory: with the optimizer, the input side of the final checks is prepared while the
+    // optimizer runs (its arrays are then live anyway), not during the matching
+    let checks_with_optimizer = want_checks && optimizing;
     let (recombined, prep) = std::thread::scope(|sc| {
         let prep = (optimizing || want_checks).then(|| {
             sc.spawn(|| {
                 let reference = optimizing.then(|| optimize::PreparedReference::new(input));
-                let ready = want_checks.then(|| Checks::new(input, opts.refine == 0));
+                let ready = (want_checks && !checks_with_optimizer)
+                    .then(|| Checks::new(input, opts.refine == 0));
                 (reference, ready)
             })
         });
@@ -747,6 +777,8 @@ fn run_once<'a>(
     if ready.is_some() {
         *checks = ready;
     }
+    // memory: the recombination's arrays are freed; the optimizer allocates next
+    release_memory();
     let rreport = recombined?;
     times.recombine += t.elapsed();
     let mut report = Report {
@@ -822,7 +854,18 @@ fn run_once<'a>(
         periodic.sort_unstable();
         periodic.dedup();
         oopts.skip = &periodic;
-        let orep = optimize::optimize_prepared(mesh, prepared, &oopts)?;
+        let (orep, ready) = std::thread::scope(|sc| {
+            let ready =
+                checks_with_optimizer.then(|| sc.spawn(|| Checks::new(input, opts.refine == 0)));
+            let orep = optimize::optimize_prepared(mesh, prepared, &oopts);
+            (orep, ready.map(|h| h.join()))
+        });
+        match ready {
+            Some(Ok(ready)) => *checks = Some(ready),
+            Some(Err(panic)) => std::panic::resume_unwind(panic),
+            None => {}
+        }
+        let orep = orep?;
         for s in &orep.surfaces {
             report.log.push(format!(
                 "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",
@@ -915,6 +958,23 @@ mod tests {
         assert!(optimize >= 4, "{seen:?}");
         // throttled: far fewer reports than triangles
         assert!(seen.len() < 400, "{} reports", seen.len());
+    }
+
+    #[test]
+    fn the_memory_release_runs_between_stages() {
+        use std::sync::atomic::{AtomicUsize, Ordering};
+        static CALLS: AtomicUsize = AtomicUsize::new(0);
+        fn count() {
+            CALLS.fetch_add(1, Ordering::Relaxed);
+        }
+        // the first setting in this test binary (no other test sets one)
+        set_memory_release(count);
+        let before = CALLS.load(Ordering::Relaxed);
+        let (_, report) = reports(Options::default());
+        assert_eq!(report.rounds, 1);
+        // after the topology, before the optimizer, before the checks (the surface is too
+        // small for the one before its solver)
+        assert!(CALLS.load(Ordering::Relaxed) - before >= 3);
     }
 
     #[test]

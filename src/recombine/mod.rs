@@ -498,6 +498,9 @@ pub fn recombine(
     let mut retriangulated: Vec<i32> = Vec::new();
     let (nodes, work, mut results) = loop {
         let staged = parity_stage(mesh, opts, &mut report).and_then(|(nodes, work)| {
+            // memory: the topology's temporaries are freed; the graphs and the solvers
+            // allocate next, maybe on other threads (other arenas)
+            crate::pipeline::release_memory();
             let coords = &nodes.coords;
             let n_global = coords.len() as u32;
             let mut split_nodes: Vec<u32> = report

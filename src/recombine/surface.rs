@@ -109,6 +109,11 @@ pub(super) fn surface_work(
         .collect()
 }
 
+/// Triangles from which a surface hands the memory freed by its graph's construction back
+/// to the system before its solver allocates ([`crate::pipeline::set_memory_release`]):
+/// below, the solver's arrays are small and the call would cost more than it frees.
+const RELEASE_BEFORE_SOLVE: usize = 100_000;
+
 /// Steps 4–7 for one surface.
 pub(super) fn match_surface(
     w: &SurfaceWork,
@@ -139,6 +144,11 @@ pub(super) fn match_surface(
     }
     let t1 = Instant::now();
     let n = w.topo.len();
+    if n >= RELEASE_BEFORE_SOLVE {
+        // memory: the graph's temporaries (normals, cross field, walls) are freed, maybe
+        // on other threads' arenas; the solver allocates next
+        crate::pipeline::release_memory();
+    }
     let sent = Arc::new(AtomicU64::new(0));
     let solved = match tracker {
         None => crate::matching::solve(n, &g.edges),
