@@ -26,12 +26,15 @@ mod glibc {
     /// One arena for all threads, so that memory one thread frees serves the next
     /// allocations of every other (with an arena per thread, what a stage frees on one
     /// thread stays mapped while the next stage allocates on another); and the pipeline
-    /// trims the heap between stages.
+    /// trims the heap between stages. A user who sets glibc's own `MALLOC_ARENA_MAX` (e.g.
+    /// on a many-core machine, where threads could wait on the one arena's lock) keeps it.
     pub(super) fn setup() {
-        // SAFETY: called first thing in `main`, before any other thread exists; mallopt only
-        // changes the allocator's own settings.
-        unsafe {
-            mallopt(M_ARENA_MAX, 1);
+        if std::env::var_os("MALLOC_ARENA_MAX").is_none() {
+            // SAFETY: called first thing in `main`, before any other thread exists;
+            // mallopt only changes the allocator's own settings.
+            unsafe {
+                mallopt(M_ARENA_MAX, 1);
+            }
         }
         blossomquad::set_memory_release(trim);
     }
