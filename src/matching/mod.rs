@@ -14,7 +14,8 @@
 //! # Algorithm (see [`blossom`])
 //! Edmonds' primal-dual algorithm with odd-set (blossom) duals (Edmonds 1965), with ideas from
 //! Kolmogorov's Blossom V (Math. Prog. Comp. 2009) and Galil-Micali-Gabow (1986): a greedy
-//! and then fractional-matching jump start (single-tree local searches, then a forest), then
+//! and then fractional-matching jump start (single-tree local searches with a small and then
+//! a larger grow budget, then a forest), then
 //! single-tree searches from the remaining exposed vertices (each tree with its own dual
 //! change, abandoned past a budget) and finally one alternating tree per still-exposed
 //! vertex, all grown together with lazy O(1) dual changes, each tree with its own dual change

@@ -66,7 +66,7 @@ fn check(n: usize, edges: &[(u32, u32, i64)]) -> usize {
                 r
             }
             3 | 4 => {
-                s.init_fractional_with(start - 3);
+                s.init_fractional_with(start - 3, 0);
                 let r = s.solve_rest();
                 cross += s.stats.cross_pushes;
                 r
@@ -81,7 +81,7 @@ fn check(n: usize, edges: &[(u32, u32, i64)]) -> usize {
                 match start {
                     7 => s.init_plain(),
                     8 => s.init_greedy(),
-                    _ => s.init_fractional_with(0),
+                    _ => s.init_fractional_with(0, 0),
                 }
                 let r = s.solve_rest_with(0);
                 add_var(&s.stats);

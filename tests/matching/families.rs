@@ -18,25 +18,26 @@ use matching_common::Rng;
 
 /// Solves from the plain start (no jump start), from the greedy start only, from the
 /// fractional start with local-search budgets 0 and 2 (nearly all work, or the abandoned
-/// searches, left to the forest), and with main-phase single-tree budgets 0 and 3, and with
+/// searches, left to the forest), 2 then a second local pass of budget 16, and with main-phase single-tree budgets 0 and 3, and with
 /// budgets 0 for both phases and the plain start with main budget 0: other dual trajectories
 /// than [`matching::solve`]'s; checks every certificate, returns the costs.
-fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 8] {
+fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 9] {
     let plain = Solver::new(n, edges).run_plain().expect("plain start");
     assert!(matching::verify(n, edges, &plain).is_ok());
-    let mut costs = [plain.cost; 8];
+    let mut costs = [plain.cost; 9];
     let starts = [
         (None, 256),
-        (Some(0), 256),
-        (Some(2), 256),
-        (Some(64), 0),
-        (Some(64), 3),
+        (Some((0, 0)), 256),
+        (Some((2, 0)), 256),
+        (Some((2, 16)), 256),
+        (Some((64, 0)), 0),
+        (Some((64, 0)), 3),
     ];
     for (i, (frac, main)) in starts.into_iter().enumerate() {
         let mut s = Solver::new(n, edges);
         match frac {
             None => s.init_greedy(),
-            Some(budget) => s.init_fractional_with(budget),
+            Some((budget, wide)) => s.init_fractional_with(budget, wide),
         }
         let m = s.solve_rest_with(main).expect("perfect matching");
         assert!(
@@ -50,14 +51,14 @@ fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 8] {
         if plain {
             s.init_plain();
         } else {
-            s.init_fractional_with(0);
+            s.init_fractional_with(0, 0);
         }
         let m = s.solve_rest_with(0).expect("perfect matching");
         assert!(
             matching::verify(n, edges, &m).is_ok(),
             "variable-δ start {plain}"
         );
-        costs[6 + i] = m.cost;
+        costs[7 + i] = m.cost;
     }
     costs
 }
@@ -129,7 +130,7 @@ fn witness_variable(n: usize, edges: &[(u32, u32, i64)]) -> usize {
         match start {
             0 => s.init_plain(),
             1 => s.init_greedy(),
-            _ => s.init_fractional_with(0),
+            _ => s.init_fractional_with(0, 0),
         }
         let w = match s.solve_rest_with(0) {
             Ok(m) => panic!("unexpected matching of cost {} (start {start})", m.cost),
@@ -275,7 +276,7 @@ fn nested_blossoms_agree_across_starts_and_with_brute_force() {
             let got = solve_verified(n, &e);
             assert_eq!(
                 other_starts(n, &e),
-                [got; 8],
+                [got; 9],
                 "depth {depth} variant {variant}"
             );
             if n <= 20 {
@@ -333,7 +334,7 @@ fn mid_size_random_graphs_agree_across_starts() {
             e.push((u, v, c));
         }
         let got = solve_verified(n, &e);
-        assert_eq!(other_starts(n, &e), [got; 8], "iteration {it}");
+        assert_eq!(other_starts(n, &e), [got; 9], "iteration {it}");
     }
 }
 
@@ -565,7 +566,7 @@ fn mesh_graph_costs_are_quad_badness() {
     let small = e.iter().filter(|&&(_, _, c)| c < 300).count();
     assert!(small > e.len() / 4, "{small} of {}", e.len());
     let got = solve_verified(n, &e);
-    assert_eq!(other_starts(n, &e), [got; 8]);
+    assert_eq!(other_starts(n, &e), [got; 9]);
 }
 
 #[test]
@@ -574,13 +575,13 @@ fn certificate_on_mesh_graph_1e5() {
     let (n, e) = mesh_graph(250, 200, &mut rng);
     assert_eq!(n, 100_000);
     let got = solve_verified(n, &e);
-    assert_eq!(other_starts(n, &e), [got; 8]);
+    assert_eq!(other_starts(n, &e), [got; 9]);
     // Delaunay meshes of the benchmark: near-ties (lattice) and poor quads (random).
     for kind in ["lattice", "random"] {
         let (n, e) = gen_matching_graph::delaunay_graph(kind, 100_000, 7).expect("mesh");
         assert!(n > 90_000 && n % 2 == 0);
         let got = solve_verified(n, &e);
-        assert_eq!(other_starts(n, &e), [got; 8]);
+        assert_eq!(other_starts(n, &e), [got; 9]);
     }
 }
 

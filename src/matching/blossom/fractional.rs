@@ -10,11 +10,12 @@
 //! Duals stay feasible and every matched edge tight, so the main phase starts from there with
 //! near-optimal duals and few exposed vertices.
 //!
-//! Two passes: a *local* one grows one tree at a time from each exposed vertex in (locality)
+//! Passes: a *local* one grows one tree at a time from each exposed vertex in (locality)
 //! order, with the other exposed vertices as plain targets (their duals fixed, which is valid
 //! since vertex duals are free in the perfect-matching LP), so consecutive searches touch
 //! nearby memory; a search that needs too many grow steps is abandoned (its dual changes are
-//! kept). A *global* pass then grows the remaining trees together, so that they can meet
+//! kept). A second local pass retries the abandoned roots with a larger budget for as long
+//! as most of its searches end. A *global* pass then grows the remaining trees together, so that they can meet
 //! half-way (on near-bipartite lattice meshes the last exposed vertices are far apart), in the
 //! `forest` module with `Kind::Frac`: a tight `+`–`+` edge inside a tree closes an odd cycle,
 //! and a component that can move without bound is dissolved and left to the main phase.
@@ -23,6 +24,15 @@ use super::{Solver, MINUS, NONE, PLUS, PROGRESS_EVERY};
 
 /// Grow steps a local search may take before it is left to the global pass.
 const LOCAL_GROWS: usize = 64;
+
+/// Grow budget of the second local pass ([`Solver::fractional_local_wide`]): on mesh
+/// graphs most of the searches the first pass abandons end within it, and each one ended
+/// there is a tree fewer in the global pass, whose dual updates visit every live tree
+/// (figures in BENCHMARKS.md, "Issue 15: a second local pass in the fractional start").
+const WIDE_GROWS: usize = 4096;
+
+/// Searches per window of the second local pass.
+const WIDE_WINDOW: usize = 64;
 
 /// Half-matched odd cycles: `id[v]` is the cycle of vertex `v` (or NONE), `list[c]` the
 /// vertices of cycle `c` in order (emptied when the cycle is resolved).
@@ -34,12 +44,13 @@ pub(super) struct Cycles {
 impl Solver {
     /// Greedy start followed by the fractional phase (the default start of [`Solver::run`]).
     pub fn init_fractional(&mut self) {
-        self.init_fractional_with(LOCAL_GROWS);
+        self.init_fractional_with(LOCAL_GROWS, WIDE_GROWS);
     }
 
-    /// [`Solver::init_fractional`] with a given grow budget for the local searches (0 leaves
-    /// nearly everything to the global pass); tests use it to exercise both passes.
-    pub fn init_fractional_with(&mut self, budget: usize) {
+    /// [`Solver::init_fractional`] with given grow budgets for the first local pass
+    /// (`budget`; 0 leaves nearly everything to the global pass) and the second (`wide`; 0
+    /// skips it); tests use it to exercise every pass.
+    pub fn init_fractional_with(&mut self, budget: usize, wide: usize) {
         let t = std::time::Instant::now();
         self.init_greedy();
         self.stats.phase_s[0] = t.elapsed().as_secs_f64();
@@ -50,6 +61,9 @@ impl Solver {
         };
         let t = std::time::Instant::now();
         self.fractional_local(&mut cy, budget);
+        if wide > 0 {
+            self.fractional_local_wide(&mut cy, wide);
+        }
         self.stats.phase_s[1] = t.elapsed().as_secs_f64();
         self.stats.phase_counts[1] = (self.stats.grows, self.stats.evals, self.stats.pops);
         let t = std::time::Instant::now();
@@ -84,6 +98,30 @@ impl Solver {
             self.start_single_tree(r);
             self.fractional_search(cy, budget);
             self.end_single_tree();
+        }
+    }
+
+    /// Second local pass over the roots the first left exposed, with the larger budget
+    /// `wide` ([`WIDE_GROWS`] by default), while it pays: it stops, leaving the rest to the
+    /// global pass, once a window of [`WIDE_WINDOW`] searches ended fewer than half of them
+    /// (an abandoned search keeps its dual changes, which are feasible).
+    fn fractional_local_wide(&mut self, cy: &mut Cycles, wide: usize) {
+        let (mut tried, mut ended) = (0usize, 0usize);
+        for r in 0..self.n as u32 {
+            if self.mate[r as usize] != NONE || cy.id[r as usize] != NONE {
+                continue;
+            }
+            self.start_single_tree(r);
+            self.fractional_search(cy, wide);
+            self.end_single_tree();
+            tried += 1;
+            ended += (self.mate[r as usize] != NONE || cy.id[r as usize] != NONE) as usize;
+            if tried == WIDE_WINDOW {
+                if 2 * ended < tried {
+                    return;
+                }
+                (tried, ended) = (0, 0);
+            }
         }
     }
 

@@ -11,8 +11,9 @@
 //!   cost at `v`, each vertex raises its dual to its smallest slack and takes a tight edge to
 //!   an exposed neighbour, short tight augmenting paths are flipped);
 //! - `fractional`: the fractional jump start ([`Solver::init_fractional`]): the LP without
-//!   odd-set constraints solved by the same tree machinery, leaving one exposed vertex per
-//!   odd cycle of half-edges;
+//!   odd-set constraints solved by the same tree machinery (single-tree searches with a small
+//!   and then a larger budget, then a forest), leaving one exposed vertex per odd cycle of
+//!   half-edges;
 //! - `tree`: alternating trees: single-tree searches ([`Solver::solve_rest_with`]: from each
 //!   exposed vertex in locality order one tree grows alone with its own dual change until it
 //!   augments, abandoned past a budget of grow steps), growing, dissolving a tree (its lazy

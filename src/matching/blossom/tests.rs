@@ -66,7 +66,7 @@ fn run_all(n: usize, edges: &[(u32, u32, i64)], expect: Option<i64>, seen: &mut 
                 0
             }
             3 => {
-                s.init_fractional_with(0);
+                s.init_fractional_with(0, 0);
                 check(&s, "fractional start, budget 0");
                 0
             }
