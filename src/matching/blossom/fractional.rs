@@ -108,6 +108,10 @@ impl Solver {
     fn fractional_local_wide(&mut self, cy: &mut Cycles, wide: usize) {
         let (mut tried, mut ended) = (0usize, 0usize);
         for r in 0..self.n as u32 {
+            if r & PROGRESS_EVERY == 0 {
+                // progress: the first half of the fractional forest's units
+                self.tick(1, r as usize, 2 * self.n);
+            }
             if self.mate[r as usize] != NONE || cy.id[r as usize] != NONE {
                 continue;
             }
