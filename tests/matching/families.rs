@@ -601,3 +601,41 @@ fn certificate_on_mesh_graph_1e6() {
         solve_verified(n, &e);
     }
 }
+
+/// The fractional start's second local pass runs on mesh graphs, ends most of its searches
+/// on the lattice (whose abandoned roots it leaves to the forest), and the progress the solver reports only grows, below a fixed total.
+#[test]
+fn second_local_pass_and_progress_on_mesh_graphs() {
+    use std::sync::{Arc, Mutex};
+    for kind in ["lattice", "random"] {
+        let (n, e) = gen_matching_graph::delaunay_graph(kind, 100_000, 9).expect("mesh");
+        let mut s = Solver::new(n, &e);
+        s.init_fractional();
+        // lattice 1e5: 169 searches, 155 ended, 5 trees left to the forest
+        let w = s.stats.wide_searches;
+        assert!(w[0] > 0 && w[1] <= w[0], "{kind}: {w:?}");
+        if kind == "lattice" {
+            assert!(2 * w[1] >= w[0], "{kind}: {w:?}");
+            assert!(s.stats.forest_trees[0] < w[0] - w[1] + 1, "{kind}: {w:?}");
+        }
+        let m = s.solve_rest().expect("perfect matching");
+        assert!(matching::verify(n, &e, &m).is_ok(), "{kind}");
+        let seen = Arc::new(Mutex::new(Vec::new()));
+        let log = Arc::clone(&seen);
+        let p = matching::solve_with_progress(
+            n,
+            &e,
+            Box::new(move |d, t| log.lock().expect("progress log").push((d, t))),
+        )
+        .expect("perfect matching");
+        assert_eq!(p.cost, m.cost, "{kind}");
+        let seen = seen.lock().expect("progress log");
+        assert!(!seen.is_empty(), "{kind}: no progress reported");
+        let total = seen[0].1;
+        assert!(
+            seen.iter().all(|&(d, t)| t == total && d <= t),
+            "{kind}: {seen:?}"
+        );
+        assert!(seen.windows(2).all(|p| p[0].0 < p[1].0), "{kind}: {seen:?}");
+    }
+}

@@ -118,8 +118,11 @@ impl Solver {
             self.start_single_tree(r);
             self.fractional_search(cy, wide);
             self.end_single_tree();
+            let done = (self.mate[r as usize] != NONE || cy.id[r as usize] != NONE) as usize;
             tried += 1;
-            ended += (self.mate[r as usize] != NONE || cy.id[r as usize] != NONE) as usize;
+            ended += done;
+            self.stats.wide_searches[0] += 1;
+            self.stats.wide_searches[1] += done;
             if tried == WIDE_WINDOW {
                 if 2 * ended < tried {
                     return;

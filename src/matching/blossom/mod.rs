@@ -291,6 +291,9 @@ pub struct Stats {
     /// Wall time (s) of the phases: greedy start, fractional local searches, fractional
     /// forest, main-phase single-tree searches, main-phase forest.
     pub phase_s: [f64; 5],
+    /// Searches of the fractional start's second local pass, and how many of them ended
+    /// (an augmentation or an odd cycle) within its budget.
+    pub wide_searches: [usize; 2],
     /// Trees left to the fractional forest and to the main forest.
     pub forest_trees: [usize; 2],
     /// Cumulative (grows, edge evaluations, heap pops) at the end of each phase.
