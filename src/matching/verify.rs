@@ -64,7 +64,8 @@ pub enum CertificateError {
 /// matched pair has `slack = 0`; (d) a blossom with `y_B > 0` is odd and holds
 /// `(|B| − 1) / 2` matched pairs; (e) `scale · cost(M) = Σ y_v + Σ y_B`, and `m.cost` is the
 /// cost of `mate`. Loops and edges with an endpoint `>= n` are ignored, as in
-/// [`super::solve`]. Exact (`i128`) arithmetic; `O(m · depth)` time.
+/// [`super::solve`]. Exact (`i128`) arithmetic; `O(m · log depth)` time, `depth` the
+/// nesting depth of the blossoms.
 #[allow(clippy::needless_range_loop)]
 pub fn verify(n: usize, edges: &[(u32, u32, i64)], m: &Matching) -> Result<(), CertificateError> {
     let d = &m.duals;
@@ -128,18 +129,47 @@ pub fn verify(n: usize, edges: &[(u32, u32, i64)], m: &Matching) -> Result<(), C
     }
     let ybl = |b: u32| if b == NONE { 0 } else { ysum[b as usize] };
     let dep = |b: u32| if b == NONE { 0 } else { depth[b as usize] };
-    let lca = |mut a: u32, mut b: u32| {
-        while dep(a) > dep(b) {
-            a = d.blossoms[a as usize].parent;
-        }
-        while dep(b) > dep(a) {
-            b = d.blossoms[b as usize].parent;
-        }
-        while a != b {
-            a = d.blossoms[a as usize].parent;
-            b = d.blossoms[b as usize].parent;
+    // Binary lifting: `up[k][b]` is the ancestor 2^k levels above `b` (NONE above a root),
+    // so a lowest common ancestor costs O(log depth) however deep the blossoms nest.
+    let levels = (u32::BITS - depth.iter().copied().max().unwrap_or(0).leading_zeros()).max(1);
+    let mut up: Vec<Vec<u32>> = vec![d.blossoms.iter().map(|b| b.parent).collect()];
+    for k in 1..levels as usize {
+        let prev = &up[k - 1];
+        let next = prev
+            .iter()
+            .map(|&a| if a == NONE { NONE } else { prev[a as usize] })
+            .collect();
+        up.push(next);
+    }
+    let lift = |mut a: u32, mut by: u32| {
+        let mut k = 0;
+        while by > 0 && a != NONE {
+            if by & 1 == 1 {
+                a = up[k][a as usize];
+            }
+            by >>= 1;
+            k += 1;
         }
         a
+    };
+    let lca = |a: u32, b: u32| {
+        let (da, db) = (dep(a), dep(b));
+        let (mut a, mut b) = if da > db {
+            (lift(a, da - db), b)
+        } else {
+            (a, lift(b, db - da))
+        };
+        if a == b || a == NONE || b == NONE {
+            return if a == b { a } else { NONE };
+        }
+        for k in (0..up.len()).rev() {
+            let (ua, ub) = (up[k][a as usize], up[k][b as usize]);
+            if ua != ub {
+                a = ua;
+                b = ub;
+            }
+        }
+        up[0][a as usize]
     };
     // (a) perfect.
     for v in 0..n {
