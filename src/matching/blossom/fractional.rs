@@ -15,10 +15,11 @@
 //! since vertex duals are free in the perfect-matching LP), so consecutive searches touch
 //! nearby memory; a search that needs too many grow steps is abandoned (its dual changes are
 //! kept). A second local pass retries the abandoned roots with a larger budget for as long
-//! as most of its searches end. A *global* pass then grows the remaining trees together, so that they can meet
-//! half-way (on near-bipartite lattice meshes the last exposed vertices are far apart), in the
-//! `forest` module with `Kind::Frac`: a tight `+`–`+` edge inside a tree closes an odd cycle,
-//! and a component that can move without bound is dissolved and left to the main phase.
+//! as most of its searches end. A *global* pass then grows the remaining trees together, so
+//! that they can meet half-way (on near-bipartite lattice meshes the last exposed vertices
+//! are far apart), in the `forest` module with `Kind::Frac`: a tight `+`–`+` edge inside a
+//! tree closes an odd cycle, and a component that can move without bound is dissolved and
+//! left to the main phase.
 
 use super::{Solver, MINUS, NONE, PLUS, PROGRESS_EVERY};
 
@@ -92,13 +93,24 @@ impl Solver {
             if r & PROGRESS_EVERY == 0 {
                 self.tick(0, r as usize, self.n);
             }
-            if self.mate[r as usize] != NONE || cy.id[r as usize] != NONE {
-                continue;
+            if !self.settled(cy, r) {
+                self.search_from(cy, r, budget);
             }
-            self.start_single_tree(r);
-            self.fractional_search(cy, budget);
-            self.end_single_tree();
         }
+    }
+
+    /// True when `r` needs no search: matched, or on a half-matched cycle.
+    fn settled(&self, cy: &Cycles, r: u32) -> bool {
+        self.mate[r as usize] != NONE || cy.id[r as usize] != NONE
+    }
+
+    /// One single-tree search from the exposed vertex `r` within `budget` grow steps (its
+    /// dual changes kept, whatever the outcome); true when it ended, i.e. `r` is settled.
+    fn search_from(&mut self, cy: &mut Cycles, r: u32, budget: usize) -> bool {
+        self.start_single_tree(r);
+        self.fractional_search(cy, budget);
+        self.end_single_tree();
+        self.settled(cy, r)
     }
 
     /// Second local pass over the roots the first left exposed, with the larger budget
@@ -112,13 +124,10 @@ impl Solver {
                 // progress: the first half of the fractional forest's units
                 self.tick(1, r as usize, 2 * self.n);
             }
-            if self.mate[r as usize] != NONE || cy.id[r as usize] != NONE {
+            if self.settled(cy, r) {
                 continue;
             }
-            self.start_single_tree(r);
-            self.fractional_search(cy, wide);
-            self.end_single_tree();
-            let done = (self.mate[r as usize] != NONE || cy.id[r as usize] != NONE) as usize;
+            let done = self.search_from(cy, r, wide) as usize;
             tried += 1;
             ended += done;
             self.stats.wide_searches[0] += 1;

@@ -243,8 +243,9 @@ pub type ProgressCallback = Box<dyn Fn(usize, usize) + Send + Sync>;
 /// fractional forest with the second local pass before it, main single-tree searches, main
 /// forest), `n` units each; a phase's units are the position of its loop over the vertices
 /// (the second local pass fills the first half of its phase), or, for a forest, the share
-/// of its trees done (reported once past what the phase already reported). Calls the callback when at least [`Ticker::STEP`] of the whole has
-/// passed since the last call, never from the inner loops.
+/// of its trees done (reported once past what the phase already reported). Calls the
+/// callback when at least [`Ticker::STEP`] of the whole has passed since the last call,
+/// never from the inner loops.
 struct Ticker {
     f: ProgressCallback,
     /// Units at which the next call is due.
