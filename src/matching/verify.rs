@@ -159,8 +159,9 @@ pub fn verify(n: usize, edges: &[(u32, u32, i64)], m: &Matching) -> Result<(), C
         } else {
             (a, lift(b, db - da))
         };
-        if a == b || a == NONE || b == NONE {
-            return if a == b { a } else { NONE };
+        // at equal depths, NONE (depth 0) meets only NONE
+        if a == b {
+            return a;
         }
         for k in (0..up.len()).rev() {
             let (ua, ub) = (up[k][a as usize], up[k][b as usize]);
