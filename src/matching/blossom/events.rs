@@ -170,6 +170,11 @@ impl Solver {
             self.adj_start[x as usize] as usize,
             self.adj_start[x as usize + 1] as usize,
         );
+        let nx = self.nd[x as usize];
+        if !self.var_on && nx.parent == NONE && nx.tree != NONE && nx.label == PLUS {
+            self.push_plus_vertex_edges(x, m, a..b);
+            return;
+        }
         for i in a..b {
             let ed = self.ed[i];
             if ed.v != m {
@@ -179,6 +184,53 @@ impl Solver {
                     v: ed.v,
                 });
             }
+        }
+    }
+
+    /// [`Solver::push_vertex_edges`] in a single-tree search for a top-level `+` vertex `x`
+    /// (mate `m`, half-edges `range`): the keys of [`Solver::edge_key`] with `x`'s side
+    /// computed once and, for a top-level far end, no blossom lookup; an edge into a blossom
+    /// or needing a rescale takes the general path. Same keys, same order.
+    fn push_plus_vertex_edges(&mut self, x: u32, m: u32, range: std::ops::Range<usize>) {
+        let yx = self.ycur(x);
+        let (eps, mult) = (self.eps, self.mult);
+        for i in range {
+            let ed = self.ed[i];
+            let w = ed.v;
+            if w == m {
+                continue;
+            }
+            let ev = Event {
+                c: ed.c,
+                u: x,
+                v: w,
+            };
+            let nw = self.nd[w as usize];
+            if nw.parent != NONE {
+                self.push_edge(ev);
+                continue;
+            }
+            let key = if nw.tree == NONE {
+                // `+` to a free node: grow, or augment into an exposed one (flag clear).
+                let t = eps + ed.c * mult - yx - nw.y;
+                (t << 1) | (self.mate[nw.base as usize] != NONE) as i64
+            } else if nw.label == PLUS {
+                // `+`–`+` inside the one tree (both lazy offsets are `ε`).
+                let s = ed.c * mult - yx - (nw.y + eps + self.teps[nw.tree as usize]);
+                if s % 2 != 0 {
+                    self.push_edge(ev); // rescales
+                    continue;
+                }
+                (eps + s / 2) << 1
+            } else {
+                // `+`–`−` edge of the one tree: never an event.
+                self.stats.evals += 1;
+                continue;
+            };
+            debug_assert_eq!(Some(key), self.edge_key(ev), "fast key of {ev:?}");
+            self.stats.evals += 1;
+            self.stats.pushes += 1;
+            self.heap.push(key as u64, ev);
         }
     }
 
