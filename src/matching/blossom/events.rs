@@ -171,8 +171,12 @@ impl Solver {
             self.adj_start[x as usize + 1] as usize,
         );
         let nx = self.nd[x as usize];
-        if !self.var_on && nx.parent == NONE && nx.tree != NONE && nx.label == PLUS {
-            self.push_plus_vertex_edges(x, m, a..b);
+        if nx.parent == NONE && nx.tree != NONE && nx.label == PLUS {
+            if self.var_on {
+                self.var_push_plus_vertex_edges(x, m, a..b);
+            } else {
+                self.push_plus_vertex_edges(x, m, a..b);
+            }
             return;
         }
         for i in a..b {
@@ -231,6 +235,35 @@ impl Solver {
             self.stats.evals += 1;
             self.stats.pushes += 1;
             self.heap.push(key as u64, ev);
+        }
+    }
+
+    /// [`Solver::push_vertex_edges`] in the forest for a top-level `+` vertex `x` of tree
+    /// `T`: an edge to a free top-level node goes to `T`'s heap as [`Solver::var_push_edge`]
+    /// would put it (key `2 (ε_T + slack) + 1`), with `x`'s side computed once; the other
+    /// edges take the general path.
+    fn var_push_plus_vertex_edges(&mut self, x: u32, m: u32, range: std::ops::Range<usize>) {
+        let yx = self.ycur(x);
+        let t = self.nd[x as usize].tree;
+        let et = self.teps[t as usize];
+        let mult = self.mult;
+        for i in range {
+            let ed = self.ed[i];
+            let w = ed.v;
+            if w == m {
+                continue;
+            }
+            let ev = Event { c: ed.c, u: x, v: w };
+            let nw = self.nd[w as usize];
+            if nw.parent != NONE || nw.tree != NONE {
+                self.push_edge(ev);
+                continue;
+            }
+            let s = ed.c * mult - yx - nw.y;
+            debug_assert!(s >= 0, "negative slack on edge {ev:?}");
+            self.stats.evals += 1;
+            self.stats.pushes += 1;
+            self.var_push_tree(t, ((et + s) << 1) | 1, ev);
         }
     }
 
