@@ -158,6 +158,32 @@ fn random_odd_sizes_and_multigraphs() {
 }
 
 #[test]
+fn costs_beyond_i32() {
+    // Doubled costs that do not fit in an `i32` (the solver then keeps its costs in a
+    // separate `i64` array): all of them large, or one large edge among small ones, and
+    // costs saturated at `MAX_ABS_COST`.
+    let mut rng = Rng(31337);
+    for iter in 0..600 {
+        let n = 2 + 2 * rng.below(6) as usize;
+        let mut edges = random_graph(&mut rng, n, 50, 1000);
+        match iter % 3 {
+            0 => edges.iter_mut().for_each(|e| e.2 *= 1 << 28),
+            1 => {
+                if let Some(e) = edges.first_mut() {
+                    e.2 = (1 << 31) + rng.below(3) as i64;
+                }
+            }
+            _ => {
+                if let Some(e) = edges.last_mut() {
+                    e.2 = -matching::MAX_ABS_COST;
+                }
+            }
+        }
+        check(n, &edges);
+    }
+}
+
+#[test]
 fn all_equal_costs() {
     let mut rng = Rng(4242);
     for _ in 0..800 {

@@ -158,14 +158,17 @@ impl Solver {
             }
         }
         // Reduced costs.
-        for e in &self.ed {
-            if e.u < e.v {
-                let s = self.reduced_cost(e.u, e.v, e.c);
-                if s < 0 {
-                    return broken(
-                        "dual feasibility",
-                        format!("edge ({}, {}) has slack {s}", e.u, e.v),
-                    );
+        for u in 0..n as u32 {
+            for i in self.adj_start[u as usize] as usize..self.adj_start[u as usize + 1] as usize {
+                let v = self.ed[i].v;
+                if u < v {
+                    let s = self.reduced_cost(u, v, self.cost(i));
+                    if s < 0 {
+                        return broken(
+                            "dual feasibility",
+                            format!("edge ({u}, {v}) has slack {s}"),
+                        );
+                    }
                 }
             }
         }
@@ -284,10 +287,9 @@ impl Solver {
             self.adj_start[u as usize] as usize,
             self.adj_start[u as usize + 1] as usize,
         );
-        self.ed[a..b]
-            .iter()
-            .filter(|e| e.v == v)
-            .map(|e| self.reduced_cost(u, v, e.c))
+        (a..b)
+            .filter(|&i| self.ed[i].v == v)
+            .map(|i| self.reduced_cost(u, v, self.cost(i)))
             .min()
     }
 }

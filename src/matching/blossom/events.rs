@@ -180,12 +180,12 @@ impl Solver {
             return;
         }
         for i in a..b {
-            let ed = self.ed[i];
-            if ed.v != m {
+            let w = self.ed[i].v;
+            if w != m {
                 self.push_edge(Event {
-                    c: ed.c,
-                    u: ed.u,
-                    v: ed.v,
+                    c: self.cost(i),
+                    u: x,
+                    v: w,
                 });
             }
         }
@@ -199,16 +199,12 @@ impl Solver {
         let yx = self.ycur(x);
         let (eps, mult) = (self.eps, self.mult);
         for i in range {
-            let ed = self.ed[i];
-            let w = ed.v;
+            let w = self.ed[i].v;
             if w == m {
                 continue;
             }
-            let ev = Event {
-                c: ed.c,
-                u: x,
-                v: w,
-            };
+            let c = self.cost(i);
+            let ev = Event { c, u: x, v: w };
             let nw = self.nd[w as usize];
             if nw.parent != NONE {
                 self.push_edge(ev);
@@ -216,11 +212,11 @@ impl Solver {
             }
             let key = if nw.tree == NONE {
                 // `+` to a free node: grow, or augment into an exposed one (flag clear).
-                let t = eps + ed.c * mult - yx - nw.y;
+                let t = eps + c * mult - yx - nw.y;
                 (t << 1) | (self.mate[nw.base as usize] != NONE) as i64
             } else if nw.label == PLUS {
                 // `+`–`+` inside the one tree (both lazy offsets are `ε`).
-                let s = ed.c * mult - yx - (nw.y + eps + self.teps[nw.tree as usize]);
+                let s = c * mult - yx - (nw.y + eps + self.teps[nw.tree as usize]);
                 if s % 2 != 0 {
                     self.push_edge(ev); // rescales
                     continue;
@@ -248,18 +244,18 @@ impl Solver {
         let et = self.teps[t as usize];
         let mult = self.mult;
         for i in range {
-            let ed = self.ed[i];
-            let w = ed.v;
+            let w = self.ed[i].v;
             if w == m {
                 continue;
             }
-            let ev = Event { c: ed.c, u: x, v: w };
+            let c = self.cost(i);
+            let ev = Event { c, u: x, v: w };
             let nw = self.nd[w as usize];
             if nw.parent != NONE || nw.tree != NONE {
                 self.push_edge(ev);
                 continue;
             }
-            let s = ed.c * mult - yx - nw.y;
+            let s = c * mult - yx - nw.y;
             debug_assert!(s >= 0, "negative slack on edge {ev:?}");
             self.stats.evals += 1;
             self.stats.pushes += 1;

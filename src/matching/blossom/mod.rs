@@ -86,12 +86,13 @@ const EXPAND: u32 = 1 << 31;
 /// forest grown together.
 const MAIN_LOCAL_GROWS: usize = 256;
 
-/// One half-edge: from `u` to `v`, and the cost (scaled) of the edge.
+/// One half-edge, stored in the range of its first endpoint (8 bytes): the other endpoint
+/// `v`, and the doubled cost of the edge when every doubled cost fits in an `i32` (else the
+/// costs are in [`Solver::wide_costs`] and `c` is 0); read through [`Solver::cost`].
 #[derive(Clone, Copy, Debug)]
 struct Edge {
-    u: u32,
     v: u32,
-    c: i64,
+    c: i32,
 }
 
 /// Hot per-node fields (24 bytes).
@@ -179,9 +180,12 @@ struct Tight {
 /// Solver state. Nodes `0..n` are vertices, nodes `n..` blossoms.
 pub struct Solver {
     n: usize,
-    /// Half-edges (endpoints, doubled cost: units of 1/2, never rescaled), loops removed:
-    /// every edge `{a, b}` appears as `(a, b)` and `(b, a)`.
+    /// Half-edges (far endpoint, doubled cost: units of 1/2, never rescaled), loops removed:
+    /// every edge `{a, b}` appears in `a`'s range as `b` and in `b`'s range as `a`.
     ed: Vec<Edge>,
+    /// The doubled costs of the half-edges (same index as `ed`) when some does not fit in an
+    /// `i32`; empty otherwise (the common case: `ed` then holds them, at half the memory).
+    wide_costs: Vec<i64>,
     /// Internal vertex numbering (for memory locality): `order[new] = old`,
     /// `perm[old] = new`.
     order: Vec<u32>,
@@ -344,34 +348,65 @@ impl Solver {
             adj_start[v + 1] += adj_start[v];
         }
         let mut fill = adj_start.clone();
-        let mut ed = vec![Edge { u: 0, v: 0, c: 0 }; adj_start[n] as usize];
+        let doubled = |c: i64| 2 * c.clamp(-MAX_ABS_COST, MAX_ABS_COST);
+        let narrow = edges
+            .iter()
+            .all(|&(_, _, c)| i32::try_from(doubled(c)).is_ok());
+        let mut ed = vec![Edge { v: 0, c: 0 }; adj_start[n] as usize];
+        let mut wide_costs = if narrow {
+            Vec::new()
+        } else {
+            vec![0i64; adj_start[n] as usize]
+        };
         for &(u, v, c) in edges {
             if u == v || u as usize >= n || v as usize >= n {
                 continue;
             }
             let (a, b) = (perm[u as usize], perm[v as usize]);
-            let c = 2 * c.clamp(-MAX_ABS_COST, MAX_ABS_COST);
+            let c = doubled(c);
             for (x, w) in [(a, b), (b, a)] {
                 let slot = &mut fill[x as usize];
-                ed[*slot as usize] = Edge { u: x, v: w, c };
+                if narrow {
+                    ed[*slot as usize] = Edge { v: w, c: c as i32 };
+                } else {
+                    ed[*slot as usize] = Edge { v: w, c: 0 };
+                    wide_costs[*slot as usize] = c;
+                }
                 *slot += 1;
             }
         }
         drop(fill);
+        // Per-node arrays: room for the vertices and for every blossom that can be alive at
+        // once (a laminar family of odd sets of at least 3 vertices has at most `n / 2`
+        // members; ids are recycled), so that forming blossoms never reallocates them (a
+        // reallocation copies the array while the old one still holds its memory); the room
+        // stays untouched, hence not resident, until blossoms use it.
+        let cap = n + n / 2;
+        let mut nd = Vec::with_capacity(cap);
+        nd.extend((0..n as u32).map(Node::new));
+        let mut tedge = Vec::with_capacity(cap);
+        tedge.resize(n, TreeEdge::NO);
+        let mut sc = Vec::with_capacity(cap);
+        sc.resize(n, Cell::new(Shortcut::NO));
+        let mut gen = Vec::with_capacity(cap);
+        gen.resize(n, 0);
+        let mut mark = Vec::with_capacity(cap);
+        mark.resize(n, 0);
         Solver {
             n,
             order,
             perm,
             ed,
+            wide_costs,
             adj_start,
             mate: vec![NONE; n],
-            nd: (0..n as u32).map(Node::new).collect(),
-            tedge: vec![TreeEdge::NO; n],
+            nd,
+            tedge,
             children: Vec::new(),
             cyc: Vec::new(),
             free_blossoms: Vec::new(),
-            sc: vec![Cell::new(Shortcut::NO); n],
-            gen: vec![0; n],
+            sc,
+            gen,
             heap: RadixHeap::new(),
             eps: 0,
             teps: Vec::new(),
@@ -379,13 +414,23 @@ impl Solver {
             var: forest::VarQueues::default(),
             tree_lists: Vec::new(),
             freed: Vec::new(),
-            mark: vec![0; n],
+            mark,
             mark_stamp: 0,
             scale: 2,
             mult: 1,
             stack: Vec::new(),
             stats: Stats::default(),
             progress: None,
+        }
+    }
+
+    /// Doubled cost of half-edge `i` (units of 1/2, as stored: times `mult` for current units).
+    #[inline(always)]
+    fn cost(&self, i: usize) -> i64 {
+        if self.wide_costs.is_empty() {
+            self.ed[i].c as i64
+        } else {
+            self.wide_costs[i]
         }
     }
 
@@ -416,7 +461,8 @@ impl Solver {
     /// Runs the jump start and then the tree growth from every exposed vertex.
     pub fn run(mut self) -> Result<Matching, NoPerfectMatching> {
         self.init_fractional();
-        self.solve_rest()
+        self.grow_rest(MAIN_LOCAL_GROWS)?;
+        Ok(self.into_result())
     }
 
     /// Runs without jump start (all duals start at 0); used by tests to exercise the tree
@@ -434,6 +480,12 @@ impl Solver {
     /// [`Solver::solve_rest`] with a given grow budget for the single-tree searches (0 leaves
     /// nearly everything to the forest grown together); tests use it to exercise both.
     pub fn solve_rest_with(&mut self, budget: usize) -> Result<Matching, NoPerfectMatching> {
+        self.grow_rest(budget)?;
+        Ok(self.result())
+    }
+
+    /// The phases of [`Solver::solve_rest_with`] without building the result.
+    fn grow_rest(&mut self, budget: usize) -> Result<(), NoPerfectMatching> {
         self.stats.exposed_after_init = self.mate.iter().filter(|&&m| m == NONE).count();
         let t = std::time::Instant::now();
         self.run_local(budget)?;
@@ -443,30 +495,61 @@ impl Solver {
         self.run_forest_var()?;
         self.stats.phase_s[4] = t.elapsed().as_secs_f64();
         self.stats.phase_counts[4] = (self.stats.grows, self.stats.evals, self.stats.pops);
-        Ok(self.result())
+        Ok(())
+    }
+
+    /// [`Solver::result`] for a solver that is done: the arrays the result does not read
+    /// (half-edges, shortcuts, queues, blossom cycles) are freed before it is built, so
+    /// that the peak memory of a solve is that of its phases.
+    fn into_result(mut self) -> Matching {
+        let cost = self.matched_cost();
+        self.ed = Vec::new();
+        self.wide_costs = Vec::new();
+        self.adj_start = Vec::new();
+        self.sc = Vec::new();
+        self.gen = Vec::new();
+        self.mark = Vec::new();
+        self.tedge = Vec::new();
+        self.children = Vec::new();
+        self.cyc = Vec::new();
+        self.heap = RadixHeap::new();
+        self.tree_lists = Vec::new();
+        self.freed = Vec::new();
+        self.result_with(cost)
     }
 
     /// Builds the public result: mates, cost, duals in the laminar-forest form.
-    #[allow(clippy::needless_range_loop)]
     fn result(&self) -> Matching {
+        self.result_with(self.matched_cost())
+    }
+
+    /// Total input cost of the matching: for each matched pair, its cheapest input edge.
+    fn matched_cost(&self) -> i64 {
         let n = self.n;
-        // Cost: cheapest input edge for each matched pair.
-        let mut best = vec![i64::MAX; n];
-        for e in 0..self.ed.len() {
-            let (u, v) = (self.ed[e].u as usize, self.ed[e].v as usize);
-            if u < v && self.mate[u] == v as u32 {
-                let c = self.ed[e].c;
-                best[u] = best[u].min(c);
-                best[v] = best[v].min(c);
-            }
-        }
+        // Cost: cheapest input edge for each matched pair (from its lower endpoint's range).
         let unit = 2; // `ed` costs are doubled
         let mut cost: i64 = 0;
-        for v in 0..n {
-            if (self.mate[v] as usize) > v && best[v] != i64::MAX {
-                cost += best[v] / unit;
+        for u in 0..n {
+            let m = self.mate[u];
+            if (m as usize) <= u || m == NONE {
+                continue;
+            }
+            let best = (self.adj_start[u] as usize..self.adj_start[u + 1] as usize)
+                .filter(|&i| self.ed[i].v == m)
+                .map(|i| self.cost(i))
+                .min();
+            if let Some(c) = best {
+                cost += c / unit;
             }
         }
+        cost
+    }
+
+    /// [`Solver::result`] with the matching's cost already known (reads `nd`, `mate`,
+    /// `perm`, `order` only).
+    #[allow(clippy::needless_range_loop)]
+    fn result_with(&self, cost: i64) -> Matching {
+        let n = self.n;
         // Blossoms alive: renumber.
         let total = self.nd.len();
         let mut id = vec![NONE; total];

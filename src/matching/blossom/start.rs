@@ -13,9 +13,8 @@ impl Solver {
 
     pub(super) fn min_incident_half(&self, v: usize) -> i64 {
         let (a, b) = (self.adj_start[v] as usize, self.adj_start[v + 1] as usize);
-        self.ed[a..b]
-            .iter()
-            .map(|e| e.c * self.mult / 2)
+        (a..b)
+            .map(|i| self.cost(i) * self.mult / 2)
             .min()
             .unwrap_or(0)
     }
@@ -32,7 +31,7 @@ impl Solver {
             let mut best_free = NONE;
             for e in a..b {
                 let w = self.ed[e].v;
-                let s = self.ed[e].c * self.mult - self.nd[v].y - self.nd[w as usize].y;
+                let s = self.cost(e) * self.mult - self.nd[v].y - self.nd[w as usize].y;
                 if s < best || (s == best && best_free == NONE && self.mate[w as usize] == NONE) {
                     best = s;
                     best_free = if self.mate[w as usize] == NONE {
@@ -101,9 +100,7 @@ impl Solver {
     /// no blossoms yet).
     #[inline]
     pub(super) fn tight_other(&self, e: usize, x: u32) -> Option<u32> {
-        let ed = self.ed[e];
-        debug_assert_eq!(ed.u, x);
-        let w = ed.v;
-        (ed.c * self.mult - self.nd[x as usize].y - self.nd[w as usize].y == 0).then_some(w)
+        let w = self.ed[e].v;
+        (self.cost(e) * self.mult - self.nd[x as usize].y - self.nd[w as usize].y == 0).then_some(w)
     }
 }
