@@ -465,7 +465,8 @@ pub enum RecombineError {
 ///
 /// Everything else is kept: node tags, curve and point elements, physical groups, entities,
 /// quads already present, other element types. On error the mesh may be partly changed
-/// (parity splits and dropped volumes); callers that need the input should clone it first.
+/// (parity splits, dropped volumes, and the recombined surfaces' triangle blocks emptied
+/// once their topology is built); callers that need the input should clone it first.
 pub fn recombine(
     mesh: &mut Mesh,
     opts: &RecombineOptions,
