@@ -73,27 +73,19 @@ impl C {
     }
 }
 
-/// Corner residual `i ρ (z1 − z0) − (z3 − z0)` at corner 0 of `(z3, z0, z1)`.
-#[inline]
-fn corner(prev: C, at: C, next: C, rho: f64) -> C {
-    next.sub(at).scale(rho).rot().sub(prev.sub(at))
-}
-
 /// Adds `w · Lᴴ L x` for one quad through `add(node, term)` (L: the four corner residuals
-/// `r_k = i ρ_k z_{k+1} + (1 − i ρ_k) z_k − z_{k−1}`). Each node `j` is the next node of
-/// corner `j − 1`, the corner of `j` and the previous node of `j + 1`, so it gathers
+/// `r_k = i ρ_k e_k + e_{k−1}` with the edges `e_k = z_{k+1} − z_k`, which is
+/// `i ρ_k (z_{k+1} − z_k) − (z_{k−1} − z_k)`). Each node `j` is the next node of corner
+/// `j − 1`, the corner of `j` and the previous node of `j + 1`, so it gathers
 /// `−i ρ_{j−1} r_{j−1} + (1 + i ρ_j) r_j − r_{j+1}`: four loads and four updates per quad.
 #[inline]
 fn accumulate(quad: &[u32; 4], w: f64, rho: &[f64; 4], x: &[C], mut add: impl FnMut(usize, C)) {
     let z = quad.map(|v| x[v as usize]);
-    let r: [C; 4] =
-        std::array::from_fn(|k| corner(z[(k + 3) & 3], z[k], z[(k + 1) & 3], rho[k]).scale(w));
+    let e: [C; 4] = std::array::from_fn(|k| z[(k + 1) & 3].sub(z[k]));
+    let r: [C; 4] = std::array::from_fn(|k| e[k].scale(rho[k]).rot().add(e[(k + 3) & 3]).scale(w));
+    let s: [C; 4] = std::array::from_fn(|k| r[k].scale(rho[k]).rot());
     for j in 0..4 {
-        let jm = (j + 3) & 3;
-        let g = r[j]
-            .add(r[j].scale(rho[j]).rot())
-            .sub(r[jm].scale(rho[jm]).rot())
-            .sub(r[(j + 1) & 3]);
+        let g = r[j].add(s[j]).sub(s[(j + 3) & 3]).sub(r[(j + 1) & 3]);
         add(quad[j] as usize, g);
     }
 }

@@ -85,7 +85,9 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 /// Options of [`optimize`].
 #[derive(Clone, Copy)]
 pub struct OptimizeOptions<'a> {
-    /// Smoothing sweeps per smoothing phase (`--smooth N`); 0 disables smoothing.
+    /// Smoothing sweeps per smoothing phase (`--smooth N`); 0 disables smoothing. Surfaces
+    /// of 20,000 quads or more run a share of them in the first smoothing and after each
+    /// topology pass (`schedule.rs`).
     pub smooth_iterations: usize,
     /// Apply the topological operators (`--no-topology` turns them off).
     pub topology: bool,

@@ -21,7 +21,7 @@ pub(super) fn run_surface(
     let mut gate = valid::Gate::new(l);
     tm.lap("adj+stats");
     let mut ops = OperationCounts {
-        smoothing_moves: smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
+        smoothing_moves: smooth::smooth(l, first_sweeps(l, opts), opts.diagonal_weight),
         ..Default::default()
     };
     gate.check(l, true, "smoothing");
@@ -145,7 +145,7 @@ pub(crate) fn after_topology_rounds<'a>(
 ) -> (OperationCounts, StageTimer<'a>, valid::Gate) {
     let mut ops = OperationCounts::default();
     let mut tm = StageTimer::new(opts.trace, "optimize", 0);
-    smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight);
+    smooth::smooth(l, first_sweeps(l, opts), opts.diagonal_weight);
     let mut gate = valid::Gate::new(l);
     topology_rounds(l, opts, &mut ops, &mut tm, &|_| {}, false, &mut gate);
     (ops, tm, gate)
@@ -279,8 +279,27 @@ const RESMOOTH_RINGS: usize = 2;
 /// Sweeps of the smoothing around a topology pass's changes on surfaces of
 /// [`RESMOOTH_ALL_BELOW`] quads or more, in fifths of `smooth_iterations` (rounded up: 3 of
 /// the default 5): the fewest that keep the quality of full sweeps (figures in
-/// BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// BENCHMARKS.md, "Figures moved out of doc comments (issue 13)"; 2 cost η_w after a
+/// shorter first smoothing, "Issue 15: a shorter first smoothing on large surfaces").
 const NEAR_SWEEPS_NUM: usize = 3;
+
+/// Sweeps of the first smoothing on surfaces of [`RESMOOTH_ALL_BELOW`] quads or more, in
+/// fifths of `smooth_iterations` (rounded up: 1 of the default 5). The topology rounds
+/// re-smooth around every change and the conformal solve removes the low-frequency
+/// distortion later, so the further sweeps gained no final quality (figures in
+/// BENCHMARKS.md, "Issue 15: a shorter first smoothing on large surfaces").
+const FIRST_SWEEPS_NUM: usize = 1;
+
+/// Sweeps of the first smoothing of `l`: all of `smooth_iterations` on surfaces under
+/// [`RESMOOTH_ALL_BELOW`] quads, [`FIRST_SWEEPS_NUM`] fifths of them (rounded up) on larger
+/// ones; 0 when smoothing is off.
+fn first_sweeps(l: &Local, opts: &OptimizeOptions) -> usize {
+    if l.quads.len() < RESMOOTH_ALL_BELOW {
+        opts.smooth_iterations
+    } else {
+        (opts.smooth_iterations * FIRST_SWEEPS_NUM).div_ceil(5)
+    }
+}
 
 /// Surfaces with fewer quads re-smooth every node after each topological pass: cheap there,
 /// and on small curved surfaces local re-smoothing alone loses mean quality (figures in
