@@ -15,8 +15,8 @@ mod nodes;
 #[cfg(test)]
 pub(crate) mod testing;
 
+pub(crate) use nodes::{NodeIds, NodeTable, TagCoords};
 pub use nodes::{NodeIndex, NodeRef};
-pub(crate) use nodes::{NodeTable, TagCoords};
 
 /// Sentinel for "no index" in the crate's `u32` index arrays (no node, no triangle, no
 /// neighbour); `matching` has its own of the same value.

@@ -437,6 +437,8 @@ fn recombine_model<'py>(
 
 #[pymodule]
 fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
+    #[cfg(all(target_os = "linux", target_env = "gnu"))]
+    blossomquad::set_memory_release(glibc::trim);
     m.add("__version__", blossomquad::VERSION)?;
     m.add("Error", m.py().get_type::<Error>())?;
     m.add_function(wrap_pyfunction!(cli, m)?)?;
@@ -444,4 +446,26 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(quadrangulate_arrays, m)?)?;
     m.add_function(wrap_pyfunction!(recombine_model, m)?)?;
     Ok(())
+}
+
+/// glibc's heap trim, the library's memory-release hook (as the `blossomquad` program sets
+/// it): the pipeline calls it between stages so that memory one stage freed does not stay
+/// resident through the next. Unlike the program, the module leaves the arena settings
+/// alone: the interpreter's threads exist before it is imported.
+#[cfg(all(target_os = "linux", target_env = "gnu"))]
+mod glibc {
+    extern "C" {
+        /// Releases free heap memory to the system, keeping `pad` bytes; returns 1 if
+        /// memory was released.
+        fn malloc_trim(pad: usize) -> std::ffi::c_int;
+    }
+
+    /// Hands the heap's free pages back to the system.
+    pub(super) fn trim() {
+        // SAFETY: malloc_trim takes no pointer and only changes the allocator's own state,
+        // under its own locks; any thread may call it at any time.
+        unsafe {
+            malloc_trim(0);
+        }
+    }
 }

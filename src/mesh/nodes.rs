@@ -149,6 +149,64 @@ impl NodeTable {
         }
         Ok(out)
     }
+
+    /// The coordinates by id alone (memory: the rest of the table is freed).
+    pub(crate) fn into_coords(self) -> Vec<DVec3> {
+        self.coords
+    }
+
+    /// The tag → id lookup alone (memory: coordinates, tags and blocks are freed, and a
+    /// dense lookup holds 4 bytes a tag instead of a [`NodeRef`]'s 12).
+    pub(crate) fn into_ids(self) -> NodeIds {
+        let id = |r: NodeRef| self.block_start[r.block as usize] + r.index;
+        if self.index.dense.is_empty() {
+            NodeIds {
+                dense: Vec::new(),
+                sparse: self
+                    .index
+                    .sparse
+                    .iter()
+                    .map(|(&t, &r)| (t, id(r)))
+                    .collect(),
+            }
+        } else {
+            NodeIds {
+                dense: self
+                    .index
+                    .dense
+                    .iter()
+                    .map(|r| r.map_or(NodeIds::ABSENT, id))
+                    .collect(),
+                sparse: HashMap::new(),
+            }
+        }
+    }
+}
+
+/// The tag → id part of a [`NodeTable`] ([`NodeTable::into_ids`]): the same ids, dense by
+/// tag or hashed as the table's index, nothing by id.
+pub(crate) struct NodeIds {
+    /// Id by tag ([`NodeIds::ABSENT`]: no such node); empty when hashed.
+    dense: Vec<u32>,
+    sparse: HashMap<u64, u32>,
+}
+
+impl NodeIds {
+    /// No node has this id (ids index a table in memory, so they stay below it).
+    const ABSENT: u32 = u32::MAX;
+
+    /// Id of node `tag`, if it exists (as [`NodeTable::id`] of the table it came from).
+    #[inline]
+    pub(crate) fn id(&self, tag: u64) -> Option<u32> {
+        if self.dense.is_empty() {
+            self.sparse.get(&tag).copied()
+        } else {
+            self.dense
+                .get(tag as usize)
+                .copied()
+                .filter(|&i| i != Self::ABSENT)
+        }
+    }
 }
 
 /// Node coordinates straight by tag: the coordinate view of the [`NodeTable`] numbering for
@@ -241,5 +299,41 @@ mod tests {
             Some((TagCoords::ABSENT, 7.0, 8.0))
         );
         assert_eq!(marked.get(2), None);
+    }
+
+    /// The tag → id lookup kept apart from its table gives the table's ids, repeated tags
+    /// (last occurrence) and absent tags included, both dense and hashed.
+    #[test]
+    fn node_ids_answer_as_the_table_they_came_from() {
+        let mut mesh = Mesh::default();
+        mesh.node_blocks.push(node_block(
+            1,
+            vec![5, 2, 9],
+            vec![[0.0; 3], [1.0; 3], [2.0; 3]],
+        ));
+        mesh.node_blocks.push(node_block(
+            2,
+            vec![7, 2, 1],
+            vec![[3.0; 3], [4.0; 3], [5.0; 3]],
+        ));
+        for sparse in [false, true] {
+            if sparse {
+                // tags far above 4 × the node count: the hashed form
+                mesh.node_blocks[1].tags[0] = 1 << 40;
+            }
+            let table = NodeTable::new(&mesh);
+            let expected: Vec<Option<u32>> =
+                (0..12).chain([1 << 40]).map(|t| table.id(t)).collect();
+            assert_eq!(
+                expected[2],
+                Some(4),
+                "the last occurrence of a repeated tag"
+            );
+            assert_eq!(expected.iter().flatten().count(), 5);
+            let ids = table.into_ids();
+            assert_eq!(ids.dense.is_empty(), sparse);
+            let got: Vec<Option<u32>> = (0..12).chain([1 << 40]).map(|t| ids.id(t)).collect();
+            assert_eq!(got, expected);
+        }
     }
 }

@@ -5,8 +5,8 @@
 use super::local::{Local, NONE};
 use super::schedule::RESMOOTH_ALL_BELOW;
 use super::surface_tags;
-use crate::mesh::NodeTable;
 use crate::mesh::{etype, Mesh};
+use crate::mesh::{NodeIds, NodeTable};
 use crate::quality::locate::TriSurface;
 use crate::quality::size::mean_incident_edge_length;
 use glam::DVec3;
@@ -16,8 +16,10 @@ use rayon::prelude::*;
 /// [`optimize_prepared`](super::optimize_prepared): per surface its triangles on compact point indices, the nodal
 /// sizes (mean incident edge length) and a triangle at each point. It depends on the
 /// triangle mesh only, so it can be built while the recombination runs (the CLI does).
+/// Memory: of the mesh's node table it keeps only the tag → id lookup (the points'
+/// coordinates are in the surfaces' parts).
 pub struct PreparedReference {
-    pub(super) nodes: NodeTable,
+    pub(super) nodes: NodeIds,
     /// By increasing surface tag.
     pub(super) surfaces: Vec<(i32, SurfaceReference)>,
 }
@@ -71,7 +73,10 @@ impl PreparedReference {
             .par_iter()
             .map(|&s| (s, surface_reference(reference, &nodes, s)))
             .collect();
-        PreparedReference { nodes, surfaces }
+        PreparedReference {
+            nodes: nodes.into_ids(),
+            surfaces,
+        }
     }
 }
 /// The reference triangles of surface `s` on compact point indices (first use order).
@@ -145,7 +150,7 @@ pub(super) fn surface_reference(reference: &Mesh, rnodes: &NodeTable, s: i32) ->
 pub(super) fn attach_reference(
     l: &mut Local,
     sref: Option<SurfaceReference>,
-    rnodes: &NodeTable,
+    rnodes: &NodeIds,
     size_scale: f64,
 ) {
     let mut sref = sref.unwrap_or_else(SurfaceReference::empty);
@@ -186,9 +191,10 @@ pub(super) fn attach_reference(
             .into_par_iter()
             .with_min_len(4096)
             .map(|v| {
+                // a point of the reference is its node's coordinates, copied
                 rnodes
                     .id(l.tags[v])
-                    .and_then(|id| compact(id).filter(|_| rnodes.coords[id as usize] == l.pos[v]))
+                    .and_then(|id| compact(id).filter(|&i| pts[i as usize] == l.pos[v]))
                     .filter(|&i| incident[i as usize] != NONE)
             })
             .collect();
@@ -289,7 +295,7 @@ mod tests {
         let (_, mut l) = local_of(&synth::to_mesh(&quads));
         let rnodes = NodeTable::new(&reference);
         let sref = surface_reference(&reference, &rnodes, l.surface);
-        attach_reference(&mut l, Some(sref), &rnodes, 1.0);
+        attach_reference(&mut l, Some(sref), &rnodes.into_ids(), 1.0);
         assert!(l.planar && !l.ref_sizes.is_empty() && l.reference.is_some());
         let start_sizes = l.h.clone();
         for v in 0..l.pos.len() {

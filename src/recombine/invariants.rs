@@ -69,14 +69,27 @@ fn count_of(counts: &[(Edge, u32)], e: &Edge) -> u32 {
 /// The edges of `faces` with how many faces use each and in which directions, sorted by
 /// edge, with (when node tags are compact) the start of each first node's run, so that a
 /// lookup is two nearby reads instead of a binary search over the whole list.
+///
+/// Memory (it is held through the whole run): the fields are parallel arrays, and with the
+/// runs the first node of an entry is its run's, not stored: 12 bytes an edge instead of a
+/// tuple's 24.
 struct EdgeTable {
-    /// (undirected edge, faces using it, bit 0: some face runs it from its smaller node,
-    /// bit 1: some face runs it from its larger node).
-    edges: Vec<(Edge, u32, u8)>,
+    /// Smaller node of each edge; empty when `start` is not (the entry's run tells it).
+    lo: Vec<u64>,
+    /// Larger node of each edge.
+    hi: Vec<u64>,
+    /// Faces using the edge (saturating) · 4, plus bit 0: some face runs it from its
+    /// smaller node, bit 1: some face runs it from its larger node.
+    uses: Vec<u32>,
+    /// Entries of first node `a`: `start[a]..start[a + 1]`; empty when tags are not
+    /// compact.
     start: Vec<u32>,
 }
 
 impl EdgeTable {
+    /// Largest face count stored (a count only ever compared with 1 and 2).
+    const MAX_COUNT: u32 = u32::MAX >> 2;
+
     fn new(faces: &[&[u64]]) -> Self {
         // each use as (smaller node, larger node · 2 + runs from the larger): one sort gives
         // the counts and the directions
@@ -89,76 +102,103 @@ impl EdgeTable {
             }
         }
         sort_pairs(&mut all);
-        // memory: sized exactly (it is held through the whole run; a guess of half the
-        // uses is one short on any surface with a boundary, and the growth doubles it)
+        // memory: sized exactly (a guess of half the uses is one short on any surface with
+        // a boundary, and the growth doubles it)
         let distinct = 1 + all
             .windows(2)
             .filter(|w| (w[0].0, w[0].1 >> 1) != (w[1].0, w[1].1 >> 1))
             .count();
-        let mut edges: Vec<(Edge, u32, u8)> = Vec::with_capacity(distinct);
-        for (lo, x) in all {
-            let e = (lo, x >> 1);
-            let dir = 1u8 << (x & 1);
-            match edges.last_mut() {
-                Some((last, c, d)) if *last == e => {
-                    *c += 1;
-                    *d |= dir;
+        let mut lo: Vec<u64> = Vec::with_capacity(distinct);
+        let mut hi: Vec<u64> = Vec::with_capacity(distinct);
+        let mut uses: Vec<u32> = Vec::with_capacity(distinct);
+        for (a, x) in all {
+            let b = x >> 1;
+            let dir = 1u32 << (x & 1);
+            match (lo.last(), hi.last(), uses.last_mut()) {
+                (Some(&la), Some(&lb), Some(u)) if (la, lb) == (a, b) => {
+                    let count = (*u >> 2).saturating_add(1).min(Self::MAX_COUNT);
+                    *u = (count << 2) | (*u & 3) | dir;
                 }
-                _ => edges.push((e, 1, dir)),
+                _ => {
+                    lo.push(a);
+                    hi.push(b);
+                    uses.push((1 << 2) | dir);
+                }
             }
         }
-        let max = edges.last().map_or(0, |e| e.0 .0);
+        let max = lo.last().copied().unwrap_or(0);
         let mut start = Vec::new();
-        if max <= 8 * edges.len() as u64 + 1024 {
+        if max <= 8 * lo.len() as u64 + 1024 {
             start = vec![0u32; max as usize + 2];
-            for e in &edges {
-                start[e.0 .0 as usize + 1] += 1;
+            for &a in &lo {
+                start[a as usize + 1] += 1;
             }
             for i in 1..start.len() {
                 start[i] += start[i - 1];
             }
+            lo = Vec::new();
         }
-        EdgeTable { edges, start }
+        EdgeTable {
+            lo,
+            hi,
+            uses,
+            start,
+        }
     }
 
-    /// The entry of undirected edge `e`.
-    fn find(&self, e: &Edge) -> Option<&(Edge, u32, u8)> {
+    /// The `uses` entry of undirected edge `e`.
+    fn find(&self, e: &Edge) -> Option<u32> {
+        let (a, b) = *e;
         if self.start.is_empty() {
-            return self
-                .edges
-                .binary_search_by_key(e, |x| x.0)
+            // sorted by (lo, hi): the run of `a` by binary search, then `b` inside it
+            let from = self.lo.partition_point(|&x| x < a);
+            let to = from + self.lo[from..].partition_point(|&x| x == a);
+            return self.hi[from..to]
+                .binary_search(&b)
                 .ok()
-                .map(|i| &self.edges[i]);
+                .map(|i| self.uses[from + i]);
         }
-        match (
-            self.start.get(e.0 as usize),
-            self.start.get(e.0 as usize + 1),
-        ) {
-            (Some(&a), Some(&b)) => self.edges[a as usize..b as usize]
-                .iter()
-                .find(|x| x.0 == *e),
+        match (self.start.get(a as usize), self.start.get(a as usize + 1)) {
+            (Some(&from), Some(&to)) => {
+                let (from, to) = (from as usize, to as usize);
+                self.hi[from..to]
+                    .iter()
+                    .position(|&x| x == b)
+                    .map(|i| self.uses[from + i])
+            }
             _ => None,
         }
     }
 
     /// Faces using undirected edge `e`.
     fn count(&self, e: &Edge) -> u32 {
-        self.find(e).map_or(0, |x| x.1)
+        self.find(e).map_or(0, |u| u >> 2)
     }
 
     /// Some face runs the edge from `p` to `q`.
     fn runs(&self, p: u64, q: u64) -> bool {
         let bit = if p < q { 1 } else { 2 };
-        self.find(&undirected(p, q)).is_some_and(|x| x.2 & bit != 0)
+        self.find(&undirected(p, q)).is_some_and(|u| u & bit != 0)
     }
 
     /// The edges used by one face, sorted.
     fn boundary(&self) -> Vec<Edge> {
-        self.edges
-            .iter()
-            .filter(|x| x.1 == 1)
-            .map(|x| x.0)
-            .collect()
+        let once = |i: usize| self.uses[i] >> 2 == 1;
+        if self.start.is_empty() {
+            return (0..self.hi.len())
+                .filter(|&i| once(i))
+                .map(|i| (self.lo[i], self.hi[i]))
+                .collect();
+        }
+        let mut out = Vec::new();
+        for (a, w) in self.start.windows(2).enumerate() {
+            out.extend(
+                (w[0] as usize..w[1] as usize)
+                    .filter(|&i| once(i))
+                    .map(|i| (a as u64, self.hi[i])),
+            );
+        }
+        out
     }
 }
 
@@ -782,6 +822,52 @@ mod tests {
             node_block(dim, tags, at)
         });
         one_surface(blocks.into(), etype_, elems)
+    }
+
+    /// The edge table answers as a count over the faces, with compact tags (runs) and
+    /// with tags too sparse for them (binary search), on edges used once, twice, in both
+    /// directions and not at all.
+    #[test]
+    fn the_edge_table_counts_uses_and_directions_with_and_without_runs() {
+        for scale in [1u64, 1 << 40] {
+            let t = |i: u64| i * scale;
+            let faces: Vec<Vec<u64>> = vec![
+                vec![t(1), t(2), t(5)],
+                vec![t(1), t(5), t(4)],
+                vec![t(2), t(3), t(6), t(5)],
+                vec![t(5), t(2), t(7)],
+                vec![t(9), t(8), t(4)],
+            ];
+            let refs: Vec<&[u64]> = faces.iter().map(|f| &f[..]).collect();
+            let table = EdgeTable::new(&refs);
+            assert_eq!(table.start.is_empty(), scale > 1);
+            let uses_of = |p: u64, q: u64| {
+                faces
+                    .iter()
+                    .flat_map(|f| (0..f.len()).map(move |i| (f[i], f[(i + 1) % f.len()])))
+                    .filter(|&e| e == (p, q))
+                    .count() as u32
+            };
+            let runs = |p: u64, q: u64| uses_of(p, q) > 0;
+            let mut once = Vec::new();
+            for p in 0..11 {
+                for q in 0..11 {
+                    let (p, q) = (t(p), t(q));
+                    assert_eq!(table.runs(p, q), runs(p, q), "{p} -> {q}");
+                    if p < q {
+                        let uses = uses_of(p, q) + uses_of(q, p);
+                        assert_eq!(table.count(&(p, q)), uses, "{p} {q}");
+                        if uses == 1 {
+                            once.push((p, q));
+                        }
+                    }
+                }
+            }
+            // 2-5 is used three times (twice from 5)
+            assert_eq!(table.count(&(t(2), t(5))), 3);
+            assert!(once.len() > 5);
+            assert_eq!(table.boundary(), once);
+        }
     }
 
     const TRIS: [&[u64]; 8] = [

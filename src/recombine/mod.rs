@@ -465,7 +465,8 @@ pub enum RecombineError {
 ///
 /// Everything else is kept: node tags, curve and point elements, physical groups, entities,
 /// quads already present, other element types. On error the mesh may be partly changed
-/// (parity splits and dropped volumes); callers that need the input should clone it first.
+/// (parity splits, dropped volumes, and the recombined surfaces' triangle blocks emptied
+/// once their topology is built); callers that need the input should clone it first.
 pub fn recombine(
     mesh: &mut Mesh,
     opts: &RecombineOptions,
@@ -496,13 +497,18 @@ pub fn recombine(
     // recombination) has its quads split into triangles and is recombined whole; this
     // happens at most once per surface, so the loop ends.
     let mut retriangulated: Vec<i32> = Vec::new();
-    let (nodes, work, mut results) = loop {
-        let staged = parity_stage(mesh, opts, &mut report).and_then(|(nodes, work)| {
-            // memory: the topology's temporaries are freed; the graphs and the solvers
-            // allocate next, maybe on other threads (other arenas)
-            crate::pipeline::release_memory();
-            let coords = &nodes.coords;
-            let n_global = coords.len() as u32;
+    let (work, mut results) = loop {
+        let staged = parity_stage(mesh, opts, &mut report).and_then(|(nodes, mut work)| {
+            // memory: what only the topology and parity read goes before the graphs and
+            // the solvers allocate: the regions, and the surfaces' triangle blocks when
+            // nothing can read them again before the write back replaces them
+            for w in &mut work {
+                w.region = Vec::new();
+            }
+            if !may_reread_triangles(mesh, &work) {
+                clear_triangle_blocks(mesh, &work);
+            }
+            let n_global = nodes.coords.len() as u32;
             let mut split_nodes: Vec<u32> = report
                 .parity_splits
                 .iter()
@@ -514,6 +520,14 @@ pub fn recombine(
             }
             split_nodes.sort_unstable();
             let split_nodes = &split_nodes;
+            // memory: the graphs and the matchings read only the coordinates; the rest of
+            // the node table (tags, blocks, tag index) is built again for the write back
+            // (the nodes do not change in between)
+            let coords = nodes.into_coords();
+            // memory: the topology's temporaries are freed; the graphs and the solvers
+            // allocate next, maybe on other threads (other arenas)
+            crate::pipeline::release_memory();
+            let coords = &coords;
             let tracker = opts.progress.as_ref().map(|p| {
                 p.report(crate::Progress::new(crate::Stage::Topology, 4, 4));
                 let t = Arc::new(surface::Tracker::new(p.clone(), &work));
@@ -527,7 +541,7 @@ pub fn recombine(
             if let Some(t) = &tracker {
                 t.emit();
             }
-            results.map(|r| (nodes, work, r))
+            results.map(|r| (work, r))
         });
         match staged {
             Ok(done) => break done,
@@ -561,7 +575,9 @@ pub fn recombine(
             .count();
     }
     let periodic_corr = periodic::correspondence(mesh)?;
+    let nodes = NodeTable::new(mesh);
     write_back(mesh, &nodes, &work, &results);
+    drop(nodes);
     let mapped = periodic::map_slaves(mesh, Some(&periodic_corr))?;
     if mapped > 0 {
         report.log.push(format!(
@@ -673,6 +689,30 @@ fn parity_stage(
         return Err(parity::still_odd_error(&again.odd));
     }
     Ok((nodes, work))
+}
+
+/// True when the triangle blocks of the surfaces in `work` may be read again before the
+/// write back replaces them: when one of those surfaces has quads (a failed matching
+/// retriangulates it and runs the topology of every surface again), or when the mesh has
+/// periodic surface links (the slaves' correspondence reads their masters' triangles).
+fn may_reread_triangles(mesh: &Mesh, work: &[SurfaceWork]) -> bool {
+    mesh.periodic.iter().any(|p| p.dim == 2) || work.iter().any(|w| has_quads(mesh, w.tag))
+}
+
+/// Empties (keeping the blocks, which the write back finds and replaces) the triangle
+/// blocks of the surfaces in `work`: their triangles, element tags and partitions are in
+/// `work` already.
+fn clear_triangle_blocks(mesh: &mut Mesh, work: &[SurfaceWork]) {
+    for b in &mut mesh.element_blocks {
+        if b.element_type == etype::TRI3
+            && b.entity_dim == 2
+            && work.iter().any(|w| w.tag == b.entity_tag)
+        {
+            b.nodes = Vec::new();
+            b.tags = Vec::new();
+            b.partitions = None;
+        }
+    }
 }
 
 /// True when surface `s` has 4-node quads.
