@@ -248,7 +248,12 @@ fn finish_ticking(
     // quality: lift the worst quads (max-min) first; the pattern search after it keeps
     // every star's worst key, so η_w stays
     if opts.angle_sweeps > 0 {
-        ops.smoothing_moves += smooth::polish_worst(l, 4);
+        let worst_sweeps = if l.quads.len() < RESMOOTH_ALL_BELOW {
+            WORST_SWEEPS
+        } else {
+            WORST_SWEEPS_LARGE
+        };
+        ops.smoothing_moves += smooth::polish_worst(l, worst_sweeps);
         gate.check(l, true, "max-min polish");
         lap_with_quality(tm, l, "polish_worst");
         tick(1);
@@ -270,6 +275,18 @@ fn finish_ticking(
     }
     tick(1);
 }
+
+/// Sweeps of the max-min polish ([`smooth::polish_worst`]) on surfaces under
+/// [`RESMOOTH_ALL_BELOW`] quads.
+const WORST_SWEEPS: usize = 4;
+
+/// Sweeps of the max-min polish on surfaces of [`RESMOOTH_ALL_BELOW`] quads or more: after
+/// the shorter first smoothing ([`FIRST_SWEEPS_NUM`]) four sweeps left one quad of the 1e5
+/// rectangle fixture at η 0.593, eight lift it to 0.600. The sweeps only visit the nodes
+/// around quads below η 0.6 and the neighbours of moved nodes, and stop when nothing moves,
+/// so the extra ones cost next to nothing (figures in BENCHMARKS.md, "Issue 15: a shorter
+/// first smoothing on large surfaces").
+const WORST_SWEEPS_LARGE: usize = 8;
 
 /// After a topological pass, smoothing starts from the nodes within this many quad rings of
 /// the changes: about the quality of smoothing every node, at a fraction of the work
