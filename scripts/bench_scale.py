@@ -29,7 +29,9 @@ Usage: scripts/bench_scale.py [--parts scale,multi,gmsh,lemon] [--dir DIR]
 
 Generated meshes and outputs go to DIR (default: a new temporary directory,
 never the repository); an existing mesh in DIR is reused, not regenerated.
-Needs the release binary (cargo build --release --examples), `gmsh`,
+Needs the release binary and examples (`cargo build --release --examples`, then
+`cargo build --release` again: a binary built together with the examples gets the
+dev-dependencies' features and peaks higher, see BENCHMARKS.md), `gmsh`,
 `/usr/bin/time`, and for `lemon` Debian's liblemon-dev.
 """
 
