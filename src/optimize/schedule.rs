@@ -248,12 +248,8 @@ fn finish_ticking(
     // quality: lift the worst quads (max-min) first; the pattern search after it keeps
     // every star's worst key, so η_w stays
     if opts.angle_sweeps > 0 {
-        let worst_sweeps = if l.quads.len() < RESMOOTH_ALL_BELOW {
-            WORST_SWEEPS
-        } else {
-            WORST_SWEEPS_LARGE
-        };
-        ops.smoothing_moves += smooth::polish_worst(l, worst_sweeps);
+        let sweeps = by_size(l, WORST_SWEEPS, WORST_SWEEPS_LARGE);
+        ops.smoothing_moves += smooth::polish_worst(l, sweeps);
         gate.check(l, true, "max-min polish");
         lap_with_quality(tm, l, "polish_worst");
         tick(1);
@@ -264,11 +260,7 @@ fn finish_ticking(
     }
     // then maximize the mean η, the worst of every star kept (polish.rs)
     if opts.smooth_iterations > 0 {
-        let sweeps = if l.quads.len() < RESMOOTH_ALL_BELOW {
-            polish::MEAN_SWEEPS_SMALL
-        } else {
-            polish::MEAN_SWEEPS
-        };
+        let sweeps = by_size(l, polish::MEAN_SWEEPS_SMALL, polish::MEAN_SWEEPS);
         ops.smoothing_moves += polish::polish_mean(l, sweeps);
         gate.check(l, true, "mean polish");
         lap_with_quality(tm, l, "polish_mean");
@@ -311,10 +303,17 @@ const FIRST_SWEEPS_NUM: usize = 1;
 /// [`RESMOOTH_ALL_BELOW`] quads, [`FIRST_SWEEPS_NUM`] fifths of them (rounded up) on larger
 /// ones; 0 when smoothing is off.
 fn first_sweeps(l: &Local, opts: &OptimizeOptions) -> usize {
+    let n = opts.smooth_iterations;
+    by_size(l, n, (n * FIRST_SWEEPS_NUM).div_ceil(5))
+}
+
+/// `small` on surfaces under [`RESMOOTH_ALL_BELOW`] quads, `large` on the others: the
+/// schedule's one size switch for sweep counts.
+fn by_size(l: &Local, small: usize, large: usize) -> usize {
     if l.quads.len() < RESMOOTH_ALL_BELOW {
-        opts.smooth_iterations
+        small
     } else {
-        (opts.smooth_iterations * FIRST_SWEEPS_NUM).div_ceil(5)
+        large
     }
 }
 

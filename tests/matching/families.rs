@@ -18,9 +18,10 @@ use matching_common::Rng;
 
 /// Solves from the plain start (no jump start), from the greedy start only, from the
 /// fractional start with local-search budgets 0 and 2 (nearly all work, or the abandoned
-/// searches, left to the forest), 2 then a second local pass of budget 16, and with main-phase single-tree budgets 0 and 3, and with
-/// budgets 0 for both phases and the plain start with main budget 0: other dual trajectories
-/// than [`matching::solve`]'s; checks every certificate, returns the costs.
+/// searches, left to the forest), 2 then a second local pass of budget 16, and with
+/// main-phase single-tree budgets 0 and 3, and with budgets 0 for both phases and the plain
+/// start with main budget 0: other dual trajectories than [`matching::solve`]'s; checks
+/// every certificate, returns the costs.
 fn other_starts(n: usize, edges: &[(u32, u32, i64)]) -> [i64; 9] {
     let plain = Solver::new(n, edges).run_plain().expect("plain start");
     assert!(matching::verify(n, edges, &plain).is_ok());
@@ -603,7 +604,8 @@ fn certificate_on_mesh_graph_1e6() {
 }
 
 /// The fractional start's second local pass runs on mesh graphs, ends most of its searches
-/// on the lattice (whose abandoned roots it leaves to the forest), and the progress the solver reports only grows, below a fixed total.
+/// on the lattice (whose abandoned roots it leaves to the forest), and the progress the
+/// solver reports only grows, below a fixed total.
 #[test]
 fn second_local_pass_and_progress_on_mesh_graphs() {
     use std::sync::{Arc, Mutex};
