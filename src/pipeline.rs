@@ -109,7 +109,9 @@ impl Stage {
 /// and for the stages that go surface by surface, how many surfaces are finished with it.
 ///
 /// What stays true of the reports one [`quadrangulate`] call sends (fallback rounds start
-/// the stages again from [`Stage::Topology`]): within a round, stages come in [`Stage`]
+/// the stages again from [`Stage::Topology`]; without [`Options::optimize`], a round that
+/// only optimizes the surfaces whose matching left quads that are not valid starts again
+/// from [`Stage::Optimize`]): within a round, stages come in [`Stage`]
 /// order; within a stage `done` never decreases and `done <= total`, `total > 0`; each stage
 /// a round goes through ends with a report where `done == total`. Reports are throttled (a
 /// few hundred per call at most, whatever the mesh size), so a callback may redraw on each.
@@ -187,8 +189,8 @@ impl PartialEq for ProgressFn {
 /// Where the stages send their progress: forwards to a [`ProgressFn`] only what keeps the
 /// promises of [`Progress`] (stage order, `done` not decreasing) and what moved by at least
 /// 1/[`Reporter::STEPS`] of the stage since the last report, or ends it; one call at a time,
-/// so reports from several threads arrive in order. A report of [`Stage::Topology`] at 0
-/// starts a new round.
+/// so reports from several threads arrive in order. A report of [`Stage::Topology`] at 0,
+/// or of any stage at 0 after a finished [`Stage::Check`], starts a new round.
 struct Reporter {
     f: ProgressFn,
     /// The last report forwarded.
@@ -215,8 +217,11 @@ impl Reporter {
             return;
         };
         if let Some(l) = *last {
-            // a fallback round starts again from the first stage
-            let restart = p.stage == Stage::Topology && p.done == 0;
+            // a fallback round starts again from the first stage, and a round that only
+            // optimizes more surfaces (without `optimize`) from the optimizer, once the
+            // checks that end a round are done
+            let round_over = l.stage == Stage::Check && l.done == l.total;
+            let restart = p.done == 0 && (p.stage == Stage::Topology || round_over);
             if p.stage < l.stage && !restart {
                 return;
             }
@@ -469,32 +474,52 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
     let mut force: HashSet<i32> = HashSet::new();
     // the input side of the checks, prepared once (during the first round's matching)
     let mut checks: Option<Checks> = None;
+    // without optimization: the last round's mesh before optimization, when the next round
+    // only optimizes more surfaces of the same recombination
+    let mut carried: Option<Recombined> = None;
     for round in 0..=FALLBACK_ROUNDS {
-        let mut mesh = input.clone();
-        if !chosen.is_empty() {
-            let t = Instant::now();
-            let split = recombine::split_triangles(&mut mesh, &chosen);
-            log.push(format!(
-                "fallback round {round}: {} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
-                split.triangles_to_quads,
-                sorted_list(&split.surfaces),
-                split.triangles_halved,
-                split.lines_split
-            ));
-            fallback = Some(split);
-            times.recombine += t.elapsed();
-        }
+        let optimizing = opts.optimize || !force.is_empty();
+        let recombined = match carried.take() {
+            Some(c) => c,
+            None => {
+                let mut mesh = input.clone();
+                if !chosen.is_empty() {
+                    let t = Instant::now();
+                    let split = recombine::split_triangles(&mut mesh, &chosen);
+                    log.push(format!(
+                        "fallback round {round}: {} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
+                        split.triangles_to_quads,
+                        sorted_list(&split.surfaces),
+                        split.triangles_halved,
+                        split.lines_split
+                    ));
+                    fallback = Some(split);
+                    times.recombine += t.elapsed();
+                }
+                recombine_once(input, mesh, opts, optimizing, &mut checks, &mut times)?
+            }
+        };
+        let Recombined {
+            mut mesh,
+            report: recombine_report,
+            refined,
+            prepared,
+        } = recombined;
         // after a first invalid run, keep the mesh before optimization: a surface the
-        // optimizer leaves invalid gets it back
-        let keep = round > 0 && (opts.optimize || !force.is_empty());
-        let (mut run, refined, unoptimized) = run_once(
+        // optimizer leaves invalid gets it back (and without optimization, the next round
+        // may start from it)
+        let keep = round > 0 && optimizing;
+        let unoptimized = keep.then(|| mesh.clone());
+        let mut run = recombine_report.clone();
+        optimize_once(
             input,
             &mut mesh,
             opts,
             &force,
-            keep,
+            prepared,
             &mut checks,
             &mut times,
+            &mut run,
         )?;
         // memory: the optimizer's arrays are freed; the checks allocate next
         release_memory();
@@ -573,6 +598,14 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
                     sorted_list(&new)
                 ));
                 force.extend(new);
+                // the recombination would be the same: only the optimizer runs again
+                // (nothing was optimized when no mesh was kept before optimization)
+                carried = Some(Recombined {
+                    mesh: unoptimized.unwrap_or(mesh),
+                    report: recombine_report,
+                    refined,
+                    prepared: None,
+                });
                 continue;
             }
         }
@@ -719,20 +752,34 @@ impl<'a> Checks<'a> {
     }
 }
 
-/// One run: recombine, refine, optimize (all surfaces, or without
-/// [`Options::optimize`] those in `force`; the reference triangulation prepared on its own
-/// thread meanwhile). Returns the report, after a refinement the refined mesh before
-/// optimization, and with `keep_unoptimized` the mesh before optimization.
-#[allow(clippy::type_complexity)]
-fn run_once<'a>(
+/// A round's mesh before optimization, with what the recombination and refinement of that
+/// round reported. Without [`Options::optimize`], a round that only adds surfaces to the
+/// optimized set starts again from it instead of recombining the input again (the
+/// recombination is a function of the input and the fallback's splits, which have not
+/// changed).
+struct Recombined {
+    /// The mesh after recombination and refinement.
+    mesh: Mesh,
+    /// The recombination and refinement reports (no optimization yet).
+    report: Report,
+    /// After a refinement, the refined mesh (the invariants' baseline).
+    refined: Option<Mesh>,
+    /// The optimizer's reference, when it was prepared beside the recombination.
+    prepared: Option<optimize::PreparedReference>,
+}
+
+/// The first half of a run: recombine `mesh` (the input, with the fallback's splits) and
+/// refine it, the optimizer's reference prepared on its own thread meanwhile when
+/// `optimizing`, and the input side of the checks too when they are missing and the
+/// optimizer will not run.
+fn recombine_once<'a>(
     input: &'a Mesh,
-    mesh: &mut Mesh,
+    mut mesh: Mesh,
     opts: &Options,
-    force: &HashSet<i32>,
-    keep_unoptimized: bool,
+    optimizing: bool,
     checks: &mut Option<Checks<'a>>,
     times: &mut Times,
-) -> Result<(Report, Option<Mesh>, Option<Mesh>), Error> {
+) -> Result<Recombined, Error> {
     let ropts = recombine::RecombineOptions {
         parity: opts.parity,
         drop_volumes: opts.drop_volumes,
@@ -752,21 +799,19 @@ fn run_once<'a>(
     // only: the reference is prepared on its own thread while the recombination runs (its
     // matching is serial per surface), and so is the checks' input side without the
     // optimizer
-    let optimizing = opts.optimize || !force.is_empty();
     let want_checks = checks.is_none();
     // memory: with the optimizer, the input side of the final checks is prepared while the
     // optimizer runs (its arrays are then live anyway), not during the matching
-    let checks_with_optimizer = want_checks && optimizing;
+    let checks_with_recombination = want_checks && !optimizing;
     let (recombined, prep) = std::thread::scope(|sc| {
-        let prep = (optimizing || want_checks).then(|| {
+        let prep = (optimizing || checks_with_recombination).then(|| {
             sc.spawn(|| {
                 let reference = optimizing.then(|| optimize::PreparedReference::new(input));
-                let ready = (want_checks && !checks_with_optimizer)
-                    .then(|| Checks::new(input, opts.refine == 0));
+                let ready = checks_with_recombination.then(|| Checks::new(input, opts.refine == 0));
                 (reference, ready)
             })
         });
-        let r = recombine::recombine(mesh, &ropts);
+        let r = recombine::recombine(&mut mesh, &ropts);
         (r, prep.map(|h| h.join()))
     });
     let (prepared, ready) = match prep {
@@ -795,7 +840,7 @@ fn run_once<'a>(
             usize::from(level - 1),
             usize::from(opts.refine),
         );
-        let r = refine::refine(mesh)?;
+        let r = refine::refine(&mut mesh)?;
         report.log.push(format!(
             "refinement {level}: {} quads, {} line elements, {} new nodes",
             r.quads, r.lines, r.nodes_added
@@ -812,75 +857,99 @@ fn run_once<'a>(
     }
     times.refine += t.elapsed();
     let refined = (opts.refine > 0).then(|| mesh.clone());
-    let unoptimized = keep_unoptimized.then(|| mesh.clone());
+    Ok(Recombined {
+        mesh,
+        report,
+        refined,
+        prepared,
+    })
+}
 
-    if opts.optimize || !force.is_empty() {
-        let t = Instant::now();
-        let mut oopts = optimize::OptimizeOptions::default();
-        // a refined mesh has 2^N times more nodes across: smoothing needs as many more
-        // sweeps to carry a move as far
-        oopts.smooth_iterations = opts
-            .smooth
-            .unwrap_or(oopts.smooth_iterations << opts.refine);
-        oopts.topology = opts.topology;
-        oopts.reference_size_scale = 0.5f64.powi(i32::from(opts.refine));
-        let cb = |p: Progress| {
-            if let Some(f) = &opts.progress {
-                f.report(p);
-            }
-        };
-        if opts.progress.is_some() {
-            oopts.progress = Some(&cb);
-        }
-        oopts.trace = opts.trace.as_ref();
-        let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
-        // periodic surfaces keep the matching's quads (master and slave stay images of
-        // each other, node for node)
-        let mut periodic: Vec<i32> = mesh
-            .periodic
-            .iter()
-            .filter(|p| p.dim == 2)
-            .flat_map(|p| [p.tag, p.master_tag])
-            .collect();
-        if !opts.optimize {
-            // only the surfaces in `force`
-            periodic.extend(
-                mesh.element_blocks
-                    .iter()
-                    .filter(|b| b.entity_dim == 2 && !force.contains(&b.entity_tag))
-                    .map(|b| b.entity_tag),
-            );
-        }
-        periodic.sort_unstable();
-        periodic.dedup();
-        oopts.skip = &periodic;
-        let (orep, ready) = std::thread::scope(|sc| {
-            let ready =
-                checks_with_optimizer.then(|| sc.spawn(|| Checks::new(input, opts.refine == 0)));
-            let orep = optimize::optimize_prepared(mesh, prepared, &oopts);
-            (orep, ready.map(|h| h.join()))
-        });
-        match ready {
-            Some(Ok(ready)) => *checks = Some(ready),
-            Some(Err(panic)) => std::panic::resume_unwind(panic),
-            None => {}
-        }
-        let orep = orep?;
-        for s in &orep.surfaces {
-            report.log.push(format!(
-                "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",
-                s.surface,
-                s.before.eta_worst,
-                s.after.eta_worst,
-                s.before.eta_mean,
-                s.after.eta_mean,
-                s.after.quads
-            ));
-        }
-        report.optimize = Some(orep);
-        times.optimize += t.elapsed();
+/// The second half of a run: optimize `mesh` (all surfaces, or without
+/// [`Options::optimize`] those in `force`; none when neither), the input side of the
+/// checks prepared on its own thread meanwhile when it is missing. Adds the optimizer's
+/// report and log lines to `report`.
+#[allow(clippy::too_many_arguments)]
+fn optimize_once<'a>(
+    input: &'a Mesh,
+    mesh: &mut Mesh,
+    opts: &Options,
+    force: &HashSet<i32>,
+    prepared: Option<optimize::PreparedReference>,
+    checks: &mut Option<Checks<'a>>,
+    times: &mut Times,
+    report: &mut Report,
+) -> Result<(), Error> {
+    if !opts.optimize && force.is_empty() {
+        return Ok(());
     }
-    Ok((report, refined, unoptimized))
+    let t = Instant::now();
+    let mut oopts = optimize::OptimizeOptions::default();
+    // a refined mesh has 2^N times more nodes across: smoothing needs as many more
+    // sweeps to carry a move as far
+    oopts.smooth_iterations = opts
+        .smooth
+        .unwrap_or(oopts.smooth_iterations << opts.refine);
+    oopts.topology = opts.topology;
+    oopts.reference_size_scale = 0.5f64.powi(i32::from(opts.refine));
+    let cb = |p: Progress| {
+        if let Some(f) = &opts.progress {
+            f.report(p);
+        }
+    };
+    if opts.progress.is_some() {
+        oopts.progress = Some(&cb);
+    }
+    oopts.trace = opts.trace.as_ref();
+    let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
+    // periodic surfaces keep the matching's quads (master and slave stay images of
+    // each other, node for node)
+    let mut periodic: Vec<i32> = mesh
+        .periodic
+        .iter()
+        .filter(|p| p.dim == 2)
+        .flat_map(|p| [p.tag, p.master_tag])
+        .collect();
+    if !opts.optimize {
+        // only the surfaces in `force`
+        periodic.extend(
+            mesh.element_blocks
+                .iter()
+                .filter(|b| b.entity_dim == 2 && !force.contains(&b.entity_tag))
+                .map(|b| b.entity_tag),
+        );
+    }
+    periodic.sort_unstable();
+    periodic.dedup();
+    oopts.skip = &periodic;
+    // memory: the input side of the final checks is prepared while the optimizer runs
+    // (its arrays are then live anyway), not during the matching
+    let want_checks = checks.is_none();
+    let (orep, ready) = std::thread::scope(|sc| {
+        let ready = want_checks.then(|| sc.spawn(|| Checks::new(input, opts.refine == 0)));
+        let orep = optimize::optimize_prepared(mesh, prepared, &oopts);
+        (orep, ready.map(|h| h.join()))
+    });
+    match ready {
+        Some(Ok(ready)) => *checks = Some(ready),
+        Some(Err(panic)) => std::panic::resume_unwind(panic),
+        None => {}
+    }
+    let orep = orep?;
+    for s in &orep.surfaces {
+        report.log.push(format!(
+            "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",
+            s.surface,
+            s.before.eta_worst,
+            s.after.eta_worst,
+            s.before.eta_mean,
+            s.after.eta_mean,
+            s.after.quads
+        ));
+    }
+    report.optimize = Some(orep);
+    times.optimize += t.elapsed();
+    Ok(())
 }
 
 #[cfg(test)]
@@ -1016,6 +1085,10 @@ mod tests {
             (Stage::Matching, 1000),
             (Stage::Matching, 1000), // already ended: dropped
             (Stage::Topology, 0),    // a new round
+            (Stage::Check, 0),
+            (Stage::Optimize, 0), // an earlier stage before the checks end: dropped
+            (Stage::Check, 1000),
+            (Stage::Optimize, 0), // a round that only optimizes
         ] {
             r.report(Progress::new(stage, done, 1000));
         }
@@ -1028,6 +1101,10 @@ mod tests {
                 (Stage::Matching, 10),
                 (Stage::Matching, 1000),
                 (Stage::Topology, 0),
+                (Stage::Topology, 1000), // ended when the checks overtook it
+                (Stage::Check, 0),
+                (Stage::Check, 1000),
+                (Stage::Optimize, 0),
             ]
         );
     }

@@ -183,3 +183,61 @@ fn a_fan_of_two_odd_surfaces_without_curves_gets_valid_quads() {
     let report = check_mesh(&input, &output, &[]);
     assert!(report.ok, "{}", report.report);
 }
+
+/// Without optimization, a surface whose matching leaves quads that are not valid is
+/// optimized all the same in a second round; that round starts from the first round's
+/// recombination instead of recombining again: the recombination's stages report once,
+/// the second round's reports go from the optimizer to the checks, and the result is the
+/// same as a second round that recombines again would give (valid, invariants kept).
+#[test]
+fn a_round_that_only_optimizes_reuses_the_recombination() {
+    use blossomquad::{Progress, ProgressFn, Stage};
+    use std::sync::{Arc, Mutex};
+
+    let dir = tempfile::tempdir().expect("temp dir");
+    // 14 faces; the matching leaves a folded quad on some of them
+    let path = common::generate(
+        "cad_solid",
+        Variant::Msh41Binary,
+        dir.path(),
+        common::test_size("cad_solid"),
+        &[],
+    );
+    let input = blossomquad::msh::read_file(&path).expect("generated mesh");
+    let seen: Arc<Mutex<Vec<Progress>>> = Arc::new(Mutex::new(Vec::new()));
+    let sink = Arc::clone(&seen);
+    let mut opts = Options::default();
+    opts.optimize = false;
+    opts.progress = Some(ProgressFn::new(move |p| sink.lock().expect("lock").push(p)));
+    let mut mesh = input.clone();
+    let report = quadrangulate(&mut mesh, &opts).expect("valid quads");
+    assert!(
+        report.log.iter().any(|l| l.contains("optimized after all")),
+        "the fixture no longer needs a forced optimization: {:?}",
+        report.log
+    );
+    assert_eq!(report.rounds, 2, "{:?}", report.log);
+    assert!(validity::invalid_quads(&input, &mesh).is_empty());
+    blossomquad::recombine::check_invariants(&input, &mesh).expect("invariants");
+    let seen = seen.lock().expect("lock").clone();
+    let mut order: Vec<Stage> = seen.iter().map(|p| p.stage).collect();
+    order.dedup();
+    assert_eq!(
+        order,
+        [
+            Stage::Topology,
+            Stage::Graph,
+            Stage::Matching,
+            Stage::Check,
+            Stage::Optimize,
+            Stage::Check
+        ],
+        "the second round must start at the optimizer"
+    );
+    // every stretch of one stage ends with its last unit done
+    for (i, p) in seen.iter().enumerate() {
+        if seen.get(i + 1).is_none_or(|next| next.stage != p.stage) {
+            assert_eq!(p.done, p.total, "{:?} ended early", p.stage);
+        }
+    }
+}
