@@ -291,6 +291,8 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
     drop((weights, rhos, diag));
     let mut r = vec![C::default(); n];
     apply(&blocks, &z, &mut r);
+    // memory: the iterations need only the residual
+    drop(z);
     r.iter_mut().for_each(|c| *c = c.scale(-1.0));
     let mut d = vec![C::default(); n];
     let mut p: Vec<C> = r.iter().zip(&inv).map(|(c, &m)| c.scale(m)).collect();
@@ -337,7 +339,7 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
             });
     }
     // memory: the line search needs only the step
-    drop((r, p, ap, inv, z, blocks));
+    drop((r, p, ap, inv, blocks));
     // line search on the mean signed η
     let eval = |pos: &[DVec3]| -> Vec<f64> {
         live.par_iter()
