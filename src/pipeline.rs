@@ -525,9 +525,7 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         release_memory();
         let t = Instant::now();
         progress(opts, Stage::Check, 0, 1);
-        // refinement splits every boundary segment once more: its output is the baseline.
-        // speed: the two checks are independent, so they run side by side (an invariant
-        // failure still comes first)
+        // the input side of the checks, when the first round's matching did not prepare it
         let checks = checks.get_or_insert_with(|| Checks::new(input, opts.refine == 0));
         // after a refinement the refined mesh is the baseline of the invariants
         let refined_before = refined.as_ref().map(recombine::Before::new);
