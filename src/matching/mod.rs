@@ -142,10 +142,7 @@ impl std::error::Error for NoPerfectMatching {}
 /// `O(n · m · (d + log C))` in the worst case (`d` blossom nesting depth, `C` cost range, for
 /// the radix heap); on mesh graphs it grows slightly faster than linearly (cache effects).
 pub fn solve(n: usize, edges: &[(u32, u32, i64)]) -> Result<Matching, NoPerfectMatching> {
-    if let Some(err) = odd_component_witness(n, edges) {
-        return Err(err);
-    }
-    blossom::Solver::new(n, edges).run()
+    prepare(n, edges, None)?.run()
 }
 
 /// [`solve`] reporting its progress to `progress` as `(done, total)`: `total` fixed,
@@ -156,12 +153,36 @@ pub fn solve_with_progress(
     edges: &[(u32, u32, i64)],
     progress: blossom::ProgressCallback,
 ) -> Result<Matching, NoPerfectMatching> {
+    prepare(n, edges, Some(progress))?.run()
+}
+
+/// [`solve`] with the edge list moved in (and the progress of [`solve_with_progress`] when
+/// given): the list is freed as soon as the solver has built its own arrays from it, so
+/// that it is not live through the solve.
+pub fn solve_owned(
+    n: usize,
+    edges: Vec<(u32, u32, i64)>,
+    progress: Option<blossom::ProgressCallback>,
+) -> Result<Matching, NoPerfectMatching> {
+    let solver = prepare(n, &edges, progress)?;
+    drop(edges);
+    solver.run()
+}
+
+/// The solver state for `edges`, or the witness of an odd component.
+fn prepare(
+    n: usize,
+    edges: &[(u32, u32, i64)],
+    progress: Option<blossom::ProgressCallback>,
+) -> Result<blossom::Solver, NoPerfectMatching> {
     if let Some(err) = odd_component_witness(n, edges) {
         return Err(err);
     }
     let mut solver = blossom::Solver::new(n, edges);
-    solver.set_progress(progress);
-    solver.run()
+    if let Some(p) = progress {
+        solver.set_progress(p);
+    }
+    Ok(solver)
 }
 
 /// Scale factor applied by [`solve_f64`]: the power of two `S` such that the largest finite

@@ -120,7 +120,8 @@ pub(crate) fn wall_nodes(topo: &SurfaceTopo) -> Vec<u32> {
 
 /// The matching graph of one surface.
 pub(crate) struct Graph {
-    /// `(t, t', cost)`: real graph edges first (`real` of them), then extra edges.
+    /// `(t, t', cost)`: real graph edges first (`real` of them), then extra edges (empty
+    /// once moved to the solver).
     pub edges: Vec<(u32, u32, i64)>,
     /// Number of real graph edges at the front of `edges`.
     pub real: usize,

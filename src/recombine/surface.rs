@@ -125,7 +125,7 @@ pub(super) fn match_surface(
 ) -> Result<SurfaceResult, RecombineError> {
     let t0 = Instant::now();
     let cross = opts.cross_field_weight.clamp(0.0, 5.0);
-    let g = graph::build(
+    let mut g = graph::build(
         &w.topo,
         coords,
         split_nodes,
@@ -150,20 +150,26 @@ pub(super) fn match_surface(
         crate::pipeline::release_memory();
     }
     let sent = Arc::new(AtomicU64::new(0));
-    let solved = match tracker {
-        None => crate::matching::solve(n, &g.edges),
-        Some(t) => {
-            t.graph_built(n);
-            let (t, sent) = (Arc::clone(t), Arc::clone(&sent));
-            // the solver's (done, total) as this surface's share of the triangles
-            let f = move |done: usize, total: usize| {
-                let units = (n as u128 * done as u128 / total.max(1) as u128) as u64;
-                let before = sent.fetch_max(units, Ordering::Relaxed);
-                t.matched(units.saturating_sub(before), false);
-            };
-            crate::matching::solve_with_progress(n, &g.edges, Box::new(f))
-        }
+    let progress = tracker.map(|t| {
+        t.graph_built(n);
+        let (t, sent) = (Arc::clone(t), Arc::clone(&sent));
+        // the solver's (done, total) as this surface's share of the triangles
+        let f = move |done: usize, total: usize| {
+            let units = (n as u128 * done as u128 / total.max(1) as u128) as u64;
+            let before = sent.fetch_max(units, Ordering::Relaxed);
+            t.matched(units.saturating_sub(before), false);
+        };
+        Box::new(f) as crate::matching::blossom::ProgressCallback
+    });
+    let edge_count = g.edges.len();
+    // memory: the solver frees the edge list once its own arrays are built, unless the
+    // certificate check below reads it again
+    let edges = if opts.verify {
+        g.edges.clone()
+    } else {
+        std::mem::take(&mut g.edges)
     };
+    let solved = crate::matching::solve_owned(n, edges, progress);
     let m = solved.map_err(|e| RecombineError::NoPerfectMatching {
         surface: w.tag,
         triangles: n,
@@ -195,7 +201,7 @@ pub(super) fn match_surface(
         quads_kept: w.quads_kept,
         parity_splits: 0,
         graph_edges: g.real,
-        extra_edges_added: g.edges.len() - g.real,
+        extra_edges_added: edge_count - g.real,
         extra_edges_used: faces.extra_used,
         edge_swaps: faces.swaps,
         vertex_duplications: faces.duplications,

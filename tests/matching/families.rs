@@ -604,8 +604,8 @@ fn certificate_on_mesh_graph_1e6() {
 }
 
 /// The fractional start's second local pass runs on mesh graphs, ends most of its searches
-/// on the lattice (whose abandoned roots it leaves to the forest), and the progress the
-/// solver reports only grows, below a fixed total.
+/// on the lattice (whose abandoned roots it leaves to the forest), the progress the solver
+/// reports only grows, below a fixed total, and `solve_owned` gives the same result.
 #[test]
 fn second_local_pass_and_progress_on_mesh_graphs() {
     use std::sync::{Arc, Mutex};
@@ -631,6 +631,9 @@ fn second_local_pass_and_progress_on_mesh_graphs() {
         )
         .expect("perfect matching");
         assert_eq!(p.cost, m.cost, "{kind}");
+        // the edge list moved in (freed once the solver has its arrays): the same result
+        let owned = matching::solve_owned(n, e.clone(), None).expect("perfect matching");
+        assert_eq!(owned, p, "{kind}");
         let seen = seen.lock().expect("progress log");
         assert!(!seen.is_empty(), "{kind}: no progress reported");
         let total = seen[0].1;
