@@ -272,7 +272,11 @@ fn try_merge(
             }
         }
     }
-    l.nrm[a as usize] = (na + l.nrm[c as usize]).normalize_or(na);
+    // a planar surface's nodes keep the plane's normal bit for bit (the validity gate then
+    // stores one normal for all of them)
+    if !l.planar {
+        l.nrm[a as usize] = (na + l.nrm[c as usize]).normalize_or(na);
+    }
     for cand in [mid, centroid] {
         let (p, tri) = l.project(a, cand);
         l.pos[a as usize] = p;

@@ -97,14 +97,12 @@ pub(crate) fn invalid_quads(l: &Local) -> Vec<u32> {
 /// The alive quads of `l` that are not alive in `base` with the same nodes, or that have a
 /// node whose position or normal differs (bit for bit) from `base`'s, by increasing index.
 fn changed_quads(l: &Local, base: &State) -> Vec<u32> {
-    let same =
-        |a: DVec3, b: DVec3| a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits);
     let moved: Vec<bool> = (0..l.pos.len())
         .into_par_iter()
         .with_min_len(8192)
         .map(|v| {
             base.pos.get(v).is_none_or(|&p| !same(p, l.pos[v]))
-                || base.nrm.get(v).is_none_or(|&n| !same(n, l.nrm[v]))
+                || base.nrm.get(v).is_none_or(|n| !same(n, l.nrm[v]))
         })
         .collect();
     (0..l.quads.len() as u32)
@@ -124,18 +122,81 @@ fn changed_quads(l: &Local, base: &State) -> Vec<u32> {
 #[derive(Clone)]
 struct State {
     pos: Vec<DVec3>,
-    nrm: Vec<DVec3>,
+    nrm: Normals,
     tri: Vec<u32>,
     removed: Vec<bool>,
     quads: Vec<[u32; 4]>,
     alive: Vec<bool>,
 }
 
+/// True when `a` and `b` are the same vector bit for bit.
+fn same(a: DVec3, b: DVec3) -> bool {
+    a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)
+}
+
+/// A state's node normals. Memory: one vector when every node has the same (bit for bit,
+/// as on a planar surface), else one per node.
+#[derive(Clone)]
+enum Normals {
+    /// Every one of `len` nodes has this normal.
+    Uniform(DVec3, usize),
+    Each(Vec<DVec3>),
+}
+
+impl Normals {
+    fn of(nrm: &[DVec3]) -> Self {
+        match Self::uniform(nrm) {
+            Some(n) => Normals::Uniform(n, nrm.len()),
+            None => Normals::Each(nrm.to_vec()),
+        }
+    }
+
+    /// The one normal of every node of `nrm` (none when it is empty or they differ).
+    fn uniform(nrm: &[DVec3]) -> Option<DVec3> {
+        let first = *nrm.first()?;
+        nrm.par_iter()
+            .with_min_len(8192)
+            .all(|&n| same(n, first))
+            .then_some(first)
+    }
+
+    /// Makes these the normals of `nrm`, reusing the buffer when they are not uniform.
+    fn store(&mut self, nrm: &[DVec3]) {
+        match (Self::uniform(nrm), &mut *self) {
+            (Some(n), _) => *self = Normals::Uniform(n, nrm.len()),
+            (None, Normals::Each(v)) => {
+                v.clear();
+                v.extend_from_slice(nrm);
+            }
+            (None, Normals::Uniform(..)) => *self = Normals::Each(nrm.to_vec()),
+        }
+    }
+
+    /// Node `v`'s normal, if the state has node `v`.
+    fn get(&self, v: usize) -> Option<DVec3> {
+        match self {
+            Normals::Uniform(n, len) => (v < *len).then_some(*n),
+            Normals::Each(e) => e.get(v).copied(),
+        }
+    }
+
+    /// Puts these normals into `out`.
+    fn restore(&self, out: &mut Vec<DVec3>) {
+        match self {
+            Normals::Uniform(n, len) => {
+                out.clear();
+                out.resize(*len, *n);
+            }
+            Normals::Each(e) => out.clone_from(e),
+        }
+    }
+}
+
 impl State {
     fn of(l: &Local) -> Self {
         State {
             pos: l.pos.clone(),
-            nrm: l.nrm.clone(),
+            nrm: Normals::of(&l.nrm),
             tri: l.tri.clone(),
             removed: l.removed.clone(),
             quads: l.quads.clone(),
@@ -146,7 +207,7 @@ impl State {
     /// Makes this state `l`'s, reusing its buffers (no new allocation at a later check).
     fn store(&mut self, l: &Local) {
         self.pos.clone_from(&l.pos);
-        self.nrm.clone_from(&l.nrm);
+        self.nrm.store(&l.nrm);
         self.tri.clone_from(&l.tri);
         self.removed.clone_from(&l.removed);
         self.quads.clone_from(&l.quads);
@@ -156,7 +217,7 @@ impl State {
     /// Puts `l` into this state (copied into `l`'s buffers).
     fn restore(&self, l: &mut Local) {
         l.pos.clone_from(&self.pos);
-        l.nrm.clone_from(&self.nrm);
+        self.nrm.restore(&mut l.nrm);
         l.tri.clone_from(&self.tri);
         l.removed.clone_from(&self.removed);
         l.quads.clone_from(&self.quads);
@@ -328,6 +389,34 @@ mod tests {
         l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
         assert!(!gate.check(&mut l, false, "test"));
         assert!(l.alive[0] && l.quads == quads);
+    }
+
+    #[test]
+    fn the_gate_gives_back_normals_that_differ_from_node_to_node_and_equal_ones() {
+        // a state's normals are stored once when all are equal, else one per node: either
+        // comes back bit for bit, and a gate can go from one kind to the other
+        let (mut l, v) = grid();
+        let up = l.nrm[0];
+        let mut gate = Gate::new(&l);
+        // one node's normal tilted a little: every quad stays valid, the state passes
+        let tilted = (up + DVec3::new(0.01, 0.0, 0.0)).normalize();
+        l.nrm[v as usize] = tilted;
+        assert!(gate.check(&mut l, true, "test"));
+        let kept = l.nrm.clone();
+        // a stage that folds quads and levels the normals: rolled back to the tilted ones
+        l.nrm.fill(up);
+        l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
+        assert!(!gate.check(&mut l, true, "test"));
+        assert_eq!(l.nrm, kept);
+        assert_eq!(l.nrm.len(), l.pos.len());
+        // level again without folding: passes and becomes the state to keep
+        l.nrm.fill(up);
+        assert!(gate.check(&mut l, true, "test"));
+        l.pos[v as usize] = DVec3::new(2.0, 0.5, 0.0);
+        l.nrm[v as usize] = tilted;
+        assert!(!gate.check(&mut l, true, "test"));
+        assert!(l.nrm.iter().all(|&n| n == up));
+        assert_eq!(l.nrm.len(), l.pos.len());
     }
 
     #[test]
