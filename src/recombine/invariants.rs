@@ -66,6 +66,16 @@ fn count_of(counts: &[(Edge, u32)], e: &Edge) -> u32 {
         .map_or(0, |i| counts[i].1)
 }
 
+/// The uses of face `f`'s edges as (smaller node, larger node · 2 + 1 when the face runs
+/// the edge from the larger).
+fn edge_uses(f: &[u64]) -> impl Iterator<Item = Edge> + '_ {
+    (0..f.len()).map(move |i| {
+        let (a, b) = (f[i], f[(i + 1) % f.len()]);
+        let (lo, hi) = undirected(a, b);
+        (lo, (hi << 1) | u64::from(a > b))
+    })
+}
+
 /// The edges of `faces` with how many faces use each and in which directions, sorted by
 /// edge, with (when node tags are compact) the start of each first node's run, so that a
 /// lookup is two nearby reads instead of a binary search over the whole list.
@@ -91,15 +101,102 @@ impl EdgeTable {
     const MAX_COUNT: u32 = u32::MAX >> 2;
 
     fn new(faces: &[&[u64]]) -> Self {
+        let n_uses: usize = faces.iter().map(|f| f.len()).sum();
+        let max = faces.iter().flat_map(|f| f.iter()).copied().max();
+        match max {
+            Some(max) if max <= 4 * n_uses as u64 + 1024 => Self::with_runs(faces, max, n_uses),
+            _ => Self::sorted(faces, n_uses),
+        }
+    }
+
+    /// The table of `faces` whose node tags are at most `max`, compact enough for runs.
+    ///
+    /// Memory (this is built beside the optimizer): each use goes straight into its smaller
+    /// node's run (a counting sort, one `u64` a use), each run is sorted on its own and its
+    /// repeated edges merged, so the construction needs about a quarter of the memory of a
+    /// sort of `(smaller, larger)` pairs with its scratch.
+    fn with_runs(faces: &[&[u64]], max: u64, n_uses: usize) -> Self {
+        let mut start = vec![0u32; max as usize + 2];
+        for f in faces {
+            for (lo, _) in edge_uses(f) {
+                start[lo as usize + 1] += 1;
+            }
+        }
+        for i in 1..start.len() {
+            start[i] += start[i - 1];
+        }
+        // filling moves each run's start to the next run's; shifted back below
+        let mut x = vec![0u64; n_uses];
+        for f in faces {
+            for (lo, key) in edge_uses(f) {
+                let lo = lo as usize;
+                x[start[lo] as usize] = key;
+                start[lo] += 1;
+            }
+        }
+        let len = start.len();
+        start.copy_within(0..len - 1, 1);
+        start[0] = 0;
+        let run = |a: usize| start[a] as usize..start[a + 1] as usize;
+        for a in 0..start.len() - 1 {
+            x[run(a)].sort_unstable();
+        }
+        // memory: sized exactly
+        let distinct = (0..start.len() - 1)
+            .map(|a| {
+                let r = &x[run(a)];
+                usize::from(!r.is_empty()) + r.windows(2).filter(|w| w[0] >> 1 != w[1] >> 1).count()
+            })
+            .sum();
+        let mut hi: Vec<u64> = Vec::with_capacity(distinct);
+        let mut uses: Vec<u32> = Vec::with_capacity(distinct);
+        // each run's start becomes its first distinct edge's (read before it is rewritten)
+        let mut begin = 0usize;
+        for a in 0..start.len() - 1 {
+            let end = start[a + 1] as usize;
+            start[a] = hi.len() as u32;
+            let mut open = false;
+            for &k in &x[begin..end] {
+                Self::add_use(&mut hi, &mut uses, &mut open, k);
+            }
+            begin = end;
+        }
+        let last = start.len() - 1;
+        start[last] = hi.len() as u32;
+        EdgeTable {
+            lo: Vec::new(),
+            hi,
+            uses,
+            start,
+        }
+    }
+
+    /// Adds use `key` (larger node · 2 + runs from the larger) of the current first node:
+    /// to the last edge when `open` and it is the same edge, else as a new edge.
+    fn add_use(hi: &mut Vec<u64>, uses: &mut Vec<u32>, open: &mut bool, key: u64) {
+        let b = key >> 1;
+        let dir = 1u32 << (key & 1);
+        match (hi.last(), uses.last_mut()) {
+            (Some(&lb), Some(u)) if *open && lb == b => {
+                let count = (*u >> 2).saturating_add(1).min(Self::MAX_COUNT);
+                *u = (count << 2) | (*u & 3) | dir;
+            }
+            _ => {
+                hi.push(b);
+                uses.push((1 << 2) | dir);
+                *open = true;
+            }
+        }
+    }
+
+    /// The table of `faces` with sparse node tags: one sort of the uses, lookups by binary
+    /// search.
+    fn sorted(faces: &[&[u64]], n_uses: usize) -> Self {
         // each use as (smaller node, larger node · 2 + runs from the larger): one sort gives
         // the counts and the directions
-        let mut all: Vec<Edge> = Vec::with_capacity(faces.iter().map(|f| f.len()).sum());
+        let mut all: Vec<Edge> = Vec::with_capacity(n_uses);
         for f in faces {
-            for i in 0..f.len() {
-                let (a, b) = (f[i], f[(i + 1) % f.len()]);
-                let (lo, hi) = undirected(a, b);
-                all.push((lo, (hi << 1) | u64::from(a > b)));
-            }
+            all.extend(edge_uses(f));
         }
         sort_pairs(&mut all);
         // memory: sized exactly (a guess of half the uses is one short on any surface with
@@ -111,38 +208,20 @@ impl EdgeTable {
         let mut lo: Vec<u64> = Vec::with_capacity(distinct);
         let mut hi: Vec<u64> = Vec::with_capacity(distinct);
         let mut uses: Vec<u32> = Vec::with_capacity(distinct);
-        for (a, x) in all {
-            let b = x >> 1;
-            let dir = 1u32 << (x & 1);
-            match (lo.last(), hi.last(), uses.last_mut()) {
-                (Some(&la), Some(&lb), Some(u)) if (la, lb) == (a, b) => {
-                    let count = (*u >> 2).saturating_add(1).min(Self::MAX_COUNT);
-                    *u = (count << 2) | (*u & 3) | dir;
-                }
-                _ => {
-                    lo.push(a);
-                    hi.push(b);
-                    uses.push((1 << 2) | dir);
-                }
+        for (a, key) in all {
+            // the same edge as the last one only within the same first node
+            let mut open = lo.last() == Some(&a);
+            let before = hi.len();
+            Self::add_use(&mut hi, &mut uses, &mut open, key);
+            if hi.len() > before {
+                lo.push(a);
             }
-        }
-        let max = lo.last().copied().unwrap_or(0);
-        let mut start = Vec::new();
-        if max <= 8 * lo.len() as u64 + 1024 {
-            start = vec![0u32; max as usize + 2];
-            for &a in &lo {
-                start[a as usize + 1] += 1;
-            }
-            for i in 1..start.len() {
-                start[i] += start[i - 1];
-            }
-            lo = Vec::new();
         }
         EdgeTable {
             lo,
             hi,
             uses,
-            start,
+            start: Vec::new(),
         }
     }
 
