@@ -292,64 +292,74 @@ impl SizeField {
 }
 
 /// Mean length of the edges incident to each point, every distinct edge counted once
-/// (an edge shared by two faces is not counted twice). Points without edges get 0.
+/// (an edge shared by two faces is not counted twice). Points without edges get 0. Faces
+/// with a node out of range are left out.
 ///
-/// O(corners): the neighbours of each point are gathered face by face (CSR) and deduplicated
-/// per point, in parallel; the sums run over increasing neighbour index.
+/// O(corners): the neighbours of each point are gathered face by face (CSR; `faces` is
+/// walked twice instead of collected) and deduplicated per point, in parallel over chunks
+/// of points; the sums run over increasing neighbour index.
 pub fn mean_incident_edge_length<'a>(
     points: &[DVec3],
-    faces: impl Iterator<Item = &'a [u32]>,
+    faces: impl Iterator<Item = &'a [u32]> + Clone,
 ) -> Vec<f64> {
     let n = points.len();
-    let faces: Vec<&[u32]> = faces
-        .filter(|f| f.iter().all(|&v| (v as usize) < n))
-        .collect();
+    let faces = faces.filter(|f| f.iter().all(|&v| (v as usize) < n));
     let mut start = vec![0usize; n + 1];
-    for f in &faces {
-        for &v in *f {
+    for f in faces.clone() {
+        for &v in f {
             start[v as usize + 1] += 2;
         }
     }
     for i in 0..n {
         start[i + 1] += start[i];
     }
-    let mut fill = start.clone();
+    // filling moves each point's start to the next point's; shifted back below
     let mut nbr = vec![0u32; start[n]];
-    for f in &faces {
+    for f in faces {
         let m = f.len();
         for k in 0..m {
             let v = f[k] as usize;
-            nbr[fill[v]] = f[(k + 1) % m];
-            nbr[fill[v] + 1] = f[(k + m - 1) % m];
-            fill[v] += 2;
+            nbr[start[v]] = f[(k + 1) % m];
+            nbr[start[v] + 1] = f[(k + m - 1) % m];
+            start[v] += 2;
         }
     }
+    start.copy_within(0..n, 1);
+    start[0] = 0;
     let mut out = vec![0.0; n];
-    // split the CSR payload at point boundaries so each chunk sorts its own lists
+    // split the CSR payload at chunk boundaries so each chunk sorts its own points' lists
     let mut rest: &mut [u32] = &mut nbr;
-    let mut lists: Vec<(usize, &mut [u32])> = Vec::with_capacity(n);
-    for v in 0..n {
-        let (head, tail) = rest.split_at_mut(start[v + 1] - start[v]);
-        lists.push((v, head));
+    let mut chunks: Vec<(usize, &mut [u32])> = Vec::with_capacity(n.div_ceil(CHUNK));
+    for c in (0..n).step_by(CHUNK) {
+        let end = (c + CHUNK).min(n);
+        let (head, tail) = rest.split_at_mut(start[end] - start[c]);
+        chunks.push((c, head));
         rest = tail;
     }
-    out.par_iter_mut()
-        .zip(lists.into_par_iter())
-        .with_min_len(4096)
-        .for_each(|(h, (v, list))| {
-            list.sort_unstable();
-            let (mut sum, mut cnt) = (0.0, 0u32);
-            for (i, &w) in list.iter().enumerate() {
-                if w as usize == v || (i > 0 && list[i - 1] == w) {
-                    continue;
+    out.par_chunks_mut(CHUNK)
+        .zip(chunks.into_par_iter())
+        .for_each(|(hs, (c, lists))| {
+            let base = start[c];
+            for (i, h) in hs.iter_mut().enumerate() {
+                let v = c + i;
+                let list = &mut lists[start[v] - base..start[v + 1] - base];
+                list.sort_unstable();
+                let (mut sum, mut cnt) = (0.0, 0u32);
+                for (i, &w) in list.iter().enumerate() {
+                    if w as usize == v || (i > 0 && list[i - 1] == w) {
+                        continue;
+                    }
+                    sum += points[v].distance(points[w as usize]);
+                    cnt += 1;
                 }
-                sum += points[v].distance(points[w as usize]);
-                cnt += 1;
+                *h = if cnt > 0 { sum / cnt as f64 } else { 0.0 };
             }
-            *h = if cnt > 0 { sum / cnt as f64 } else { 0.0 };
         });
     out
 }
+
+/// Points per parallel task of [`mean_incident_edge_length`].
+const CHUNK: usize = 4096;
 
 /// ∫₀¹ dt / h(t) for h linear from `ha` to `hb` (both > 0), exactly.
 pub fn inverse_linear_integral(ha: f64, hb: f64) -> f64 {
@@ -390,6 +400,55 @@ pub fn tau_percent(lengths: impl Iterator<Item = f64>) -> Option<f64> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Against a direct count over the distinct edges, on a grid of triangles and quads
+    /// spanning several parallel chunks of points, with a point on no face and a face
+    /// naming a point out of range (left out).
+    #[test]
+    fn mean_incident_edge_length_counts_each_distinct_edge_once() {
+        let (nx, ny) = (90usize, 100usize);
+        let n = nx * ny + 1;
+        assert!(n > 2 * CHUNK);
+        let points: Vec<DVec3> = (0..n)
+            .map(|k| {
+                let jitter = 0.1 * ((k * 7919) % 13) as f64;
+                DVec3::new((k % nx) as f64 + jitter, (k / nx) as f64, 0.0)
+            })
+            .collect();
+        let id = |i: usize, j: usize| (j * nx + i) as u32;
+        let mut faces: Vec<Vec<u32>> = Vec::new();
+        for j in 0..ny - 1 {
+            for i in 0..nx - 1 {
+                let (a, b, c, d) = (id(i, j), id(i + 1, j), id(i + 1, j + 1), id(i, j + 1));
+                if (i + j) % 3 == 0 {
+                    faces.push(vec![a, b, c, d]);
+                } else {
+                    faces.push(vec![a, b, c]);
+                    faces.push(vec![a, c, d]);
+                }
+            }
+        }
+        faces.push(vec![0, 1, n as u32 + 5]);
+        let h = mean_incident_edge_length(&points, faces.iter().map(|f| &f[..]));
+        let mut nbrs = vec![std::collections::BTreeSet::new(); n];
+        for f in faces.iter().filter(|f| f.iter().all(|&v| (v as usize) < n)) {
+            for k in 0..f.len() {
+                let (a, b) = (f[k] as usize, f[(k + 1) % f.len()] as usize);
+                nbrs[a].insert(b);
+                nbrs[b].insert(a);
+            }
+        }
+        for (v, set) in nbrs.iter().enumerate() {
+            let sum: f64 = set.iter().map(|&w| points[v].distance(points[w])).sum();
+            let want = if set.is_empty() {
+                0.0
+            } else {
+                sum / set.len() as f64
+            };
+            assert_eq!(h[v], want, "point {v}");
+        }
+        assert_eq!(h[n - 1], 0.0);
+    }
 
     #[test]
     fn expression_evaluates_paper_size_field() {
