@@ -664,7 +664,7 @@ pub(crate) mod tests {
     use super::*;
     use crate::mesh::Mesh;
     use crate::mesh::NodeTable;
-    use crate::optimize::extract::{extract, node_owners, write_back, PendingNodes};
+    use crate::optimize::extract::{extract, node_owners, write_back, NodePlaces, PendingNodes};
     use crate::optimize::synth::{self, Soup};
     use crate::optimize::OptimizeReport;
 
@@ -716,7 +716,7 @@ pub(crate) mod tests {
         let e1 = energy(&mut l);
         let mut rep = OptimizeReport::default();
         let mut pending = PendingNodes::new(m);
-        write_back(m, &flat, &l, &mut rep, &mut pending);
+        write_back(m, &NodePlaces::new(flat), &l, &mut rep, &mut pending);
         pending.apply(m);
         crate::optimize::check::check_surface_mesh(m).expect("conforming, oriented");
         (e0, e1, seqs)

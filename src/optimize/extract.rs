@@ -297,20 +297,41 @@ impl PendingNodes {
     }
 }
 
+/// Where each node id of a [`NodeTable`] lives in its mesh: what the write back needs of
+/// the table (memory: the coordinates, tags and tag lookup are freed once the surfaces are
+/// extracted).
+pub(crate) struct NodePlaces {
+    /// Node block of each id.
+    block: Vec<u32>,
+    /// First id of each node block.
+    block_start: Vec<u32>,
+}
+
+impl NodePlaces {
+    pub(crate) fn new(table: NodeTable) -> Self {
+        let NodeTable {
+            block, block_start, ..
+        } = table;
+        NodePlaces { block, block_start }
+    }
+
+    /// Node block and index in it of node id `g`.
+    fn place(&self, g: usize) -> (usize, usize) {
+        let b = self.block[g] as usize;
+        (b, g - self.block_start[b] as usize)
+    }
+}
+
 /// Writes surface `l` back: moved coordinates and the quads in place, dead quads removed;
 /// removed nodes go to `pending` (see [`PendingNodes`]).
 pub(crate) fn write_back(
     mesh: &mut Mesh,
-    flat: &NodeTable,
+    places: &NodePlaces,
     l: &Local,
     report: &mut OptimizeReport,
     pending: &mut PendingNodes,
 ) {
-    // nodes: flat index -> (block, index)
-    let block_of = |g: usize| {
-        let b = flat.block[g] as usize;
-        (b, g - flat.block_start[b] as usize)
-    };
+    let block_of = |g: usize| places.place(g);
     let tag_of = |g: u32| {
         let (b, i) = block_of(g as usize);
         mesh.node_blocks[b].tags[i]

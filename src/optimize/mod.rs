@@ -74,7 +74,7 @@ pub use reference::PreparedReference;
 use crate::mesh::NodeTable;
 use crate::mesh::{etype, DataKind, Mesh};
 use crate::profile::StageTimer;
-use extract::{extract, node_owners, write_back, PendingNodes};
+use extract::{extract, node_owners, write_back, NodePlaces, PendingNodes};
 use local::{Local, NONE};
 use reference::{attach_reference, SurfaceReference};
 use schedule::run_surface;
@@ -251,6 +251,9 @@ pub fn optimize_prepared(
         l.trace = opts.trace.cloned();
         locals.push(l);
     }
+    // memory: through the surfaces' optimization, only where each node lives
+    drop((owner, scratch));
+    let places = NodePlaces::new(flat);
     tm.lap("extract");
     // progress: a surface's steps weigh its quads
     let weight = |l: &Local| l.quads.len().max(1) as u64;
@@ -306,7 +309,7 @@ pub fn optimize_prepared(
     let mut report = OptimizeReport::default();
     let mut pending = PendingNodes::new(mesh);
     for (l, rep) in results {
-        write_back(mesh, &flat, &l, &mut report, &mut pending);
+        write_back(mesh, &places, &l, &mut report, &mut pending);
         report.surfaces.push(rep);
     }
     pending.apply(mesh);
