@@ -195,6 +195,7 @@ pub(crate) fn extract(
         start,
         adj,
         qn: Vec::new(),
+        qn_all: None,
         hopeless: Vec::new(),
         colours: Vec::new(),
         sweep_ready: false,

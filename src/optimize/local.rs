@@ -15,6 +15,17 @@ use rayon::prelude::*;
 /// Sentinel for "no node / no quad / no triangle".
 pub(crate) use crate::mesh::NONE;
 
+/// The one normal of every entry of `nrm`, when they are all the same bit for bit (none
+/// when `nrm` is empty or they differ).
+pub(crate) fn uniform_normal(nrm: &[DVec3]) -> Option<DVec3> {
+    let first = *nrm.first()?;
+    let bits = |n: DVec3| n.to_array().map(f64::to_bits);
+    nrm.par_iter()
+        .with_min_len(8192)
+        .all(|&n| bits(n) == bits(first))
+        .then_some(first)
+}
+
 /// One surface's quads and nodes.
 #[derive(Clone)]
 pub(crate) struct Local {
@@ -54,8 +65,12 @@ pub(crate) struct Local {
     pub start: Vec<u32>,
     /// CSR payload.
     pub adj: Vec<u32>,
-    /// Unit reference normal per quad (see [`Local::refresh_quad_normals`]).
+    /// Unit reference normal per quad (see [`Local::refresh_quad_normals`]); empty when
+    /// `qn_all` holds the one normal of every quad.
     pub qn: Vec<DVec3>,
+    /// The unit reference normal of every quad when all nodes have the same normal bit for
+    /// bit (planar surfaces; memory: no per-quad copies).
+    pub qn_all: Option<DVec3>,
     /// Per quad: a corner whose three nodes are fixed does not turn positively, so no move
     /// can make the quad valid (see [`Local::refresh_quad_normals`]).
     pub hopeless: Vec<bool>,
@@ -94,11 +109,19 @@ impl Local {
     /// quads out of its centroids and acceptance tests (otherwise their constant negative
     /// key would let a node's other quads degrade down to it).
     pub fn refresh_quad_normals(&mut self) {
-        self.qn = (0..self.quads.len() as u32)
-            .into_par_iter()
-            .with_min_len(4096)
-            .map(|q| self.quad_normal(q).normalize_or_zero())
-            .collect();
+        // with one node normal for all, every quad's sum of four is the same
+        self.qn_all = match (uniform_normal(&self.nrm), self.quads.is_empty()) {
+            (Some(_), false) => Some(self.quad_normal(0).normalize_or_zero()),
+            _ => None,
+        };
+        self.qn = match self.qn_all {
+            Some(_) => Vec::new(),
+            None => (0..self.quads.len() as u32)
+                .into_par_iter()
+                .with_min_len(4096)
+                .map(|q| self.quad_normal(q).normalize_or_zero())
+                .collect(),
+        };
         self.hopeless = (0..self.quads.len())
             .into_par_iter()
             .with_min_len(4096)
@@ -115,7 +138,7 @@ impl Local {
                         }
                         let pb = self.pos[b as usize];
                         let (x, y) = (self.pos[c as usize] - pb, self.pos[a as usize] - pb);
-                        self.qn[q].dot(x.cross(y)) <= 0.0
+                        self.qn(q as u32).dot(x.cross(y)) <= 0.0
                     })
             })
             .collect();
@@ -130,7 +153,16 @@ impl Local {
             let w = quad[k];
             pts[k] = if w == v { p } else { self.pos[w as usize] };
         }
-        shape_key(&pts, self.qn[q as usize])
+        shape_key(&pts, self.qn(q))
+    }
+
+    /// The cached unit reference normal of quad `q` ([`Local::refresh_quad_normals`]).
+    #[inline]
+    pub fn qn(&self, q: u32) -> DVec3 {
+        match self.qn_all {
+            Some(n) => n,
+            None => self.qn[q as usize],
+        }
     }
 
     /// Quads around node `v` (as of the last [`Local::build_adjacency`]).
@@ -396,7 +428,7 @@ impl<'a> StarEval<'a> {
                 return e;
             }
             let [b, c, d] = [r[1], r[2], r[3]].map(|w| l.pos[w as usize]);
-            let n = l.qn[q as usize];
+            let n = l.qn(q);
             let (x, y) = (d - c, b - c);
             let s = n.dot(x.cross(y));
             e.pts[i] = [b, c, d];
@@ -607,6 +639,33 @@ pub(crate) fn key_to_eta(key: f64) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// With one normal for every node, the quad normals are one cached value, the same bit
+    /// for bit as each quad's own; with one node's normal tilted, one per quad again.
+    #[test]
+    fn quad_normals_are_cached_once_when_every_node_has_the_same() {
+        use crate::optimize::cleanup::tests::local_of;
+        use crate::optimize::synth;
+        let m = synth::to_mesh(&synth::quad_grid(5, 5, 1.0, 1.0));
+        let (_, mut l) = local_of(&m);
+        let own = |l: &Local, q: u32| l.quad_normal(q).normalize_or_zero();
+        l.refresh_quad_normals();
+        assert!(l.qn_all.is_some() && l.qn.is_empty());
+        for q in 0..l.quads.len() as u32 {
+            assert_eq!(l.qn(q).to_array(), own(&l, q).to_array(), "quad {q}");
+        }
+        let up = l.nrm[0];
+        l.nrm[7] = (up + DVec3::new(0.05, 0.0, 0.0)).normalize();
+        l.refresh_quad_normals();
+        assert!(l.qn_all.is_none() && l.qn.len() == l.quads.len());
+        let (with, without): (Vec<u32>, Vec<u32>) =
+            (0..l.quads.len() as u32).partition(|&q| l.quads[q as usize].contains(&7));
+        assert!(!with.is_empty() && !without.is_empty());
+        assert!(with.iter().all(|&q| l.qn(q) != l.qn(without[0])));
+        for q in 0..l.quads.len() as u32 {
+            assert_eq!(l.qn(q).to_array(), own(&l, q).to_array(), "quad {q}");
+        }
+    }
 
     #[test]
     fn batched_star_evaluation_matches_one_position_at_a_time() {

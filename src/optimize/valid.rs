@@ -15,7 +15,7 @@
 //! other than those it was given; if it does, the surface goes back to its last checked
 //! state that passed (the state after a stage), and in the end to the input itself.
 
-use super::local::Local;
+use super::local::{uniform_normal, Local};
 pub(crate) use super::local::{VALID_ETA, VALID_KEY};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -145,24 +145,15 @@ enum Normals {
 
 impl Normals {
     fn of(nrm: &[DVec3]) -> Self {
-        match Self::uniform(nrm) {
+        match uniform_normal(nrm) {
             Some(n) => Normals::Uniform(n, nrm.len()),
             None => Normals::Each(nrm.to_vec()),
         }
     }
 
-    /// The one normal of every node of `nrm` (none when it is empty or they differ).
-    fn uniform(nrm: &[DVec3]) -> Option<DVec3> {
-        let first = *nrm.first()?;
-        nrm.par_iter()
-            .with_min_len(8192)
-            .all(|&n| same(n, first))
-            .then_some(first)
-    }
-
     /// Makes these the normals of `nrm`, reusing the buffer when they are not uniform.
     fn store(&mut self, nrm: &[DVec3]) {
-        match (Self::uniform(nrm), &mut *self) {
+        match (uniform_normal(nrm), &mut *self) {
             (Some(n), _) => *self = Normals::Uniform(n, nrm.len()),
             (None, Normals::Each(v)) => {
                 v.clear();
