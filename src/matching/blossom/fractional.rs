@@ -35,6 +35,41 @@ const WIDE_GROWS: usize = 4096;
 /// Searches per window of the second local pass.
 const WIDE_WINDOW: usize = 64;
 
+/// Windows in a row that end fewer than half their searches after which the second local
+/// pass stops. One is too few: on a twice-refined mesh (costs tied in large groups) a
+/// single bad window among hundreds of good ones left 115,000 trees to the global pass
+/// instead of 10,000 (figures in BENCHMARKS.md, "Issue 15: the second local pass's stop").
+const WIDE_BAD_WINDOWS: usize = 4;
+
+/// When the second local pass stops (module docs of [`Solver::fractional_local_wide`]):
+/// after [`WIDE_BAD_WINDOWS`] windows in a row that ended fewer than half their searches,
+/// or at the end of a window once fewer than half of all its searches so far ended.
+#[derive(Default)]
+struct WidePace {
+    /// Searches and ended searches in the current window.
+    window: (usize, usize),
+    /// Bad windows in a row.
+    bad: usize,
+    /// Searches and ended searches so far.
+    all: (usize, usize),
+}
+
+impl WidePace {
+    /// Records one search (`ended`: it settled its root); false when the pass should stop.
+    fn record(&mut self, ended: bool) -> bool {
+        self.window.0 += 1;
+        self.window.1 += usize::from(ended);
+        self.all.0 += 1;
+        self.all.1 += usize::from(ended);
+        if self.window.0 < WIDE_WINDOW {
+            return true;
+        }
+        let (tried, done) = std::mem::take(&mut self.window);
+        self.bad = if 2 * done < tried { self.bad + 1 } else { 0 };
+        self.bad < WIDE_BAD_WINDOWS && 2 * self.all.1 >= self.all.0
+    }
+}
+
 /// Half-matched odd cycles: `id[v]` is the cycle of vertex `v` (or NONE), `list[c]` the
 /// vertices of cycle `c` in order (emptied when the cycle is resolved).
 pub(super) struct Cycles {
@@ -115,10 +150,11 @@ impl Solver {
 
     /// Second local pass over the roots the first left exposed, with the larger budget
     /// `wide` ([`WIDE_GROWS`] by default), while it pays: it stops, leaving the rest to the
-    /// global pass, once a window of [`WIDE_WINDOW`] searches ended fewer than half of them
-    /// (an abandoned search keeps its dual changes, which are feasible).
+    /// global pass, once [`WIDE_BAD_WINDOWS`] windows of [`WIDE_WINDOW`] searches in a row
+    /// ended fewer than half of theirs, or fewer than half of all its searches ended
+    /// ([`WidePace`]; an abandoned search keeps its dual changes, which are feasible).
     fn fractional_local_wide(&mut self, cy: &mut Cycles, wide: usize) {
-        let (mut tried, mut ended) = (0usize, 0usize);
+        let mut pace = WidePace::default();
         for r in 0..self.n as u32 {
             if r & PROGRESS_EVERY == 0 {
                 // progress: the first half of the fractional forest's units
@@ -127,16 +163,11 @@ impl Solver {
             if self.settled(cy, r) {
                 continue;
             }
-            let done = self.search_from(cy, r, wide) as usize;
-            tried += 1;
-            ended += done;
+            let done = self.search_from(cy, r, wide);
             self.stats.wide_searches[0] += 1;
-            self.stats.wide_searches[1] += done;
-            if tried == WIDE_WINDOW {
-                if 2 * ended < tried {
-                    return;
-                }
-                (tried, ended) = (0, 0);
+            self.stats.wide_searches[1] += usize::from(done);
+            if !pace.record(done) {
+                return;
             }
         }
     }
@@ -249,5 +280,50 @@ impl Solver {
         cycle.extend(bu.iter().rev());
         cycle.extend(bv.iter());
         cycle
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Feeds `windows` (searches ended per full window) to a pace; the number of windows
+    /// after which it stops, if it does.
+    fn stops_after(windows: &[usize]) -> Option<usize> {
+        let mut pace = WidePace::default();
+        for (w, &ended) in windows.iter().enumerate() {
+            for i in 0..WIDE_WINDOW {
+                if !pace.record(i < ended) {
+                    assert_eq!(i, WIDE_WINDOW - 1, "stops only at the end of a window");
+                    return Some(w + 1);
+                }
+            }
+        }
+        None
+    }
+
+    #[test]
+    fn the_second_pass_stops_after_bad_windows_in_a_row_or_when_it_stops_paying() {
+        let (good, bad) = (WIDE_WINDOW, WIDE_WINDOW / 4);
+        // good windows: never stops
+        assert_eq!(stops_after(&[good; 40]), None);
+        // a bad window now and then among good ones: keeps going
+        let mut mixed = vec![good; 40];
+        for w in (5..40).step_by(7) {
+            mixed[w] = bad;
+        }
+        assert_eq!(stops_after(&mixed), None);
+        // WIDE_BAD_WINDOWS bad windows in a row after good ones: stops at the last of them
+        let mut run = vec![good; 20];
+        run.extend([bad; WIDE_BAD_WINDOWS]);
+        run.extend([good; 5]);
+        assert_eq!(stops_after(&run), Some(20 + WIDE_BAD_WINDOWS));
+        // fewer than half of all searches ended: stops, bad windows in a row or not
+        let alternating: Vec<usize> = (0..40)
+            .map(|w| if w % 2 == 0 { bad } else { good / 2 + 1 })
+            .collect();
+        assert_eq!(stops_after(&alternating), Some(1));
+        let half = WIDE_WINDOW / 2;
+        assert_eq!(stops_after(&[half, half, half - 1]), Some(3));
     }
 }
