@@ -15,14 +15,18 @@ use rayon::prelude::*;
 /// Sentinel for "no node / no quad / no triangle".
 pub(crate) use crate::mesh::NONE;
 
+/// True when `a` and `b` are the same vector bit for bit.
+pub(crate) fn same_bits(a: DVec3, b: DVec3) -> bool {
+    a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)
+}
+
 /// The one normal of every entry of `nrm`, when they are all the same bit for bit (none
 /// when `nrm` is empty or they differ).
 pub(crate) fn uniform_normal(nrm: &[DVec3]) -> Option<DVec3> {
     let first = *nrm.first()?;
-    let bits = |n: DVec3| n.to_array().map(f64::to_bits);
     nrm.par_iter()
         .with_min_len(8192)
-        .all(|&n| bits(n) == bits(first))
+        .all(|&n| same_bits(n, first))
         .then_some(first)
 }
 

@@ -15,7 +15,7 @@
 //! other than those it was given; if it does, the surface goes back to its last checked
 //! state that passed (the state after a stage), and in the end to the input itself.
 
-use super::local::{uniform_normal, Local};
+use super::local::{same_bits, uniform_normal, Local};
 pub(crate) use super::local::{VALID_ETA, VALID_KEY};
 use glam::DVec3;
 use rayon::prelude::*;
@@ -101,8 +101,8 @@ fn changed_quads(l: &Local, base: &State) -> Vec<u32> {
         .into_par_iter()
         .with_min_len(8192)
         .map(|v| {
-            base.pos.get(v).is_none_or(|&p| !same(p, l.pos[v]))
-                || base.nrm.get(v).is_none_or(|n| !same(n, l.nrm[v]))
+            base.pos.get(v).is_none_or(|&p| !same_bits(p, l.pos[v]))
+                || base.nrm.get(v).is_none_or(|n| !same_bits(n, l.nrm[v]))
         })
         .collect();
     (0..l.quads.len() as u32)
@@ -127,11 +127,6 @@ struct State {
     removed: Vec<bool>,
     quads: Vec<[u32; 4]>,
     alive: Vec<bool>,
-}
-
-/// True when `a` and `b` are the same vector bit for bit.
-fn same(a: DVec3, b: DVec3) -> bool {
-    a.to_array().map(f64::to_bits) == b.to_array().map(f64::to_bits)
 }
 
 /// A state's node normals. Memory: one vector when every node has the same (bit for bit,
