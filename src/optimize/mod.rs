@@ -23,7 +23,9 @@
 //! node on small surfaces); on planar surfaces one global conformal solve that removes shear
 //! no node-by-node move can undo, keeping part of each corner's aspect ratio
 //! ([`conformal`](self)); a max-min polish of the quads with η < 0.6; pattern-search sweeps;
-//! mean-η polish sweeps, whose objective has a small size term for τ ([`polish`](self)).
+//! mean-η polish sweeps, whose objective has a small size term for τ ([`polish`](self));
+//! on surfaces of 20k quads or more, half the pattern sweeps and the max-min polish once
+//! more at the end.
 //! Small planar surfaces with a low mean η after the first smoothing run three schedules side
 //! by side (square-target finish, the one above, topology rounds each followed by the
 //! conformal solve) and keep the best by η̄, η_w and estimated τ (`schedule::better`); each

@@ -10,7 +10,8 @@
 //! is a max over corners), the node goes where the edges fit the size field.
 //!
 //! The worst quads are lifted before this by [`super::smooth::polish_worst`] (max-min
-//! pattern search); there is no second max-min pass after the mean polish.
+//! pattern search); only surfaces of 20k quads or more run that again after the mean
+//! polish (`schedule`).
 //!
 //! Cost: 1 colour-parallel sweep over the free nodes (4 on surfaces under 20k quads).
 
