@@ -19,9 +19,13 @@
 //! target size at the quad's nodes) makes each quad's term scale-free. `E` is quadratic; with the fixed
 //! nodes (curves, points, shared nodes) as Dirichlet data its minimizer solves a Hermitian
 //! positive definite system, solved by conjugate gradients from the current positions
-//! (at most [`MAX_ITERATIONS`]). The product runs on blocks of nodes in parallel and the vector updates are fused
-//! with the dot products; every sum is taken in a fixed order, so the result does not
-//! depend on the thread count.
+//! (at most [`MAX_ITERATIONS`]). The product runs on blocks of nodes in parallel and the
+//! vector updates are fused with the dot products; every sum is taken in a fixed order, so
+//! the result does not depend on the thread count. The start residual comes from the
+//! positions in double precision; the iterations, whose vectors are steps of about the quads'
+//! size and which stop at a relative residual of [`TOLERANCE`], run in single precision
+//! (weights relative to their mean, corner ratios and vectors; dot products summed in
+//! double), which halves the memory they stream.
 //!
 //! The step to the minimizer is then taken in full, half or quarter, whichever comes first
 //! with a higher mean signed η (eq. 3), no valid quad turned invalid and no invalid quad's
@@ -50,26 +54,68 @@ const REVERT_ROUNDS: usize = 4;
 /// Relative residual at which the solve stops.
 pub(crate) const TOLERANCE: f64 = 1e-3;
 
-#[derive(Clone, Copy, Default)]
-struct C(f64, f64);
+/// The real type of the solve's complex numbers: `f64` for the positions and the start
+/// residual, `f32` for the iterations (module docs).
+trait Real:
+    Copy
+    + Default
+    + Send
+    + Sync
+    + std::ops::Add<Output = Self>
+    + std::ops::Sub<Output = Self>
+    + std::ops::Mul<Output = Self>
+    + std::ops::Neg<Output = Self>
+    + Into<f64>
+{
+    /// `x` rounded to this type.
+    fn of(x: f64) -> Self;
+}
 
-impl C {
+impl Real for f64 {
     #[inline]
-    fn add(self, o: C) -> C {
+    fn of(x: f64) -> Self {
+        x
+    }
+}
+
+impl Real for f32 {
+    #[inline]
+    fn of(x: f64) -> Self {
+        x as f32
+    }
+}
+
+/// A complex number (re, im).
+#[derive(Clone, Copy, Default)]
+struct C<T = f64>(T, T);
+
+impl<T: Real> C<T> {
+    #[inline]
+    fn add(self, o: Self) -> Self {
         C(self.0 + o.0, self.1 + o.1)
     }
     #[inline]
-    fn sub(self, o: C) -> C {
+    fn sub(self, o: Self) -> Self {
         C(self.0 - o.0, self.1 - o.1)
     }
     #[inline]
-    fn scale(self, s: f64) -> C {
+    fn scale(self, s: T) -> Self {
         C(self.0 * s, self.1 * s)
     }
     /// `i · self`
     #[inline]
-    fn rot(self) -> C {
+    fn rot(self) -> Self {
         C(-self.1, self.0)
+    }
+    /// Real part of `self · conj(o)`, in double precision.
+    #[inline]
+    fn dot(self, o: Self) -> f64 {
+        self.0.into() * o.0.into() + self.1.into() * o.1.into()
+    }
+    /// In another precision.
+    #[inline]
+    fn to<U: Real>(self) -> C<U> {
+        C(U::of(self.0.into()), U::of(self.1.into()))
     }
 }
 
@@ -79,11 +125,18 @@ impl C {
 /// `j − 1`, the corner of `j` and the previous node of `j + 1`, so it gathers
 /// `−i ρ_{j−1} r_{j−1} + (1 + i ρ_j) r_j − r_{j+1}`: four loads and four updates per quad.
 #[inline]
-fn accumulate(quad: &[u32; 4], w: f64, rho: &[f64; 4], x: &[C], mut add: impl FnMut(usize, C)) {
+fn accumulate<T: Real>(
+    quad: &[u32; 4],
+    w: T,
+    rho: &[T; 4],
+    x: &[C<T>],
+    mut add: impl FnMut(usize, C<T>),
+) {
     let z = quad.map(|v| x[v as usize]);
-    let e: [C; 4] = std::array::from_fn(|k| z[(k + 1) & 3].sub(z[k]));
-    let r: [C; 4] = std::array::from_fn(|k| e[k].scale(rho[k]).rot().add(e[(k + 3) & 3]).scale(w));
-    let s: [C; 4] = std::array::from_fn(|k| r[k].scale(rho[k]).rot());
+    let e: [C<T>; 4] = std::array::from_fn(|k| z[(k + 1) & 3].sub(z[k]));
+    let r: [C<T>; 4] =
+        std::array::from_fn(|k| e[k].scale(rho[k]).rot().add(e[(k + 3) & 3]).scale(w));
+    let s: [C<T>; 4] = std::array::from_fn(|k| r[k].scale(rho[k]).rot());
     for j in 0..4 {
         let g = r[j].add(s[j]).sub(s[(j + 3) & 3]).sub(r[(j + 1) & 3]);
         add(quad[j] as usize, g);
@@ -110,12 +163,14 @@ const BLOCK: usize = 16_384;
 
 /// The live quads grouped for [`apply`]: block `b` holds the quads whose smallest node is in
 /// `b · BLOCK .. (b + 1) · BLOCK` (nodes are numbered by first use in the Morton order of the
-/// quads, so a block's quads are mostly a compact patch), in increasing order.
+/// quads, so a block's quads are mostly a compact patch), in increasing order. Weights
+/// (divided by their mean, so any mesh scale fits) and corner ratios are kept in single
+/// precision, which the iterations use.
 struct Blocks {
     start: Vec<usize>,
     quads: Vec<[u32; 4]>,
-    weights: Vec<f64>,
-    rhos: Vec<[f64; 4]>,
+    weights: Vec<f32>,
+    rhos: Vec<[f32; 4]>,
 }
 
 impl Blocks {
@@ -131,13 +186,13 @@ impl Blocks {
         }
         let mut fill = start.clone();
         let mut out = vec![[0u32; 4]; live.len()];
-        let mut w = vec![0.0; live.len()];
-        let mut rh = vec![[1.0; 4]; live.len()];
+        let mut w = vec![0.0f32; live.len()];
+        let mut rh = vec![[1.0f32; 4]; live.len()];
         for &q in live {
             let b = block(q);
             out[fill[b]] = quads[q as usize];
-            w[fill[b]] = weights[q as usize];
-            rh[fill[b]] = rhos[q as usize];
+            w[fill[b]] = weights[q as usize] as f32;
+            rh[fill[b]] = rhos[q as usize].map(|r| r as f32);
             fill[b] += 1;
         }
         Blocks {
@@ -153,8 +208,8 @@ impl Blocks {
 /// its quads' terms to the nodes of its own range and keeps the others (nodes of later
 /// blocks, along its edge), which are added after, block by block, so the sums do not
 /// depend on the thread count.
-fn apply(blocks: &Blocks, x: &[C], out: &mut [C]) {
-    let spills: Vec<Vec<(u32, C)>> = out
+fn apply<T: Real>(blocks: &Blocks, x: &[C<T>], out: &mut [C<T>]) {
+    let spills: Vec<Vec<(u32, C<T>)>> = out
         .par_chunks_mut(BLOCK)
         .enumerate()
         .map(|(b, o)| {
@@ -167,7 +222,8 @@ fn apply(blocks: &Blocks, x: &[C], out: &mut [C]) {
                 .zip(&blocks.weights[range.clone()])
                 .zip(&blocks.rhos[range])
             {
-                accumulate(quad, w, rho, x, |v, g| {
+                let (w, rho) = (T::of(w.into()), rho.map(|r| T::of(r.into())));
+                accumulate(quad, w, &rho, x, |v, g| {
                     match v.checked_sub(lo).filter(|&i| i < o.len()) {
                         Some(i) => o[i] = o[i].add(g),
                         None => spill.push((v as u32, g)),
@@ -189,15 +245,10 @@ const CHUNK: usize = 8192;
 
 /// Real part of `a · b̄`, summed per chunk of [`CHUNK`] entries and then in chunk order (the
 /// same for any thread count).
-fn pdot(a: &[C], b: &[C]) -> f64 {
+fn pdot(a: &[C<f32>], b: &[C<f32>]) -> f64 {
     a.par_chunks(CHUNK)
         .zip(b.par_chunks(CHUNK))
-        .map(|(a, b)| {
-            a.iter()
-                .zip(b)
-                .map(|(x, y)| x.0 * y.0 + x.1 * y.1)
-                .sum::<f64>()
-        })
+        .map(|(a, b)| a.iter().zip(b).map(|(x, y)| x.dot(*y)).sum::<f64>())
         .collect::<Vec<f64>>()
         .iter()
         .sum()
@@ -263,6 +314,12 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
             1.0
         };
     }
+    // weights relative to their mean: the minimizer does not change, and single
+    // precision holds them for any mesh scale
+    let mean = live.iter().map(|&q| weights[q as usize]).sum::<f64>() / live.len() as f64;
+    if mean > 0.0 && mean.is_finite() {
+        weights.iter_mut().for_each(|w| *w /= mean);
+    }
     let mut rhos = vec![[1.0f64; 4]; l.quads.len()];
     for &q in &live {
         rhos[q as usize] = corner_ratios(l.quads[q as usize].map(|v| z[v as usize]), keep_aspect);
@@ -282,21 +339,26 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
             diag[v as usize] += (2.0 + rho[j] * rho[j] + rho[jm] * rho[jm]) * weights[q as usize];
         }
     }
-    let inv: Vec<f64> = diag
+    let inv: Vec<f32> = diag
         .iter()
         .zip(&free)
-        .map(|(&d, &f)| if f && d > 0.0 { 1.0 / d } else { 0.0 })
+        .map(|(&d, &f)| if f && d > 0.0 { (1.0 / d) as f32 } else { 0.0 })
         .collect();
     // memory: the blocks hold what the iterations need
     drop((weights, rhos, diag));
-    let mut r = vec![C::default(); n];
-    apply(&blocks, &z, &mut r);
+    // the start residual in double precision (from the positions), the iterations in single
+    // (on the step, whose values are of the size of the quads)
+    let r: Vec<C<f32>> = {
+        let mut r = vec![C::default(); n];
+        apply(&blocks, &z, &mut r);
+        r.iter().map(|c| c.scale(-1.0).to()).collect()
+    };
     // memory: the iterations need only the residual
     drop(z);
-    r.iter_mut().for_each(|c| *c = c.scale(-1.0));
-    let mut d = vec![C::default(); n];
-    let mut p: Vec<C> = r.iter().zip(&inv).map(|(c, &m)| c.scale(m)).collect();
-    let mut ap = vec![C::default(); n];
+    let mut r = r;
+    let mut d: Vec<C<f32>> = vec![C::default(); n];
+    let mut p: Vec<C<f32>> = r.iter().zip(&inv).map(|(c, &m)| c.scale(m)).collect();
+    let mut ap: Vec<C<f32>> = vec![C::default(); n];
     let mut rs = pdot(&r, &p);
     let stop = TOLERANCE * TOLERANCE * rs;
     let mut it = 0usize;
@@ -308,6 +370,7 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
             break;
         }
         let alpha = rs / pap;
+        let a = alpha as f32;
         // d += α p, r −= α A p, and rs = r · M⁻¹ r in one pass (sums per chunk, then in
         // chunk order: the same for any thread count)
         let rs_new: f64 = d
@@ -318,17 +381,16 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
             .map(|(((d, r), (p, ap)), inv)| {
                 let mut rs = 0.0;
                 for v in 0..d.len() {
-                    d[v] = d[v].add(p[v].scale(alpha));
-                    r[v] = r[v].sub(ap[v].scale(alpha));
-                    let s = r[v].scale(inv[v]);
-                    rs += r[v].0 * s.0 + r[v].1 * s.1;
+                    d[v] = d[v].add(p[v].scale(a));
+                    r[v] = r[v].sub(ap[v].scale(a));
+                    rs += r[v].dot(r[v].scale(inv[v]));
                 }
                 rs
             })
             .collect::<Vec<f64>>()
             .iter()
             .sum();
-        let beta = rs_new / rs;
+        let beta = (rs_new / rs) as f32;
         rs = rs_new;
         p.par_chunks_mut(CHUNK)
             .zip(r.par_chunks(CHUNK).zip(inv.par_chunks(CHUNK)))
@@ -359,7 +421,7 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
     for step in [1.0, 0.5, 0.25] {
         for v in 0..n {
             if free[v] {
-                let dv = d[v];
+                let dv: C = d[v].to();
                 trial[v] = l.pos[v] + u * (step * dv.0) + w * (step * dv.1);
             }
         }
