@@ -610,6 +610,17 @@ mod tests {
         assert!(runs >= 5 && better > 0, "{better} of {runs} runs improved");
     }
 
+    /// A recombined Delaunay square of 20,291 quads: large enough for the schedule of
+    /// surfaces of 20k quads or more and for several blocks of the conformal product.
+    fn large_square() -> Local {
+        let quads = (1u64..20)
+            .find_map(|seed| synth::pair_optimal(&synth::delaunay_square(146, 1.0, 0.3, seed)))
+            .expect("an even, matchable square");
+        let (_, l) = local_of(&synth::to_mesh(&quads));
+        assert!(l.quads.len() >= crate::optimize::schedule::RESMOOTH_ALL_BELOW);
+        l
+    }
+
     /// The schedule of surfaces of 20k quads or more (`schedule`: shorter sweeps, rounds
     /// near the changes, one pattern sweep, the max-min polish again at the end) on a
     /// recombined Delaunay square: the quality it reached when this test was written
@@ -617,11 +628,7 @@ mod tests {
     /// and no fixed node moves.
     #[test]
     fn a_large_planar_surface_keeps_its_quality() {
-        let quads = (1u64..20)
-            .find_map(|seed| synth::pair_optimal(&synth::delaunay_square(146, 1.0, 0.3, seed)))
-            .expect("an even, matchable square");
-        let (_, mut l) = local_of(&synth::to_mesh(&quads));
-        assert!(l.quads.len() >= crate::optimize::schedule::RESMOOTH_ALL_BELOW);
+        let mut l = large_square();
         let walls: Vec<(usize, DVec3)> = (0..l.pos.len())
             .filter(|&v| l.fixed[v])
             .map(|v| (v, l.pos[v]))
@@ -635,6 +642,33 @@ mod tests {
         for (v, p) in walls {
             assert_eq!(l.pos[v], p, "fixed node {v} moved");
         }
+    }
+
+    /// The optimization of a large surface (the conformal solve's blocks and chunked sums,
+    /// the parallel sweeps) gives the same quads and the same positions, bit for bit, on
+    /// one thread and on three.
+    #[test]
+    fn a_large_surface_is_optimized_the_same_on_any_thread_count() {
+        let run = |threads: usize| {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("a thread pool");
+            pool.install(|| {
+                let mut l = large_square();
+                let opts = crate::optimize::OptimizeOptions::default();
+                let rep = crate::optimize::run_surface(&mut l, &opts, &|_| {});
+                assert!(rep.operations.smoothing_moves > 0);
+                let bits: Vec<[u64; 3]> = l
+                    .pos
+                    .iter()
+                    .map(|p| p.to_array().map(f64::to_bits))
+                    .collect();
+                (l.quads, l.alive, bits)
+            })
+        };
+        let one = run(1);
+        assert!(one == run(3), "the result depends on the thread count");
     }
 
     #[test]
