@@ -147,6 +147,59 @@ pub(crate) fn sort_pairs(v: &mut Vec<(u64, u64)>) {
     radix_sort_by_key(v, |&(a, b)| (a << shift) | b);
 }
 
+/// Cell indices (cells of `N` node indices into `coords`: triangles, quads) sorted by the
+/// Morton (Z-order) code of their centroids, cells with the same code in their order, for
+/// memory locality: consecutive cells are mostly neighbours. The codes are computed in
+/// parallel and sorted by [`radix_sort_by_key`].
+pub(crate) fn morton_order<const N: usize>(cells: &[[u32; N]], coords: &[glam::DVec3]) -> Vec<u32> {
+    use glam::DVec3;
+    use rayon::prelude::*;
+    let centroid = |c: &[u32; N]| c.iter().map(|&v| coords[v as usize]).sum::<DVec3>() / N as f64;
+    // min and max are exact, so the box does not depend on how the reduction splits
+    let (lo, hi) = cells
+        .par_iter()
+        .with_min_len(4096)
+        .map(|c| {
+            let p = centroid(c);
+            (p, p)
+        })
+        .reduce(
+            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            |a, b| (a.0.min(b.0), a.1.max(b.1)),
+        );
+    let ext = (hi - lo).max_element();
+    let scale = if ext > 0.0 && ext.is_finite() {
+        ((1u64 << 21) - 1) as f64 / ext
+    } else {
+        0.0
+    };
+    // spreads the low 21 bits of x to every third bit
+    let spread = |x: u64| {
+        let mut x = x & 0x1f_ffff;
+        x = (x | x << 32) & 0x1f_0000_0000_ffff;
+        x = (x | x << 16) & 0x1f_0000_ff00_00ff;
+        x = (x | x << 8) & 0x100f_00f0_0f00_f00f;
+        x = (x | x << 4) & 0x10c3_0c30_c30c_30c3;
+        x = (x | x << 2) & 0x1249_2492_4924_9249;
+        x
+    };
+    let mut keyed: Vec<(u64, u32)> = cells
+        .par_iter()
+        .with_min_len(4096)
+        .enumerate()
+        .map(|(i, c)| {
+            let p = (centroid(c) - lo) * scale;
+            let k = |x: f64| if x.is_finite() { x.max(0.0) as u64 } else { 0 };
+            (
+                spread(k(p.x)) | spread(k(p.y)) << 1 | spread(k(p.z)) << 2,
+                i as u32,
+            )
+        })
+        .collect();
+    radix_sort_by_key(&mut keyed, |&(code, _)| code);
+    keyed.into_iter().map(|(_, i)| i).collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

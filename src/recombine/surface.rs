@@ -31,6 +31,10 @@ pub(crate) struct SurfaceWork {
     pub time: Duration,
 }
 
+/// Triangles from which a surface's triangles are put in Morton order (`surface_work`):
+/// below, the surface's arrays stay in cache in the file's order.
+const MORTON_FROM: usize = 1 << 16;
+
 /// Result of one surface's matching and post-processing.
 pub(super) struct SurfaceResult {
     pub faces: post::Faces,
@@ -86,6 +90,21 @@ pub(super) fn surface_work(
                 })
                 .map(|b| b.len())
                 .sum();
+            // speed: a large surface's triangles in the Morton order of their centroids, so
+            // that the topology, the graph and the matching touch nearby memory (the file's
+            // order is not local enough; figures in BENCHMARKS.md, "Issue 15: triangles in
+            // Morton order on large surfaces")
+            if tris.len() >= MORTON_FROM {
+                let order = crate::keysort::morton_order(&tris, &nodes.coords);
+                tris = order.iter().map(|&t| tris[t as usize]).collect();
+                elem_tags = order.iter().map(|&t| elem_tags[t as usize]).collect();
+                if any_parts {
+                    partitions = order
+                        .iter()
+                        .map(|&t| std::mem::take(&mut partitions[t as usize]))
+                        .collect();
+                }
+            }
             tm.lap("ids");
             let normals = super::input::triangle_normals(tag, &tris, &elem_tags, nodes)?;
             tm.lap("checks");
