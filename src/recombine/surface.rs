@@ -299,3 +299,92 @@ impl Tracker {
         self.f.report(p);
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optimize::synth;
+
+    /// A large surface in a file order without locality (its faces shuffled).
+    fn shuffled_square() -> Mesh {
+        let mut soup = synth::delaunay_square(190, 1.0, 0.3, 3);
+        let mut rng = synth::Rng::new(11);
+        for i in (1..soup.faces.len()).rev() {
+            let j = (rng.next_f64() * (i + 1) as f64) as usize % (i + 1);
+            soup.faces.swap(i, j);
+        }
+        assert!(soup.faces.len() >= MORTON_FROM, "{}", soup.faces.len());
+        synth::to_mesh(&soup)
+    }
+
+    /// The whole job on such a surface: every triangle recombined, the checks of
+    /// `quadrangulate` (conformity, orientation, validity) passed.
+    #[test]
+    fn a_large_shuffled_surface_is_recombined_and_optimized() {
+        let mut mesh = shuffled_square();
+        let report =
+            crate::quadrangulate(&mut mesh, &crate::Options::default()).expect("quadrangulate");
+        assert!(report
+            .recombine
+            .surfaces
+            .iter()
+            .all(|s| s.quads_out > 30_000));
+        let tris: usize = mesh
+            .element_blocks
+            .iter()
+            .filter(|b| b.element_type == etype::TRI3)
+            .map(|b| b.len())
+            .sum();
+        assert_eq!(tris, 0);
+    }
+
+    /// A surface of [`MORTON_FROM`] triangles or more is taken in Morton order: each
+    /// triangle keeps its own element tag, every triangle is there once, and consecutive
+    /// triangles are close (their centroids a few cells apart on average, against a
+    /// large share of the square in the generator's order after a shuffle).
+    #[test]
+    fn a_large_surface_takes_its_triangles_in_morton_order_with_their_tags() {
+        let mesh = shuffled_square();
+        let nodes = NodeTable::new(&mesh);
+        let curves = CurveInfo::new(&mesh, &nodes).expect("curves");
+        let work = surface_work(&mesh, &nodes, &curves, None).expect("the surface");
+        assert_eq!(work.len(), 1);
+        let w = &work[0];
+        // the element of each tag, as node ids
+        let mut by_tag = std::collections::HashMap::new();
+        for b in mesh
+            .element_blocks
+            .iter()
+            .filter(|b| b.element_type == etype::TRI3)
+        {
+            for i in 0..b.len() {
+                by_tag.insert(b.tags[i], nodes.ids::<3>(b.element(i)).expect("nodes"));
+            }
+        }
+        assert_eq!(w.elem_tags.len(), by_tag.len());
+        let mut seen = std::collections::HashSet::new();
+        for (t, tag) in w.elem_tags.iter().enumerate() {
+            assert!(seen.insert(*tag), "tag {tag} twice");
+            let mut a = w.topo.tris[t];
+            let mut b = by_tag[tag];
+            a.sort_unstable();
+            b.sort_unstable();
+            assert_eq!(a, b, "triangle {t} is not element {tag}");
+        }
+        let centroid = |t: &[u32; 3]| {
+            t.iter()
+                .map(|&v| nodes.coords[v as usize])
+                .sum::<glam::DVec3>()
+                / 3.0
+        };
+        let mean_step = w
+            .topo
+            .tris
+            .windows(2)
+            .map(|p| centroid(&p[0]).distance(centroid(&p[1])))
+            .sum::<f64>()
+            / (w.topo.tris.len() - 1) as f64;
+        // cells of 1/190: consecutive triangles within a few cells of each other
+        assert!(mean_step < 5.0 / 190.0, "mean step {mean_step}");
+    }
+}

@@ -535,7 +535,8 @@ fn first_fold(
 
 /// One surface's triangles and their adjacency.
 pub(crate) struct SurfaceTopo {
-    /// Triangles as global node ids, in input order.
+    /// Triangles as global node ids, in the order of the surface's element tags (the file's
+    /// order, or Morton order on large surfaces: `surface::surface_work`).
     pub tris: Vec<[u32; 3]>,
     /// `nbr[3t + k]`: the triangle across local edge `k` (`tris[t][k] → tris[t][k+1]`) when
     /// that edge is a graph edge, else [`NONE`].
