@@ -102,12 +102,7 @@ fn main() {
         let c_gmsh = c0.zip(children_cpu()).map(|(a, b)| b.saturating_sub(a));
         let c_ours = c_read.zip(c_write).map(|(a, b)| a + b);
 
-        let tris: usize = mesh
-            .element_blocks
-            .iter()
-            .filter(|b| b.element_type == 2)
-            .map(|b| b.len())
-            .sum();
+        let tris: usize = mesh.count_elements(2);
         println!(
             "{} ({:.1} MB, {} nodes, {} triangles, {})",
             f.display(),

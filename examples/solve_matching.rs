@@ -2,7 +2,8 @@
 //! 0-based), solves the minimum-cost perfect matching, checks the optimality certificate and
 //! prints one line `n=… m=… cost=… time_s=… verified=true`.
 //!
-//! Usage: `solve_matching <file> [--stats]`. `time_s` covers the solver only (not parsing
+//! Usage: `solve_matching <file> [--stats] [--given-order]` (`--given-order`: the solver
+//! keeps the file's vertex numbering, [`matching::VertexOrder::Given`]). `time_s` covers the solver only (not parsing
 //! nor verification, reported separately as `parse_s` and `verify_s`); `solve_peak_mb` is the
 //! peak resident memory during the solve (the parsed edge list included; Linux only, `?`
 //! elsewhere).
@@ -52,8 +53,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let path = args
         .get(1)
-        .ok_or("usage: solve_matching <file> [--stats]")?;
+        .ok_or("usage: solve_matching <file> [--stats] [--given-order]")?;
     let stats = args.iter().any(|a| a == "--stats");
+    let order = if args.iter().any(|a| a == "--given-order") {
+        matching::VertexOrder::Given
+    } else {
+        matching::VertexOrder::BreadthFirst
+    };
     let t0 = Instant::now();
     let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
     let (n, edges) = parse(&text).map_err(|e| format!("{path}: {e}"))?;
@@ -65,7 +71,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t1 = Instant::now();
     let c1 = blossomquad::profile::cpu_seconds();
     let result = if stats {
-        let mut solver = matching::blossom::Solver::new(n, &edges);
+        let mut solver = matching::blossom::Solver::new_in_order(n, &edges, order);
         if std::env::var("GREEDY").is_ok() {
             solver.init_greedy();
         } else {
@@ -76,6 +82,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let r = solver.solve_rest();
         eprintln!("init {init_s:.3}s {init_stats:?}\ntotal {:?}", solver.stats);
         r
+    } else if order == matching::VertexOrder::Given {
+        matching::blossom::Solver::new_in_order(n, &edges, order).run()
     } else {
         matching::solve(n, &edges)
     };

@@ -321,12 +321,7 @@ mod tests {
         let (pts, tris) = grid_with_hole();
         let mut mesh = surface_mesh(&pts, &tris, &[]).expect("mesh");
         assert_eq!(mesh.entities[1].len(), 2, "outer loop and hole");
-        let lines: usize = mesh
-            .element_blocks
-            .iter()
-            .filter(|b| b.element_type == etype::LINE2)
-            .map(|b| b.len())
-            .sum();
+        let lines: usize = mesh.count_elements(etype::LINE2);
         assert_eq!(lines, 12 + 4, "every boundary edge is a line element");
         crate::quadrangulate(&mut mesh, &crate::Options::default()).expect("quads");
         let (p, q) = quads_of(&mesh, &pts);

@@ -295,6 +295,16 @@ impl Mesh {
         self.element_blocks.iter().map(|b| b.tags.len()).sum()
     }
 
+    /// Number of elements of MSH type `element_type` (e.g. [`etype::TRI3`]), over all
+    /// blocks.
+    pub fn count_elements(&self, element_type: u32) -> usize {
+        self.element_blocks
+            .iter()
+            .filter(|b| b.element_type == element_type)
+            .map(|b| b.tags.len())
+            .sum()
+    }
+
     /// Largest node tag (0 when there are no nodes).
     pub fn max_node_tag(&self) -> u64 {
         self.node_blocks

@@ -142,7 +142,7 @@ impl std::error::Error for NoPerfectMatching {}
 /// `O(n · m · (d + log C))` in the worst case (`d` blossom nesting depth, `C` cost range, for
 /// the radix heap); on mesh graphs it grows slightly faster than linearly (cache effects).
 pub fn solve(n: usize, edges: &[(u32, u32, i64)]) -> Result<Matching, NoPerfectMatching> {
-    prepare(n, edges, None)?.run()
+    prepare(n, edges, None, VertexOrder::BreadthFirst)?.run()
 }
 
 /// [`solve`] reporting its progress to `progress` as `(done, total)`: `total` fixed,
@@ -153,20 +153,38 @@ pub fn solve_with_progress(
     edges: &[(u32, u32, i64)],
     progress: blossom::ProgressCallback,
 ) -> Result<Matching, NoPerfectMatching> {
-    prepare(n, edges, Some(progress))?.run()
+    prepare(n, edges, Some(progress), VertexOrder::BreadthFirst)?.run()
 }
 
 /// [`solve`] with the edge list moved in (and the progress of [`solve_with_progress`] when
 /// given): the list is freed as soon as the solver has built its own arrays from it, so
-/// that it is not live through the solve.
+/// that it is not live through the solve. `order` is the solver's internal vertex
+/// numbering ([`VertexOrder`]); the result is the same optimum in the caller's numbering
+/// either way (among tied optima, possibly another one).
 pub fn solve_owned(
     n: usize,
     edges: Vec<(u32, u32, i64)>,
     progress: Option<blossom::ProgressCallback>,
+    order: VertexOrder,
 ) -> Result<Matching, NoPerfectMatching> {
-    let solver = prepare(n, &edges, progress)?;
+    let solver = prepare(n, &edges, progress, order)?;
     drop(edges);
     solver.run()
+}
+
+/// The solver's internal numbering of the vertices, for memory locality: its searches
+/// visit a vertex's neighbours, so neighbours with nearby numbers share cache lines.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub enum VertexOrder {
+    /// Breadth-first, component by component from the lowest unvisited vertex: local on
+    /// any connected sparse graph, whatever its numbering (the default).
+    #[default]
+    BreadthFirst,
+    /// The caller's numbering, for graphs numbered along a space-filling curve (mesh
+    /// triangles in the Morton order of their centroids): neighbours are then closer than
+    /// breadth-first layers put them (figures in BENCHMARKS.md, "Issue 15: the matching in
+    /// the Morton order of the triangles").
+    Given,
 }
 
 /// The solver state for `edges`, or the witness of an odd component.
@@ -174,11 +192,12 @@ fn prepare(
     n: usize,
     edges: &[(u32, u32, i64)],
     progress: Option<blossom::ProgressCallback>,
+    order: VertexOrder,
 ) -> Result<blossom::Solver, NoPerfectMatching> {
     if let Some(err) = odd_component_witness(n, edges) {
         return Err(err);
     }
-    let mut solver = blossom::Solver::new(n, edges);
+    let mut solver = blossom::Solver::new_in_order(n, edges, order);
     if let Some(p) = progress {
         solver.set_progress(p);
     }

@@ -266,24 +266,24 @@ fn finish_ticking(
         gate.check(l, true, "mean polish");
         lap_with_quality(tm, l, "polish_mean");
     }
-    // quality: on large surfaces, the max-min polish once more (see [`FINAL_WORST_POLISH_FROM`])
-    if opts.angle_sweeps > 0 && l.quads.len() >= FINAL_WORST_POLISH_FROM {
-        ops.smoothing_moves += smooth::polish_worst(l, WORST_SWEEPS_LARGE);
+    // quality: on large surfaces, the max-min polish once more (see [`LAST_WORST_SWEEPS`])
+    let last_worst = by_size(l, 0, LAST_WORST_SWEEPS);
+    if opts.angle_sweeps > 0 && last_worst > 0 {
+        ops.smoothing_moves += smooth::polish_worst(l, last_worst);
         gate.check(l, true, "max-min polish");
         lap_with_quality(tm, l, "polish_worst_again");
     }
     tick(1);
 }
 
-/// Surfaces of this many quads or more (those of [`RESMOOTH_ALL_BELOW`] and up) run half of
-/// `angle_sweeps` pattern sweeps (rounded up: 1 of the default 2) and end with the max-min
-/// polish once more, after the mean polish. The second pattern sweep cost about a quarter
-/// of the polish stages' time at 10^6 triangles and, on the rectangle fixtures from 10^5 to
-/// 3.6·10^6 triangles, the two changes together end with the same η̄, d4 and τ and an η_w
-/// as high or higher: the last max-min polish lifts the few quads the mean polish left
-/// below η 0.6, and visits only their nodes (figures in BENCHMARKS.md, "Issue 15: one
-/// pattern sweep and a last max-min polish on large surfaces").
-const FINAL_WORST_POLISH_FROM: usize = RESMOOTH_ALL_BELOW;
+/// Sweeps of the max-min polish that ends the optimization of surfaces of
+/// [`RESMOOTH_ALL_BELOW`] quads or more, after the mean polish (none on smaller ones). Those
+/// surfaces also run half of `angle_sweeps` pattern sweeps (rounded up: 1 of the default 2):
+/// with both changes they end with the same η̄, d4 and τ and an η_w as high or higher, since
+/// the last max-min polish lifts the few quads the mean polish left below η 0.6 and visits
+/// only their nodes (figures in BENCHMARKS.md, "Issue 15: one pattern sweep and a last
+/// max-min polish on large surfaces").
+const LAST_WORST_SWEEPS: usize = WORST_SWEEPS_LARGE;
 
 /// Sweeps of the max-min polish ([`smooth::polish_worst`]) on surfaces under
 /// [`RESMOOTH_ALL_BELOW`] quads.

@@ -28,6 +28,9 @@ pub(crate) struct SurfaceWork {
     pub partitions: Vec<Option<Vec<i32>>>,
     /// Quads already on the surface.
     pub quads_kept: usize,
+    /// True when `topo.tris` are in Morton order (from [`MORTON_FROM`] triangles): the
+    /// matching then keeps that numbering ([`crate::matching::VertexOrder::Given`]).
+    pub morton: bool,
     pub time: Duration,
 }
 
@@ -94,7 +97,8 @@ pub(super) fn surface_work(
             // that the topology, the graph and the matching touch nearby memory (the file's
             // order is not local enough; figures in BENCHMARKS.md, "Issue 15: triangles in
             // Morton order on large surfaces")
-            if tris.len() >= MORTON_FROM {
+            let morton = tris.len() >= MORTON_FROM;
+            if morton {
                 let order = crate::keysort::morton_order(&tris, &nodes.coords);
                 tris = order.iter().map(|&t| tris[t as usize]).collect();
                 elem_tags = order.iter().map(|&t| elem_tags[t as usize]).collect();
@@ -122,6 +126,7 @@ pub(super) fn surface_work(
                 elem_tags,
                 partitions,
                 quads_kept,
+                morton,
                 time: t0.elapsed(),
             })
         })
@@ -188,7 +193,15 @@ pub(super) fn match_surface(
     } else {
         std::mem::take(&mut g.edges)
     };
-    let solved = crate::matching::solve_owned(n, edges, progress);
+    // speed: a surface in Morton order is more local in that order than in the solver's
+    // breadth-first one (BENCHMARKS.md, "Issue 15: the matching in the Morton order of the
+    // triangles")
+    let order = if w.morton {
+        crate::matching::VertexOrder::Given
+    } else {
+        crate::matching::VertexOrder::BreadthFirst
+    };
+    let solved = crate::matching::solve_owned(n, edges, progress, order);
     let m = solved.map_err(|e| RecombineError::NoPerfectMatching {
         surface: w.tag,
         triangles: n,
@@ -317,24 +330,23 @@ mod tests {
         synth::to_mesh(&soup)
     }
 
-    /// The whole job on such a surface: every triangle recombined, the checks of
+    /// The whole job on such a surface: every triangle recombined, the matching solved in
+    /// the Morton order with its optimality certificate checked, the checks of
     /// `quadrangulate` (conformity, orientation, validity) passed.
     #[test]
     fn a_large_shuffled_surface_is_recombined_and_optimized() {
         let mut mesh = shuffled_square();
-        let report =
-            crate::quadrangulate(&mut mesh, &crate::Options::default()).expect("quadrangulate");
+        let opts = crate::Options {
+            verify: true,
+            ..crate::Options::default()
+        };
+        let report = crate::quadrangulate(&mut mesh, &opts).expect("quadrangulate");
         assert!(report
             .recombine
             .surfaces
             .iter()
             .all(|s| s.quads_out > 30_000));
-        let tris: usize = mesh
-            .element_blocks
-            .iter()
-            .filter(|b| b.element_type == etype::TRI3)
-            .map(|b| b.len())
-            .sum();
+        let tris: usize = mesh.count_elements(etype::TRI3);
         assert_eq!(tris, 0);
     }
 

@@ -233,12 +233,7 @@ fn trace_hooks_reach_the_sink_and_change_nothing() {
     use std::sync::{Arc, Mutex};
     let path = geo_dir().join("rectangle.msh");
     let input = blossomquad::read(&path).expect("read");
-    let triangles: usize = input
-        .element_blocks
-        .iter()
-        .filter(|b| b.element_type == 2)
-        .map(|b| b.len())
-        .sum();
+    let triangles: usize = input.count_elements(2);
     let mut plain = input.clone();
     let plain_report =
         blossomquad::quadrangulate(&mut plain, &blossomquad::Options::default()).expect("plain");

@@ -257,11 +257,7 @@ fn quads_written(text: &str) -> usize {
     let (code, err, output) = run(dir.path(), text, false);
     assert_eq!(code, 0, "expected exit 0, stderr:\n{err}");
     let mesh = blossomquad::msh::read_file(&output).expect("output reads back");
-    mesh.element_blocks
-        .iter()
-        .filter(|b| b.element_type == 3)
-        .map(|b| b.len())
-        .sum()
+    mesh.count_elements(3)
 }
 
 /// The fixes refuse only what cannot be recombined: the plain grid still works.
@@ -419,12 +415,7 @@ fn assert_valid_recombination(name: &str) {
     assert_eq!(code, 0, "{name}: stderr:\n{err}");
     let input = blossomquad::msh::read_file(&path).expect("input reads");
     let out = blossomquad::msh::read_file(&output).expect("output reads back");
-    let quads: usize = out
-        .element_blocks
-        .iter()
-        .filter(|b| b.element_type == 3)
-        .map(|b| b.len())
-        .sum();
+    let quads: usize = out.count_elements(3);
     assert!(quads > 0, "{name}: no quad written");
     assert!(
         out.element_blocks.iter().all(|b| b.element_type != 2),

@@ -44,11 +44,7 @@ fn elements(m: &Mesh) -> BTreeMap<u64, (i32, i32, u32, Vec<u64>)> {
 }
 
 fn count(m: &Mesh, element_type: u32) -> usize {
-    m.element_blocks
-        .iter()
-        .filter(|b| b.element_type == element_type)
-        .map(|b| b.len())
-        .sum()
+    m.count_elements(element_type)
 }
 
 /// Node tag -> coordinates.

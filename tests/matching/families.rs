@@ -4,7 +4,7 @@
 //! optimality certificate on mesh-like graphs of 10^5 and 10^6 vertices.
 
 use blossomquad::matching::{
-    self, blossom::Solver, oracle::brute_force_min_cost, CertificateError,
+    self, blossom::Solver, oracle::brute_force_min_cost, CertificateError, VertexOrder,
 };
 
 type Edges = Vec<(u32, u32, i64)>;
@@ -632,8 +632,15 @@ fn second_local_pass_and_progress_on_mesh_graphs() {
         .expect("perfect matching");
         assert_eq!(p.cost, m.cost, "{kind}");
         // the edge list moved in (freed once the solver has its arrays): the same result
-        let owned = matching::solve_owned(n, e.clone(), None).expect("perfect matching");
+        let owned = matching::solve_owned(n, e.clone(), None, VertexOrder::BreadthFirst)
+            .expect("perfect matching");
         assert_eq!(owned, p, "{kind}");
+        // the caller's numbering kept inside the solver (the generator's face order): an
+        // optimum too, with its certificate
+        let given = matching::solve_owned(n, e.clone(), None, VertexOrder::Given)
+            .expect("perfect matching");
+        assert_eq!(given.cost, p.cost, "{kind}");
+        assert!(matching::verify(n, &e, &given).is_ok(), "{kind}");
         let seen = seen.lock().expect("progress log");
         assert!(!seen.is_empty(), "{kind}: no progress reported");
         let total = seen[0].1;

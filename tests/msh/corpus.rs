@@ -112,12 +112,7 @@ fn corpus_quirks_are_read_as_documented() {
     assert_eq!(t1.format.unwrap().version, MshVersion::V40);
     assert_eq!(t1.node_count(), 417);
     assert_eq!(t1.max_node_tag(), 465);
-    let tri: usize = t1
-        .element_blocks
-        .iter()
-        .filter(|b| b.element_type == 2)
-        .map(|b| b.len())
-        .sum();
+    let tri: usize = t1.count_elements(2);
     assert_eq!(tri, 752);
     assert_eq!(msh::default_output_format(&t1).version, MshVersion::V41);
 

@@ -212,13 +212,7 @@ fn gmsh_written_meshes_read_in_all_four_variants() {
         meshes.push((label, m));
     }
     let (_, base) = &meshes[0];
-    let tri = |m: &Mesh| -> usize {
-        m.element_blocks
-            .iter()
-            .filter(|b| b.element_type == 2)
-            .map(|b| b.len())
-            .sum()
-    };
+    let tri = |m: &Mesh| -> usize { m.count_elements(2) };
     assert!(tri(base) > 20);
     for (label, m) in &meshes[1..] {
         assert_eq!(m.node_count(), base.node_count(), "{label}");

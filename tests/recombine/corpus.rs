@@ -119,13 +119,7 @@ fn every_core_file_recombines_and_keeps_its_invariants() {
         let out = dir.path().join("out.msh");
         msh::write_file(&m, &out, fmt).unwrap_or_else(|e| panic!("{name}: {e}"));
         let back = msh::read_file(&out).unwrap_or_else(|e| panic!("{name}: {e}"));
-        let quads = |m: &blossomquad::mesh::Mesh| -> usize {
-            m.element_blocks
-                .iter()
-                .filter(|b| b.element_type == etype::QUAD4)
-                .map(|b| b.len())
-                .sum()
-        };
+        let quads = |m: &blossomquad::mesh::Mesh| -> usize { m.count_elements(etype::QUAD4) };
         assert_eq!(quads(&back), quads(&m), "{name}");
         gmsh_loads(&out, &name);
         eprintln!(

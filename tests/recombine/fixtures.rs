@@ -46,11 +46,7 @@ fn groups(m: &blossomquad::mesh::Mesh) -> Vec<(i32, i32, String)> {
 }
 
 fn quads(m: &blossomquad::mesh::Mesh) -> usize {
-    m.element_blocks
-        .iter()
-        .filter(|b| b.element_type == etype::QUAD4)
-        .map(|b| b.len())
-        .sum()
+    m.count_elements(etype::QUAD4)
 }
 
 /// (fixture, size parameter giving a coarse mesh)
@@ -93,12 +89,7 @@ fn every_fixture_in_every_variant() {
             )
             .unwrap_or_else(|e| panic!("{name} {tag}: {e}"));
             check_invariants(&before, &m).unwrap_or_else(|e| panic!("{name} {tag}: {e}"));
-            let tris: usize = m
-                .element_blocks
-                .iter()
-                .filter(|b| b.element_type == etype::TRI3)
-                .map(|b| b.len())
-                .sum();
+            let tris: usize = m.count_elements(etype::TRI3);
             assert_eq!(tris, 0, "{name} {tag}");
             let out = dir.path().join(format!("{name}_{tag}_quad.msh"));
             msh::write_file(&m, &out, msh::default_output_format(&m)).unwrap();

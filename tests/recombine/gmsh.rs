@@ -35,11 +35,7 @@ fn mesh_geo(dir: &Path, name: &str, geo: &str, args: &[&str]) -> PathBuf {
 }
 
 fn count(m: &Mesh, ty: u32) -> usize {
-    m.element_blocks
-        .iter()
-        .filter(|b| b.element_type == ty)
-        .map(|b| b.len())
-        .sum()
+    m.count_elements(ty)
 }
 
 /// Recombines the file with verification, checks invariants, writes it in the input's

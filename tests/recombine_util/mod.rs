@@ -205,11 +205,7 @@ pub fn grid(g: &Grid) -> Mesh {
 
 /// Count of elements of type `ty` in the mesh.
 pub fn count(m: &Mesh, ty: u32) -> usize {
-    m.element_blocks
-        .iter()
-        .filter(|b| b.element_type == ty)
-        .map(|b| b.len())
-        .sum()
+    m.count_elements(ty)
 }
 
 /// Count of elements of type `ty` on surface `s`.

@@ -4,7 +4,8 @@
 //! and of Galil, Micali & Gabow (1986). One file per concern:
 //!
 //! - this file: the solver state, its construction ([`Solver::new`]: vertices renumbered in
-//!   breadth-first order by `locality_order`, every edge stored twice as half-edges grouped
+//!   breadth-first order by `locality_order`, or kept in the caller's order
+//!   ([`Solver::new_in_order`] with [`VertexOrder::Given`]), every edge stored twice as half-edges grouped
 //!   by their first endpoint, costs doubled), the phase sequence ([`Solver::run`]) and the
 //!   result in the caller's numbering;
 //! - `start`: the greedy jump start ([`Solver::init_greedy`]: `y_v` = half the cheapest
@@ -72,7 +73,7 @@ mod start;
 mod tests;
 mod tree;
 
-use super::{BlossomDual, Duals, Matching, NoPerfectMatching, MAX_ABS_COST, NONE};
+use super::{BlossomDual, Duals, Matching, NoPerfectMatching, VertexOrder, MAX_ABS_COST, NONE};
 pub use check::InvariantError;
 use std::cell::Cell;
 
@@ -323,13 +324,22 @@ impl Solver {
     /// endpoint `>= n` are dropped. Panics when `n >= 2^30` or there are `2^31` edges or more
     /// (u32 indices; such graphs would need tens of gigabytes anyway).
     pub fn new(n: usize, edges: &[(u32, u32, i64)]) -> Solver {
+        Solver::new_in_order(n, edges, VertexOrder::BreadthFirst)
+    }
+
+    /// [`Solver::new`] with the internal vertex numbering `order` (the result is in the
+    /// caller's numbering whatever it is).
+    pub fn new_in_order(n: usize, edges: &[(u32, u32, i64)], order: VertexOrder) -> Solver {
         // u32 indices: half-edge ids below 2^32, node ids (vertices and blossoms, < 1.5 n)
         // below the EXPAND flag bit.
         assert!(
             edges.len() < u32::MAX as usize / 2 && n < EXPAND as usize / 2,
             "matching: too many edges or vertices for u32 indices"
         );
-        let order = locality_order(n, edges);
+        let order = match order {
+            VertexOrder::BreadthFirst => locality_order(n, edges),
+            VertexOrder::Given => (0..n as u32).collect(),
+        };
         let mut perm = vec![0u32; n];
         for (new, &old) in order.iter().enumerate() {
             perm[old as usize] = new as u32;
