@@ -149,32 +149,27 @@ pub(crate) fn sort_pairs(v: &mut Vec<(u64, u64)>) {
 
 /// Cell indices (cells of `N` node indices into `coords`: triangles, quads) sorted by the
 /// Morton (Z-order) code of their centroids, cells with the same code in their order, for
-/// memory locality: consecutive cells are mostly neighbours. The centroids are computed once
-/// (in parallel, in single precision: they only order), the codes quantize the centroids'
-/// box to [`morton_bits`] bits per axis and are sorted by [`radix_sort_by_key`].
+/// memory locality: consecutive cells are mostly neighbours. The codes are computed in
+/// parallel and sorted by [`radix_sort_by_key`].
 pub(crate) fn morton_order<const N: usize>(cells: &[[u32; N]], coords: &[glam::DVec3]) -> Vec<u32> {
-    use glam::Vec3;
+    use glam::DVec3;
     use rayon::prelude::*;
-    // the one pass that reads `coords` in the cells' (random) order
-    let centroids: Vec<Vec3> = cells
-        .par_iter()
-        .with_min_len(4096)
-        .map(|c| (c.iter().map(|&v| coords[v as usize]).sum::<glam::DVec3>() / N as f64).as_vec3())
-        .collect();
+    let centroid = |c: &[u32; N]| c.iter().map(|&v| coords[v as usize]).sum::<DVec3>() / N as f64;
     // min and max are exact, so the box does not depend on how the reduction splits
-    let (lo, hi) = centroids
+    let (lo, hi) = cells
         .par_iter()
         .with_min_len(4096)
-        .map(|&p| (p, p))
+        .map(|c| {
+            let p = centroid(c);
+            (p, p)
+        })
         .reduce(
-            || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
             |a, b| (a.0.min(b.0), a.1.max(b.1)),
         );
-    let per_axis = morton_bits(cells.len());
-    let top = (1u64 << per_axis) - 1;
     let ext = (hi - lo).max_element();
     let scale = if ext > 0.0 && ext.is_finite() {
-        top as f32 / ext
+        ((1u64 << 21) - 1) as f64 / ext
     } else {
         0.0
     };
@@ -188,35 +183,21 @@ pub(crate) fn morton_order<const N: usize>(cells: &[[u32; N]], coords: &[glam::D
         x = (x | x << 2) & 0x1249_2492_4924_9249;
         x
     };
-    let mut keyed: Vec<(u64, u32)> = centroids
+    let mut keyed: Vec<(u64, u32)> = cells
         .par_iter()
         .with_min_len(4096)
         .enumerate()
-        .map(|(i, &c)| {
-            let p = (c - lo) * scale;
-            let k = |x: f32| {
-                if x.is_finite() {
-                    (x.max(0.0) as u64).min(top)
-                } else {
-                    0
-                }
-            };
+        .map(|(i, c)| {
+            let p = (centroid(c) - lo) * scale;
+            let k = |x: f64| if x.is_finite() { x.max(0.0) as u64 } else { 0 };
             (
                 spread(k(p.x)) | spread(k(p.y)) << 1 | spread(k(p.z)) << 2,
                 i as u32,
             )
         })
         .collect();
-    drop(centroids);
     radix_sort_by_key(&mut keyed, |&(code, _)| code);
     keyed.into_iter().map(|(_, i)| i).collect()
-}
-
-/// Bits per axis of the Morton codes of `n` cells: enough for a few grid cells per mesh
-/// cell on a surface (about 4n cells of a 2D grid), no more, so the radix sort of the codes
-/// takes 3 passes up to about 4·10^6 cells; at most 21 (a 63-bit code).
-fn morton_bits(n: usize) -> u32 {
-    (bits(n as u64).div_ceil(2) + 1).clamp(2, 21)
 }
 
 #[cfg(test)]
@@ -234,66 +215,6 @@ mod tests {
                 s
             })
             .collect()
-    }
-
-    /// The cells of a 64 × 64 grid of unit squares, listed in a shuffled order, come out
-    /// as a permutation in Z-order: the first four are the 2 × 2 block at the lowest corner,
-    /// consecutive cells are on average under two cells apart (a shuffled list: about 40),
-    /// and two cells with the same centroid keep their input order.
-    #[test]
-    fn the_morton_order_is_a_local_permutation() {
-        let k = 64u32;
-        let coords: Vec<glam::DVec3> = (0..=k)
-            .flat_map(|j| (0..=k).map(move |i| glam::DVec3::new(f64::from(i), f64::from(j), 0.0)))
-            .collect();
-        let node = |i: u32, j: u32| j * (k + 1) + i;
-        let mut cells: Vec<[u32; 4]> = (0..k)
-            .flat_map(|j| {
-                (0..k).map(move |i| {
-                    [
-                        node(i, j),
-                        node(i + 1, j),
-                        node(i + 1, j + 1),
-                        node(i, j + 1),
-                    ]
-                })
-            })
-            .collect();
-        let shuffle = numbers(cells.len(), 5);
-        for i in (1..cells.len()).rev() {
-            cells.swap(i, (shuffle[i] % (i as u64 + 1)) as usize);
-        }
-        // a copy of the last cell after it: the same code, so input order
-        cells.push(cells[cells.len() - 1]);
-        let order = morton_order(&cells, &coords);
-        let mut sorted = order.clone();
-        sorted.sort_unstable();
-        assert!(sorted.iter().enumerate().all(|(i, &c)| c as usize == i));
-        let centroid = |c: u32| {
-            cells[c as usize]
-                .iter()
-                .map(|&v| coords[v as usize])
-                .sum::<glam::DVec3>()
-                / 4.0
-        };
-        let mut first: Vec<(i64, i64)> = order[..4]
-            .iter()
-            .map(|&c| {
-                let p = centroid(c);
-                (p.x.floor() as i64, p.y.floor() as i64)
-            })
-            .collect();
-        first.sort_unstable();
-        assert_eq!(first, [(0, 0), (0, 1), (1, 0), (1, 1)]);
-        let mean_step = order
-            .windows(2)
-            .map(|w| centroid(w[0]).distance(centroid(w[1])))
-            .sum::<f64>()
-            / (order.len() - 1) as f64;
-        assert!(mean_step < 2.0, "{mean_step}");
-        let last = (cells.len() - 1) as u32;
-        let at = |c: u32| order.iter().position(|&o| o == c);
-        assert_eq!(at(last), at(last - 1).map(|p| p + 1));
     }
 
     #[test]
