@@ -217,6 +217,66 @@ mod tests {
             .collect()
     }
 
+    /// The cells of a 64 × 64 grid of unit squares, listed in a shuffled order, come out
+    /// as a permutation in Z-order: the first four are the 2 × 2 block at the lowest corner,
+    /// consecutive cells are on average under two cells apart (a shuffled list: about 40),
+    /// and two cells with the same centroid keep their input order.
+    #[test]
+    fn the_morton_order_is_a_local_permutation() {
+        let k = 64u32;
+        let coords: Vec<glam::DVec3> = (0..=k)
+            .flat_map(|j| (0..=k).map(move |i| glam::DVec3::new(f64::from(i), f64::from(j), 0.0)))
+            .collect();
+        let node = |i: u32, j: u32| j * (k + 1) + i;
+        let mut cells: Vec<[u32; 4]> = (0..k)
+            .flat_map(|j| {
+                (0..k).map(move |i| {
+                    [
+                        node(i, j),
+                        node(i + 1, j),
+                        node(i + 1, j + 1),
+                        node(i, j + 1),
+                    ]
+                })
+            })
+            .collect();
+        let shuffle = numbers(cells.len(), 5);
+        for i in (1..cells.len()).rev() {
+            cells.swap(i, (shuffle[i] % (i as u64 + 1)) as usize);
+        }
+        // a copy of the last cell after it: the same code, so input order
+        cells.push(cells[cells.len() - 1]);
+        let order = morton_order(&cells, &coords);
+        let mut sorted = order.clone();
+        sorted.sort_unstable();
+        assert!(sorted.iter().enumerate().all(|(i, &c)| c as usize == i));
+        let centroid = |c: u32| {
+            cells[c as usize]
+                .iter()
+                .map(|&v| coords[v as usize])
+                .sum::<glam::DVec3>()
+                / 4.0
+        };
+        let mut first: Vec<(i64, i64)> = order[..4]
+            .iter()
+            .map(|&c| {
+                let p = centroid(c);
+                (p.x.floor() as i64, p.y.floor() as i64)
+            })
+            .collect();
+        first.sort_unstable();
+        assert_eq!(first, [(0, 0), (0, 1), (1, 0), (1, 1)]);
+        let mean_step = order
+            .windows(2)
+            .map(|w| centroid(w[0]).distance(centroid(w[1])))
+            .sum::<f64>()
+            / (order.len() - 1) as f64;
+        assert!(mean_step < 2.0, "{mean_step}");
+        let last = (cells.len() - 1) as u32;
+        let at = |c: u32| order.iter().position(|&o| o == c);
+        assert_eq!(at(last), at(last - 1).map(|p| p + 1));
+    }
+
     #[test]
     fn the_radix_sort_is_a_stable_sort_by_key() {
         for (n, range) in [(10, 100), (5000, 1 << 17), (5000, 7), (3000, u64::MAX)] {
