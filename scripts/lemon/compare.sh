@@ -5,6 +5,8 @@
 # Usage: scripts/lemon/compare.sh graph1.txt [graph2.txt ...]
 # Env: SOLVE (path to the solve_matching example binary), LEMON (path to lemon_matching);
 # defaults build both (cargo build --release --example solve_matching, scripts/lemon/build.sh).
+# SOLVE_ARGS: extra arguments of solve_matching, e.g. "--given-order" (our solver keeps the
+# file's vertex numbering, as the recombination does on graphs it numbered in Morton order).
 set -eu
 here=$(cd "$(dirname "$0")" && pwd)
 root="$here/../.."
@@ -20,7 +22,8 @@ field() { sed -n "s/.*$1=\([^ ]*\).*/\1/p" | head -n1; }
 rss() { sed -n 's/.*Maximum resident set size (kbytes): \([0-9]*\).*/\1/p' | head -n1; }
 printf '%-28s %9s %9s %8s %8s %9s %8s %7s %s\n' file n ours_s ours_cpu ours_MB lemon_s lemon_MB ratio same_cost
 for f in "$@"; do
-  o=$(/usr/bin/time -v "$SOLVE" "$f" 2>&1 || true)
+  # shellcheck disable=SC2086 # SOLVE_ARGS is a list of words
+  o=$(/usr/bin/time -v "$SOLVE" "$f" ${SOLVE_ARGS:-} 2>&1 || true)
   l=$(/usr/bin/time -v "$LEMON" "$f" 2>&1 || true)
   n=$(echo "$o" | field n)
   ot=$(echo "$o" | field time_s); ocpu=$(echo "$o" | field cpu_s); oc=$(echo "$o" | field cost); om=$(echo "$o" | rss)
