@@ -21,7 +21,8 @@ size (os.wait4). Writes a Markdown report (default BENCHMARKS.md).
 
 Environment: BENCH_TARGETS (default "1e4 1e5"; add 1e6 for the large row),
 BENCH_FIXTURES (default all four), BENCH_DIR (work dir, default bench-out),
-BENCH_OUT (report, default BENCHMARKS.md), BENCH_TIMEOUT (seconds per process,
+BENCH_OUT (report, default BENCHMARKS.md: its generated head is replaced, the sections
+after the head's "Reproduce:" line are kept), BENCH_TIMEOUT (seconds per process,
 default 1800), BLOSSOMQUAD (binary, default target/release/blossomquad).
 """
 
@@ -322,8 +323,18 @@ def main():
         lines.append("")
     lines += ["Reproduce: `" + " ".join(shlex.quote(a) for a in ["scripts/bench_vs_gmsh.sh"]) +
               "` (set `BENCH_TARGETS=\"1e4 1e5 1e6\"` for the 1e6 rows).", ""]
+    # the generated tables replace only the report's own head: what follows its
+    # "Reproduce:" line (hand-written sections of BENCHMARKS.md) is kept
+    kept = ""
+    if os.path.isfile(report):
+        with open(report) as f:
+            old = f.read()
+        marker = old.find("Reproduce: `scripts/bench_vs_gmsh.sh`")
+        if marker >= 0:
+            end = old.find("\n", marker)
+            kept = old[end + 1:] if end >= 0 else ""
     with open(report, "w") as f:
-        f.write("\n".join(lines))
+        f.write("\n".join(lines) + kept)
     print(f"bench: wrote {report}", file=sys.stderr)
     return 0
 
