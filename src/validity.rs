@@ -14,7 +14,13 @@
 //!   extent of the nearest distance counts); the quad's own normal only when the surface
 //!   has no face at all;
 //! - no corner is seen edge-on from the surface (its sine about that normal above
-//!   [`MIN_SINE`] of its edges' lengths).
+//!   [`MIN_SINE`] of its edges' lengths);
+//! - each corner also turns positively (sine above [`MIN_SINE`] of its edges' lengths) about
+//!   the input normal at every node of the quad the input has: on a coarse curved face
+//!   whose normal turns sharply within one quad, a corner can be fine about its own node's
+//!   normal and reflex about the surface a neighbouring corner sees (`tests/check_mesh.py`,
+//!   which measures a quad's corners about one normal of the input faces around it, found
+//!   such quads on the corpus's many-bosses model).
 //!
 //! [`invalid_quads`] lists every quad that is not valid; it shares no code with the
 //! recombination or the optimizer, which it checks, except the closest-point grid of
@@ -520,8 +526,10 @@ fn check_quad<'n>(
         }
     }
     let own = (p[2] - p[0]).cross(p[3] - p[1]).normalize_or_zero();
+    // the input normal at each corner's node (`None`: a node the input lacks)
+    let at: [Option<DVec3>; 4] = std::array::from_fn(|k| normals.get(q[k]));
     for k in 0..4 {
-        let n = match normals.get(q[k]) {
+        let n = match at[k] {
             Some(n) => n,
             None => match nearest().normal(p[k]) {
                 n if n != DVec3::ZERO => n,
@@ -541,6 +549,24 @@ fn check_quad<'n>(
                 corner: k,
                 degrees: s.atan2(c).to_degrees(),
             });
+        }
+    }
+    // and about the input normals at the quad's other nodes: a quad across a sharp turn of
+    // a coarse curved surface can have every corner positive about its own node's normal
+    // and one of them reflex about the surface a neighbouring node sees
+    for k in 0..4 {
+        let a = p[(k + 1) % 4] - p[k];
+        let b = p[(k + 3) % 4] - p[k];
+        let ab = a.cross(b);
+        let floor = MIN_SINE * a.length() * b.length();
+        for n in at.iter().flatten() {
+            let s = n.dot(ab);
+            if s.is_nan() || s <= floor {
+                return Some(Defect::Corner {
+                    corner: k,
+                    degrees: s.atan2(a.dot(b)).to_degrees(),
+                });
+            }
         }
     }
     None
@@ -634,5 +660,33 @@ mod tests {
             invalid_quads(&input, &mesh(&c, etype::QUAD4, &[&[4, 3, 2, 1]])).len(),
             1
         );
+    }
+
+    #[test]
+    fn a_quad_across_a_sharp_turn_is_caught_by_the_normal_at_another_node() {
+        // two triangles hinged along 1-3, the second turned 120 degrees out of the first's
+        // plane (a coarse curved face): every corner of the quad 1 2 3 4 turns positively
+        // about its own node's normal, but the corner at node 2 (in the first triangle's
+        // plane) is reflex about node 4's (the second triangle's) normal
+        let c = [
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [1., 1., 0.],
+            [0.75, 0.25, 0.612],
+        ];
+        let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
+        let bad = invalid_quads(&input, &mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]]));
+        assert_eq!(bad.len(), 1);
+        assert_eq!(bad[0].node(), 2);
+        assert!(matches!(bad[0].defect, Defect::Corner { degrees, .. } if degrees < 0.0));
+        // a gentle turn (30 degrees) passes
+        let c = [
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [1., 1., 0.],
+            [0.0670, 0.9330, 0.3536],
+        ];
+        let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
+        assert!(invalid_quads(&input, &mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]])).is_empty());
     }
 }

@@ -5,7 +5,8 @@
 //! four distinct nodes, no zero-length edge, and every corner strictly between 0° and 180°
 //! measured in 3D about the area-weighted normal of the input faces at that corner's node,
 //! or, for a node the input does not have, of the input faces nearest to it (which also
-//! means the quad is oriented like them). That is the definition of
+//! means the quad is oriented like them), and about that normal at each of the quad's nodes
+//! the input has. That is the definition of
 //! `blossomquad::validity`, written again here independently so that the gate itself is
 //! checked. Anything else is a finding (a panic).
 //!
@@ -237,6 +238,19 @@ fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                         "surface {s}: quad {tag} {q:?} has a corner at node {} that is not strictly between 0 and 180 degrees (sine {s3:e} about the input normal)",
                         q[k]
                     ));
+                }
+                // and about the input's normal at each of the quad's nodes the input has
+                for j in 0..4 {
+                    let Some(m) = normal.get(&(s, q[j])).filter(|m| norm(**m) > 0.0) else {
+                        continue;
+                    };
+                    let sj = dot(cross(a, c), *m) / (norm(a) * norm(c) * norm(*m));
+                    if !(sj > 1e-12) {
+                        return Err(format!(
+                            "surface {s}: quad {tag} {q:?} has a corner at node {} that is reflex about the input normal at node {} (sine {sj:e})",
+                            q[k], q[j]
+                        ));
+                    }
                 }
             }
         }
