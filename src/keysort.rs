@@ -149,27 +149,32 @@ pub(crate) fn sort_pairs(v: &mut Vec<(u64, u64)>) {
 
 /// Cell indices (cells of `N` node indices into `coords`: triangles, quads) sorted by the
 /// Morton (Z-order) code of their centroids, cells with the same code in their order, for
-/// memory locality: consecutive cells are mostly neighbours. The codes are computed in
-/// parallel and sorted by [`radix_sort_by_key`].
+/// memory locality: consecutive cells are mostly neighbours. The centroids are computed once
+/// (in parallel, in single precision: they only order), the codes quantize the centroids'
+/// box to [`morton_bits`] bits per axis and are sorted by [`radix_sort_by_key`].
 pub(crate) fn morton_order<const N: usize>(cells: &[[u32; N]], coords: &[glam::DVec3]) -> Vec<u32> {
-    use glam::DVec3;
+    use glam::Vec3;
     use rayon::prelude::*;
-    let centroid = |c: &[u32; N]| c.iter().map(|&v| coords[v as usize]).sum::<DVec3>() / N as f64;
-    // min and max are exact, so the box does not depend on how the reduction splits
-    let (lo, hi) = cells
+    // the one pass that reads `coords` in the cells' (random) order
+    let centroids: Vec<Vec3> = cells
         .par_iter()
         .with_min_len(4096)
-        .map(|c| {
-            let p = centroid(c);
-            (p, p)
-        })
+        .map(|c| (c.iter().map(|&v| coords[v as usize]).sum::<glam::DVec3>() / N as f64).as_vec3())
+        .collect();
+    // min and max are exact, so the box does not depend on how the reduction splits
+    let (lo, hi) = centroids
+        .par_iter()
+        .with_min_len(4096)
+        .map(|&p| (p, p))
         .reduce(
-            || (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+            || (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
             |a, b| (a.0.min(b.0), a.1.max(b.1)),
         );
+    let per_axis = morton_bits(cells.len());
+    let top = (1u64 << per_axis) - 1;
     let ext = (hi - lo).max_element();
     let scale = if ext > 0.0 && ext.is_finite() {
-        ((1u64 << 21) - 1) as f64 / ext
+        top as f32 / ext
     } else {
         0.0
     };
@@ -183,21 +188,35 @@ pub(crate) fn morton_order<const N: usize>(cells: &[[u32; N]], coords: &[glam::D
         x = (x | x << 2) & 0x1249_2492_4924_9249;
         x
     };
-    let mut keyed: Vec<(u64, u32)> = cells
+    let mut keyed: Vec<(u64, u32)> = centroids
         .par_iter()
         .with_min_len(4096)
         .enumerate()
-        .map(|(i, c)| {
-            let p = (centroid(c) - lo) * scale;
-            let k = |x: f64| if x.is_finite() { x.max(0.0) as u64 } else { 0 };
+        .map(|(i, &c)| {
+            let p = (c - lo) * scale;
+            let k = |x: f32| {
+                if x.is_finite() {
+                    (x.max(0.0) as u64).min(top)
+                } else {
+                    0
+                }
+            };
             (
                 spread(k(p.x)) | spread(k(p.y)) << 1 | spread(k(p.z)) << 2,
                 i as u32,
             )
         })
         .collect();
+    drop(centroids);
     radix_sort_by_key(&mut keyed, |&(code, _)| code);
     keyed.into_iter().map(|(_, i)| i).collect()
+}
+
+/// Bits per axis of the Morton codes of `n` cells: enough for a few grid cells per mesh
+/// cell on a surface (about 4n cells of a 2D grid), no more, so the radix sort of the codes
+/// takes 3 passes up to about 4·10^6 cells; at most 21 (a 63-bit code).
+fn morton_bits(n: usize) -> u32 {
+    (bits(n as u64).div_ceil(2) + 1).clamp(2, 21)
 }
 
 #[cfg(test)]
