@@ -668,25 +668,16 @@ mod tests {
         // plane (a coarse curved face): every corner of the quad 1 2 3 4 turns positively
         // about its own node's normal, but the corner at node 2 (in the first triangle's
         // plane) is reflex about node 4's (the second triangle's) normal
-        let c = [
-            [0., 0., 0.],
-            [1., 0., 0.],
-            [1., 1., 0.],
-            [0.75, 0.25, 0.612],
-        ];
-        let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
-        let bad = invalid_quads(&input, &mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]]));
+        let hinged = |fourth: [f64; 3]| {
+            let c = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], fourth];
+            let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
+            invalid_quads(&input, &mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]]))
+        };
+        let bad = hinged([0.75, 0.25, 0.612]);
         assert_eq!(bad.len(), 1);
         assert_eq!(bad[0].node(), 2);
         assert!(matches!(bad[0].defect, Defect::Corner { degrees, .. } if degrees < 0.0));
         // a gentle turn (30 degrees) passes
-        let c = [
-            [0., 0., 0.],
-            [1., 0., 0.],
-            [1., 1., 0.],
-            [0.0670, 0.9330, 0.3536],
-        ];
-        let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
-        assert!(invalid_quads(&input, &mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]])).is_empty());
+        assert!(hinged([0.0670, 0.9330, 0.3536]).is_empty());
     }
 }
