@@ -362,6 +362,14 @@ mod tests {
         let work = surface_work(&mesh, &nodes, &curves, None).expect("the surface");
         assert_eq!(work.len(), 1);
         let w = &work[0];
+        // so the matching keeps that numbering (`VertexOrder::Given`); a small surface
+        // keeps the file's order and the solver's breadth-first one
+        assert!(w.morton);
+        let small = synth::to_mesh(&synth::delaunay_square(20, 1.0, 0.3, 3));
+        let nodes_s = NodeTable::new(&small);
+        let curves_s = CurveInfo::new(&small, &nodes_s).expect("curves");
+        let small_work = surface_work(&small, &nodes_s, &curves_s, None).expect("the surface");
+        assert!(small_work.iter().all(|w| !w.morton));
         // the element of each tag, as node ids
         let mut by_tag = std::collections::HashMap::new();
         for b in mesh
