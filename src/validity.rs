@@ -526,9 +526,15 @@ fn check_quad<'n>(
         }
     }
     let own = (p[2] - p[0]).cross(p[3] - p[1]).normalize_or_zero();
-    // the input normal at each corner's node (`None`: a node the input lacks)
+    // the input normal at each corner's node (`None`: a node the input lacks), and each
+    // corner's two edges, its plane's normal `a × b` and its sine floor, read by both passes
     let at: [Option<DVec3>; 4] = std::array::from_fn(|k| normals.get(q[k]));
-    for k in 0..4 {
+    let corners: [(DVec3, DVec3, DVec3, f64); 4] = std::array::from_fn(|k| {
+        let a = p[(k + 1) % 4] - p[k];
+        let b = p[(k + 3) % 4] - p[k];
+        (a, b, a.cross(b), MIN_SINE * a.length() * b.length())
+    });
+    for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
         let n = match at[k] {
             Some(n) => n,
             None => match nearest().normal(p[k]) {
@@ -536,14 +542,12 @@ fn check_quad<'n>(
                 _ => own,
             },
         };
-        let a = p[(k + 1) % 4] - p[k];
-        let b = p[(k + 3) % 4] - p[k];
-        let s = n.dot(a.cross(b));
+        let s = n.dot(ab);
         let c = a.dot(b);
         // α = atan2(s, c) is inside (ε, π − ε) exactly when s > |c| tan ε; and the corner
         // must not be seen edge-on (its plane about perpendicular to the surface, where s
         // and c are both rounding noise): s above MIN_SINE of |a| |b|
-        let inside = s > c.abs() * *MIN_TAN && s > MIN_SINE * a.length() * b.length();
+        let inside = s > c.abs() * *MIN_TAN && s > floor;
         if !inside {
             return Some(Defect::Corner {
                 corner: k,
@@ -554,11 +558,7 @@ fn check_quad<'n>(
     // and about the input normals at the quad's other nodes: a quad across a sharp turn of
     // a coarse curved surface can have every corner positive about its own node's normal
     // and one of them reflex about the surface a neighbouring node sees
-    for k in 0..4 {
-        let a = p[(k + 1) % 4] - p[k];
-        let b = p[(k + 3) % 4] - p[k];
-        let ab = a.cross(b);
-        let floor = MIN_SINE * a.length() * b.length();
+    for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
         for n in at.iter().flatten() {
             let s = n.dot(ab);
             if s.is_nan() || s <= floor {

@@ -353,14 +353,13 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64) -> usize {
     drop((weights, rhos, diag));
     // the start residual in double precision (from the positions), the iterations in single
     // (on the step, whose values are of the size of the quads)
-    let r: Vec<C<f32>> = {
+    let mut r: Vec<C<f32>> = {
         let mut r = vec![C::default(); n];
         apply(&blocks, &z, &mut r);
         r.iter().map(|c| c.scale(-1.0).to()).collect()
     };
     // memory: the iterations need only the residual
     drop(z);
-    let mut r = r;
     let mut d: Vec<C<f32>> = vec![C::default(); n];
     let mut p: Vec<C<f32>> = r.iter().zip(&inv).map(|(c, &m)| c.scale(m)).collect();
     let mut ap: Vec<C<f32>> = vec![C::default(); n];
