@@ -59,7 +59,7 @@ const RELOCATED_MIN_ETA: f64 = 0.2;
 /// search from a focus quad rewrites quads within 3 rings of the focus (depth 2; 4 for the
 /// [`WIDE_DEPTH`] searches from a wide corner) and walks the fans of their nodes; one more
 /// ring for those fans.
-const REACH_RINGS: usize = WIDE_DEPTH + 2;
+pub(crate) const REACH_RINGS: usize = WIDE_DEPTH + 2;
 
 /// Longest rotation sequence searched from a quad with a node of [`Topo::wide_corner`]: one
 /// more than elsewhere, which together with [`WIDE_FLOOR`] lifts the worst quad next to

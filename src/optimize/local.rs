@@ -61,7 +61,7 @@ pub(crate) struct Local {
     pub planar: bool,
     /// The surface nodes are projected on (curved surfaces; on small planar surfaces kept
     /// only for [`Local::tau_estimate`]).
-    pub reference: Option<TriSurface>,
+    pub reference: Option<std::sync::Arc<TriSurface>>,
     /// Target sizes at the points of `reference` (empty when the surface has no reference
     /// triangles, or is planar and large).
     pub ref_sizes: Vec<f64>,

@@ -14,7 +14,8 @@
 //! Files: this one holds the options, reports and entry points; `schedule` the stages of
 //! one surface; `extract` the copy into flat arrays and the write-back; `reference` the
 //! prepared reference triangulation and its attachment to a surface; `local` the flat
-//! arrays and star evaluation; `smooth`, `topo`, `cleanup`, `conformal`, `polish` the stages;
+//! arrays and star evaluation; `smooth`, `topo`, `cleanup`, `conformal`, `polish` the stages
+//! (`halves` runs a topology pass of a large surface on its two halves side by side);
 //! `valid` the optimizer's validity rule and the per-surface gate; `check` and `synth` serve
 //! the tests.
 //!
@@ -31,7 +32,9 @@
 //! conformal solve) and keep the best by η̄, η_w and estimated τ (`schedule::better`); each
 //! schedule is deterministic, so the result does not depend on the thread count. On large
 //! surfaces the topology passes after the first only look near what the previous pass
-//! changed, and the rounds stop after a pass that changed under 1 % of the quads. Quads are
+//! changed, and the rounds stop after a pass that changed under 1 % of the quads; from 2^15
+//! quads each pass runs on the two halves of the quads side by side, then on a band along
+//! their seam (deterministic, but not the serial pass's result). Quads are
 //! numbered in Morton order of their centroids and nodes by first use.
 //!
 //! **Validity** ([`valid`](self)): every operator accepts a change only if each quad it
@@ -55,6 +58,7 @@
 mod cleanup;
 mod conformal;
 mod extract;
+mod halves;
 mod local;
 mod polish;
 mod reference;

@@ -248,7 +248,7 @@ pub(super) fn attach_reference(
         }
         if !own && l.quads.len() < RESMOOTH_ALL_BELOW {
             // small surfaces choose between schedules by τ (`Local::tau_estimate`)
-            l.reference = Some(TriSurface::new(pts, tris));
+            l.reference = Some(std::sync::Arc::new(TriSurface::new(pts, tris)));
             l.ref_sizes = nodal;
         }
         return;
@@ -264,7 +264,7 @@ pub(super) fn attach_reference(
             }
         }
     }
-    l.reference = Some(surface);
+    l.reference = Some(std::sync::Arc::new(surface));
     if !own {
         l.ref_sizes = nodal;
     }

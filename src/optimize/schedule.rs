@@ -175,7 +175,12 @@ fn topology_rounds(
         // so the surface size decides before it)
         let snapshot = (l.quads.len() >= RESMOOTH_ALL_BELOW)
             .then(|| (l.quads.clone(), l.alive.clone(), l.pos.clone()));
-        let changed = topo::pass(l, ops, focus.as_deref());
+        // speed: on a large surface, the pass in two halves side by side (`halves`)
+        let changed = if l.quads.len() >= HALVES_FROM {
+            super::halves::pass(l, ops, focus.as_deref())
+        } else {
+            topo::pass(l, ops, focus.as_deref())
+        };
         tm.lap("topo");
         if changed == 0 {
             break;
@@ -202,6 +207,12 @@ fn topology_rounds(
         }
     }
 }
+
+/// Surfaces of this many quads or more run each topology pass in two halves side by side,
+/// then along their seam (`halves`): the passes are serial and, at 10^5 quads and beyond,
+/// a large share of the optimizer's time; below, the band along the seam is a large part
+/// of the surface (figures in BENCHMARKS.md, "Issue 15: the topology passes in two halves").
+const HALVES_FROM: usize = 1 << 15;
 
 /// Surfaces of [`RESMOOTH_ALL_BELOW`] quads or more stop their topology rounds after a pass
 /// that changed fewer than one quad in this many: each pass changes about a tenth as much as
