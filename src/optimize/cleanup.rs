@@ -19,10 +19,12 @@
 //! boundary node on a straight wall with a single quad, a straight corner no smoothing can
 //! open), or given an extra quad with corners narrower than [`MIN_FIXED_CORNER`], costs
 //! [`WIDE_CORNER_PENALTY`]: the search removes such corners (they set η_w) and creates one
-//! only in a sequence that lowers E by more than the penalty. From a quad with a node whose corners are that wide, the search goes deeper
-//! ([`WIDE_DEPTH`] rotations) and its prefixes may raise the energy by up to [`WIDE_FLOOR`]
-//! (the whole sequence must still lower it): the first rotations make room for the quad the
-//! wide corner needs.
+//! only in a sequence that lowers E by more than the penalty. From a quad with a node whose
+//! corners are that wide, the search goes deeper ([`WIDE_DEPTH`] rotations) and its
+//! prefixes may raise the energy by up to [`WIDE_FLOOR`] (the whole sequence must still
+//! lower it): the first rotations make room for the quad the wide corner needs. A quad with
+//! three free corners of valence 3 ([`CROWDED`]) sets η_w too (about 0.57 after every
+//! polish) and gets the same depth, with prefixes up to [`CROWDED_FLOOR`] above E.
 //!
 //! The quads a sequence rewrites must be valid (signed η above [`MIN_ETA`]) at the current
 //! node positions; if some are not, the free nodes of those are moved to the centroid of
@@ -72,6 +74,17 @@ const WIDE_DEPTH: usize = 3;
 /// each; rotating an edge towards it takes a quad from such a neighbour (a straight corner
 /// there), so the sequence must first give that neighbour a third quad (narrow corners).
 const WIDE_FLOOR: i32 = WIDE_CORNER_PENALTY + 4;
+
+/// A quad with this many free corners of valence 3 (their corners want 120°, so the fourth
+/// is pressed towards 0° or the quad towards a triangle: η about 0.57 at best after
+/// smoothing) is searched like a wide corner's: [`WIDE_DEPTH`] rotations, prefixes up to
+/// [`CROWDED_FLOOR`] above the energy (figures in BENCHMARKS.md, "Issue 15: the topology
+/// passes in two halves (session 16)").
+const CROWDED: usize = 3;
+
+/// How much the prefixes of a sequence searched from a [`CROWDED`] quad may raise the
+/// energy: one defect pair moved next to another before they cancel.
+const CROWDED_FLOOR: i32 = 2;
 
 /// Energy of a fixed node whose corners would be wider than [`MAX_FIXED_CORNER`].
 const WIDE_CORNER_PENALTY: i32 = 16;
@@ -297,6 +310,13 @@ impl<'a> Topo<'a> {
         self.l.fixed[vi]
             && self.val[vi] > 0
             && self.angle[vi] / f64::from(self.val[vi]) > MAX_FIXED_CORNER
+    }
+
+    /// True when `q` has [`CROWDED`] or more free corners of valence 3.
+    fn crowded(&self, q: u32) -> bool {
+        let quad = &self.l.quads[q as usize];
+        let three = |&&w: &&u32| !self.l.fixed[w as usize] && self.val[w as usize] == 3;
+        quad.iter().filter(three).count() >= CROWDED
     }
 
     /// Energy of node `v` at valence `d`.
@@ -636,8 +656,12 @@ pub(crate) fn cleanup(
             // quality: around a fixed node whose single quad spans too wide a corner, a
             // longer sequence whose first steps may raise the energy (see WIDE_DEPTH)
             let wide = quad.iter().any(|&w| t.wide_corner(w));
+            // quality: a quad with three free corners of valence 3 cannot be smoothed into
+            // shape, and no sequence of two rotations that never raises the energy undoes it
             let (d, floor) = if wide {
                 (depth.max(WIDE_DEPTH), -WIDE_FLOOR)
+            } else if t.crowded(q) {
+                (depth.max(WIDE_DEPTH), -CROWDED_FLOOR)
             } else {
                 (depth, 0)
             };
@@ -689,7 +713,7 @@ pub(crate) mod tests {
 
     /// Runs [`cleanup`] and checks what every operator must keep: fixed nodes and their
     /// positions, the quad count, node usage, valid orientation, a conforming mesh.
-    fn cleanup_checked(m: &mut Mesh, depth: usize) -> (i32, i32, usize) {
+    fn cleanup_checked(m: &mut Mesh, depth: usize, rounds: usize) -> (i32, i32, usize) {
         let (flat, mut l) = local_of(m);
         let e0 = energy(&mut l);
         let fixed_before: Vec<(u32, DVec3)> = (0..l.pos.len() as u32)
@@ -698,7 +722,7 @@ pub(crate) mod tests {
             .collect();
         let alive = l.alive.iter().filter(|&&a| a).count();
         let quads_before = l.quads.clone();
-        let (seqs, rots) = cleanup(&mut l, depth, 8, None);
+        let (seqs, rots) = cleanup(&mut l, depth, rounds, None);
         assert!(rots >= seqs);
         for &(v, p) in &fixed_before {
             assert_eq!(l.pos[v as usize], p, "a fixed node moved");
@@ -740,7 +764,7 @@ pub(crate) mod tests {
         for (seed, quads) in matched_squares().into_iter().take(4) {
             let mut m = synth::to_mesh(&quads);
             let curve = m.node_blocks[0].clone();
-            let (e0, e1, seqs) = cleanup_checked(&mut m, 2);
+            let (e0, e1, seqs) = cleanup_checked(&mut m, 2, 8);
             assert!(e1 <= e0, "seed {seed}: energy rose {e0} -> {e1}");
             assert!(e1 < e0 || seqs == 0);
             assert_eq!(m.node_blocks[0].tags, curve.tags);
@@ -832,8 +856,8 @@ pub(crate) mod tests {
         for (_, quads) in matched_squares().into_iter().skip(4).take(3) {
             let mut m1 = synth::to_mesh(&quads);
             let mut m2 = m1.clone();
-            one += cleanup_checked(&mut m1, 1).1;
-            two += cleanup_checked(&mut m2, 2).1;
+            one += cleanup_checked(&mut m1, 1, 8).1;
+            two += cleanup_checked(&mut m2, 2, 8).1;
         }
         assert!(two < one, "depth 2 energy {two}, depth 1 energy {one}");
     }
@@ -861,7 +885,7 @@ pub(crate) mod tests {
             assert_eq!(t.val[v], 1);
             assert!(t.energy(v as u32, 1) >= WIDE_CORNER_PENALTY);
         }
-        let (e0, e1, seqs) = cleanup_checked(&mut m, 1);
+        let (e0, e1, seqs) = cleanup_checked(&mut m, 1, 8);
         assert!(seqs >= 1 && e1 < e0, "{e0} -> {e1}");
         let (_, mut l) = local_of(&m);
         let t = Topo::new(&mut l);
@@ -882,6 +906,64 @@ pub(crate) mod tests {
     /// Tag of local node `v` (synth tags are 1-based point indices).
     fn l_tag(t: &Topo, v: usize) -> u64 {
         t.l.tags[v]
+    }
+
+    /// Quads with three free corners of valence 3 in `l` (adjacency current).
+    fn crowded_quads(l: &mut Local) -> usize {
+        let t = Topo::new(l);
+        (0..t.l.quads.len() as u32)
+            .filter(|&q| t.l.alive[q as usize] && t.crowded(q))
+            .count()
+    }
+
+    /// A patch of 135 quads cut around the one quad with three valence-3 corners that the
+    /// pipeline left on the 3.6·10^6-triangle rectangle (η_w 0.566 after every polish): the
+    /// search from it finds no sequence of two rotations but one of three, and one round of
+    /// the cleanup removes it with the mesh kept conforming.
+    #[test]
+    fn a_quad_with_three_valence_three_corners_is_taken_apart() {
+        let text = include_str!("../../tests/data/patches/crowded_quad.txt");
+        let mut soup = Soup::default();
+        for line in text.lines() {
+            let f: Vec<&str> = line.split_whitespace().collect();
+            match f.first() {
+                Some(&"v") => {
+                    let x: Vec<f64> = f[1..].iter().map(|t| t.parse().expect("a float")).collect();
+                    soup.points.push(DVec3::new(x[0], x[1], 0.0));
+                }
+                Some(&"q") => soup.faces.push(
+                    f[1..]
+                        .iter()
+                        .map(|t| t.parse().expect("an index"))
+                        .collect(),
+                ),
+                _ => {}
+            }
+        }
+        // to unit edges (the sizes `local_of` gives): the validity rule compares edge
+        // lengths with them
+        let c = soup.points.iter().sum::<DVec3>() / soup.points.len() as f64;
+        let q0 = &soup.faces[0];
+        let scale = soup.points[q0[0]].distance(soup.points[q0[1]]);
+        for p in &mut soup.points {
+            *p = (*p - c) / scale;
+        }
+        let mut m = synth::to_mesh(&soup);
+        let (_, mut l) = local_of(&m);
+        assert_eq!(crowded_quads(&mut l), 1);
+        // from the quad itself: nothing within two rotations, a sequence within three
+        let mut t = Topo::new(&mut l);
+        let q = (0..t.l.quads.len() as u32)
+            .find(|&q| t.crowded(q))
+            .expect("the crowded quad");
+        assert_eq!(t.search([q, NONE], 0, 2, 0), None);
+        t.log.clear();
+        assert!(t.search([q, NONE], 0, WIDE_DEPTH, -CROWDED_FLOOR).is_some());
+        // one round, as a topology pass runs it
+        let (e0, e1, seqs) = cleanup_checked(&mut m, 2, 1);
+        assert!(seqs > 0 && e1 < e0, "{e0} -> {e1} in {seqs} sequences");
+        let (_, mut after) = local_of(&m);
+        assert_eq!(crowded_quads(&mut after), 0);
     }
 
     #[test]

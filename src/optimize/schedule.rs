@@ -211,7 +211,8 @@ fn topology_rounds(
 /// Surfaces of this many quads or more run each topology pass in two halves side by side,
 /// then along their seam (`halves`): the passes are serial and, at 10^5 quads and beyond,
 /// a large share of the optimizer's time; below, the band along the seam is a large part
-/// of the surface (figures in BENCHMARKS.md, "Issue 15: the topology passes in two halves").
+/// of the surface (figures in BENCHMARKS.md, "Issue 15: the topology passes in two halves
+/// (session 16)").
 const HALVES_FROM: usize = 1 << 15;
 
 /// Surfaces of [`RESMOOTH_ALL_BELOW`] quads or more stop their topology rounds after a pass
