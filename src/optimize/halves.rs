@@ -37,8 +37,8 @@ pub(crate) const SEAM_RINGS: usize = super::cleanup::REACH_RINGS + 2;
 const REGION_RINGS: usize = 2 * SEAM_RINGS;
 
 /// One topology pass over `l` (see the module docs); the same contract as
-/// [`topo::pass`]: returns how many operators were applied, leaves the adjacency stale.
-/// Needs a current adjacency.
+/// [`topo::pass`]: returns how many operators were applied, leaves the adjacency stale
+/// when that is not zero (current when it is). Needs a current adjacency.
 pub(crate) fn pass(l: &mut Local, ops: &mut OperationCounts, focus: Option<&[bool]>) -> usize {
     pass_counting(l, ops, focus).0
 }
@@ -123,6 +123,11 @@ fn pass_counting(
     let ns = seam_pass(l, ops, &band, &region, &in_focus);
     tm.lap("seam");
     tm.done();
+    // the caller rebuilds the adjacency only after a pass that changed something; this one
+    // dropped it either way
+    if na + nb + ns == 0 {
+        l.build_adjacency();
+    }
     (na + nb + ns, touched)
 }
 
@@ -473,5 +478,15 @@ mod tests {
         );
         assert_eq!(via, direct);
         assert!(part.quads == whole.quads && part.alive == whole.alive);
+    }
+
+    /// A pass that finds nothing to do (a structured grid) leaves the adjacency current,
+    /// as the serial pass does: the caller rebuilds it only after a change.
+    #[test]
+    fn a_pass_that_changes_nothing_leaves_the_adjacency_current() {
+        let (_, mut l) = local_of(&synth::to_mesh(&synth::quad_grid(40, 40, 1.0, 1.0)));
+        let (start, adj) = (l.start.clone(), l.adj.clone());
+        assert_eq!(pass(&mut l, &mut OperationCounts::default(), None), 0);
+        assert!(l.start == start && l.adj == adj);
     }
 }
