@@ -649,21 +649,12 @@ mod tests {
     #[test]
     fn a_large_surface_is_optimized_the_same_on_any_thread_count() {
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .expect("a thread pool");
-            pool.install(|| {
+            crate::optimize::test_util::on_threads(threads, || {
                 let mut l = large_square();
                 let opts = crate::optimize::OptimizeOptions::default();
                 let rep = crate::optimize::run_surface(&mut l, &opts, &|_| {});
                 assert!(rep.operations.smoothing_moves > 0);
-                let bits: Vec<[u64; 3]> = l
-                    .pos
-                    .iter()
-                    .map(|p| p.to_array().map(f64::to_bits))
-                    .collect();
-                (l.quads, l.alive, bits)
+                (l.quads, l.alive, crate::optimize::test_util::bits(&l.pos))
             })
         };
         let one = run(1);

@@ -305,6 +305,7 @@ impl Part {
 mod tests {
     use super::*;
     use crate::optimize::cleanup::tests::local_of;
+    use crate::optimize::test_util::{bits, on_threads};
     use crate::optimize::{smooth, synth, valid};
     use std::collections::HashSet;
 
@@ -425,19 +426,10 @@ mod tests {
     #[test]
     fn the_pass_in_halves_does_not_depend_on_the_thread_count() {
         let run = |threads: usize| {
-            let pool = rayon::ThreadPoolBuilder::new()
-                .num_threads(threads)
-                .build()
-                .expect("a thread pool");
-            pool.install(|| {
+            on_threads(threads, || {
                 let mut l = smoothed_square();
                 pass(&mut l, &mut OperationCounts::default(), None);
-                let bits: Vec<[u64; 3]> = l
-                    .pos
-                    .iter()
-                    .map(|p| p.to_array().map(f64::to_bits))
-                    .collect();
-                (l.quads, l.alive, l.removed, bits)
+                (l.quads, l.alive, l.removed, bits(&l.pos))
             })
         };
         assert!(run(1) == run(3), "the result depends on the thread count");
@@ -455,28 +447,26 @@ mod tests {
         let mut whole = l.clone();
         let direct = topo::pass(&mut whole, &mut OperationCounts::default(), Some(&band));
         assert!(direct > 0);
-        let mut part = l.clone();
-        let via = seam_pass(
-            &mut part,
-            &mut OperationCounts::default(),
-            &band,
-            &band,
-            &|_| true,
-        );
-        assert_eq!(via, direct);
+        let via = |region: &[bool]| {
+            let mut part = l.clone();
+            let n = seam_pass(
+                &mut part,
+                &mut OperationCounts::default(),
+                &band,
+                region,
+                &|_| true,
+            );
+            (n, part)
+        };
+        // a region no wider than the band: the whole surface
+        let (n, part) = via(&band);
+        assert_eq!(n, direct);
         assert!(part.quads == whole.quads && part.alive == whole.alive && part.pos == whole.pos);
         // with a region wide enough the part is used, and finds the same here
         let mut wide = band.clone();
         grow_rings(&l, &mut wide, REGION_RINGS);
-        let mut part = l.clone();
-        let via = seam_pass(
-            &mut part,
-            &mut OperationCounts::default(),
-            &band,
-            &wide,
-            &|_| true,
-        );
-        assert_eq!(via, direct);
+        let (n, part) = via(&wide);
+        assert_eq!(n, direct);
         assert!(part.quads == whole.quads && part.alive == whole.alive);
     }
 

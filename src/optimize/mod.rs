@@ -70,6 +70,26 @@ pub mod synth;
 mod topo;
 mod valid;
 
+/// Helpers shared by the optimizer's unit tests.
+#[cfg(test)]
+pub(crate) mod test_util {
+    use glam::DVec3;
+
+    /// `f` run in a pool of `threads` threads.
+    pub(crate) fn on_threads<T: Send>(threads: usize, f: impl FnOnce() -> T + Send) -> T {
+        rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("a thread pool")
+            .install(f)
+    }
+
+    /// The bits of every coordinate of `pos`, to compare positions exactly.
+    pub(crate) fn bits(pos: &[DVec3]) -> Vec<[u64; 3]> {
+        pos.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
+    }
+}
+
 // an independent mesh checker for the tests (not the API)
 #[doc(hidden)]
 pub mod check;
