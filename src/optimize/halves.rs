@@ -72,16 +72,13 @@ fn pass_counting(
     let in_focus = |v: usize| focus.is_none_or(|f| f.get(v) == Some(&true));
     let seam_before = Seam::of(l, &side);
     tm.lap("band");
-    // memory: the halves hold copies of the node arrays; the parent's largest ones are
-    // rebuilt from them, and the adjacency and sweep data are rebuilt by the caller
+    // memory: the halves hold copies of the quads and node arrays; the parent's largest
+    // ones are rebuilt from them, and the adjacency and sweep data are rebuilt by the caller
     (l.start, l.adj) = (Vec::new(), Vec::new());
     (l.qn, l.colours, l.hopeless) = (Vec::new(), Vec::new(), Vec::new());
     l.sweep_ready = false;
-    let nodes = NodeData {
-        pos: std::mem::take(&mut l.pos),
-        nrm: std::mem::take(&mut l.nrm),
-        h: std::mem::take(&mut l.h),
-    };
+    let nq = l.quads.len();
+    let nodes = Taken::from(l);
     // nodes in no half (removed ones): kept aside
     let aside: Vec<(usize, DVec3, DVec3, f64)> = (0..n)
         .filter(|&v| side[v] == 0)
@@ -94,7 +91,7 @@ fn pass_counting(
     };
     let (mut a, mut b) = rayon::join(
         || Part::new(lr, &nodes, 0..mid, focus_of(1)),
-        || Part::new(lr, &nodes, mid..lr.quads.len(), focus_of(2)),
+        || Part::new(lr, &nodes, mid..nq, focus_of(2)),
     );
     drop(nodes);
     tm.lap("split");
@@ -104,6 +101,9 @@ fn pass_counting(
         || topo::pass(&mut b.local, &mut ops_b, Some(&b.focus)),
     );
     tm.lap("halves");
+    // every quad is in one half, every node not aside in at least one
+    l.quads = vec![[0; 4]; nq];
+    l.alive = vec![false; nq];
     l.pos = vec![DVec3::ZERO; n];
     l.nrm = vec![DVec3::ZERO; n];
     l.h = vec![0.0; n];
@@ -181,15 +181,11 @@ fn seam_pass(
     let quads: Vec<u32> = (0..l.quads.len() as u32)
         .filter(|&q| l.alive[q as usize] && l.quads[q as usize].iter().any(|&v| region[v as usize]))
         .collect();
-    let nodes = NodeData {
-        pos: std::mem::take(&mut l.pos),
-        nrm: std::mem::take(&mut l.nrm),
-        h: std::mem::take(&mut l.h),
-    };
-    let mut part = Part::new(l, &nodes, quads.iter().map(|&q| q as usize), |v| {
+    let taken = Taken::from(l);
+    let mut part = Part::new(l, &taken, quads.iter().map(|&q| q as usize), |v| {
         band[v] && in_focus(v)
     });
-    (l.pos, l.nrm, l.h) = (nodes.pos, nodes.nrm, nodes.h);
+    taken.put_back(l);
     let mut reach = part.focus.clone();
     grow_rings(&part.local, &mut reach, super::cleanup::REACH_RINGS + 1);
     let contained = reach
@@ -206,11 +202,30 @@ fn seam_pass(
     changed
 }
 
-/// The per-node arrays a part copies from (taken out of the parent while the parts exist).
-struct NodeData {
+/// The parent's arrays a part copies from, taken out of it while the parts are built.
+struct Taken {
+    quads: Vec<[u32; 4]>,
+    alive: Vec<bool>,
     pos: Vec<DVec3>,
     nrm: Vec<DVec3>,
     h: Vec<f64>,
+}
+
+impl Taken {
+    fn from(l: &mut Local) -> Taken {
+        Taken {
+            quads: std::mem::take(&mut l.quads),
+            alive: std::mem::take(&mut l.alive),
+            pos: std::mem::take(&mut l.pos),
+            nrm: std::mem::take(&mut l.nrm),
+            h: std::mem::take(&mut l.h),
+        }
+    }
+
+    fn put_back(self, l: &mut Local) {
+        (l.quads, l.alive) = (self.quads, self.alive);
+        (l.pos, l.nrm, l.h) = (self.pos, self.nrm, self.h);
+    }
 }
 
 /// Some quads of a surface as a [`Local`] of their own: nodes numbered by first use, with
@@ -223,11 +238,11 @@ struct Part {
 }
 
 impl Part {
-    /// The quads `quads` of `l` (node data from `nodes`), with `focus(v)` (a node of `l`)
-    /// as the focus.
+    /// The quads `quads` of `l` (quads and node data from `taken`), with `focus(v)` (a
+    /// node of `l`) as the focus.
     fn new(
         l: &Local,
-        nodes: &NodeData,
+        taken: &Taken,
         quads: impl Iterator<Item = usize>,
         focus: impl Fn(usize) -> bool,
     ) -> Part {
@@ -237,7 +252,7 @@ impl Part {
         let local_quads: Vec<[u32; 4]> = quads
             .map(|q| {
                 parent.push(q as u32);
-                l.quads[q].map(|v| {
+                taken.quads[q].map(|v| {
                     let slot = &mut map[v as usize];
                     if *slot == NONE {
                         *slot = global.len() as u32;
@@ -250,14 +265,14 @@ impl Part {
         let at = |g: &u32| *g as usize;
         let mut local = Local {
             surface: l.surface,
-            pos: global.iter().map(|g| nodes.pos[at(g)]).collect(),
-            nrm: global.iter().map(|g| nodes.nrm[at(g)]).collect(),
-            h: global.iter().map(|g| nodes.h[at(g)]).collect(),
+            pos: global.iter().map(|g| taken.pos[at(g)]).collect(),
+            nrm: global.iter().map(|g| taken.nrm[at(g)]).collect(),
+            h: global.iter().map(|g| taken.h[at(g)]).collect(),
             fixed: global.iter().map(|g| l.fixed[at(g)]).collect(),
             removed: global.iter().map(|g| l.removed[at(g)]).collect(),
             tri: global.iter().map(|g| l.tri[at(g)]).collect(),
             tags: Vec::new(),
-            alive: parent.iter().map(|&q| l.alive[q as usize]).collect(),
+            alive: parent.iter().map(|&q| taken.alive[q as usize]).collect(),
             origin: Vec::new(),
             quads: local_quads,
             planar: l.planar,
