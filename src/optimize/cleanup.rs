@@ -703,7 +703,7 @@ pub(crate) mod tests {
     }
 
     /// Total defect energy E (see the module docs) of `l`.
-    fn energy(l: &mut Local) -> i32 {
+    pub(crate) fn energy(l: &mut Local) -> i32 {
         let t = Topo::new(l);
         (0..t.val.len() as u32)
             .filter(|&v| t.val[v as usize] > 0)
@@ -738,12 +738,18 @@ pub(crate) mod tests {
         }
         l.build_adjacency();
         let e1 = energy(&mut l);
+        write_back_checked(m, flat, &l);
+        (e0, e1, seqs)
+    }
+
+    /// Writes `l` back into `m` (its mesh, `flat` its node table) and checks the result
+    /// with the independent checker: conforming, oriented, its boundary on the curves.
+    pub(crate) fn write_back_checked(m: &mut Mesh, flat: NodeTable, l: &Local) {
         let mut rep = OptimizeReport::default();
         let mut pending = PendingNodes::new(m);
-        write_back(m, &NodePlaces::new(flat), &l, &mut rep, &mut pending);
+        write_back(m, &NodePlaces::new(flat), l, &mut rep, &mut pending);
         pending.apply(m);
         crate::optimize::check::check_surface_mesh(m).expect("conforming, oriented");
-        (e0, e1, seqs)
     }
 
     /// Recombined Delaunay squares (the seeds whose triangles have a perfect matching).
