@@ -22,3 +22,13 @@ if [ $# -eq 0 ]; then
     CARGO_TARGET_DIR="$PWD/target/python" "$venv/bin/python" -m pip install -q --disable-pip-version-check ./python
     PATH="$PWD/$venv/bin:$PATH" "$venv/bin/python" -m pytest -q python/tests
 fi
+
+# --- The README's Python examples -----------------------------------------------------
+# Every ```python block of README.md and python/README.md, run verbatim in a venv made from
+# scratch (target/readme-venv) with the package installed from ./python with the extras the
+# text names (see tests/readme_python.py). Skipped, as above, when arguments select part of
+# the Rust suite.
+if [ $# -eq 0 ]; then
+    python3 tests/readme_python.py --venv target/readme-venv
+fi
+# --- end of the README's Python examples ----------------------------------------------

@@ -16,6 +16,17 @@ use crate::mesh::{Mesh, MshFormat, MshVersion};
 use crate::{msh, quality, recombine};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
+/// The end of `--help`: what a run prints and the exit codes.
+const AFTER_HELP: &str = "\
+A run prints one summary line on stderr (surfaces, triangles -> quads, worst and mean
+quad quality eta, time) and any warnings; -v adds the per-surface log and stage times,
+-q prints nothing but errors.
+
+Exit codes: 0 success (a mesh of quads only goes through, the summary saying there was
+nothing to recombine); 1 bad input, a refused mesh (including one with no surface
+elements at all, e.g. made by gmsh -1), a bad output path, or a quad still not valid
+after the fallback: one error line on stderr, no output written; 2 usage error.";
+
 /// Turn Gmsh triangle surface meshes into all-quadrilateral meshes (Blossom-Quad).
 ///
 /// The main job: `blossomquad INPUT.msh -o OUTPUT.msh` recombines the triangles of every
@@ -27,7 +38,8 @@ use clap::{Args, Parser, Subcommand, ValueEnum};
     version,
     about,
     args_conflicts_with_subcommands = true,
-    subcommand_negates_reqs = true
+    subcommand_negates_reqs = true,
+    after_help = AFTER_HELP
 )]
 struct Cli {
     #[command(subcommand)]
@@ -84,7 +96,7 @@ struct RunArgs {
     /// Input triangle mesh (MSH 2.x or 4.x, ASCII or binary), `-` for stdin.
     #[arg(required = true)]
     input: Option<PathBuf>,
-    /// Output quad mesh, `-` for stdout.
+    /// Output quad mesh, a name ending in .msh (checked before any work), `-` for stdout.
     #[arg(short, long, required = true)]
     output: Option<PathBuf>,
     #[command(flatten)]
@@ -140,8 +152,12 @@ struct RunArgs {
     #[arg(long)]
     force: bool,
     /// Print nothing but errors.
-    #[arg(short, long)]
+    #[arg(short, long, conflicts_with = "verbose")]
     quiet: bool,
+    /// Also print the log of every surface (matching, parity repair, fallback, optimization)
+    /// and the time of each stage.
+    #[arg(short, long)]
+    verbose: bool,
 }
 
 #[derive(Args, Debug, Default)]
@@ -181,9 +197,16 @@ where
     I: IntoIterator<Item = T>,
     T: Into<std::ffi::OsString> + Clone,
 {
-    let cli = match Cli::try_parse_from(args) {
+    let args: Vec<std::ffi::OsString> = args.into_iter().map(Into::into).collect();
+    let cli = match Cli::try_parse_from(&args) {
         Ok(cli) => cli,
         Err(e) => {
+            if e.exit_code() != 0 {
+                if let Some(hint) = second_file_hint(&args) {
+                    eprintln!("error: {hint}\n\nUsage: blossomquad [OPTIONS] <INPUT> -o <OUTPUT>\n\nFor more information, try '--help'.");
+                    return 2;
+                }
+            }
             // help and version go to stdout with exit 0, usage errors to stderr with 2
             let _ = e.print();
             return u8::try_from(e.exit_code()).unwrap_or(2);
@@ -196,6 +219,47 @@ where
             1
         }
     }
+}
+
+/// The message for a command line that names a second file where the main job takes one
+/// (`blossomquad in.msh out.msh`, which clap reads as an unknown subcommand): `None` when
+/// the arguments are not of that shape.
+fn second_file_hint(args: &[std::ffi::OsString]) -> Option<String> {
+    const WITH_VALUE: &[&str] = &[
+        "-o",
+        "--output",
+        "--format",
+        "--parity",
+        "--cross-field",
+        "--refine",
+        "--smooth",
+    ];
+    let mut files = Vec::new();
+    let mut has_output = false;
+    let mut it = args.iter().skip(1).map(|a| a.to_string_lossy());
+    while let Some(a) = it.next() {
+        if a == "-o" || a == "--output" || a.starts_with("--output=") {
+            has_output = true;
+        } else if a.starts_with("-o") && a.len() > 2 {
+            has_output = true;
+            continue;
+        }
+        if WITH_VALUE.contains(&a.as_ref()) {
+            it.next();
+        } else if a == "-" || !a.starts_with('-') {
+            files.push(a.into_owned());
+        }
+    }
+    let first = files.first()?;
+    if ["convert", "info", "quality", "help"].contains(&first.as_str()) {
+        return None;
+    }
+    let second = files.get(1)?;
+    Some(if has_output {
+        format!("unexpected argument '{second}': the main job recombines one INPUT at a time")
+    } else {
+        format!("unexpected argument '{second}': the output is given with -o; did you mean -o {second}?")
+    })
 }
 
 /// [`run_args`] on the process's arguments, as an [`ExitCode`].
@@ -238,22 +302,27 @@ impl Log {
 }
 
 /// The progress line of the main job on stderr, rewritten in place (at most 20 times a
-/// second): the stage, a bar and its percentage, and the surfaces when the stage goes
-/// surface by surface, e.g. `matching   [##############                ]  48%  surface 1/1`.
-/// Only on a terminal and without `--quiet` (`None` otherwise: nothing is drawn, no
-/// callback is installed).
+/// second): the stage, a bar and its percentage, the surfaces when the stage goes surface by
+/// surface, and the time since the start, e.g.
+/// `matching   [##############                ]  48%  surface 1/1  3s`. Only on a terminal
+/// and without `--quiet` (`None` otherwise: nothing is drawn, no callback is installed).
 fn progress_bar(quiet: bool) -> Option<indicatif::ProgressBar> {
     if quiet || !std::io::stderr().is_terminal() {
         return None;
     }
     let b = indicatif::ProgressBar::new(1);
-    // one message holds the whole line, so a report is one redraw
+    // one message holds the line but the clock, so a report is one redraw; the clock is
+    // redrawn by the ticker when no report comes
     b.set_style(
-        indicatif::ProgressStyle::with_template("{wide_msg}")
+        indicatif::ProgressStyle::with_template(PROGRESS_TEMPLATE)
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_spinner()),
     );
+    b.enable_steady_tick(std::time::Duration::from_millis(500));
     Some(b)
 }
+
+/// The progress line's template: [`progress_line`], then the elapsed time.
+const PROGRESS_TEMPLATE: &str = "{msg}  {elapsed}";
 
 /// Shows `p` on the progress line.
 fn show_progress(b: &indicatif::ProgressBar, p: &crate::Progress) {
@@ -296,7 +365,7 @@ fn run(cli: Cli) -> Result<(), String> {
             format,
             force,
         }) => {
-            check_not_input(&input, &output, force)?;
+            check_output(&input, &output, force)?;
             let mesh = read(&input)?;
             let log = Log {
                 quiet: false,
@@ -316,9 +385,11 @@ fn run(cli: Cli) -> Result<(), String> {
             json,
             view,
         }) => {
+            if let Some(out) = &view {
+                check_output(&input, out, false)?;
+            }
             let mesh = read(&input)?;
             if let Some(out) = &view {
-                check_not_input(&input, out, false)?;
                 let views = quality::view::view_mesh(&mesh);
                 let format = views.format.unwrap_or(crate::MshFormat {
                     version: crate::mesh::MshVersion::V41,
@@ -445,29 +516,34 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     let (Some(input), Some(output)) = (args.input, args.output) else {
         return Err("missing INPUT or -o OUTPUT (see --help)".into());
     };
-    check_not_input(&input, &output, args.force)?;
+    check_output(&input, &output, args.force)?;
     let quiet = args.quiet;
     let bar = progress_bar(quiet);
     let log = Log {
         quiet,
         bar: bar.clone(),
     };
-    let stage = |stage: crate::Stage, done: u64| {
-        if let Some(b) = &bar {
-            show_progress(b, &crate::Progress::new(stage, done, 1));
-        }
-    };
-    let t0 = Instant::now();
-    stage(crate::Stage::Read, 0);
-    let read_result = read(&input);
-    stage(crate::Stage::Read, 1);
-    let mut mesh = read_result.inspect_err(|_| {
+    let finish = || {
         if let Some(b) = &bar {
             b.finish_and_clear();
         }
-    })?;
+    };
+    let t0 = Instant::now();
+    let read_result = match &bar {
+        Some(b) => msh::read_file_with_progress(&input, &mut |done, total| {
+            show_progress(b, &crate::Progress::new(crate::Stage::Read, done, total))
+        }),
+        None => msh::read_file(&input),
+    };
+    let mut mesh = read_result
+        .map_err(|e| e.to_string())
+        .inspect_err(|_| finish())?;
     let t_read = t0.elapsed().as_secs_f64();
     print_warnings(&mesh, &log);
+    nothing_to_recombine(&mesh)
+        .map(|why| format!("{}: {why}", input.display()))
+        .map_or(Ok(()), Err)
+        .inspect_err(|_| finish())?;
 
     let mut opts = crate::Options {
         parity: match args.parity {
@@ -493,28 +569,135 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         }));
     }
     let result = crate::quadrangulate(&mut mesh, &opts);
-    let finish = || {
-        if let Some(b) = &bar {
-            b.finish_and_clear();
-        }
-    };
     let report = result
         .inspect_err(|_| finish())
         .map_err(|e| format!("{}: {e}", input.display()))?;
-    log.say_all(&report.log);
+    if args.verbose {
+        log.say_all(&report.log);
+    } else {
+        let warnings: Vec<String> = report
+            .log
+            .iter()
+            .filter(|l| l.starts_with("warning:"))
+            .cloned()
+            .collect();
+        log.say_all(&warnings);
+    }
     if args.quality_view {
         // encoded for the format written (the library option encodes for the default one)
         let binary = output_format(&mesh, &args.format).binary;
         quality::view::add_views(&mut mesh, binary);
     }
     let t3 = Instant::now();
-    stage(crate::Stage::Write, 0);
-    let written = write(&mesh, &output, &args.format, &log);
+    let written = match &bar {
+        Some(b) => write_with_progress(&mesh, &output, &args.format, &log, &mut |done, total| {
+            show_progress(b, &crate::Progress::new(crate::Stage::Write, done, total))
+        }),
+        None => write(&mesh, &output, &args.format, &log),
+    };
     finish();
     written?;
     let t_write = t3.elapsed().as_secs_f64();
+    if args.verbose {
+        log.say_all(&time_lines(&report, t_read, t_write));
+    }
+    if args.verify {
+        log.say("verify: passed (every surface's matching is optimal by its dual certificate, and the output keeps the input's invariants)");
+    }
+    if !quiet {
+        let seconds = t0.elapsed().as_secs_f64();
+        log.say(summary_line(&report, &mesh, &output, seconds));
+    }
+    Ok(())
+}
+
+/// Why `mesh` gives the main job nothing to work on (no surface element at all, as
+/// `gmsh -1` writes), in words; `None` when some surface has elements (a mesh of quads
+/// only goes through and is reported as such).
+fn nothing_to_recombine(mesh: &Mesh) -> Option<String> {
+    let count = |dim: i32| -> usize {
+        mesh.element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == dim)
+            .map(|b| b.len())
+            .sum()
+    };
+    if count(2) > 0 {
+        return None;
+    }
+    let volumes = count(3);
+    Some(if volumes > 0 {
+        format!("nothing to recombine: no surface elements, only {volumes} volume element(s); nothing written")
+    } else {
+        format!(
+            "nothing to recombine: the mesh has no surface elements ({} line element(s); made by gmsh -1? mesh the surfaces with gmsh -2); nothing written",
+            count(1)
+        )
+    })
+}
+
+/// The line a run ends with: surfaces, triangles -> quads, the quads' worst and mean η
+/// (eq. 3), what changed besides the pairing (parity repair, fallback, refinement), where
+/// the mesh went and the whole run's time.
+fn summary_line(report: &crate::Report, mesh: &Mesh, output: &Path, seconds: f64) -> String {
+    let surfaces = report.recombine.surfaces.len();
+    let triangles: usize = report
+        .recombine
+        .surfaces
+        .iter()
+        .map(|s| s.triangles_in)
+        .sum();
+    let etas = quality::quad_etas(mesh);
+    let quads = etas.len();
+    let quality = if quads > 0 {
+        let worst = etas.iter().map(|e| e.1).fold(f64::INFINITY, f64::min);
+        let mean = etas.iter().map(|e| e.1).sum::<f64>() / quads as f64;
+        format!(" (quality eta: worst {worst:.3}, mean {mean:.3})")
+    } else {
+        String::new()
+    };
+    let mut notes = Vec::new();
+    let splits = report.recombine.parity_splits.len();
+    if splits > 0 {
+        notes.push(format!("parity repair split {splits} boundary segment(s)"));
+    }
+    if let Some(f) = &report.fallback {
+        notes.push(format!(
+            "the fallback split {} triangle(s) into three quads each",
+            f.triangles_to_quads
+        ));
+    }
+    if !report.refine.is_empty() {
+        notes.push(format!("refined {} time(s)", report.refine.len()));
+    }
+    if !report.invalid.is_empty() {
+        notes.push(format!("{} quad(s) not valid", report.invalid.len()));
+    }
+    let notes = if notes.is_empty() {
+        String::new()
+    } else {
+        format!("; {}", notes.join(", "))
+    };
+    let target = if output.as_os_str() == "-" {
+        "standard output".to_string()
+    } else {
+        output.display().to_string()
+    };
+    if triangles == 0 {
+        return format!(
+            "nothing to recombine: no triangle, the surfaces hold {quads} quads already{quality}; written to {target} in {seconds:.2} s"
+        );
+    }
+    format!(
+        "{surfaces} surface{}, {triangles} triangles -> {quads} quads{quality}{notes}; written to {target} in {seconds:.2} s",
+        if surfaces == 1 { "" } else { "s" },
+    )
+}
+
+/// The stage times `--verbose` prints.
+fn time_lines(report: &crate::Report, t_read: f64, t_write: f64) -> Vec<String> {
     let times = &report.times;
-    let refine_time = if args.refine > 0 {
+    let refine_time = if !report.refine.is_empty() {
         format!(", refine {:.3} s", times.refine.as_secs_f64())
     } else {
         String::new()
@@ -524,12 +707,6 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     } else {
         String::new()
     };
-    log.say(format!(
-        "time: read {t_read:.3} s, recombine {:.3} s{refine_time}, optimize {:.3} s, check {:.3} s{second_order_time}, write {t_write:.3} s",
-        times.recombine.as_secs_f64(),
-        times.optimize.as_secs_f64(),
-        times.check.as_secs_f64(),
-    ));
     let sum = |f: fn(&recombine::SurfaceReport) -> std::time::Duration| {
         report
             .recombine
@@ -539,13 +716,20 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
             .sum::<std::time::Duration>()
             .as_secs_f64()
     };
-    log.say(format!(
-        "time in recombine, summed over surfaces: topology and graph {:.3} s, matching {:.3} s, quads {:.3} s",
-        sum(|s| s.time_graph),
-        sum(|s| s.time_matching),
-        sum(|s| s.time_post)
-    ));
-    Ok(())
+    vec![
+        format!(
+            "time: read {t_read:.3} s, recombine {:.3} s{refine_time}, optimize {:.3} s, check {:.3} s{second_order_time}, write {t_write:.3} s",
+            times.recombine.as_secs_f64(),
+            times.optimize.as_secs_f64(),
+            times.check.as_secs_f64(),
+        ),
+        format!(
+            "time in recombine, summed over surfaces: topology and graph {:.3} s, matching {:.3} s, quads {:.3} s",
+            sum(|s| s.time_graph),
+            sum(|s| s.time_matching),
+            sum(|s| s.time_post)
+        ),
+    ]
 }
 
 /// `--cross-field W`: a finite number in [0, 5].
@@ -602,11 +786,80 @@ fn output_format(mesh: &Mesh, args: &FormatArgs) -> MshFormat {
 }
 
 fn write(mesh: &Mesh, path: &Path, args: &FormatArgs, log: &Log) -> Result<(), String> {
+    write_with_progress(mesh, path, args, log, &mut |_, _| {})
+}
+
+fn write_with_progress(
+    mesh: &Mesh,
+    path: &Path,
+    args: &FormatArgs,
+    log: &Log,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<(), String> {
     let format = output_format(mesh, args);
     for w in msh::write_warnings(mesh, format) {
         log.say(format!("warning: {w}"));
     }
-    msh::write_file(mesh, path, format).map_err(|e| e.to_string())
+    msh::write_file_with_progress(mesh, path, format, progress).map_err(|e| e.to_string())
+}
+
+/// Checks an output path before any work: named `.msh` (the only format written), not a
+/// directory, in a directory that exists and takes new files, and not the input file
+/// itself unless `force`. `-` (standard output) passes.
+fn check_output(input: &Path, output: &Path, force: bool) -> Result<(), String> {
+    if output.as_os_str() == "-" {
+        return Ok(());
+    }
+    let shown = output.display();
+    if output.is_dir() {
+        return Err(format!(
+            "{shown}: is a directory; give the output file's name, e.g. -o {}",
+            output.join("out.msh").display()
+        ));
+    }
+    let msh = output
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("msh"));
+    if !msh {
+        let other = output
+            .extension()
+            .map(|e| format!("names a .{} file", e.to_string_lossy()))
+            .unwrap_or_else(|| "has no .msh extension".into());
+        return Err(format!(
+            "{shown}: {other}, but the output is always a Gmsh MSH file; name it .msh (other formats: convert the .msh afterwards, e.g. with meshio)"
+        ));
+    }
+    let dir = match output.parent() {
+        Some(p) if !p.as_os_str().is_empty() => p,
+        _ => Path::new("."),
+    };
+    if !dir.exists() {
+        return Err(format!(
+            "{shown}: the directory {} does not exist",
+            dir.display()
+        ));
+    }
+    if !dir.is_dir() {
+        return Err(format!("{shown}: {} is not a directory", dir.display()));
+    }
+    // the only sure test of "can create a file here": create one (removed at once)
+    if let Err(e) = tempfile::Builder::new()
+        .prefix(".blossomquad-probe-")
+        .tempfile_in(dir)
+    {
+        let why = match e.kind() {
+            std::io::ErrorKind::PermissionDenied => "permission denied".to_string(),
+            _ => e
+                .to_string()
+                .split_once(" at path ")
+                .map_or_else(|| e.to_string(), |(m, _)| m.to_string()),
+        };
+        return Err(format!(
+            "{shown}: cannot create a file in the directory {}: {why}",
+            dir.display()
+        ));
+    }
+    check_not_input(input, output, force)
 }
 
 /// Refuses an output path that is the input file itself, unless `force`.
@@ -649,5 +902,29 @@ mod tests {
             progress_line(&read),
             "reading    [                              ]   0%"
         );
+    }
+
+    #[test]
+    fn the_progress_line_ends_with_the_elapsed_time() {
+        let style = indicatif::ProgressStyle::with_template(PROGRESS_TEMPLATE);
+        assert!(style.is_ok());
+        assert!(PROGRESS_TEMPLATE.ends_with("{elapsed}"));
+    }
+
+    #[test]
+    fn a_second_file_gets_the_output_hint() {
+        let args = |a: &[&str]| -> Vec<std::ffi::OsString> {
+            a.iter().map(std::ffi::OsString::from).collect()
+        };
+        let hint = second_file_hint(&args(&["bq", "hole.msh", "out.msh"]));
+        assert!(hint.is_some_and(|h| h.contains("did you mean -o out.msh?")));
+        let hint = second_file_hint(&args(&["bq", "--refine", "1", "a.msh", "b.msh"]));
+        assert!(hint.is_some_and(|h| h.contains("-o b.msh")));
+        // a value of an option is not a file
+        assert!(second_file_hint(&args(&["bq", "--smooth", "3", "a.msh"])).is_none());
+        // subcommands take their own arguments
+        assert!(second_file_hint(&args(&["bq", "info", "a.msh", "b.msh"])).is_none());
+        let hint = second_file_hint(&args(&["bq", "a.msh", "b.msh", "-o", "c.msh"]));
+        assert!(hint.is_some_and(|h| h.contains("one INPUT at a time")));
     }
 }

@@ -89,17 +89,27 @@ use crate::mesh::{Mesh, MshFormat, MshVersion};
 /// Errors: [`ErrorKind::Io`] when the path cannot be read, otherwise any parse error of
 /// [`read_bytes`].
 pub fn read_file(path: &Path) -> Result<Mesh, MshError> {
+    read_file_with_progress(path, &mut |_, _| {})
+}
+
+/// [`read_file`], calling `progress(bytes parsed, bytes in all)` as the parse goes: at each
+/// section and every few ten thousand lines of an ASCII node or element section; the last
+/// call has both equal.
+pub fn read_file_with_progress(
+    path: &Path,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<Mesh, MshError> {
     if path.as_os_str() == "-" {
         let mut data = Vec::new();
         std::io::stdin()
             .lock()
             .read_to_end(&mut data)
             .map_err(|e| MshError::io("<stdin>", "cannot read", e))?;
-        return read_bytes(&data, "<stdin>");
+        return read::read_with_progress(&data, "<stdin>", progress);
     }
     let name = path.display().to_string();
     let data = std::fs::read(path).map_err(|e| MshError::io(&name, "cannot read", e))?;
-    read_bytes(&data, &name)
+    read::read_with_progress(&data, &name, progress)
 }
 
 /// Parses an MSH file held in memory. `source` names the input in error messages.
@@ -130,33 +140,76 @@ pub fn default_output_format(mesh: &Mesh) -> MshFormat {
 /// Data sections that do not fit the target encoding are skipped; [`write_warnings`] lists
 /// what a given format loses.
 pub fn write(mesh: &Mesh, w: &mut impl Write, format: MshFormat) -> Result<(), MshError> {
-    write::write_to(mesh, w, format, "<output>")
+    write::write_to(mesh, w, format, "<output>", &mut |_, _| {})
 }
 
 /// Writes `mesh` to `path` atomically: a temporary file in the target's directory, renamed
 /// over `path` only when complete, so no partial file is ever left. `-` writes standard
 /// output.
+///
+/// The file gets the permissions of the file it replaces, or for a new file those any new
+/// file gets (`0666` less the process's umask on Unix).
 pub fn write_file(mesh: &Mesh, path: &Path, format: MshFormat) -> Result<(), MshError> {
+    write_file_with_progress(mesh, path, format, &mut |_, _| {})
+}
+
+/// [`write_file`], calling `progress(bytes written, bytes expected)` as the output grows
+/// (about once a megabyte). The expected size is an estimate made before writing: `done`
+/// may pass it on ASCII output, and the last call has the final size as both.
+pub fn write_file_with_progress(
+    mesh: &Mesh,
+    path: &Path,
+    format: MshFormat,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<(), MshError> {
     if path.as_os_str() == "-" {
         let stdout = std::io::stdout();
         let mut lock = stdout.lock();
-        return write::write_to(mesh, &mut lock, format, "<stdout>");
+        return write::write_to(mesh, &mut lock, format, "<stdout>", progress);
     }
     let name = path.display().to_string();
     let dir = match path.parent() {
         Some(p) if !p.as_os_str().is_empty() => p,
         _ => Path::new("."),
     };
-    let mut tmp = tempfile::Builder::new()
-        .prefix(".blossomquad-")
-        .suffix(".msh.tmp")
-        .tempfile_in(dir)
-        .map_err(|e| MshError::io(&name, "cannot create a temporary file next to", e))?;
-    write::write_to(mesh, tmp.as_file_mut(), format, &name)?;
+    let mut builder = tempfile::Builder::new();
+    builder.prefix(".blossomquad-").suffix(".msh.tmp");
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        // the mode open(2) gives a new file, before the umask (tempfile's default is 0600)
+        builder.permissions(std::fs::Permissions::from_mode(0o666));
+    }
+    let mut tmp = builder.tempfile_in(dir).map_err(|e| {
+        let action = if dir.is_dir() {
+            "cannot create a file in its directory"
+        } else {
+            "its directory does not exist"
+        };
+        MshError::io(&name, action, without_temporary_name(e))
+    })?;
+    if let Ok(existing) = std::fs::metadata(path) {
+        if existing.is_file() {
+            tmp.as_file()
+                .set_permissions(existing.permissions())
+                .map_err(|e| MshError::io(&name, "cannot keep the permissions of", e))?;
+        }
+    }
+    write::write_to(mesh, tmp.as_file_mut(), format, &name, progress)?;
     tmp.as_file()
         .sync_all()
         .map_err(|e| MshError::io(&name, "cannot write", e))?;
     tmp.persist(path)
-        .map_err(|e| MshError::io(&name, "cannot rename the temporary file to", e.error))?;
+        .map_err(|e| MshError::io(&name, "cannot replace", e.error))?;
     Ok(())
+}
+
+/// `e` without the temporary file's name, which tempfile appends (`... at path
+/// DIR/.blossomquad-XXXX.msh.tmp`) and which means nothing to the user.
+fn without_temporary_name(e: std::io::Error) -> std::io::Error {
+    let text = e.to_string();
+    match text.split_once(" at path ") {
+        Some((message, _)) => std::io::Error::new(e.kind(), message.to_string()),
+        None => e,
+    }
 }

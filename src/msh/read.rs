@@ -86,6 +86,16 @@ fn sniff_not_msh(d: &[u8]) -> String {
 
 /// Reads a whole MSH file held in memory.
 pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
+    read_with_progress(d, file, &mut |_, _| {})
+}
+
+/// [`read`], calling `progress(bytes parsed, bytes in all)` at each section and every
+/// [`v4::TICK_LINES`] lines of an ASCII node or element section.
+pub(crate) fn read_with_progress(
+    d: &[u8],
+    file: &str,
+    progress: &mut dyn FnMut(u64, u64),
+) -> Result<Mesh, MshError> {
     if d.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(MshError::new(file, ErrorKind::Empty));
     }
@@ -95,6 +105,7 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
     }
     let mut r = Reader {
         d,
+        progress,
         mesh: Mesh::default(),
         format: None,
         swap: false,
@@ -108,6 +119,7 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
             break;
         }
         let hpos = t.p;
+        (r.progress)(hpos as u64, d.len() as u64);
         let name = match header(&mut t) {
             Ok(x) => x,
             Err(f) => return Err(f.into_error(d, file, None)),
@@ -159,6 +171,7 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
         ));
     }
     r.mesh.format = Some(format);
+    (r.progress)(d.len() as u64, d.len() as u64);
     Ok(r.mesh)
 }
 
@@ -214,8 +227,10 @@ fn duplicate_node(dup: Option<u64>, section_pos: usize) -> PResult<()> {
     }
 }
 
-struct Reader<'a> {
+struct Reader<'a, 'p> {
     d: &'a [u8],
+    /// `progress(offset, length)` (see [`read_with_progress`]).
+    progress: &'p mut dyn FnMut(u64, u64),
     mesh: Mesh,
     format: Option<MshFormat>,
     swap: bool,
@@ -223,7 +238,7 @@ struct Reader<'a> {
     index: Option<TagSet>,
 }
 
-impl<'a> Reader<'a> {
+impl<'a> Reader<'a, '_> {
     fn section(&mut self, t: &mut Text<'a>, name: &str, hpos: usize) -> PResult<()> {
         if name == "MeshFormat" {
             if self.format.is_some() {
@@ -264,7 +279,9 @@ impl<'a> Reader<'a> {
                     v4::nodes_binary(&mut b, &mut self.mesh)?;
                     t.p = b.p;
                 } else {
-                    v4::nodes_ascii(t, v40, &mut self.mesh)?;
+                    let len = self.d.len() as u64;
+                    let progress = &mut self.progress;
+                    v4::nodes_ascii(t, v40, &mut self.mesh, &mut |p| progress(p as u64, len))?;
                 }
                 let (set, dup) =
                     TagSet::new(self.mesh.node_blocks.iter().map(|b| b.tags.as_slice()));
@@ -277,7 +294,11 @@ impl<'a> Reader<'a> {
                     v4::elements_binary(&mut b, &mut self.mesh, self.index.as_ref())?;
                     t.p = b.p;
                 } else {
-                    v4::elements_ascii(t, v40, &mut self.mesh, self.index.as_ref())?;
+                    let len = self.d.len() as u64;
+                    let progress = &mut self.progress;
+                    v4::elements_ascii(t, v40, &mut self.mesh, self.index.as_ref(), &mut |p| {
+                        progress(p as u64, len)
+                    })?;
                 }
             }
             "PartitionedEntities" if !v2 && !v40 => {
@@ -313,7 +334,9 @@ impl<'a> Reader<'a> {
                 } else if bin {
                     v2::nodes_binary(t, self.swap, raw)?;
                 } else {
-                    v2::nodes_ascii(t, raw)?;
+                    let len = self.d.len() as u64;
+                    let progress = &mut self.progress;
+                    v2::nodes_ascii(t, raw, &mut |p| progress(p as u64, len))?;
                 }
                 duplicate_node(TagSet::new(std::iter::once(raw.node_tags())).1, hpos)?;
             }
@@ -322,7 +345,9 @@ impl<'a> Reader<'a> {
                 if bin {
                     v2::elements_binary(t, self.swap, raw)?;
                 } else {
-                    v2::elements_ascii(t, raw)?;
+                    let len = self.d.len() as u64;
+                    let progress = &mut self.progress;
+                    v2::elements_ascii(t, raw, &mut |p| progress(p as u64, len))?;
                 }
             }
             "NodeData" | "ElementData" | "ElementNodeData" => {

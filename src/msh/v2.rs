@@ -9,6 +9,7 @@ use super::derive;
 use super::error::{ErrorKind, Fail, PResult};
 use super::scan::{i32_at, u64_at, Bin, Text};
 use super::tags::TagMap;
+use super::v4::TICK_LINES;
 use crate::mesh::{element_dim, element_node_count, ElementBlock, Entity, Mesh, NodeBlock};
 
 /// One element as read, before the lift.
@@ -47,7 +48,12 @@ impl Raw2 {
 }
 
 /// `$Nodes` (ASCII): `n`, then `id x y z` per line.
-pub(crate) fn nodes_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
+/// `tick(offset)` is called every [`TICK_LINES`] lines (progress).
+pub(crate) fn nodes_ascii(
+    t: &mut Text,
+    raw: &mut Raw2,
+    tick: &mut dyn FnMut(usize),
+) -> PResult<()> {
     let n = t.count("number of nodes", 8)?;
     raw.node_tags.reserve(n);
     raw.coords.reserve(n);
@@ -58,6 +64,9 @@ pub(crate) fn nodes_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
         let z = t.f64_inline("coordinates", 2, 3)?;
         raw.coords.push([x, y, z]);
         t.end_line("node line")?;
+        if raw.coords.len() % TICK_LINES == 0 {
+            tick(t.p);
+        }
     }
     Ok(())
 }
@@ -170,12 +179,20 @@ const MAX_TAGS: usize = 1024;
 
 /// `$Elements` (ASCII): `n`, then one line per element `id type ntags tag… node…`. A line
 /// with more fields than `ntags` + the type's node count is refused.
-pub(crate) fn elements_ascii(t: &mut Text, raw: &mut Raw2) -> PResult<()> {
+/// `tick(offset)` is called every [`TICK_LINES`] lines (progress).
+pub(crate) fn elements_ascii(
+    t: &mut Text,
+    raw: &mut Raw2,
+    tick: &mut dyn FnMut(usize),
+) -> PResult<()> {
     let n = t.count("number of elements", 8)?;
     raw.elems.reserve(n);
     let mut tags = Vec::new();
     let mut nodes = Vec::new();
-    for _ in 0..n {
+    for i in 0..n {
+        if i % TICK_LINES == 0 {
+            tick(t.p);
+        }
         t.skip_ws();
         let pos = t.at();
         let id = t.u64("element id")?;

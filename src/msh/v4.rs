@@ -10,6 +10,9 @@ use crate::mesh::{
     element_dim, element_node_count, ElementBlock, Entity, Mesh, NodeBlock, PeriodicLink,
 };
 
+/// Lines of a node or element section between two progress ticks.
+pub(crate) const TICK_LINES: usize = 1 << 15;
+
 /// Number of parametric values per node for a block on an entity of dimension `dim`.
 fn param_count(parametric: bool, dim: i32) -> usize {
     if parametric {
@@ -228,7 +231,13 @@ fn block_entity_ascii(t: &mut Text, v40: bool) -> PResult<(i32, i32)> {
 /// `$Nodes` (ASCII). 4.1: `numBlocks numNodes minTag maxTag`, per block `entityDim entityTag
 /// parametric numNodes`, then all node tags, then one coordinate row per node. 4.0: header
 /// without min/max, block header `entityTag entityDim ...`, each row `tag x y z [u v]`.
-pub(crate) fn nodes_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<()> {
+/// `tick(offset)` is called every [`TICK_LINES`] lines (progress).
+pub(crate) fn nodes_ascii(
+    t: &mut Text,
+    v40: bool,
+    mesh: &mut Mesh,
+    tick: &mut dyn FnMut(usize),
+) -> PResult<()> {
     let (nblocks, total, header_pos) = header_ascii(t, v40, "node")?;
     let mut found = 0u64;
     for _ in 0..nblocks {
@@ -251,10 +260,16 @@ pub(crate) fn nodes_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<(
                     params.push(t.f64_inline("coordinates", 3 + k, width)?);
                 }
                 t.end_line("node line")?;
+                if tags.len() % TICK_LINES == 0 {
+                    tick(t.p);
+                }
             }
         } else {
-            for _ in 0..n {
+            for i in 0..n {
                 tags.push(t.u64("node tag")?);
+                if i % TICK_LINES == 0 {
+                    tick(t.p);
+                }
             }
             for _ in 0..n {
                 let x = t.f64("coordinates")?;
@@ -265,6 +280,9 @@ pub(crate) fn nodes_ascii(t: &mut Text, v40: bool, mesh: &mut Mesh) -> PResult<(
                     params.push(t.f64_inline("coordinates", 3 + k, width)?);
                 }
                 t.end_line("coordinate line")?;
+                if coords.len() % TICK_LINES == 0 {
+                    tick(t.p);
+                }
             }
         }
         found += n as u64;
@@ -368,11 +386,13 @@ fn check_block_dim(pos: usize, binary: bool, ty: u32, entity_dim: i32) -> PResul
 /// `$Elements` (ASCII). 4.1: `numBlocks numElements minTag maxTag`, per block `entityDim
 /// entityTag elementType numElements`, then one line per element: `tag node…`. 4.0: no
 /// min/max, block header `entityTag entityDim ...`.
+/// `tick(offset)` is called every [`TICK_LINES`] lines (progress).
 pub(crate) fn elements_ascii(
     t: &mut Text,
     v40: bool,
     mesh: &mut Mesh,
     index: Option<&TagSet>,
+    tick: &mut dyn FnMut(usize),
 ) -> PResult<()> {
     let (nblocks, total, header_pos) = header_ascii(t, v40, "element")?;
     let mut found = 0u64;
@@ -410,6 +430,9 @@ pub(crate) fn elements_ascii(
                 nodes.push(node);
             }
             t.end_line("element line")?;
+            if tags.len() % TICK_LINES == 0 {
+                tick(t.p);
+            }
         }
         found += n as u64;
         mesh.element_blocks.push(ElementBlock {

@@ -17,18 +17,30 @@ struct Out<'w> {
     binary: bool,
     ryu: ryu::Buffer,
     itoa: itoa::Buffer,
+    /// Bytes handed to `w` so far, and the size expected (see [`expected_size`]).
+    written: u64,
+    expected: u64,
+    progress: &'w mut dyn FnMut(u64, u64),
 }
 
 const FLUSH_AT: usize = 1 << 20;
 
 impl<'w> Out<'w> {
-    fn new(w: &'w mut dyn Write, binary: bool) -> Self {
+    fn new(
+        w: &'w mut dyn Write,
+        binary: bool,
+        expected: u64,
+        progress: &'w mut dyn FnMut(u64, u64),
+    ) -> Self {
         Out {
             w,
             buf: Vec::with_capacity(FLUSH_AT + 4096),
             binary,
             ryu: ryu::Buffer::new(),
             itoa: itoa::Buffer::new(),
+            written: 0,
+            expected,
+            progress,
         }
     }
     #[inline]
@@ -88,14 +100,19 @@ impl<'w> Out<'w> {
     fn maybe_flush(&mut self) -> io::Result<()> {
         if self.buf.len() >= FLUSH_AT {
             self.w.write_all(&self.buf)?;
+            self.written += self.buf.len() as u64;
             self.buf.clear();
+            (self.progress)(self.written, self.expected.max(self.written));
         }
         Ok(())
     }
     fn finish(mut self) -> io::Result<()> {
         self.w.write_all(&self.buf)?;
+        self.written += self.buf.len() as u64;
         self.buf.clear();
-        self.w.flush()
+        self.w.flush()?;
+        (self.progress)(self.written, self.written);
+        Ok(())
     }
     fn section(&mut self, name: &str) {
         self.b(b"$");
@@ -204,14 +221,95 @@ pub fn write_warnings(mesh: &Mesh, format: MshFormat) -> Vec<String> {
     w
 }
 
-/// Writes `mesh` to `w` in `format` (MSH 4.0 is written as 4.1). `name` is used in errors.
+/// The mean width of a node's three ASCII coordinates with their separators, measured on
+/// about a thousand nodes spread over the mesh (a planar mesh's z = 0 takes one character,
+/// a typical x 18).
+fn coordinates_width(mesh: &Mesh) -> u64 {
+    let n: usize = mesh.node_blocks.iter().map(|b| b.coords.len()).sum();
+    let step = (n / 1024).max(1);
+    let mut ryu = ryu::Buffer::new();
+    let (mut chars, mut count) = (0u64, 0u64);
+    for c in mesh
+        .node_blocks
+        .iter()
+        .flat_map(|b| b.coords.iter())
+        .step_by(step)
+    {
+        for &x in c {
+            let text = ryu.format(x);
+            chars += text.strip_suffix(".0").unwrap_or(text).len() as u64 + 1;
+            count += 1;
+        }
+    }
+    if count == 0 {
+        57
+    } else {
+        (3 * chars).div_ceil(count)
+    }
+}
+
+/// About how many bytes writing `mesh` as `format` takes: the nodes and elements (which
+/// make nearly all of a large file) counted per number, at the width of their largest tag
+/// in ASCII and of coordinates as [`coordinates_width`] measures them; the data sections
+/// and kept sections as read. For a progress bar only.
+fn expected_size(mesh: &Mesh, format: MshFormat) -> u64 {
+    let digits = |v: u64| u64::from(v.checked_ilog10().unwrap_or(0)) + 1;
+    let max_node = mesh
+        .node_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().copied())
+        .max()
+        .unwrap_or(0);
+    let max_element = mesh
+        .element_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().copied())
+        .max()
+        .unwrap_or(0);
+    let (node_tag, element_tag, coords) = if format.binary {
+        (8, 8, 24)
+    } else {
+        (
+            digits(max_node) + 1,
+            digits(max_element) + 1,
+            coordinates_width(mesh),
+        )
+    };
+    let nodes: u64 = mesh
+        .node_blocks
+        .iter()
+        .map(|b| {
+            let n = b.tags.len().min(b.coords.len()) as u64;
+            let params = b.params.as_ref().map_or(0, |p| p.len() as u64);
+            n * (node_tag + coords) + params * coords / 3
+        })
+        .sum();
+    let elements: u64 = mesh
+        .element_blocks
+        .iter()
+        .map(|b| {
+            written_elements(b) as u64 * (element_tag + b.nodes_per_element() as u64 * node_tag)
+        })
+        .sum();
+    let kept: u64 = mesh
+        .data_sections
+        .iter()
+        .map(|d| d.body.len() as u64)
+        .chain(mesh.raw_sections.iter().map(|r| r.body.len() as u64))
+        .sum();
+    nodes + elements + kept
+}
+
+/// Writes `mesh` to `w` in `format` (MSH 4.0 is written as 4.1). `name` is used in errors;
+/// `progress(bytes written, bytes expected)` is called about once a megabyte and at the end.
 pub(crate) fn write_to(
     mesh: &Mesh,
     w: &mut dyn Write,
     format: MshFormat,
     name: &str,
+    progress: &mut dyn FnMut(u64, u64),
 ) -> Result<(), MshError> {
-    let mut out = Out::new(w, format.binary);
+    let mut out = Out::new(w, format.binary, expected_size(mesh, format), progress);
     let r = match format.version {
         MshVersion::V2 { .. } => write_v22(mesh, &mut out, format),
         _ => write_v41(mesh, &mut out, format),

@@ -361,14 +361,28 @@ fn no_progress_line_when_stderr_is_not_a_terminal() {
     let dir = tempfile::tempdir().expect("temp dir");
     let out = dir.path().join("out.msh");
     let input = geo_dir().join("rectangle.msh");
-    let err = stderr_without_hooks(&input, &out);
+    let verbose = blossomquad()
+        .arg(&input)
+        .arg("-o")
+        .arg(&out)
+        .arg("-v")
+        .env_remove("BLOSSOMQUAD_STAGE_TIMES")
+        .env_remove("BLOSSOMQUAD_DUMP_GRAPHS")
+        .assert()
+        .success();
+    let err = String::from_utf8_lossy(&verbose.get_output().stderr).into_owned();
     assert!(
         !err.contains('\r') && !err.contains('\u{1b}') && !err.contains("[#") && !err.contains('%'),
         "progress output on a pipe:\n{err:?}"
     );
     let lines: Vec<&str> = err.lines().collect();
-    assert!(lines.len() >= 3, "{err}");
-    for line in &lines {
+    assert!(lines.len() >= 4, "{err}");
+    let (summary, log) = lines.split_last().expect("lines");
+    assert!(
+        summary.starts_with("1 surface, 1792 triangles -> "),
+        "{err}"
+    );
+    for line in log {
         assert!(
             line.starts_with("surface ") || line.starts_with("time"),
             "unexpected line {line:?} in:\n{err}"
@@ -382,4 +396,350 @@ fn no_progress_line_when_stderr_is_not_a_terminal() {
         .assert()
         .success();
     assert!(quiet.get_output().stderr.is_empty());
+}
+
+/// The main job's stderr for `args` (hooks unset), asserting exit 0.
+fn main_job_stderr(args: &[&std::ffi::OsStr]) -> String {
+    let run = blossomquad()
+        .args(args)
+        .env_remove("BLOSSOMQUAD_STAGE_TIMES")
+        .env_remove("BLOSSOMQUAD_DUMP_GRAPHS")
+        .assert()
+        .success();
+    String::from_utf8_lossy(&run.get_output().stderr).into_owned()
+}
+
+/// By default a run prints one line: surfaces, triangles -> quads, the worst and mean η of
+/// the quads written (the same figures `quality` measures on the output), where it went and
+/// the time. `-v` adds the per-surface log and the stage times before it; `--verify` says
+/// it passed.
+#[test]
+fn the_default_output_is_one_summary_line() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let out = dir.path().join("out.msh");
+    let input = geo_dir().join("rectangle.msh");
+    let err = main_job_stderr(&[input.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    let lines: Vec<&str> = err.lines().collect();
+    assert_eq!(lines.len(), 1, "one line expected:\n{err}");
+    let line = lines[0];
+    let q = quality_json(&out, &[]);
+    let quads = number(&q, "quads");
+    let expected = format!(
+        "1 surface, 1792 triangles -> {quads} quads (quality eta: worst {:.3}, mean {:.3}); written to {} in ",
+        number(&q, "eta_w"),
+        number(&q, "eta_mean"),
+        out.display()
+    );
+    assert!(
+        line.starts_with(&expected),
+        "{line:?}\nexpected {expected:?}"
+    );
+    let seconds = line[expected.len()..]
+        .strip_suffix(" s")
+        .and_then(|t| t.parse::<f64>().ok());
+    assert!(seconds.is_some_and(|t| t > 0.0), "{line:?}");
+    assert!(!err.contains("cost ") && !err.contains("time:"), "{err}");
+
+    let verbose = main_job_stderr(&[
+        input.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+        "-v".as_ref(),
+    ]);
+    assert!(
+        verbose.contains("surface 1: 1792 triangles -> 896 quads (cost "),
+        "{verbose}"
+    );
+    assert!(
+        verbose.contains("surface 1: optimized, eta_w "),
+        "{verbose}"
+    );
+    assert!(verbose.contains("\ntime: read "), "{verbose}");
+    assert!(
+        verbose.trim_end().ends_with(" s") && verbose.lines().count() >= 5,
+        "{verbose}"
+    );
+
+    let verified = main_job_stderr(&[
+        input.as_os_str(),
+        "-o".as_ref(),
+        out.as_os_str(),
+        "--verify".as_ref(),
+    ]);
+    let lines: Vec<&str> = verified.lines().collect();
+    assert_eq!(lines.len(), 2, "{verified}");
+    assert!(lines[0].starts_with("verify: passed"), "{verified}");
+    assert!(
+        lines[1].starts_with("1 surface, 1792 triangles -> "),
+        "{verified}"
+    );
+
+    let both = blossomquad()
+        .arg(&input)
+        .args(["-o", "x.msh", "-q", "-v"])
+        .assert()
+        .code(2);
+    assert!(!both.get_output().stderr.is_empty());
+}
+
+/// Warnings stay in the default output: a mesh whose triangles repeat is recombined with a
+/// warning line before the summary.
+#[test]
+fn warnings_stay_in_the_default_output() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = dir.path().join("repeated.msh");
+    // two triangles of a unit square, the second written twice
+    std::fs::write(
+        &input,
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 0 0\n3 1 1 0\n4 0 1 0\n$EndNodes\n\
+         $Elements\n3\n1 2 2 1 1 1 2 3\n2 2 2 1 1 1 3 4\n3 2 2 1 1 1 3 4\n$EndElements\n",
+    )
+    .expect("write input");
+    let out = dir.path().join("out.msh");
+    let err = main_job_stderr(&[input.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    let lines: Vec<&str> = err.lines().collect();
+    assert!(lines.len() >= 2, "{err}");
+    let (summary, rest) = lines.split_last().expect("lines");
+    assert!(summary.starts_with("1 surface, "), "{err}");
+    assert!(rest.iter().all(|l| l.starts_with("warning: ")), "{err}");
+    assert!(out.exists());
+}
+
+/// Outputs get the permissions a new file gets (0666 less the umask), and a replaced file
+/// keeps its own.
+#[cfg(unix)]
+#[test]
+fn outputs_get_the_permissions_of_a_new_file() {
+    use std::os::unix::fs::PermissionsExt;
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = geo_dir().join("rectangle.msh");
+    let mode = |p: &Path| std::fs::metadata(p).expect("metadata").permissions().mode() & 0o777;
+    for (umask, expected) in [("022", 0o644), ("027", 0o640), ("002", 0o664)] {
+        let out = dir.path().join(format!("out-{umask}.msh"));
+        assert_cmd::Command::new("sh")
+            .arg("-c")
+            .arg(format!("umask {umask} && exec \"$0\" \"$@\""))
+            .arg(env!("CARGO_BIN_EXE_blossomquad"))
+            .arg(&input)
+            .arg("-o")
+            .arg(&out)
+            .arg("-q")
+            .assert()
+            .success();
+        assert_eq!(mode(&out), expected, "umask {umask}: {:o}", mode(&out));
+        let converted = dir.path().join(format!("convert-{umask}.msh"));
+        assert_cmd::Command::new("sh")
+            .arg("-c")
+            .arg(format!("umask {umask} && exec \"$0\" \"$@\""))
+            .arg(env!("CARGO_BIN_EXE_blossomquad"))
+            .arg("convert")
+            .arg(&input)
+            .arg("-o")
+            .arg(&converted)
+            .assert()
+            .success();
+        assert_eq!(mode(&converted), expected, "convert, umask {umask}");
+    }
+    let kept = dir.path().join("kept.msh");
+    std::fs::write(&kept, "old").expect("write");
+    std::fs::set_permissions(&kept, std::fs::Permissions::from_mode(0o604)).expect("chmod");
+    blossomquad()
+        .arg(&input)
+        .arg("-o")
+        .arg(&kept)
+        .arg("-q")
+        .assert()
+        .success();
+    assert_eq!(mode(&kept), 0o604);
+    assert!(std::fs::read(&kept)
+        .expect("read")
+        .starts_with(b"$MeshFormat"));
+}
+
+/// The output path is checked before the input is even read: a missing directory, a
+/// directory, another extension than `.msh`, the input itself; each refused with exit 1
+/// in one line naming the path in plain words (no temporary file's name), nothing written.
+#[test]
+fn a_bad_output_path_is_refused_before_any_work() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = geo_dir().join("rectangle.msh");
+    // the input does not exist: the output's error comes first, so no work was done
+    let missing = dir.path().join("missing.msh");
+    let nodir = dir.path().join("nodir").join("out.msh");
+    let vtk = dir.path().join("out.vtk");
+    let cases: Vec<(&Path, std::ffi::OsString, &str)> = vec![
+        (&missing, nodir.clone().into(), "does not exist"),
+        (&input, nodir.clone().into(), "does not exist"),
+        (&missing, dir.path().into(), "is a directory"),
+        (&input, vtk.clone().into(), "names a .vtk file"),
+        (
+            &input,
+            dir.path().join("noext").into(),
+            "has no .msh extension",
+        ),
+        (&input, input.clone().into(), "would overwrite the input"),
+    ];
+    for (inp, out, words) in cases {
+        let (code, _, stderr) = blossomquad_run([inp.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+        assert_eq!(code, Some(1), "{stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(stderr.contains(words), "{out:?}: {stderr}");
+        assert!(stderr.contains(&*out.to_string_lossy()), "{stderr}");
+        assert!(
+            !stderr.contains(".blossomquad-") && !stderr.contains("os error"),
+            "{stderr}"
+        );
+    }
+    assert!(!vtk.exists() && !nodir.exists());
+    // the extension check is case-blind, and convert and quality --view check too
+    let upper = dir.path().join("OUT.MSH");
+    blossomquad()
+        .arg(&input)
+        .arg("-o")
+        .arg(&upper)
+        .arg("-q")
+        .assert()
+        .success();
+    blossomquad()
+        .arg("convert")
+        .arg(&input)
+        .arg("-o")
+        .arg(&vtk)
+        .assert()
+        .code(1);
+    blossomquad()
+        .arg("quality")
+        .arg(&input)
+        .arg("--view")
+        .arg(&nodir)
+        .assert()
+        .code(1);
+    // a directory that takes no new file (not testable as root, who writes anywhere)
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::PermissionsExt;
+        let locked = dir.path().join("locked");
+        std::fs::create_dir(&locked).expect("mkdir");
+        std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o555)).expect("chmod");
+        if std::fs::write(locked.join("probe"), "").is_err() {
+            let out = locked.join("out.msh");
+            let (code, _, stderr) =
+                blossomquad_run([input.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+            assert_eq!(code, Some(1), "{stderr}");
+            assert!(
+                stderr.contains("cannot create a file in the directory"),
+                "{stderr}"
+            );
+            assert!(stderr.contains("permission denied"), "{stderr}");
+        }
+        std::fs::set_permissions(&locked, std::fs::Permissions::from_mode(0o755)).expect("chmod");
+    }
+}
+
+/// A second file where `-o` was meant is a usage error (exit 2) with the fix spelled out.
+#[test]
+fn a_second_file_gets_a_hint_to_use_dash_o() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = geo_dir().join("rectangle.msh");
+    let out = dir.path().join("out.msh");
+    let (code, _, stderr) = blossomquad_run([input.as_os_str(), out.as_os_str()]);
+    assert_eq!(code, Some(2), "{stderr}");
+    let hint = format!("did you mean -o {}?", out.display());
+    assert!(stderr.contains(&hint), "{stderr}");
+    assert!(!stderr.contains("subcommand"), "{stderr}");
+    assert!(!out.exists());
+}
+
+/// A mesh without surface elements (curves only, as `gmsh -1` writes) is refused with exit
+/// 1 saying there is nothing to recombine, and nothing is written; a mesh of quads only goes
+/// through (exit 0) and the summary says there was nothing to recombine; the help documents
+/// the exit codes.
+#[test]
+fn a_mesh_with_nothing_to_recombine_says_so() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let curves = dir.path().join("curves.msh");
+    std::fs::write(
+        &curves,
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n3\n1 0 0 0\n2 1 0 0\n3 1 1 0\n$EndNodes\n\
+         $Elements\n2\n1 1 2 1 1 1 2\n2 1 2 1 1 2 3\n$EndElements\n",
+    )
+    .expect("write input");
+    let out = dir.path().join("out.msh");
+    let (code, _, stderr) = blossomquad_run([curves.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+    assert!(
+        stderr.contains("curves.msh: nothing to recombine"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("2 line element(s)") && stderr.contains("gmsh -2"),
+        "{stderr}"
+    );
+    assert!(!out.exists());
+    // quads only: the output of a first run goes through unchanged in its elements
+    let quads = dir.path().join("quads.msh");
+    blossomquad()
+        .arg(geo_dir().join("rectangle.msh"))
+        .arg("-o")
+        .arg(&quads)
+        .arg("-q")
+        .assert()
+        .success();
+    let err = main_job_stderr(&[quads.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    let n = number(&quality_json(&quads, &[]), "quads");
+    let expected = format!("nothing to recombine: no triangle, the surfaces hold {n} quads already (quality eta: worst ");
+    assert!(
+        err.starts_with(&expected) && err.lines().count() == 1,
+        "{err}"
+    );
+    assert_eq!(number(&quality_json(&out, &[]), "quads"), n);
+    let help = blossomquad().arg("--help").assert().success();
+    let help = String::from_utf8_lossy(&help.get_output().stdout).into_owned();
+    assert!(help.contains("Exit codes: 0 success; 1 "), "{help}");
+    assert!(
+        help.contains("no surface") && help.contains("gmsh -1"),
+        "{help}"
+    );
+    assert!(help.contains("-v, --verbose"), "{help}");
+}
+
+/// Reading and writing report progress as they go on a big file (several megabytes):
+/// values that grow, some strictly between start and end, the last one complete.
+#[test]
+fn reading_and_writing_report_progress_on_big_files() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let mut mesh = blossomquad::read(geo_dir().join("rectangle.msh")).expect("read");
+    let mut opts = blossomquad::Options::default();
+    opts.refine = 3;
+    blossomquad::quadrangulate(&mut mesh, &opts).expect("refined");
+    let big = dir.path().join("big.msh");
+    let format = blossomquad::MshFormat {
+        version: blossomquad::mesh::MshVersion::V41,
+        binary: false,
+    };
+    let mut writes = Vec::new();
+    blossomquad::msh::write_file_with_progress(&mesh, &big, format, &mut |d, t| {
+        writes.push((d, t))
+    })
+    .expect("write");
+    let size = std::fs::metadata(&big).expect("metadata").len();
+    assert!(
+        size > 3 << 20,
+        "{size} bytes: not big enough to show progress"
+    );
+    let mut reads = Vec::new();
+    let back = blossomquad::msh::read_file_with_progress(&big, &mut |d, t| reads.push((d, t)))
+        .expect("read back");
+    assert_eq!(back.count_elements(2), mesh.count_elements(2));
+    for (what, calls) in [("write", &writes), ("read", &reads)] {
+        assert!(
+            calls.windows(2).all(|w| w[0].0 <= w[1].0),
+            "{what}: {calls:?}"
+        );
+        assert!(calls.iter().all(|&(d, t)| d <= t), "{what}: {calls:?}");
+        assert_eq!(calls.last(), Some(&(size, size)), "{what}: {calls:?}");
+        let inside = calls.iter().filter(|&&(d, t)| d > 0 && d < t).count();
+        assert!(inside >= 3, "{what}: too few steps: {calls:?}");
+    }
 }

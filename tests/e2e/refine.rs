@@ -32,6 +32,7 @@ fn refine_fixture(fixture: &str, variant: Variant, levels: u32) -> (f64, f64, bo
         plain.as_os_str(),
         "--no-optimize".as_ref(),
         "--verify".as_ref(),
+        "-v".as_ref(),
     ]);
     assert_eq!(code, Some(0), "{fixture}: {err}");
     // a surface whose matching leaves folded quads is optimized all the same (the validity

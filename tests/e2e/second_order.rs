@@ -49,12 +49,16 @@ fn mesh_order2(
     out
 }
 
-/// Runs the CLI on `input` (with `extra` flags) and the second-order checker on the
+/// Runs the CLI on `input` (with `-v` and the `extra` flags) and the second-order checker on the
 /// result; returns the checker's JSON line and the CLI's stderr.
 fn recombine_and_check(input: &Path, extra: &[&str], check_flags: &[&str]) -> (String, String) {
     let output = input.with_extension("quads.msh");
-    let mut args: Vec<&std::ffi::OsStr> =
-        vec![input.as_os_str(), "-o".as_ref(), output.as_os_str()];
+    let mut args: Vec<&std::ffi::OsStr> = vec![
+        input.as_os_str(),
+        "-o".as_ref(),
+        output.as_os_str(),
+        "-v".as_ref(),
+    ];
     args.extend(extra.iter().map(|s| std::ffi::OsStr::new(*s)));
     let (code, _, err) = blossomquad_run(args);
     assert_eq!(code, Some(0), "{}: {err}", input.display());

@@ -42,6 +42,7 @@ fn single_triangle_surfaces_get_valid_quads_in_every_variant() {
             "-o".as_ref(),
             output.as_os_str(),
             "--verify".as_ref(),
+            "-v".as_ref(),
         ]);
         assert_eq!(code, Some(0), "{stderr}");
         assert!(stderr.contains("fallback round 1"), "{stderr}");
