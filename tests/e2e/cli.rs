@@ -426,7 +426,7 @@ fn the_default_output_is_one_summary_line() {
     let quads = number(&q, "quads");
     let expected = format!(
         "1 surface, 1792 triangles -> {quads} quads (quality eta: worst {:.3}, mean {:.3}); written to {} in ",
-        number(&q, "eta_w"),
+        number(&q, "eta_worst"),
         number(&q, "eta_mean"),
         out.display()
     );
@@ -696,7 +696,10 @@ fn a_mesh_with_nothing_to_recombine_says_so() {
     assert_eq!(number(&quality_json(&out, &[]), "quads"), n);
     let help = blossomquad().arg("--help").assert().success();
     let help = String::from_utf8_lossy(&help.get_output().stdout).into_owned();
-    assert!(help.contains("Exit codes: 0 success; 1 "), "{help}");
+    assert!(
+        help.contains("Exit codes: 0 success") && help.contains("; 1 bad input"),
+        "{help}"
+    );
     assert!(
         help.contains("no surface") && help.contains("gmsh -1"),
         "{help}"
