@@ -64,7 +64,7 @@ pub(crate) fn nodes_ascii(
         let z = t.f64_inline("coordinates", 2, 3)?;
         raw.coords.push([x, y, z]);
         t.end_line("node line")?;
-        if raw.coords.len() % TICK_LINES == 0 {
+        if raw.coords.len().is_multiple_of(TICK_LINES) {
             tick(t.p);
         }
     }
@@ -190,7 +190,7 @@ pub(crate) fn elements_ascii(
     let mut tags = Vec::new();
     let mut nodes = Vec::new();
     for i in 0..n {
-        if i % TICK_LINES == 0 {
+        if i.is_multiple_of(TICK_LINES) {
             tick(t.p);
         }
         t.skip_ws();

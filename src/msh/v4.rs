@@ -260,14 +260,14 @@ pub(crate) fn nodes_ascii(
                     params.push(t.f64_inline("coordinates", 3 + k, width)?);
                 }
                 t.end_line("node line")?;
-                if tags.len() % TICK_LINES == 0 {
+                if tags.len().is_multiple_of(TICK_LINES) {
                     tick(t.p);
                 }
             }
         } else {
             for i in 0..n {
                 tags.push(t.u64("node tag")?);
-                if i % TICK_LINES == 0 {
+                if i.is_multiple_of(TICK_LINES) {
                     tick(t.p);
                 }
             }
@@ -280,7 +280,7 @@ pub(crate) fn nodes_ascii(
                     params.push(t.f64_inline("coordinates", 3 + k, width)?);
                 }
                 t.end_line("coordinate line")?;
-                if coords.len() % TICK_LINES == 0 {
+                if coords.len().is_multiple_of(TICK_LINES) {
                     tick(t.p);
                 }
             }
@@ -430,7 +430,7 @@ pub(crate) fn elements_ascii(
                 nodes.push(node);
             }
             t.end_line("element line")?;
-            if tags.len() % TICK_LINES == 0 {
+            if tags.len().is_multiple_of(TICK_LINES) {
                 tick(t.p);
             }
         }
