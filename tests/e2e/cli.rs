@@ -746,3 +746,36 @@ fn reading_and_writing_report_progress_on_big_files() {
         assert!(inside >= 3, "{what}: too few steps: {calls:?}");
     }
 }
+
+/// The output the README shows for its first command is what the command prints (but the
+/// time).
+#[test]
+fn the_readme_shows_what_the_first_command_prints() {
+    let readme = std::fs::read_to_string(common::repo_dir().join("README.md")).expect("README");
+    let command = "$ cargo run --release -- geo/rectangle.msh -o rectangle-quads.msh\n";
+    let at = readme
+        .find(command)
+        .expect("the first command in the README")
+        + command.len();
+    let shown = readme[at..]
+        .lines()
+        .next()
+        .expect("a line after the command");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let run = blossomquad()
+        .current_dir(dir.path())
+        .arg(geo_dir().join("rectangle.msh"))
+        .args(["-o", "rectangle-quads.msh"])
+        .env_remove("BLOSSOMQUAD_STAGE_TIMES")
+        .env_remove("BLOSSOMQUAD_DUMP_GRAPHS")
+        .assert()
+        .success();
+    let printed = String::from_utf8_lossy(&run.get_output().stderr).into_owned();
+    let without_time = |l: &str| l.rsplit_once(" in ").map(|(a, _)| a.to_string());
+    assert_eq!(
+        without_time(printed.trim_end()),
+        without_time(shown),
+        "README shows {shown:?}, the command prints {printed:?}"
+    );
+    assert!(without_time(shown).is_some(), "{shown:?}");
+}
