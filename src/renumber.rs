@@ -10,14 +10,21 @@
 //! The renumbering is the rank of each tag among the tags in use (nodes and elements
 //! separately): it keeps the order of the tags, so a tag below the first gap keeps its
 //! value, new nodes and elements still follow the kept ones, and a mesh already numbered
-//! 1..N is left exactly as it is. Everything that names a node or element tag follows:
+//! 1..N is left exactly as it is. One exception, as in Gmsh's own numbering: when the mesh
+//! has physical groups, the nodes no element of a physical group uses (the centre point of
+//! a circle, a point or curve outside every group) come after all the others, in the order
+//! of their tags (Gmsh leaves them out of its files unless `Mesh.SaveAll`; DOLFINx reads
+//! only the physical groups' elements and fails on such a node before a used one). Everything that names a node or element tag follows:
 //! element node lists, `$Periodic` node pairs and the `$NodeData`, `$ElementData` and
 //! `$ElementNodeData` sections. Entities and physical groups name entity tags, which do not
 //! change.
 //!
 //! **Invariant:** after [`renumber`], the node tags in use are exactly 1..N and the element
 //! tags 1..M (a tag repeated in the input stays repeated: both copies get the same new tag),
-//! and for any two tags a < b before, new(a) < new(b) after.
+//! and for any two tags a < b before, new(a) < new(b) after, except that a node no physical
+//! group's element uses comes after every node one uses.
+
+use std::collections::{HashMap, HashSet};
 
 use rayon::prelude::*;
 use serde::Serialize;
@@ -69,42 +76,64 @@ impl InputTags {
     }
 }
 
-/// Tags in use, sorted without repeats; the new tag of `t` is its rank + 1.
+/// Tags in use in their new order (sorted without repeats, those `last` holds for moved
+/// behind the others); the new tag of `order[i]` is i + 1.
 struct Ranks {
+    /// The tags in use, sorted.
     sorted: Vec<u64>,
+    /// The tags in their new order.
+    order: Vec<u64>,
     /// `dense[t]` = new tag of `t` (0: not in use), when the tags are compact enough
     dense: Vec<u64>,
+    /// tag → new tag otherwise
+    sparse: HashMap<u64, u64>,
 }
 
 impl Ranks {
-    fn new(mut tags: Vec<u64>) -> Ranks {
+    fn new(mut tags: Vec<u64>, last: impl Fn(u64) -> bool) -> Ranks {
         tags.par_sort_unstable();
         tags.dedup();
-        let max = tags.last().copied().unwrap_or(0);
-        let dense = if max <= (4 * tags.len() as u64).max(1024) {
-            let mut d = vec![0u64; max as usize + 1];
-            for (i, &t) in tags.iter().enumerate() {
-                d[t as usize] = i as u64 + 1;
-            }
-            d
+        let (first, moved): (Vec<u64>, Vec<u64>) = tags.iter().partition(|&&t| !last(t));
+        let order = if moved.is_empty() {
+            first
         } else {
-            Vec::new()
+            [first, moved].concat()
         };
-        Ranks {
+        let max = tags.last().copied().unwrap_or(0);
+        let mut r = Ranks {
             sorted: tags,
-            dense,
+            order,
+            dense: Vec::new(),
+            sparse: HashMap::new(),
+        };
+        if max <= (4 * r.sorted.len() as u64).max(1024) {
+            r.dense = vec![0u64; max as usize + 1];
+            for (i, &t) in r.order.iter().enumerate() {
+                r.dense[t as usize] = i as u64 + 1;
+            }
+        } else {
+            r.sparse = r
+                .order
+                .iter()
+                .enumerate()
+                .map(|(i, &t)| (t, i as u64 + 1))
+                .collect();
         }
+        r
     }
 
-    /// True when the tags are 1..N already.
+    /// True when the tags are 1..N, in that order, already.
     fn identity(&self) -> bool {
-        self.sorted.last().copied().unwrap_or(0) == self.sorted.len() as u64
+        self.order
+            .iter()
+            .enumerate()
+            .all(|(i, &t)| t == i as u64 + 1)
     }
 
     #[inline]
     fn get(&self, tag: u64) -> Option<u64> {
         if self.dense.is_empty() {
-            self.sorted.binary_search(&tag).ok().map(|i| i as u64 + 1)
+            self.sparse.get(&tag).copied()
         } else {
             match self.dense.get(tag as usize) {
                 Some(&n) if n != 0 => Some(n),
@@ -113,14 +142,63 @@ impl Ranks {
         }
     }
 
-    /// `(old, new)` for every tag up to `limit`.
+    /// `(old, new)` for every tag up to `limit`, ascending by old tag.
     fn map_up_to(&self, limit: u64) -> Vec<(u64, u64)> {
         self.sorted
             .iter()
             .take_while(|&&t| t <= limit)
-            .enumerate()
-            .map(|(i, &t)| (t, i as u64 + 1))
+            .filter_map(|&t| self.get(t).map(|n| (t, n)))
             .collect()
+    }
+}
+
+/// The nodes elements of a physical group's entity use (`None` when the mesh has no physical
+/// group): `used[t]` for tag t, or the set of them when the tags are sparse.
+enum Used {
+    Dense(Vec<bool>),
+    Sparse(HashSet<u64>),
+}
+
+impl Used {
+    fn of(mesh: &Mesh) -> Option<Used> {
+        let physical: HashSet<(i32, i32)> = mesh
+            .entities
+            .iter()
+            .flatten()
+            .filter(|e| !e.physical_tags.is_empty())
+            .map(|e| (e.dim, e.tag))
+            .collect();
+        if physical.is_empty() {
+            return None;
+        }
+        let blocks = || {
+            mesh.element_blocks
+                .iter()
+                .filter(|b| physical.contains(&(b.entity_dim, b.entity_tag)))
+        };
+        let max = mesh.max_node_tag();
+        if max <= (4 * mesh.node_count() as u64).max(1024) {
+            let mut used = vec![false; max as usize + 1];
+            for b in blocks() {
+                for &n in &b.nodes {
+                    if let Some(u) = used.get_mut(n as usize) {
+                        *u = true;
+                    }
+                }
+            }
+            Some(Used::Dense(used))
+        } else {
+            Some(Used::Sparse(
+                blocks().flat_map(|b| b.nodes.iter().copied()).collect(),
+            ))
+        }
+    }
+
+    fn contains(&self, tag: u64) -> bool {
+        match self {
+            Used::Dense(v) => v.get(tag as usize).copied().unwrap_or(false),
+            Used::Sparse(s) => s.contains(&tag),
+        }
     }
 }
 
@@ -140,7 +218,11 @@ pub fn renumber(mesh: &mut Mesh, input: Option<InputTags>) -> RenumberReport {
         .iter()
         .flat_map(|b| b.tags.iter().copied())
         .collect();
-    let nodes = Ranks::new(node_tags);
+    // nodes no physical group's element uses go last, as in Gmsh's own numbering (DOLFINx
+    // reads only those elements and fails on an unused node before a used one)
+    let used = Used::of(mesh);
+    let nodes = Ranks::new(node_tags, |t| used.as_ref().is_some_and(|u| !u.contains(t)));
+    drop(used);
     let dangling = mesh.element_blocks.par_iter().find_map_any(|b| {
         b.tags
             .iter()
@@ -171,7 +253,7 @@ pub fn renumber(mesh: &mut Mesh, input: Option<InputTags>) -> RenumberReport {
         .iter()
         .flat_map(|b| b.tags.iter().copied())
         .collect();
-    let elements = Ranks::new(element_tags);
+    let elements = Ranks::new(element_tags, |_| false);
     if let Some(limits) = input {
         map.elements = elements.map_up_to(limits.max_element);
     }
@@ -516,5 +598,32 @@ mod tests {
             "{}",
             r.warnings[0]
         );
+    }
+
+    #[test]
+    fn nodes_outside_every_physical_group_go_last_in_tag_order() {
+        let mut m = gappy();
+        // the quads' surface is in a physical group; the line uses nodes 9 and 2 too, and a
+        // point entity outside every group holds node 1
+        m.entities[2].push(crate::mesh::Entity {
+            dim: 2,
+            tag: 1,
+            bbox: [0.0; 6],
+            physical_tags: vec![5],
+            bounding: vec![],
+        });
+        m.node_blocks
+            .insert(0, node_block(0, vec![1], vec![[3.0, 0.0, 0.0]]));
+        m.element_blocks[0].nodes = vec![9, 2, 40, 9, 2, 40, 9, 2];
+        let r = renumber(&mut m, None);
+        // used by the surface: 2, 9, 40 -> 1, 2, 3; then 1 and 5 (no physical element)
+        assert_eq!(m.node_blocks[0].tags, vec![4]);
+        assert_eq!(m.node_blocks[1].tags, vec![2, 1]);
+        assert_eq!(m.node_blocks[2].tags, vec![3, 5]);
+        assert_eq!(r.nodes_changed, 4);
+        // already so: unchanged
+        let before = m.clone();
+        renumber(&mut m, None);
+        assert_eq!(m, before);
     }
 }

@@ -71,7 +71,9 @@ code. Checks (names as in the JSON report):
                     an output numbered 1..N): OUTPUT's node tags are exactly 1..N and its
                     element tags 1..M; the map's kept input nodes are numbered 1..K in
                     their input order (K kept of them), the new nodes K+1..N after them,
-                    and likewise the kept input elements 1..K'; every output tag the map
+                    and likewise the kept input elements 1..K'; except that, when there
+                    are physical groups, the nodes no element of a group uses come last
+                    (still in input order among themselves); every output tag the map
                     names exists. OUTPUT is then read back into the input's numbering
                     through the map (new nodes and elements above every input tag), so
                     every check above compares tags with INPUT as without renumbering.
@@ -129,6 +131,7 @@ class Mesh:
         self.periodic = {}  # (dim, tag) -> (master tag, [(slave node, master node)], affine or [])
         self.entity_nodes = {}  # (dim, tag) -> node tags classified on that entity
         self.element_tags = set()  # every element tag
+        self.physical_nodes = None  # nodes of the physical groups' elements (None: no group)
 
 
 def _dedup(elements):
@@ -261,6 +264,10 @@ def load(path):
     for dim, tag in gmsh.model.getPhysicalGroups():
         ents = sorted(int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(dim, tag))
         mesh.physicals.append((dim, tag, gmsh.model.getPhysicalName(dim, tag), ents))
+        mesh.physical_nodes = mesh.physical_nodes or set()
+        for e in ents:
+            for conn in gmsh.model.mesh.getElements(dim, e)[2]:
+                mesh.physical_nodes.update(int(n) for n in plain(conn))
     mesh.physicals.sort()
     return mesh
 
@@ -273,14 +280,23 @@ def check_numbering(rep, out, tag_map):
     etags = sorted(out.element_tags)
     rep.check("numbering", etags == list(range(1, len(etags) + 1)),
               f"element tags are not 1..{len(etags)}: {etags[:3]} ... {etags[-3:]}")
-    for kind, pairs, present in (("node", tag_map["nodes"], out.nodes),
-                                 ("element", tag_map["elements"], out.element_tags)):
+    # nodes no physical group's element uses come after the others (when there are groups)
+    unused = {t for t in out.nodes if out.physical_nodes is not None and t not in out.physical_nodes}
+    if unused:
+        rep.check("numbering", min(unused) > len(out.nodes) - len(unused),
+                  f"a node outside every physical group comes before a node inside one: {sorted(unused)[:5]}")
+    for kind, pairs, present, last in (("node", tag_map["nodes"], out.nodes, unused),
+                                       ("element", tag_map["elements"], out.element_tags, set())):
         olds = [a for a, _ in pairs]
         rep.check("numbering", olds == sorted(set(olds)), f"the {kind} map is not ascending by input tag")
-        news = [b for _, b in pairs]
-        rep.check("numbering", news == list(range(1, len(news) + 1)),
-                  f"kept input {kind}s are not numbered 1..{len(news)} in input order: {pairs[:3]} ...")
-        missing = [b for b in news if b not in present]
+        for group in (False, True):
+            news = [b for _, b in pairs if (b in last) == group]
+            start = 1 if not group else len(present) - len(last) + 1
+            if group and not news:
+                continue
+            rep.check("numbering", news == sorted(news) and (group or news == list(range(1, len(news) + 1))),
+                      f"kept input {kind}s are not numbered {start}.. in input order: {pairs[:3]} ...")
+        missing = [b for _, b in pairs if b not in present]
         rep.check("numbering", not missing, f"the map names {kind}s not in the output: {missing[:5]}")
 
 

@@ -23,7 +23,8 @@ uses blossomquad's code. Prints one JSON object; exits 0 when every check holds.
                  are 9-node quads).
   numbering      with --tag-map=FILE (the map `blossomquad --tag-map FILE` writes):
                  OUTPUT's node tags are 1..N and its element tags 1..M, and the kept input
-                 nodes and elements are numbered 1..K in their input order. OUTPUT's tags
+                 nodes and elements are numbered 1..K in their input order (nodes no
+                 physical group's element uses last, when there are groups). OUTPUT's tags
                  are then mapped back to INPUT's (new ones above every input tag) for the
                  checks that compare tags.
   sphere         with --sphere R (a sphere of radius R about the origin): the largest
@@ -172,9 +173,19 @@ def main(argv):
                           for tg in gmsh.model.mesh.getElements(d, e)[1] for t in tg})
         ok = sorted(out_nodes) == list(range(1, len(out_nodes) + 1))
         ok = ok and etags == list(range(1, len(etags) + 1))
+        used = set()
+        for d, g in gmsh.model.getPhysicalGroups():
+            for ent in gmsh.model.getEntitiesForPhysicalGroup(d, g):
+                for conn in gmsh.model.mesh.getElements(d, ent)[2]:
+                    used.update(int(x) for x in conn)
+        last = {t for t in out_nodes if used and t not in used}
+        ok = ok and (not last or min(last) > len(out_nodes) - len(last))
         for kind in ("nodes", "elements"):
             pairs = tag_map[kind]
-            ok = ok and [b for _, b in pairs] == list(range(1, len(pairs) + 1))
+            first = [b for _, b in pairs if kind == "elements" or b not in last]
+            ok = ok and first == list(range(1, len(first) + 1))
+            rest = [b for _, b in pairs if kind == "nodes" and b in last]
+            ok = ok and rest == sorted(rest)
             ok = ok and [a for a, _ in pairs] == sorted({a for a, _ in pairs})
         checks["numbering"] = ok
         back = {b: a for a, b in tag_map["nodes"]}

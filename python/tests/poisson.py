@@ -198,7 +198,7 @@ def dolfinx_solve(mesh_data) -> Solution:
 
     domain = mesh_data.mesh
     tags = mesh_data.facet_tags
-    degree = domain.geometry.cmap.degree
+    degree = geometry_degree(domain)
     V = fem.functionspace(domain, ("Lagrange", degree))
     tdim = domain.topology.dim
     domain.topology.create_connectivity(tdim - 1, tdim)
@@ -230,6 +230,12 @@ def dolfinx_solve(mesh_data) -> Solution:
     cells = domain.topology.index_map(tdim).size_global
     return Solution(dofs=V.dofmap.index_map.size_global, cells=cells, l2=float(np.sqrt(l2)),
                     h1=float(np.sqrt(h1)))
+
+
+def geometry_degree(domain) -> int:
+    """The degree of a DOLFINx mesh's coordinate element."""
+    g = domain.geometry
+    return (g.cmaps[0] if hasattr(g, "cmaps") else g.cmap).degree
 
 
 def dolfinx_read(path: str, gdim: int = 2):

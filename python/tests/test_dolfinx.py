@@ -31,7 +31,7 @@ def test_read_from_msh_solves_and_converges_like_scikit_fem(tmp_path, order):
         quad = poisson.recombine(tri, str(tmp_path / f"quad-{size}.msh"))
         data = poisson.dolfinx_read(quad)
         assert data.mesh.topology.cell_type.name == "quadrilateral"
-        assert data.mesh.geometry.cmap.degree == order
+        assert poisson.geometry_degree(data.mesh) == order
         sol = poisson.dolfinx_solve(data)
         results.append(sol)
         if importable("skfem"):
@@ -101,3 +101,55 @@ def test_both_readers_take_every_fixture(tmp_path, fixture, order, fmt):
     model = poisson.dolfinx_from_model(size, order, geo=geo, gdim=gdim)
     assert model.mesh.topology.index_map(2).size_global == quads
     assert np.isclose(model.mesh.geometry.x[:, :gdim].sum(), data.mesh.geometry.x[:, :gdim].sum())
+
+
+def corpus_dir():
+    """The real MSH corpus (`$BLOSSOMQUAD_CORPUS`, else ../shared/corpus/real-msh beside the
+    repository, as for the Rust tests), or None."""
+    d = os.environ.get("BLOSSOMQUAD_CORPUS") or os.path.join(poisson.REPO, "..", "shared", "corpus",
+                                                              "real-msh")
+    return d if os.path.isdir(d) else None
+
+
+def has_physical_groups(path):
+    import gmsh
+
+    gmsh.initialize()
+    try:
+        gmsh.option.setNumber("General.Terminal", 0)
+        gmsh.open(path)
+        return bool(gmsh.model.getPhysicalGroups())
+    finally:
+        gmsh.finalize()
+
+
+@pytest.mark.parametrize("fmt", [["--format", "msh41"], ["--format", "msh22", "--binary"]],
+                         ids=["4.1", "2.2-binary"])
+def test_read_from_msh_takes_every_corpus_model(tmp_path, fmt):
+    """Every model of the real corpus, converted to the variant, recombined (volumes
+    dropped where it has any): DOLFINx reads the output whenever the model has a physical
+    group (without one it refuses Gmsh's own files too, and says so)."""
+    corpus = corpus_dir()
+    if corpus is None:
+        pytest.skip("the real MSH corpus is absent (set BLOSSOMQUAD_CORPUS to run this test)")
+    files = sorted(glob.glob(os.path.join(corpus, "*.msh")))
+    assert files, f"no .msh in {corpus}"
+    read = 0
+    for f in files:
+        inp = str(tmp_path / "in.msh")
+        out = str(tmp_path / "out.msh")
+        poisson.run([poisson.blossomquad_exe(), "convert", f, "-o", inp, *fmt])
+        try:
+            poisson.recombine(inp, out)
+        except RuntimeError as e:
+            if "volume" not in str(e):
+                raise
+            poisson.recombine(inp, out, "--drop-volumes")
+        if has_physical_groups(out):
+            data = poisson.dolfinx_read(out, gdim=3)
+            assert data.mesh.topology.index_map(data.mesh.topology.dim).size_global > 0, f
+            read += 1
+        else:
+            with pytest.raises(RuntimeError, match="physical groups"):
+                poisson.dolfinx_read(out, gdim=3)
+    assert read >= len(files) // 2, f"only {read} of {len(files)} models have physical groups"
