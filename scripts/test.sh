@@ -1,6 +1,8 @@
 #!/usr/bin/env bash
 # The whole test suite: installs Gmsh 4.15.2 with pip when it is missing (the
-# end-to-end tests run Gmsh and its Python module), then `cargo test --release`.
+# end-to-end tests run Gmsh and its Python module), then `cargo test --release`, then the
+# Python package's tests (scikit-fem's solver round trips among them) and DOLFINx's
+# (python/tests/test_dolfinx.py, in a venv of its own on a Python >= 3.12).
 # Extra arguments go to `cargo test` (e.g. `scripts/test.sh --test e2e recombine`).
 set -euo pipefail
 cd "$(dirname "$0")/.."

@@ -202,12 +202,12 @@ impl Used {
     }
 }
 
-/// Numbers the nodes 1..N and the elements 1..M in the order of their tags (see the module
-/// documentation), and everything naming them alike. `input`: the input's largest tags,
-/// when the [`TagMap`] is wanted. Node tags are kept, with a warning in
-/// [`Mesh::warnings`], when an element names a node that is not in the mesh (there is
-/// nothing to renumber it to); a data section that cannot be read is dropped. Both are
-/// said in [`RenumberReport::warnings`].
+/// Numbers the nodes 1..N and the elements 1..M in the order of their tags (with the
+/// exception the module documentation gives), and everything naming them alike. `input`:
+/// the input's largest tags, when the [`TagMap`] is wanted. Node tags are kept when an
+/// element names a node that is not in the mesh (there is nothing to renumber it to); a
+/// data section that cannot be read is dropped. Both are said in
+/// [`RenumberReport::warnings`].
 pub fn renumber(mesh: &mut Mesh, input: Option<InputTags>) -> RenumberReport {
     let mut report = RenumberReport::default();
     let mut map = TagMap::default();

@@ -248,9 +248,11 @@ def dolfinx_read(path: str, gdim: int = 2):
 
 
 def dolfinx_from_model(size: float, order: int = 1, geo: str = GEO, gdim: int = 2,
-                       options: Optional[dict] = None):
+                       options: Optional[dict] = None, counts: Optional[dict] = None):
     """In one process: Gmsh meshes `geo`, `blossomquad.recombine_gmsh()` recombines the
-    open model, `dolfinx.io.gmsh.model_to_mesh` reads it (the README's lines)."""
+    open model, `dolfinx.io.gmsh.model_to_mesh` reads it (the README's lines). `counts`,
+    when given, gets the model's "quads" (4- and 9-node), its "nodes" (all of them: DOLFINx
+    reads every node) and how many of them the physical groups' elements "used"."""
     import gmsh
     from dolfinx.io import gmsh as gmshio
     from mpi4py import MPI
@@ -266,6 +268,15 @@ def dolfinx_from_model(size: float, order: int = 1, geo: str = GEO, gdim: int = 
         if order == 2:
             gmsh.model.mesh.setOrder(2)
         blossomquad.recombine_gmsh(**(options or {}))
+        if counts is not None:
+            counts["quads"] = sum(len(gmsh.model.mesh.getElementsByType(t)[0]) for t in (3, 10))
+            used = set()
+            for d, g in gmsh.model.getPhysicalGroups():
+                for e in gmsh.model.getEntitiesForPhysicalGroup(d, g):
+                    for conn in gmsh.model.mesh.getElements(d, e)[2]:
+                        used.update(int(n) for n in conn)
+            counts["nodes"] = len(gmsh.model.mesh.getNodes()[0])
+            counts["used"] = len(used)
         return gmshio.model_to_mesh(gmsh.model, MPI.COMM_WORLD, 0, gdim=gdim)
     finally:
         gmsh.finalize()

@@ -256,6 +256,23 @@ def assert_numbered_1_to_n():
     assert np.array_equal(etags, np.arange(1, len(etags) + 1)), (etags[-3:], len(etags))
 
 
+def test_recombine_gmsh_numbers_the_model_1_to_n_and_keeps_curve_nodes(model):
+    plate_with_hole(0.1)
+    curves = {c: gmsh.model.mesh.getNodes(1, c, returnParametricCoord=True)
+              for _, c in gmsh.model.getEntities(1)}
+    report = blossomquad.recombine_gmsh()
+    assert_numbered_1_to_n()
+    split = {s["curve"] for s in report["recombine"]["parity_splits"]}
+    mesh_rewritten = {(d, t) for d, t, what in report["model"]["rewritten"] if what == "mesh"}
+    for c, (ntags, _, params) in curves.items():
+        if c in split:
+            continue
+        # Gmsh numbers curve nodes before surface nodes: they keep tags and parameters
+        assert (1, c) not in mesh_rewritten, c
+        n, _, p = gmsh.model.mesh.getNodes(1, c, returnParametricCoord=True)
+        assert (n.tolist(), p.tolist()) == (ntags.tolist(), params.tolist()), c
+
+
 def test_recombine_gmsh_keep_tags_keeps_the_model_tags_gaps_and_all(model):
     plate_with_hole(0.1)
     nodes_before = set(gmsh.model.mesh.getNodes()[0].tolist())
@@ -313,7 +330,9 @@ def test_recombine_gmsh_leaves_the_entities_it_does_not_change_alone(model):
         _, etags, enodes = gmsh.model.mesh.getElements(1, c)
         assert len(params) == len(ntags) > 0, "Gmsh gives curve nodes their parameter"
         curves[c] = (ntags.tolist(), params.tolist(), etags[0].tolist(), enodes[0].tolist())
-    report = blossomquad.recombine_gmsh()
+    # the input's tags kept: untouched entities are exactly as they were (by default their
+    # element tags may move to close the gaps, their nodes staying; see the numbering test)
+    report = blossomquad.recombine_gmsh(keep_tags=True)
     # the surface is written back, and the curves parity repair split; the other curves
     # keep their nodes with their parameters (which adding nodes back would lose) and their
     # line elements
@@ -389,7 +408,7 @@ def test_recombine_gmsh_errors_leave_the_model_unchanged(model):
         blossomquad.recombine_gmsh()
     assert element_counts(3) == before
     volume_nodes = gmsh.model.mesh.getNodes(3, 1)[0].tolist()
-    report = blossomquad.recombine_gmsh(drop_volumes=True)
+    report = blossomquad.recombine_gmsh(drop_volumes=True, keep_tags=True)
     assert 2 not in element_counts(2)
     # the tetrahedra go, as with --drop-volumes; the volume's nodes stay, as in the file
     assert element_counts(3) == {}
