@@ -77,6 +77,11 @@ def markdown(rows, with_dolfinx, tool):
         + ". L2 rate: between a row and the one above, with h ~ unknowns^(-1/2). "
         "H1: the error's gradient seminorm.",
         "",
+        "Reproduce (after `scripts/test.sh` made the DOLFINx venv): `LD_LIBRARY_PATH="
+        "target/dolfinx-venv/lib PATH=target/dolfinx-venv/bin:$PATH "
+        "target/dolfinx-venv/bin/python scripts/bench_solvers.py` (any Python with "
+        "scikit-fem, meshio and gmsh gives the table without the DOLFINx column).",
+        "",
         head,
         sep,
     ]
