@@ -257,3 +257,61 @@ fn tag_map_refusals() {
     assert!(err.contains("overwrite the input"), "{err}");
     assert!(!out.exists(), "nothing written on refusal");
 }
+
+/// `out.msh` copied to `name` beside it, with `map` (JSON) as its tag map.
+fn with_map(out: &Path, name: &str, map: &serde_json::Value) -> std::path::PathBuf {
+    let copy = out.with_file_name(name);
+    std::fs::copy(out, &copy).expect("copy");
+    std::fs::write(tag_map_path(&copy), map.to_string()).expect("write the map");
+    copy
+}
+
+#[test]
+fn the_checker_catches_a_wrong_tag_map() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let input = generate("square_hole", Variant::Msh41Ascii, dir.path(), 4.0, &[]);
+    let out = dir.path().join("out.msh");
+    let (code, err) = recombine(&input, &out, &[]);
+    assert_eq!(code, Some(0), "{err}");
+    let text = std::fs::read_to_string(tag_map_path(&out)).expect("the map");
+    let map: serde_json::Value = serde_json::from_str(&text).expect("JSON");
+    assert!(check_mesh(&input, &out, &[]).ok);
+    // two curve nodes swapped: the output read back through the map moves them
+    let mut swapped = map.clone();
+    let nodes = swapped["nodes"].as_array_mut().expect("nodes");
+    let (a, b) = (nodes[5][1].clone(), nodes[6][1].clone());
+    nodes[5][1] = b;
+    nodes[6][1] = a;
+    let report = check_mesh(&input, &with_map(&out, "swapped.msh", &swapped), &[]);
+    assert!(!report.ok, "{}", report.report);
+    assert!(
+        report.report.contains("\"numbering\": false"),
+        "{}",
+        report.report
+    );
+    assert!(
+        report.report.contains("\"fixed_nodes\": false"),
+        "{}",
+        report.report
+    );
+    // a kept curve node left out of the map: it reads as a new node, its input tag as lost
+    let mut dropped = map.clone();
+    dropped["nodes"].as_array_mut().expect("nodes").remove(5);
+    let report = check_mesh(&input, &with_map(&out, "dropped.msh", &dropped), &[]);
+    assert!(!report.ok, "{}", report.report);
+    assert!(
+        report.report.contains("\"node_tags\": false"),
+        "{}",
+        report.report
+    );
+    // the --keep-tags output is not numbered 1..N: the map cannot make it so
+    let kept = dir.path().join("kept.msh");
+    let (code, err) = recombine(&input, &kept, &["--keep-tags"]);
+    assert_eq!(code, Some(0), "{err}");
+    let report = check_mesh(&input, &with_map(&kept, "kept-mapped.msh", &map), &[]);
+    assert!(
+        report.report.contains("\"numbering\": false"),
+        "{}",
+        report.report
+    );
+}
