@@ -248,7 +248,8 @@ pub fn surface_mesh(
 }
 
 /// The quads of `mesh` (a result of [`surface_mesh`] on `input` points after
-/// [`quadrangulate`](crate::quadrangulate)) as arrays: points by index and quads of point
+/// [`quadrangulate`](crate::quadrangulate) with [`keep_tags`](crate::Options::keep_tags):
+/// the points are found by tag) as arrays: points by index and quads of point
 /// indices. Input points keep their index (at their new position; a point the optimizer
 /// removed keeps its input position and no quad uses it); the points the run added follow,
 /// in tag order.
@@ -293,6 +294,13 @@ pub fn quads_of(mesh: &Mesh, input: &[[f64; 3]]) -> (Vec<[f64; 3]>, Vec<[u64; 4]
 mod tests {
     use super::*;
 
+    fn keep_tags() -> crate::Options {
+        crate::Options {
+            keep_tags: true,
+            ..Default::default()
+        }
+    }
+
     /// A 3 x 3 grid of squares split into 18 triangles, with a square hole in the middle
     /// cell removed (16 triangles): two boundary loops.
     fn grid_with_hole() -> (Vec<[f64; 3]>, Vec<[i64; 3]>) {
@@ -323,7 +331,7 @@ mod tests {
         assert_eq!(mesh.entities[1].len(), 2, "outer loop and hole");
         let lines: usize = mesh.count_elements(etype::LINE2);
         assert_eq!(lines, 12 + 4, "every boundary edge is a line element");
-        crate::quadrangulate(&mut mesh, &crate::Options::default()).expect("quads");
+        crate::quadrangulate(&mut mesh, &keep_tags()).expect("quads");
         let (p, q) = quads_of(&mesh, &pts);
         assert!(p.len() >= pts.len());
         assert_eq!(&p[..4], &pts[..4], "boundary points do not move");
@@ -338,7 +346,7 @@ mod tests {
         let mut mesh = surface_mesh(&pts, &tris, &[5]).expect("mesh");
         assert_eq!(mesh.entities[0].len(), 1, "the fixed point");
         let input = mesh.clone();
-        crate::quadrangulate(&mut mesh, &crate::Options::default()).expect("quads");
+        crate::quadrangulate(&mut mesh, &keep_tags()).expect("quads");
         assert!(crate::validity::invalid_quads(&input, &mesh).is_empty());
         let (p, q) = quads_of(&mesh, &pts);
         assert!(p.len() > pts.len(), "a split point is appended");

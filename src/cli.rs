@@ -148,6 +148,16 @@ struct RunArgs {
     /// ($ElementData) and "valence" per node ($NodeData), shown coloured by `gmsh OUTPUT`.
     #[arg(long)]
     quality_view: bool,
+    /// Keep the input's node and element tags exactly, gaps and all. By default the output
+    /// is numbered as Gmsh numbers its files: nodes 1..N and elements 1..M without gaps, in
+    /// the order of their tags (tags below the first gap and all tags of a mesh with
+    /// nothing removed stay as they are).
+    #[arg(long, conflicts_with = "tag_map")]
+    keep_tags: bool,
+    /// Also write the input tag -> output tag map of every input node and element kept in
+    /// the output to FILE, as JSON: {"nodes": [[in, out], ...], "elements": [...]}.
+    #[arg(long, value_name = "FILE")]
+    tag_map: Option<PathBuf>,
     /// Allow the output to overwrite the input file.
     #[arg(long)]
     force: bool,
@@ -517,6 +527,15 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         return Err("missing INPUT or -o OUTPUT (see --help)".into());
     };
     check_output(&input, &output, args.force)?;
+    if let Some(map) = &args.tag_map {
+        check_not_input(&input, map, args.force)?;
+        if map == &output {
+            return Err(format!(
+                "{}: --tag-map and -o name the same file",
+                map.display()
+            ));
+        }
+    }
     let quiet = args.quiet;
     let bar = progress_bar(quiet);
     let log = Log {
@@ -560,6 +579,8 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         optimize: !args.no_optimize,
         allow_invalid: args.allow_invalid,
         incomplete: args.incomplete,
+        keep_tags: args.keep_tags,
+        tag_map: args.tag_map.is_some(),
         trace: trace_from_env(),
         ..Default::default()
     };
@@ -597,6 +618,9 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     };
     finish();
     written?;
+    if let (Some(path), Some(map)) = (&args.tag_map, &report.renumber.map) {
+        write_tag_map(path, map)?;
+    }
     let t_write = t3.elapsed().as_secs_f64();
     if args.verbose {
         log.say_all(&time_lines(&report, t_read, t_write));
@@ -860,6 +884,26 @@ fn check_output(input: &Path, output: &Path, force: bool) -> Result<(), String> 
         ));
     }
     check_not_input(input, output, force)
+}
+
+/// Writes the tag map as JSON (atomically: a temporary file beside `path`, then renamed;
+/// `-` writes stdout).
+fn write_tag_map(path: &Path, map: &crate::renumber::TagMap) -> Result<(), String> {
+    let json = serde_json::to_string(map).map_err(|e| e.to_string())?;
+    if path.as_os_str() == "-" {
+        return print_out(&format!("{json}\n"));
+    }
+    let name = path
+        .file_name()
+        .map(|n| n.to_string_lossy().into_owned())
+        .unwrap_or_default();
+    let tmp = path.with_file_name(format!(".{name}.{}.tmp", std::process::id()));
+    let fail = |e: std::io::Error| format!("{}: cannot write the tag map: {e}", path.display());
+    std::fs::write(&tmp, format!("{json}\n")).map_err(fail)?;
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        fail(e)
+    })
 }
 
 /// Refuses an output path that is the input file itself, unless `force`.

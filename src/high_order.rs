@@ -192,9 +192,12 @@ pub fn is_second_order(mesh: &Mesh) -> bool {
 pub(crate) fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
     let (mut linear, dropped) = linearize(mesh, opts.drop_volumes)?;
     let linear_max = linear.max_node_tag();
-    // the views are measured on the second-order result, not on the linear copy
+    // the views are measured on the second-order result, not on the linear copy, and
+    // `elevate` finds the input's nodes by tag: the renumbering comes after it
     let linear_opts = Options {
         quality_view: false,
+        keep_tags: true,
+        tag_map: false,
         ..opts.clone()
     };
     let mut report = crate::pipeline::quadrangulate(&mut linear, &linear_opts)?;

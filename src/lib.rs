@@ -35,6 +35,7 @@ pub mod profile;
 pub mod quality;
 pub mod recombine;
 pub mod refine;
+pub mod renumber;
 pub mod validity;
 
 pub use mesh::{Mesh, MshFormat};

@@ -283,6 +283,12 @@ pub struct Options {
     /// they are dropped with a warning; the CLI's `--quality-view` encodes them for the
     /// format it writes).
     pub quality_view: bool,
+    /// Keep the input's node and element tags exactly, gaps and all; by default the result
+    /// is numbered 1..N without gaps, as Gmsh numbers its files ([`crate::renumber`]).
+    pub keep_tags: bool,
+    /// Give the input tag → output tag map of the kept nodes and elements in
+    /// [`Report::renumber`] (`map`); ignored with [`Options::keep_tags`].
+    pub tag_map: bool,
     /// Progress callback.
     #[serde(skip)]
     pub progress: Option<ProgressFn>,
@@ -307,6 +313,8 @@ impl Default for Options {
             allow_invalid: false,
             incomplete: false,
             quality_view: false,
+            keep_tags: false,
+            tag_map: false,
             progress: None,
             trace: None,
         }
@@ -346,6 +354,9 @@ pub struct Report {
     pub invalid: Vec<BadQuad>,
     /// The second-order step (second-order input only, see [`crate::high_order`]).
     pub second_order: Option<crate::high_order::SecondOrderReport>,
+    /// The renumbering of nodes and elements to 1..N (all zero with
+    /// [`Options::keep_tags`]).
+    pub renumber: crate::renumber::RenumberReport,
     /// Human-readable log lines, in order.
     pub log: Vec<String>,
     /// Wall times.
@@ -406,12 +417,21 @@ fn invalid_message(bad: &[BadQuad]) -> String {
 /// on its corners and written back as 9-node (or, with [`Options::incomplete`], 8-node)
 /// quads on its curved geometry ([`crate::high_order`]). On error `mesh` is unchanged.
 pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
-    let report = if crate::high_order::is_second_order(mesh) {
+    let input_tags =
+        (opts.tag_map && !opts.keep_tags).then(|| crate::renumber::InputTags::of(mesh));
+    let mut report = if crate::high_order::is_second_order(mesh) {
         // the linear job on the corners, then second-order nodes on the input's geometry
         crate::high_order::quadrangulate(mesh, opts)?
     } else {
         quadrangulate_linear(mesh, opts)?
     };
+    if !opts.keep_tags {
+        report.renumber = crate::renumber::renumber(mesh, input_tags);
+        let warnings = std::mem::take(&mut report.renumber.warnings);
+        report
+            .log
+            .extend(warnings.into_iter().map(|w| format!("warning: {w}")));
+    }
     if opts.quality_view {
         let binary = crate::msh::default_output_format(mesh).binary;
         crate::quality::view::add_views(mesh, binary);

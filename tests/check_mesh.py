@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Independent invariant checker for blossomquad outputs.
 
-Usage: check_mesh.py INPUT.msh OUTPUT.msh [--allow-dropped-volumes] [--allow-triangles] [--refined=N] [--no-quad-validity]
+Usage: check_mesh.py INPUT.msh OUTPUT.msh [--allow-dropped-volumes] [--allow-triangles] [--refined=N] [--no-quad-validity] [--tag-map=FILE]
 
 INPUT is the triangle mesh given to blossomquad, OUTPUT its result. Both are read
 with Gmsh's own reader (the `gmsh` Python module); nothing here uses blossomquad's
@@ -67,6 +67,17 @@ code. Checks (names as in the JSON report):
                     node survives are unchanged; and when the input's slave surface
                     faces are images of the master's, so are the output's.
 
+  numbering         with --tag-map=FILE (the map `blossomquad --tag-map FILE` writes, for
+                    an output numbered 1..N): OUTPUT's node tags are exactly 1..N and its
+                    element tags 1..M; the map's kept input nodes are numbered 1..K in
+                    their input order (K kept of them), the new nodes K+1..N after them,
+                    and likewise the kept input elements 1..K'; except that, when there
+                    are physical groups, the nodes no element of a group uses come last
+                    (still in input order among themselves); every output tag the map
+                    names exists. OUTPUT is then read back into the input's numbering
+                    through the map (new nodes and elements above every input tag), so
+                    every check above compares tags with INPUT as without renumbering.
+
 Prints one JSON line and exits 0 when every check passes, 1 on any violation,
 2 on usage errors or when INPUT cannot be read.
 """
@@ -119,6 +130,8 @@ class Mesh:
         self.face_tags = {}  # (surface tag, sorted node tuple) -> element tag
         self.periodic = {}  # (dim, tag) -> (master tag, [(slave node, master node)], affine or [])
         self.entity_nodes = {}  # (dim, tag) -> node tags classified on that entity
+        self.element_tags = set()  # every element tag
+        self.physical_nodes = None  # nodes of the physical groups' elements (None: no group)
 
 
 def _dedup(elements):
@@ -212,6 +225,8 @@ def load(path):
         elem_tags = [plain(e) for e in elem_tags]
         if len(types) > 0:
             mesh.with_elements.add((dim, tag))
+        for etags in elem_tags:
+            mesh.element_tags.update(int(t) for t in etags)
         for etype, conn, etags in zip(types, node_tags, elem_tags):
             _, edim, _, nnodes, _, ncorner = gmsh.model.mesh.getElementProperties(etype)
             conn = [int(n) for n in conn]
@@ -249,8 +264,61 @@ def load(path):
     for dim, tag in gmsh.model.getPhysicalGroups():
         ents = sorted(int(e) for e in gmsh.model.getEntitiesForPhysicalGroup(dim, tag))
         mesh.physicals.append((dim, tag, gmsh.model.getPhysicalName(dim, tag), ents))
+        mesh.physical_nodes = mesh.physical_nodes or set()
+        for e in ents:
+            for conn in gmsh.model.mesh.getElements(dim, e)[2]:
+                mesh.physical_nodes.update(int(n) for n in plain(conn))
     mesh.physicals.sort()
     return mesh
+
+
+def check_numbering(rep, out, tag_map):
+    """The `numbering` check (see the module doc) on OUTPUT as read."""
+    ntags = sorted(out.nodes)
+    rep.check("numbering", ntags == list(range(1, len(ntags) + 1)),
+              f"node tags are not 1..{len(ntags)}: {ntags[:3]} ... {ntags[-3:]}")
+    etags = sorted(out.element_tags)
+    rep.check("numbering", etags == list(range(1, len(etags) + 1)),
+              f"element tags are not 1..{len(etags)}: {etags[:3]} ... {etags[-3:]}")
+    # nodes no physical group's element uses come after the others (when there are groups)
+    unused = {t for t in out.nodes if out.physical_nodes is not None and t not in out.physical_nodes}
+    if unused:
+        rep.check("numbering", min(unused) > len(out.nodes) - len(unused),
+                  f"a node outside every physical group comes before a node inside one: {sorted(unused)[:5]}")
+    for kind, pairs, present, last in (("node", tag_map["nodes"], out.nodes, unused),
+                                       ("element", tag_map["elements"], out.element_tags, set())):
+        olds = [a for a, _ in pairs]
+        rep.check("numbering", olds == sorted(set(olds)), f"the {kind} map is not ascending by input tag")
+        for group in (False, True):
+            news = [b for _, b in pairs if (b in last) == group]
+            start = 1 if not group else len(present) - len(last) + 1
+            if group and not news:
+                continue
+            rep.check("numbering", news == sorted(news) and (group or news == list(range(1, len(news) + 1))),
+                      f"kept input {kind}s are not numbered {start}.. in input order: {pairs[:3]} ...")
+        missing = [b for _, b in pairs if b not in present]
+        rep.check("numbering", not missing, f"the map names {kind}s not in the output: {missing[:5]}")
+
+
+def relabel(out, tag_map, inp):
+    """OUTPUT in the input's numbering: tags of kept nodes and elements mapped back
+    through `tag_map`, the others moved above every input tag."""
+    nmax = max(inp.nodes, default=0)
+    emax = max([t for t in inp.face_tags.values()] + [0])
+    emax = max(emax, max(inp.element_tags, default=0))
+    back = {b: a for a, b in tag_map["nodes"]}
+    eback = {b: a for a, b in tag_map["elements"]}
+    n = lambda t: back.get(t, nmax + t)  # noqa: E731
+    e = lambda t: eback.get(t, emax + t)  # noqa: E731
+    out.nodes = {n(t): p for t, p in out.nodes.items()}
+    out.node_dim = {n(t): d for t, d in out.node_dim.items()}
+    out.entity_nodes = {k: [n(t) for t in v] for k, v in out.entity_nodes.items()}
+    out.faces = {k: [(et, tuple(n(t) for t in f)) for et, f in v] for k, v in out.faces.items()}
+    out.lines = {k: [(n(a), n(b)) for a, b in v] for k, v in out.lines.items()}
+    out.face_tags = {(s, tuple(sorted(n(t) for t in f))): e(t) for (s, f), t in out.face_tags.items()}
+    out.element_tags = {e(t) for t in out.element_tags}
+    out.periodic = {k: (m, [(n(a), n(b)) for a, b in pairs], aff)
+                    for k, (m, pairs, aff) in out.periodic.items()}
 
 
 def sub(a, b):
@@ -786,8 +854,9 @@ def check_periodic(rep, inp, out, scale):
 
 def main(argv):
     args = [a for a in argv[1:] if not a.startswith("--")]
-    flags = {a for a in argv[1:] if a.startswith("--") and not a.startswith("--refined=")}
+    flags = {a for a in argv[1:] if a.startswith("--") and not a.startswith(("--refined=", "--tag-map="))}
     refined = [a.split("=", 1)[1] for a in argv[1:] if a.startswith("--refined=")]
+    maps = [a.split("=", 1)[1] for a in argv[1:] if a.startswith("--tag-map=")]
     if refined and not refined[-1].isdigit():
         print(__doc__.splitlines()[2], file=sys.stderr)
         return 2
@@ -807,9 +876,18 @@ def main(argv):
         print(_dumps({"ok": False, "input": args[0], "output": args[1],
                           "checks": {"loads": False}, "violations": [f"loads: {m}" for m in out.errors[:5]]}))
         return 1
+    numbering = Report()
+    if maps:
+        with open(maps[-1]) as f:
+            tag_map = json.load(f)
+        check_numbering(numbering, out, tag_map)
+        relabel(out, tag_map, inp)
     rep, quads, tris = check(inp, out, "--allow-dropped-volumes" in flags, "--allow-triangles" in flags, refined,
                              "--no-quad-validity" in flags)
     rep.checks["loads"] = True
+    if maps:
+        rep.checks["numbering"] = numbering.checks.get("numbering", True)
+        rep.violations = numbering.violations + rep.violations
     ok = all(rep.checks.values())
     print(_dumps({
         "ok": ok,

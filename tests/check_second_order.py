@@ -2,7 +2,7 @@
 """Independent checker for blossomquad's second-order outputs (6-node triangles in,
 9-node or 8-node quads out).
 
-Usage: check_second_order.py INPUT.msh OUTPUT.msh [--incomplete] [--sphere R]
+Usage: check_second_order.py INPUT.msh OUTPUT.msh [--incomplete] [--sphere R] [--tag-map=FILE]
 
 Both files are read with Gmsh's own reader (the `gmsh` Python module); nothing here
 uses blossomquad's code. Prints one JSON object; exits 0 when every check holds.
@@ -21,6 +21,12 @@ uses blossomquad's code. Prints one JSON object; exits 0 when every check holds.
                  recombined faces) whose corners kept their coordinates is in OUTPUT
                  with the same tag, corners and mid-edge nodes (and face node, when both
                  are 9-node quads).
+  numbering      with --tag-map=FILE (the map `blossomquad --tag-map FILE` writes):
+                 OUTPUT's node tags are 1..N and its element tags 1..M, and the kept input
+                 nodes and elements are numbered 1..K in their input order (nodes no
+                 physical group's element uses last, when there are groups). OUTPUT's tags
+                 are then mapped back to INPUT's (new ones above every input tag) for the
+                 checks that compare tags.
   sphere         with --sphere R (a sphere of radius R about the origin): the largest
                  |r - R| of OUTPUT's new or moved nodes is at most 1.5 times INPUT's
                  own interpolation error (|r - R| sampled over its quadratic
@@ -130,6 +136,7 @@ def main(argv):
             for tag, n in zip(tags, nodes):
                 in_mid.update(n[4:])
                 in_quads[tag] = n
+    in_emax = max([int(t) for tg in gmsh.model.mesh.getElements()[1] for t in tg] + [0])
     lo = [min(c[k] for c in in_nodes.values()) for k in range(3)]
     hi = [max(c[k] for c in in_nodes.values()) for k in range(3)]
     size = norm(sub(hi, lo))
@@ -156,6 +163,38 @@ def main(argv):
     info["mean_sj"] = sum(sj) / len(sj) if sj else None
     info["sj_not_positive"] = [all_tags[i] for i, v in enumerate(sj) if not v > 0][:10]
     checks["min_sj"] = bool(sj) and min(sj) > 0
+
+    maps = [a.split("=", 1)[1] for a in argv if a.startswith("--tag-map=")]
+    if maps:
+        with open(maps[-1]) as f:
+            tag_map = json.load(f)
+        etags = sorted({t for _, _, tg, _ in surf + lines for t in tg}
+                       | {int(t) for d in (0, 3) for _, e in gmsh.model.getEntities(d)
+                          for tg in gmsh.model.mesh.getElements(d, e)[1] for t in tg})
+        ok = sorted(out_nodes) == list(range(1, len(out_nodes) + 1))
+        ok = ok and etags == list(range(1, len(etags) + 1))
+        used = set()
+        for d, g in gmsh.model.getPhysicalGroups():
+            for ent in gmsh.model.getEntitiesForPhysicalGroup(d, g):
+                for conn in gmsh.model.mesh.getElements(d, ent)[2]:
+                    used.update(int(x) for x in conn)
+        last = {t for t in out_nodes if used and t not in used}
+        ok = ok and (not last or min(last) > len(out_nodes) - len(last))
+        for kind in ("nodes", "elements"):
+            pairs = tag_map[kind]
+            first = [b for _, b in pairs if kind == "elements" or b not in last]
+            ok = ok and first == list(range(1, len(first) + 1))
+            rest = [b for _, b in pairs if kind == "nodes" and b in last]
+            ok = ok and rest == sorted(rest)
+            ok = ok and [a for a, _ in pairs] == sorted({a for a, _ in pairs})
+        checks["numbering"] = ok
+        back = {b: a for a, b in tag_map["nodes"]}
+        eback = {b: a for a, b in tag_map["elements"]}
+        n = lambda t: back.get(t, in_max + t)  # noqa: E731
+        e = lambda t: eback.get(t, in_emax + t)  # noqa: E731
+        out_nodes = {n(t): p for t, p in out_nodes.items()}
+        surf = [(ent, t, [e(x) for x in tg], [[n(k) for k in nd] for nd in nds]) for ent, t, tg, nds in surf]
+        lines = [(ent, t, [e(x) for x in tg], [[n(k) for k in nd] for nd in nds]) for ent, t, tg, nds in lines]
 
     moved = [t for t in (in_fixed | in_mid) if t in out_nodes and out_nodes[t] != in_nodes[t]]
     missing_fixed = [t for t in in_fixed if t not in out_nodes and t not in in_mid]

@@ -46,6 +46,8 @@ _OPTIONS = {
     "drop_volumes": "drop_volumes",
     "allow_invalid": "allow_invalid",
     "incomplete": "incomplete",
+    "keep_tags": "keep_tags",
+    "tag_map": "tag_map",
 }
 
 
@@ -89,11 +91,14 @@ def recombine_file(
     input: str, output: str, *, progress: Optional[ProgressCallback] = None, **options: Any
 ) -> Dict[str, Any]:
     """Recombines the MSH file ``input`` into all-quad ``output`` (the command line's main
-    job: the output keeps the input's MSH version and encoding, every physical group, entity
-    and node tag). Options as the command line's flags: ``parity`` ('repair' or 'error'),
-    ``cross_field`` (float), ``harmonic_cross_field``, ``refine`` (0-3), ``smooth``
+    job: the output keeps the input's MSH version and encoding, every physical group and
+    entity; nodes and elements are numbered 1..N without gaps, as Gmsh numbers its files,
+    keeping their order). Options as the command line's flags: ``parity`` ('repair' or
+    'error'), ``cross_field`` (float), ``harmonic_cross_field``, ``refine`` (0-3), ``smooth``
     (sweeps), ``topology``, ``optimize``, ``verify``, ``drop_volumes``, ``allow_invalid``,
-    ``incomplete``, and ``quality_view`` (adds the "eta", "scaled jacobian" and "valence"
+    ``incomplete``, ``keep_tags`` (keep the input's node and element tags exactly, gaps and
+    all), ``tag_map`` (the report's ``renumber["map"]`` gives ``nodes`` and ``elements``:
+    ``[input tag, output tag]`` of every kept one), and ``quality_view`` (adds the "eta", "scaled jacobian" and "valence"
     views to the output, coloured by ``gmsh OUTPUT``). ``progress(stage, done, total)`` is called as the work advances (see
     ``ProgressCallback``). Returns the report
     (what was done per surface, times, log lines) as a dict. Nothing is written on error."""
@@ -163,9 +168,12 @@ def recombine_gmsh(
 ) -> Dict[str, Any]:
     """Recombines the mesh of the model currently open in the ``gmsh`` module (after
     ``gmsh.model.mesh.generate(2)`` or ``gmsh.open``), in place and with no file written:
-    the triangles of every surface entity become quads with the kept element tags, moved
-    nodes keep their tags, nodes added by parity repair go on their curves with their line
-    elements. Physical groups and entity tags are untouched, so ``gmsh.write``,
+    the triangles of every surface entity become quads, nodes added by parity repair go on
+    their curves with their line elements, and nodes and elements are numbered 1..N without
+    gaps in the order of their tags, as the file output is (so that
+    ``dolfinx.io.gmsh.model_to_mesh`` reads the model; ``keep_tags=True`` keeps the input's
+    tags exactly, gaps and all; ``tag_map=True`` returns the input -> output map in
+    ``report["renumber"]["map"]``). Physical groups and entity tags are untouched, so ``gmsh.write``,
     ``gmsh.fltk.run()`` or a solver's Gmsh reader see the quads. Only the entities the
     result changes are written back (the recombined surfaces, curves split by parity repair,
     volumes whose elements ``drop_volumes`` removed); the others keep their mesh untouched,

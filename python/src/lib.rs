@@ -136,7 +136,10 @@ fn quadrangulate_arrays<'py>(
     options: &str,
     progress: Option<Py<PyAny>>,
 ) -> PyResult<(Bound<'py, PyBytes>, Bound<'py, PyBytes>, String)> {
-    let opts = parse_options(options, progress)?;
+    let mut opts = parse_options(options, progress)?;
+    // the arrays are numbered by index (tag = index + 1): the tags must stay as they are
+    opts.keep_tags = true;
+    opts.tag_map = false;
     let pts = xyz(points);
     let t = i64s(triangles);
     let f = i64s(fixed);

@@ -248,6 +248,45 @@ def element_counts(dim):
     return counts
 
 
+def assert_numbered_1_to_n():
+    """The open model's node tags are 1..N and its element tags 1..M."""
+    tags = np.sort(gmsh.model.mesh.getNodes()[0])
+    assert np.array_equal(tags, np.arange(1, len(tags) + 1)), (tags[:3], tags[-3:], len(tags))
+    etags = np.sort(np.concatenate([t for t in gmsh.model.mesh.getElements()[1]]))
+    assert np.array_equal(etags, np.arange(1, len(etags) + 1)), (etags[-3:], len(etags))
+
+
+def test_recombine_gmsh_numbers_the_model_1_to_n_and_keeps_curve_nodes(model):
+    plate_with_hole(0.1)
+    curves = {c: gmsh.model.mesh.getNodes(1, c, returnParametricCoord=True)
+              for _, c in gmsh.model.getEntities(1)}
+    report = blossomquad.recombine_gmsh()
+    assert_numbered_1_to_n()
+    split = {s["curve"] for s in report["recombine"]["parity_splits"]}
+    mesh_rewritten = {(d, t) for d, t, what in report["model"]["rewritten"] if what == "mesh"}
+    for c, (ntags, _, params) in curves.items():
+        if c in split:
+            continue
+        # Gmsh numbers curve nodes before surface nodes: they keep tags and parameters
+        assert (1, c) not in mesh_rewritten, c
+        n, _, p = gmsh.model.mesh.getNodes(1, c, returnParametricCoord=True)
+        assert (n.tolist(), p.tolist()) == (ntags.tolist(), params.tolist()), c
+
+
+def test_recombine_gmsh_keep_tags_keeps_the_model_tags_gaps_and_all(model):
+    plate_with_hole(0.1)
+    nodes_before = set(gmsh.model.mesh.getNodes()[0].tolist())
+    tri_tags = set(gmsh.model.mesh.getElements(2, 1)[1][0].tolist())
+    report = blossomquad.recombine_gmsh(keep_tags=True)
+    assert report["renumber"]["map"] is None
+    tags = gmsh.model.mesh.getNodes()[0].tolist()
+    assert report["optimize"]["nodes_removed"] > 0
+    # removed nodes leave gaps; kept nodes keep their tags, new ones come above
+    assert max(tags) > len(tags)
+    assert all(t in nodes_before or t > max(nodes_before) for t in tags)
+    assert set(gmsh.model.mesh.getElements(2, 1)[1][0].tolist()) <= tri_tags
+
+
 def test_recombine_gmsh_turns_the_open_model_into_quads(model, tmp_path):
     plate_with_hole(0.1)
     curve_nodes_before = {}
@@ -255,16 +294,20 @@ def test_recombine_gmsh_turns_the_open_model_into_quads(model, tmp_path):
         tags, coords, _ = gmsh.model.mesh.getNodes(1, c, includeBoundary=True)
         curve_nodes_before.update(zip(tags, coords.reshape(-1, 3).tolist()))
     tri_tags = set(gmsh.model.mesh.getElements(2, 1)[1][0])
-    report = blossomquad.recombine_gmsh()
+    report = blossomquad.recombine_gmsh(tag_map=True)
     assert report["invalid"] == []
     counts = element_counts(2)
     assert 2 not in counts and counts.get(3, 0) > 0, counts
+    nodes, elements = report["renumber"]["map"]["nodes"], report["renumber"]["map"]["elements"]
+    back = {b: a for a, b in elements}
     quad_tags = set(gmsh.model.mesh.getElements(2, 1)[1][0])
-    assert quad_tags <= tri_tags, "quads take tags of the triangles they replace"
+    assert {back[t] for t in quad_tags} <= tri_tags, "quads take tags of the triangles they replace"
     # curve nodes kept, unmoved
+    new = dict(nodes)
     for tag, xyz in curve_nodes_before.items():
-        coord, _, _, _ = gmsh.model.mesh.getNode(tag)
+        coord, _, _, _ = gmsh.model.mesh.getNode(new[tag])
         assert np.allclose(coord, xyz)
+    assert_numbered_1_to_n()
     # physical groups survive, and every element is valid for a solver
     assert gmsh.model.getPhysicalName(2, 7) == "plate"
     assert set(gmsh.model.getPhysicalGroups()) == {(2, 7), (1, 8)}
@@ -287,7 +330,9 @@ def test_recombine_gmsh_leaves_the_entities_it_does_not_change_alone(model):
         _, etags, enodes = gmsh.model.mesh.getElements(1, c)
         assert len(params) == len(ntags) > 0, "Gmsh gives curve nodes their parameter"
         curves[c] = (ntags.tolist(), params.tolist(), etags[0].tolist(), enodes[0].tolist())
-    report = blossomquad.recombine_gmsh()
+    # the input's tags kept: untouched entities are exactly as they were (by default their
+    # element tags may move to close the gaps, their nodes staying; see the numbering test)
+    report = blossomquad.recombine_gmsh(keep_tags=True)
     # the surface is written back, and the curves parity repair split; the other curves
     # keep their nodes with their parameters (which adding nodes back would lose) and their
     # line elements
@@ -344,7 +389,7 @@ def test_recombine_gmsh_repairs_parity_on_the_model_curves(model):
     assert n_tris % 2 == 1
     max_node = gmsh.model.mesh.getMaxNodeTag()
     lines_before = element_counts(1).get(1, 0)
-    report = blossomquad.recombine_gmsh()
+    report = blossomquad.recombine_gmsh(keep_tags=True)
     assert report["recombine"]["parity_splits"], report["log"]
     assert 2 not in element_counts(2)
     assert gmsh.model.mesh.getMaxNodeTag() > max_node
@@ -363,7 +408,7 @@ def test_recombine_gmsh_errors_leave_the_model_unchanged(model):
         blossomquad.recombine_gmsh()
     assert element_counts(3) == before
     volume_nodes = gmsh.model.mesh.getNodes(3, 1)[0].tolist()
-    report = blossomquad.recombine_gmsh(drop_volumes=True)
+    report = blossomquad.recombine_gmsh(drop_volumes=True, keep_tags=True)
     assert 2 not in element_counts(2)
     # the tetrahedra go, as with --drop-volumes; the volume's nodes stay, as in the file
     assert element_counts(3) == {}
@@ -410,14 +455,16 @@ def test_recombine_gmsh_on_the_geo_fixtures(model, tmp_path, geo, size):
         for _, tag in gmsh.model.getEntities(dim):
             ntags, coords, _ = gmsh.model.mesh.getNodes(dim, tag)
             boundary.update(zip(ntags, coords.reshape(-1, 3).tolist()))
-    report = blossomquad.recombine_gmsh()
+    report = blossomquad.recombine_gmsh(tag_map=True)
     assert report["invalid"] == []
     counts = element_counts(2)
     assert 2 not in counts and counts.get(3, 0) > 0, counts
     assert sorted(gmsh.model.getPhysicalGroups()) == groups
     assert {g: gmsh.model.getPhysicalName(*g) for g in groups} == names
+    new = dict(report["renumber"]["map"]["nodes"])
     for tag, xyz in boundary.items():
-        assert np.allclose(gmsh.model.mesh.getNode(tag)[0], xyz), tag
+        assert np.allclose(gmsh.model.mesh.getNode(new[tag])[0], xyz), tag
+    assert_numbered_1_to_n()
     for _, s in gmsh.model.getEntities(2):
         _, tags, _ = gmsh.model.mesh.getElements(2, s)
         assert min(gmsh.model.mesh.getElementQualities(tags[0], "minSJ")) > 0, s

@@ -685,6 +685,35 @@ fn to_i32(v: u64, what: &str) -> io::Result<i32> {
     })
 }
 
+/// The order MSH 2.2 writes the nodes in, as (block, index): ascending by tag, as Gmsh
+/// writes its flat `$Nodes` list (meshio's binary 2.2 reader requires the tags 1..N in that
+/// order); block after block when they are so already, and among equal tags in block order.
+fn v22_node_order(mesh: &Mesh) -> Box<dyn Iterator<Item = (usize, usize)> + '_> {
+    let written = |(bi, b): (usize, &'_ crate::mesh::NodeBlock)| {
+        (0..b.tags.len().min(b.coords.len())).map(move |i| (bi, i))
+    };
+    let in_order = mesh
+        .node_blocks
+        .iter()
+        .enumerate()
+        .flat_map(written)
+        .map(|(bi, i)| mesh.node_blocks[bi].tags[i])
+        .try_fold(0u64, |last, t| (t >= last).then_some(t))
+        .is_some();
+    if in_order {
+        return Box::new(mesh.node_blocks.iter().enumerate().flat_map(written));
+    }
+    let mut order: Vec<(u64, usize, usize)> = mesh
+        .node_blocks
+        .iter()
+        .enumerate()
+        .flat_map(written)
+        .map(|(bi, i)| (mesh.node_blocks[bi].tags[i], bi, i))
+        .collect();
+    order.sort_by_key(|&(t, _, _)| t);
+    Box::new(order.into_iter().map(|(_, bi, i)| (bi, i)))
+}
+
 fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
     let bin = format.binary;
     head(out, mesh, "2.2")?;
@@ -700,7 +729,8 @@ fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
     out.section(name);
     out.int(nn);
     out.nl();
-    for b in &mesh.node_blocks {
+    for (bi, i) in v22_node_order(mesh) {
+        let b = &mesh.node_blocks[bi];
         let np = if b.entity_dim == 1 || b.entity_dim == 2 {
             b.entity_dim as usize
         } else {
@@ -708,7 +738,8 @@ fn write_v22(mesh: &Mesh, out: &mut Out, format: MshFormat) -> io::Result<()> {
         };
         let n = b.tags.len().min(b.coords.len());
         let params = b.params.as_ref().filter(|p| p.len() == n * np && np > 0);
-        for (i, (&t, c)) in b.tags.iter().zip(&b.coords).enumerate() {
+        {
+            let (t, c) = (b.tags[i], &b.coords[i]);
             if bin {
                 out.le_i32(to_i32(t, "node tag")?);
                 for &x in c {

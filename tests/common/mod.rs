@@ -249,15 +249,35 @@ pub struct CheckReport {
     pub report: String,
 }
 
+/// Where the tests have the tool write the tag map of `output` (`--tag-map`):
+/// `OUTPUT.tags.json` beside it.
+pub fn tag_map_path(output: &Path) -> PathBuf {
+    let mut name = output.as_os_str().to_owned();
+    name.push(".tags.json");
+    PathBuf::from(name)
+}
+
+/// `--tag-map OUTPUT.tags.json`, for a main-job command line whose output the checker
+/// reads (it then compares node and element tags through the map).
+pub fn tag_map_args(output: &Path) -> [std::ffi::OsString; 2] {
+    ["--tag-map".into(), tag_map_path(output).into_os_string()]
+}
+
 /// Runs the independent checker on (input, output) with extra `flags`
-/// (`--allow-dropped-volumes`, `--allow-triangles`).
+/// (`--allow-dropped-volumes`, `--allow-triangles`); when the tool wrote the tag map
+/// `OUTPUT.tags.json` ([`tag_map_path`]), the checker gets it (`--tag-map=`): it checks
+/// the output's numbering 1..N and compares tags with the input through it.
 pub fn check_mesh(input: &Path, output: &Path, flags: &[&str]) -> CheckReport {
     let script = repo_dir().join("tests/check_mesh.py");
+    let map = tag_map_path(output);
+    let mut map_flag = std::ffi::OsString::from("--tag-map=");
+    map_flag.push(&map);
     let out = run(Command::new(python_exe())
         .arg(script)
         .arg(input)
         .arg(output)
-        .args(flags));
+        .args(flags)
+        .args(map.exists().then_some(map_flag)));
     CheckReport {
         ok: out.status.success(),
         code: out.status.code(),
@@ -328,8 +348,12 @@ pub fn assert_variant(path: &Path, variant: Variant) {
 }
 
 /// The main job as the tests run it: `blossomquad INPUT -o OUTPUT --verify
-/// --quiet EXTRA...`; returns (exit code, stderr).
+/// --quiet EXTRA...`, with `--tag-map OUTPUT.tags.json` (read by [`check_mesh`]) unless
+/// EXTRA has `--keep-tags`; returns (exit code, stderr).
 pub fn recombine(input: &Path, output: &Path, extra: &[&str]) -> (Option<i32>, String) {
+    let map = tag_map_path(output);
+    let _ = std::fs::remove_file(&map);
+    let keep = extra.contains(&"--keep-tags");
     let (code, _, stderr) = blossomquad_run(
         [
             input.as_os_str(),
@@ -339,7 +363,13 @@ pub fn recombine(input: &Path, output: &Path, extra: &[&str]) -> (Option<i32>, S
             "--quiet".as_ref(),
         ]
         .into_iter()
-        .chain(extra.iter().map(|s| s.as_ref())),
+        .chain(extra.iter().map(|s| s.as_ref()))
+        .chain(
+            (!keep)
+                .then(|| ["--tag-map".as_ref(), map.as_os_str()])
+                .into_iter()
+                .flatten(),
+        ),
     );
     (code, stderr)
 }

@@ -11,6 +11,7 @@ mod convert;
 mod corpus;
 mod fixtures;
 mod fuzz_regressions;
+mod numbering;
 mod parity_periodic;
 mod quirks;
 mod recombine;

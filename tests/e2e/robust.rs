@@ -123,7 +123,15 @@ fn run_one(
     let input = dir.join(format!("{}-{variant}.msh", model.name));
     let output = dir.join(format!("{}-{variant}.quads.msh", model.name));
     mesh_model(&model.name, &model.coarse, options, &input)?;
-    let (code, _, stderr) = blossomquad_run([input.as_os_str(), "-o".as_ref(), output.as_os_str()]);
+    // with the tag map: the checker checks the numbering 1..N and compares tags through it
+    let [map_flag, map] = common::tag_map_args(&output);
+    let (code, _, stderr) = blossomquad_run([
+        input.as_os_str(),
+        "-o".as_ref(),
+        output.as_os_str(),
+        &map_flag,
+        &map,
+    ]);
     match code {
         Some(0) => {}
         Some(1) => return Err(format!("refused: {}", stderr.trim())),

@@ -49,25 +49,31 @@ fn mesh_order2(
     out
 }
 
-/// Runs the CLI on `input` (with `-v` and the `extra` flags) and the second-order checker on the
-/// result; returns the checker's JSON line and the CLI's stderr.
+/// Runs the CLI on `input` (with `-v`, the `extra` flags, and `--tag-map` unless they have
+/// `--keep-tags`) and the second-order checker on the result (with the tag map: it checks
+/// the numbering 1..N and compares tags through it); returns the checker's JSON line and
+/// the CLI's stderr.
 fn recombine_and_check(input: &Path, extra: &[&str], check_flags: &[&str]) -> (String, String) {
     let output = input.with_extension("quads.msh");
-    let mut args: Vec<&std::ffi::OsStr> = vec![
-        input.as_os_str(),
-        "-o".as_ref(),
-        output.as_os_str(),
-        "-v".as_ref(),
-    ];
-    args.extend(extra.iter().map(|s| std::ffi::OsStr::new(*s)));
+    let map = common::tag_map_path(&output);
+    let keep = extra.contains(&"--keep-tags");
+    let mut args: Vec<std::ffi::OsString> =
+        vec![input.into(), "-o".into(), output.clone().into(), "-v".into()];
+    args.extend(extra.iter().map(std::ffi::OsString::from));
+    if !keep {
+        args.extend(common::tag_map_args(&output));
+    }
     let (code, _, err) = blossomquad_run(args);
     assert_eq!(code, Some(0), "{}: {err}", input.display());
     let script = repo_dir().join("tests/check_second_order.py");
+    let mut map_flag = std::ffi::OsString::from("--tag-map=");
+    map_flag.push(&map);
     let o = run(Command::new(common::python_exe())
         .arg(script)
         .arg(input)
         .arg(&output)
-        .args(check_flags));
+        .args(check_flags)
+        .args((!keep).then_some(map_flag)));
     let report =
         String::from_utf8_lossy(&o.stdout).into_owned() + &String::from_utf8_lossy(&o.stderr);
     assert!(
@@ -128,6 +134,8 @@ fn plate_with_hole_complete_and_incomplete_with_parity_split() {
             Variant::Msh41Binary,
             vec!["--incomplete", "--format", "msh22"],
         ),
+        // the input's tags as they are: the checker compares them directly
+        (Variant::Msh22Ascii, vec!["--keep-tags"]),
     ] {
         let input = mesh_order2(&geo, dir.path(), variant, 0.35, &[]);
         let check: &[&str] = if flags.contains(&"--incomplete") {

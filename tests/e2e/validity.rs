@@ -37,12 +37,15 @@ fn single_triangle_surfaces_get_valid_quads_in_every_variant() {
         let output = dir
             .path()
             .join(format!("tiny-{}-quads.msh", variant.name()));
+        let [map_flag, map] = common::tag_map_args(&output);
         let (code, _, stderr) = blossomquad_run([
             input.as_os_str(),
             "-o".as_ref(),
             output.as_os_str(),
             "--verify".as_ref(),
             "-v".as_ref(),
+            &map_flag,
+            &map,
         ]);
         assert_eq!(code, Some(0), "{stderr}");
         assert!(stderr.contains("fallback round 1"), "{stderr}");
