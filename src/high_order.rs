@@ -1765,9 +1765,18 @@ mod tests {
 
     #[test]
     fn two_triangles_become_one_quad9_keeping_the_boundary_mid_nodes() {
+        // numbered 1..N, the mid-edge nodes 8 and 9 would become 7 and 8 (7 is gone): the
+        // tags are compared with the input's
+        let mut renumbered = two_tri6();
+        let plain = Options {
+            optimize: false,
+            ..Default::default()
+        };
+        crate::pipeline::quadrangulate(&mut renumbered, &plain).expect("recombined");
         let mut m = two_tri6();
         let mut opts = Options {
             optimize: false,
+            keep_tags: true,
             ..Default::default()
         };
         let report = crate::pipeline::quadrangulate(&mut m, &opts).expect("recombined");
@@ -1789,6 +1798,16 @@ mod tests {
         assert!(e[8] > 9);
         let tags: Vec<u64> = m.node_blocks.iter().flat_map(|b| b.tags.clone()).collect();
         assert!(!tags.contains(&7) && tags.contains(&e[8]));
+        let face = renumbered
+            .element_blocks
+            .iter()
+            .find(|b| b.entity_dim == 2)
+            .expect("a surface block")
+            .element(0)
+            .to_vec();
+        let mut renumbered_mids: Vec<u64> = face[4..8].to_vec();
+        renumbered_mids.sort_unstable();
+        assert_eq!((renumbered_mids, face[8]), (vec![5, 6, 7, 8], 9));
         // the face node: the serendipity centre (0.5, 0.5, 0.025: half the bottom edge's
         // bulge) projected back onto the input surface, which is flat along the diagonal
         let index = m.node_index();

@@ -251,8 +251,8 @@ def dolfinx_from_model(size: float, order: int = 1, geo: str = GEO, gdim: int = 
                        options: Optional[dict] = None, counts: Optional[dict] = None):
     """In one process: Gmsh meshes `geo`, `blossomquad.recombine_gmsh()` recombines the
     open model, `dolfinx.io.gmsh.model_to_mesh` reads it (the README's lines). `counts`,
-    when given, gets the model's "quads" (4- and 9-node), its "nodes" (all of them: DOLFINx
-    reads every node) and how many of them the physical groups' elements "used"."""
+    when given, gets the model's "quads" (4- and 9-node), its "nodes" and how many of them
+    the physical groups' elements "used"."""
     import gmsh
     from dolfinx.io import gmsh as gmshio
     from mpi4py import MPI
