@@ -241,3 +241,43 @@ fn a_round_that_only_optimizes_reuses_the_recombination() {
         }
     }
 }
+
+/// Gmsh's mesh of a box with five filleted edges (`tests/data/cad/fillet_box.py`, MSH 2.2,
+/// default sizes): on its 7-quad fillet face, recombination and optimization measured only
+/// about the input's normals gave a quad whose scaled Jacobian about its own normal (the
+/// cross product of its diagonals) was -0.17 (Gmsh's minSJ -0.78), written with exit 0.
+/// Every quad written must have a positive scaled Jacobian at all four corners about its
+/// own normal: the library's own measure (`quality`'s `sj_min`) and Gmsh's minSJ (through
+/// the independent checker) agree.
+#[test]
+fn a_filleted_box_gets_no_quad_folded_about_its_own_normal() {
+    let input = common::repo_dir().join("tests/data/cad/v22_fillet_box_own_jacobian.msh");
+    let mut mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    let before = mesh.clone();
+    quadrangulate(&mut mesh, &Options::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(validity::invalid_quads(&before, &mesh).is_empty());
+    let (measures, _) = blossomquad::quality::view::quad_measures(&mesh);
+    assert!(!measures.is_empty());
+    for (tag, _, sj) in &measures {
+        assert!(*sj > 0.0, "quad {tag}: scaled Jacobian {sj}");
+    }
+    // the CLI, `quality` and Gmsh's minSJ
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("fillet-quads.msh");
+    let (code, _, stderr) = blossomquad_run([input.as_os_str(), "-o".as_ref(), output.as_os_str()]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let (code, stdout, stderr) =
+        blossomquad_run(["quality".as_ref(), output.as_os_str(), "--json".as_ref()]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let sjs: Vec<f64> = stdout
+        .match_indices("\"sj_min\"")
+        .filter_map(|(i, _)| common::json_number(&stdout[i..], "sj_min"))
+        .collect();
+    assert!(sjs.len() > 1, "{stdout}");
+    assert!(sjs.iter().all(|&sj| sj > 0.0), "{stdout}");
+    let report = check_mesh(&input, &output, &[]);
+    assert!(report.ok, "{}", report.report);
+    let gmsh_sj = common::json_number(&report.report, "quad_min_sj")
+        .unwrap_or_else(|| panic!("{}", report.report));
+    assert!(gmsh_sj > 0.0, "{}", report.report);
+}
