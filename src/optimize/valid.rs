@@ -86,20 +86,36 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
             return false;
         }
     }
-    if !l.planar {
-        // the scaled Jacobian about the quad's own normal, squared (the sign first)
-        let own = (p[2] - p[0]).cross(p[3] - p[1]);
-        let own2 = own.length_squared();
-        for k in 0..4 {
-            let (a, b) = (e[k], -e[(k + 3) & 3]);
-            let s = own.dot(a.cross(b));
-            let floor2 = MIN_OWN_SJ * MIN_OWN_SJ * own2 * a.length_squared() * b.length_squared();
-            if !(s > 0.0 && s * s >= floor2) {
-                return false;
-            }
-        }
-    }
-    true
+    l.planar || own_jacobian_ok(&p)
+}
+
+/// True when the quad `p` has a scaled Jacobian of at least [`MIN_OWN_SJ`] at every corner
+/// about its own normal (the cross product of its diagonals). Squared, without a division
+/// or a square root; NaN fails.
+pub(crate) fn own_jacobian_ok(p: &[DVec3; 4]) -> bool {
+    let own = (p[2] - p[0]).cross(p[3] - p[1]);
+    let own2 = own.length_squared();
+    (0..4).all(|k| {
+        let (a, b) = (p[(k + 1) & 3] - p[k], p[(k + 3) & 3] - p[k]);
+        let s = own.dot(a.cross(b));
+        let floor2 = MIN_OWN_SJ * MIN_OWN_SJ * own2 * a.length_squared() * b.length_squared();
+        s > 0.0 && s * s >= floor2
+    })
+}
+
+/// True when moving node `v` from `x0` to `p` keeps every quad around it that passes
+/// [`own_jacobian_ok`] at `x0` passing it (always on a planar surface, where the rule holds
+/// by itself). The smoothing sweeps' keys measure corners about the reference normal only;
+/// this keeps their moves from folding a quad about its own normal, which would cost the
+/// whole stage at the [`Gate`].
+pub(crate) fn keeps_own_jacobian(l: &Local, v: u32, x0: DVec3, p: DVec3) -> bool {
+    l.planar
+        || l.star(v).iter().all(|&q| {
+            let at = |x: DVec3| {
+                l.quads[q as usize].map(|w| if w == v { x } else { l.pos[w as usize] })
+            };
+            !own_jacobian_ok(&at(x0)) || own_jacobian_ok(&at(p))
+        })
 }
 
 /// True when alive quad `q` is valid (module docs). It depends only on the quad's nodes and
