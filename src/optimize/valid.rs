@@ -111,9 +111,8 @@ pub(crate) fn own_jacobian_ok(p: &[DVec3; 4]) -> bool {
 pub(crate) fn keeps_own_jacobian(l: &Local, v: u32, x0: DVec3, p: DVec3) -> bool {
     l.planar
         || l.star(v).iter().all(|&q| {
-            let at = |x: DVec3| {
-                l.quads[q as usize].map(|w| if w == v { x } else { l.pos[w as usize] })
-            };
+            let at =
+                |x: DVec3| l.quads[q as usize].map(|w| if w == v { x } else { l.pos[w as usize] });
             !own_jacobian_ok(&at(x0)) || own_jacobian_ok(&at(p))
         })
 }
