@@ -24,6 +24,9 @@
 //!    fixed-point steps; a point of a planar surface is its own projection); on each curve,
 //!    the chain of input line3 elements. Then:
 //!    - an input node the linear job did not move keeps its tag and coordinates;
+//!    - the mid-edge node of an input boundary edge (a line3's, or a face edge used once on
+//!      its surface) that the linear job split once, at one new node, becomes that corner:
+//!      the new node takes its tag and coordinates (`take_split_mid_nodes`);
 //!    - a new node on a curve (parity split, fallback split, refinement) lies between the
 //!      two ends of one input line3: it goes onto that line3, at the parameter its place
 //!      along the chain of new segments gives (the chord-length fraction, snapped to the
@@ -59,7 +62,8 @@
 //! set.
 //!
 //! **Invariant:** the input's corner nodes the linear job kept in place, and its curve
-//! nodes, keep tag and coordinates; a kept mid-edge node keeps tag and coordinates; every
+//! nodes, keep tag and coordinates; a kept mid-edge node keeps tag and coordinates, and so
+//! does the mid-edge node of a boundary edge split once (as the new corner); every
 //! new node has a tag above the input's largest; element tags, entities and physical
 //! groups are the linear job's (which keeps the input's).
 
