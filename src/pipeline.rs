@@ -484,11 +484,21 @@ fn progress(opts: &Options, stage: Stage, done: usize, total: usize) {
     }
 }
 
+/// True when a node of `tags` is not where `input` has it in `output` (or is gone).
+fn moved_any(input: &Mesh, output: &Mesh, tags: &[u64]) -> bool {
+    if tags.is_empty() {
+        return false;
+    }
+    let (a, b) = (TagCoords::new(input), TagCoords::new(output));
+    tags.iter().any(|&t| a.get(t) != b.get(t))
+}
+
 fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
     let mut times = Times::default();
     let mut log = Vec::new();
     let mut chosen: HashSet<u64> = HashSet::new();
     let mut fallback = None;
+    let mut folds: Vec<recombine::WalledFold> = Vec::new();
     // without optimization: surfaces optimized all the same because their matching left
     // quads that are not valid (vertex duplications fold quads until smoothed)
     let mut force: HashSet<i32> = HashSet::new();
@@ -589,10 +599,22 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         progress(opts, Stage::Check, 1, 1);
         times.check += t.elapsed();
         let mut report = run;
+        // the folds walled off in any round (a fallback split can take a fold's triangles
+        // out of later rounds' topology)
+        for f in &report.recombine.walled_folds {
+            if !folds.iter().any(|g| g.surface == f.surface) {
+                folds.push(f.clone());
+            }
+        }
         report.log.splice(0..0, log.iter().cloned());
         report.fallback = fallback.clone();
         report.rounds = round + 1;
         if bad.is_empty() {
+            // the nodes of walled-off folds bound walls: a result that moved one (the
+            // optimizer does not know them as walls) is refused naming the fold
+            if let Some(fold) = folds.iter().find(|f| moved_any(input, &mesh, &f.nodes)) {
+                return Err(Error::Recombine(fold.refusal()));
+            }
             report.times = times;
             return Ok((mesh, report));
         }
@@ -641,6 +663,11 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
                 report.invalid = bad;
                 report.times = times;
                 return Ok((mesh, report));
+            }
+            // a surface whose folds were walled off and whose quads are still not valid
+            // is refused naming its fold
+            if let Some(fold) = folds.iter().find(|f| surfaces.contains(&f.surface)) {
+                return Err(Error::Recombine(fold.refusal()));
             }
             return Err(Error::Invalid(bad));
         }

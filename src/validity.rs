@@ -20,7 +20,15 @@
 //!   whose normal turns sharply within one quad, a corner can be fine about its own node's
 //!   normal and reflex about the surface a neighbouring corner sees (`tests/check_mesh.py`,
 //!   which measures a quad's corners about one normal of the input faces around it, found
-//!   such quads on the corpus's many-bosses model).
+//!   such quads on the corpus's many-bosses model);
+//! - the quad holds to its own geometry: its scaled Jacobian at each corner about its *own*
+//!   normal (the cross product of its diagonals, the normal of the bilinear map at the
+//!   quad's centre) is above `tan ε`, ε the angle of [`MIN_CORNER_ETA`]. The Jacobian
+//!   determinant of a 4-node quad about that normal is linear over the reference square,
+//!   so positive corners mean it is positive everywhere: what a solver integrates on and
+//!   what Gmsh's `minSJ`/`minSICN` measure (their sign). A quad strongly bent across a
+//!   coarse curved face (a fillet of a few triangles) can turn positively about every
+//!   input normal and still fold about its own.
 //!
 //! [`invalid_quads`] lists every quad that is not valid; it shares no code with the
 //! recombination or the optimizer, which it checks, except the closest-point grid of
@@ -69,6 +77,14 @@ pub enum Defect {
         /// The signed angle in degrees, in (−180, 180].
         degrees: f64,
     },
+    /// Corner `corner`'s scaled Jacobian about the quad's own normal (the cross product of
+    /// its diagonals) is not positive: the element folds over itself there.
+    OwnJacobian {
+        /// Index 0–3 of the corner.
+        corner: usize,
+        /// The scaled Jacobian at that corner, in [−1, 1].
+        scaled: f64,
+    },
 }
 
 /// One quad that is not valid.
@@ -90,7 +106,9 @@ impl BadQuad {
     pub fn node(&self) -> u64 {
         match self.defect {
             Defect::MissingNode(t) | Defect::RepeatedNode(t) => t,
-            Defect::ZeroLengthEdge { corner } | Defect::Corner { corner, .. } => self.nodes[corner],
+            Defect::ZeroLengthEdge { corner }
+            | Defect::Corner { corner, .. }
+            | Defect::OwnJacobian { corner, .. } => self.nodes[corner],
         }
     }
 }
@@ -117,6 +135,12 @@ impl std::fmt::Display for BadQuad {
                 "the corner at node {} is not strictly between 0 and 180 degrees \
                  ({degrees:.2} degrees about the input surface's normal: flat, reflex or \
                  turned over)",
+                self.nodes[*corner]
+            ),
+            Defect::OwnJacobian { corner, scaled } => write!(
+                f,
+                "the quad folds over itself at node {} (scaled Jacobian {scaled:.3} about its \
+                 own normal, the cross product of its diagonals)",
                 self.nodes[*corner]
             ),
         }
@@ -569,6 +593,14 @@ fn check_quad<'n>(
             }
         }
     }
+    // and about its own normal (the scaled Jacobian at each corner)
+    for (k, &(a, b, ab, _)) in corners.iter().enumerate() {
+        let d = a.length() * b.length();
+        let scaled = own.dot(ab) / d;
+        if scaled.is_nan() || scaled <= *MIN_TAN {
+            return Some(Defect::OwnJacobian { corner: k, scaled });
+        }
+    }
     None
 }
 
@@ -679,5 +711,42 @@ mod tests {
         assert!(matches!(bad[0].defect, Defect::Corner { degrees, .. } if degrees < 0.0));
         // a gentle turn (30 degrees) passes
         assert!(hinged([0.0670, 0.9330, 0.3536]).is_empty());
+    }
+
+    #[test]
+    fn a_quad_folded_about_its_own_normal_is_caught() {
+        // a quad whose corners all turn positively about the input's normal (+z, a flat
+        // square of two triangles), bent so far out of that plane that about its own
+        // normal (the cross product of its diagonals) the corner at node 1 folds: what
+        // Gmsh's minSJ sees as a negative Jacobian
+        let input = mesh(&SQUARE, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
+        let bent = [
+            [-0.08, 0.16, -1.61],
+            [0.99, -0.15, 0.18],
+            [1.1, 1.17, -1.52],
+            [0.09, 0.8, -0.78],
+        ];
+        let p = bent.map(DVec3::from_array);
+        for k in 0..4 {
+            let (a, b) = (p[(k + 1) % 4] - p[k], p[(k + 3) % 4] - p[k]);
+            assert!(a.cross(b).z > 0.3 * a.length() * b.length(), "corner {k}");
+        }
+        let sj = crate::quality::view::quad4_scaled_jacobian(&p);
+        assert!(sj < -0.1, "{sj}");
+        let bad = invalid_quads(&input, &mesh(&bent, etype::QUAD4, &[&[1, 2, 3, 4]]));
+        assert_eq!(bad.len(), 1, "{bad:?}");
+        assert!(
+            matches!(bad[0].defect, Defect::OwnJacobian { scaled, .. } if (scaled - sj).abs() < 1e-12),
+            "{:?}",
+            bad[0].defect
+        );
+        assert!(
+            bad[0].to_string().contains("folds over itself"),
+            "{}",
+            bad[0]
+        );
+        // the same bend, milder, passes
+        let mild = bent.map(|[x, y, z]| [x, y, 0.2 * z]);
+        assert!(invalid_quads(&input, &mesh(&mild, etype::QUAD4, &[&[1, 2, 3, 4]])).is_empty());
     }
 }

@@ -54,10 +54,13 @@ code. Checks (names as in the JSON report):
                     it, else the nearest): its four corners strictly between 0 and
                     180 degrees (positive sine about that normal), its normal agrees
                     with that normal (oriented like the input), and no edge has zero
-                    length. Each bad quad is reported with its surface, element tag,
+                    length; and Gmsh's own minSJ of the element (its scaled Jacobian
+                    about the element's own normal, getElementQualities) is positive.
+                    Each bad quad is reported with its surface, element tag,
                     corner node tags and what is wrong. The JSON also gives
                     quad_eta_min (the worst quad quality eta, paper eq. 3, from the 3D
-                    corner angles) and how many quads have eta < 0.1. Skipped with
+                    corner angles), how many quads have eta < 0.1, and quad_min_sj
+                    (Gmsh's smallest minSJ). Skipped with
                     --no-quad-validity (e.g. for raw matchings before optimization).
   periodic          when INPUT has $Periodic links (read from the files' own text, as
                     Gmsh's reader fills in missing pairs): each slave entity keeps its link
@@ -132,6 +135,7 @@ class Mesh:
         self.entity_nodes = {}  # (dim, tag) -> node tags classified on that entity
         self.element_tags = set()  # every element tag
         self.physical_nodes = None  # nodes of the physical groups' elements (None: no group)
+        self.min_sj = {}  # (surface tag, quad element tag) -> Gmsh's minSJ of the element
 
 
 def _dedup(elements):
@@ -223,6 +227,12 @@ def load(path):
         types, elem_tags, node_tags = gmsh.model.mesh.getElements(dim, tag)
         types, node_tags = plain(types), [plain(n) for n in node_tags]
         elem_tags = [plain(e) for e in elem_tags]
+        if dim == 2:
+            for etype, etags in zip(types, elem_tags):
+                if etype in QUAD_TYPES and len(etags) > 0:
+                    sj = plain(gmsh.model.mesh.getElementQualities(etags, "minSJ"))
+                    for t, q in zip(etags, sj):
+                        mesh.min_sj[(tag, int(t))] = float(q)
         if len(types) > 0:
             mesh.with_elements.add((dim, tag))
         for etags in elem_tags:
@@ -686,6 +696,7 @@ class QuadStats:
         self.bad = 0
         self.eta_min = None
         self.below_01 = 0
+        self.sj_min = None  # Gmsh's smallest minSJ over the quads
 
 
 # Corners whose sine (measured against the surface normal) is at most this are flat,
@@ -766,13 +777,19 @@ def check_quads(rep, surface, in_faces, out_faces, inp, out, scale, stats):
             else:
                 alpha = math.acos(max(-1.0, min(1.0, dot(e1, e2) / (l1 * l2))))
                 worst = max(worst, abs(math.pi / 2 - alpha))
+        tag = out.face_tags.get((surface, tuple(sorted(f))), "?")
+        sj = out.min_sj.get((surface, tag))
+        if sj is not None:
+            stats.sj_min = sj if stats.sj_min is None else min(stats.sj_min, sj)
+            if not sj > 0.0:
+                problems.append(f"Gmsh's minSJ {sj:.3g} is not positive (the element folds "
+                                "about its own normal)")
         eta = max(0.0, 1.0 - 2.0 / math.pi * worst) if worst != math.inf else 0.0
         stats.eta_min = eta if stats.eta_min is None else min(stats.eta_min, eta)
         if eta < 0.1:
             stats.below_01 += 1
         if problems:
             stats.bad += 1
-            tag = out.face_tags.get((surface, tuple(sorted(f))), "?")
             rep.check("quad_valid", False,
                       f"surface {surface} element {tag} nodes {list(f)}: " + "; ".join(problems))
     rep.check("quad_valid", True)
@@ -902,6 +919,7 @@ def main(argv):
         "bad_quads": rep.quad_stats.bad,
         "quad_eta_min": rep.quad_stats.eta_min,
         "quads_eta_below_0.1": rep.quad_stats.below_01,
+        "quad_min_sj": rep.quad_stats.sj_min,
         "periodic_links": len(inp.periodic),
         "checks": rep.checks,
         "violations": rep.violations,

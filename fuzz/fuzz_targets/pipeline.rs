@@ -6,7 +6,8 @@
 //! measured in 3D about the area-weighted normal of the input faces at that corner's node,
 //! or, for a node the input does not have, of the input faces nearest to it (which also
 //! means the quad is oriented like them), and about that normal at each of the quad's nodes
-//! the input has. That is the definition of
+//! the input has; and its scaled Jacobian at every corner about its own normal (the cross
+//! product of its diagonals) is positive. That is the definition of
 //! `blossomquad::validity`, written again here independently so that the gate itself is
 //! checked. Anything else is a finding (a panic).
 //!
@@ -231,6 +232,16 @@ fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                 }
                 let a = sub(p[(k + 1) % 4], p[k]);
                 let c = sub(p[(k + 3) % 4], p[k]);
+                // the scaled Jacobian about the quad's own normal (its diagonals' cross
+                // product) is positive
+                let own = cross(sub(p[2], p[0]), sub(p[3], p[1]));
+                let sj = dot(cross(a, c), own) / (norm(a) * norm(c) * norm(own));
+                if !(sj > 1e-12) {
+                    return Err(format!(
+                        "surface {s}: quad {tag} {q:?} folds about its own normal at node {} (scaled Jacobian {sj:e})",
+                        q[k]
+                    ));
+                }
                 // corner strictly between 0 and 180 degrees about n: sin > tiny
                 let s3 = dot(cross(a, c), n) / (norm(a) * norm(c) * ln);
                 if !(s3 > 1e-12) {

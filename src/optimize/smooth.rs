@@ -10,7 +10,9 @@
 //! golden-section search on the same segment), and accepted at the first step
 //! where the star's worst signed η (eq. 3 with the surface normal, so inverted quads score
 //! below zero) does not drop. On curved surfaces every candidate is projected back onto the
-//! reference triangulation by a local walk from the node's current triangle.
+//! reference triangulation by a local walk from the node's current triangle, and a move
+//! is refused when it would fold a quad of the star about its own normal (the cross product
+//! of its diagonals, `valid::keeps_own_jacobian`), which the keys do not see.
 //!
 //! Sweeps are Gauss-Seidel by colour: nodes are greedily coloured so that two nodes of one
 //! colour never share a quad, the moves of one colour are computed in parallel (rayon) from
@@ -27,6 +29,7 @@
 //! BENCHMARKS.md).
 
 use super::local::{rotate_to, Local, StarEval};
+use super::valid::keeps_own_jacobian;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -127,7 +130,10 @@ fn propose_centroid(l: &Local, v: u32, diag: f64) -> Option<(DVec3, u32)> {
     let guard = star.needs_guard(old);
     for t in [1.0, 0.5, 0.25] {
         let (cand, tri) = l.project(v, x0 + step * t);
-        if star.all_at_least(cand, old) && (!guard || star.keeps_valid(x0, cand)) {
+        if star.all_at_least(cand, old)
+            && (!guard || star.keeps_valid(x0, cand))
+            && keeps_own_jacobian(l, v, x0, cand)
+        {
             return Some((cand, tri));
         }
     }
@@ -167,7 +173,10 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
         let r = star.min_sum8(ps);
         std::array::from_fn(|j| {
             let (min, sum) = r[j];
-            (min >= min0 && (!guard || star.keeps_valid(x0, ps[j]))).then_some(sum)
+            (min >= min0
+                && (!guard || star.keeps_valid(x0, ps[j]))
+                && keeps_own_jacobian(l, v, x0, ps[j]))
+            .then_some(sum)
         })
     })
 }
@@ -252,7 +261,10 @@ fn propose_worst(l: &Local, v: u32) -> Option<(DVec3, u32)> {
     let guard = star.needs_guard(min0);
     pattern_search8(l, v, &[0.1, 0.03, 0.01, 0.003], min0, |ps| {
         let r = star.min_sum8(ps);
-        std::array::from_fn(|j| (!guard || star.keeps_valid(x0, ps[j])).then_some(r[j].0))
+        std::array::from_fn(|j| {
+            ((!guard || star.keeps_valid(x0, ps[j])) && keeps_own_jacobian(l, v, x0, ps[j]))
+                .then_some(r[j].0)
+        })
     })
 }
 

@@ -5,8 +5,13 @@
 //! the reference normal (the plane's normal on planar surfaces, the sum of the nodes'
 //! reference normals on curved ones, so a quad turned over scores invalid), no corner is
 //! within [`VALID_ETA`] of straight or folded (corner angles strictly inside about
-//! (0.06°, 179.94°): the tolerance keeps float-noise-positive straight corners out), and no
-//! edge is shorter than [`MIN_EDGE_REL`] times the target size at its ends.
+//! (0.06°, 179.94°): the tolerance keeps float-noise-positive straight corners out), no
+//! edge is shorter than [`MIN_EDGE_REL`] times the target size at its ends, and, on curved
+//! surfaces, the quad holds to its own geometry: its scaled Jacobian at every corner about
+//! its own normal (the cross product of its diagonals) is at least [`MIN_OWN_SJ`] (the
+//! gate's rule of `crate::validity`, with a margin). On a planar surface a quad whose
+//! corners all turn positively about the plane's normal is convex, so its diagonals cross
+//! and its own normal is the plane's: the rule holds there by itself.
 //!
 //! Every operator accepts a change only if each quad it touches is valid afterwards, or was
 //! already invalid before and is not made worse (quads the matching left invalid, e.g. a
@@ -22,6 +27,11 @@ use rayon::prelude::*;
 
 /// Shortest edge of a valid quad, relative to the mean target size of its two ends.
 pub(crate) const MIN_EDGE_REL: f64 = 1e-3;
+
+/// Smallest scaled Jacobian of a valid quad at a corner about its own normal (the cross
+/// product of its diagonals), on curved surfaces: `sin(VALID_ETA · π/2)`, the sine of the
+/// smallest corner angle [`VALID_ETA`] allows.
+pub(crate) const MIN_OWN_SJ: f64 = 1.570_795_680_830_879e-3;
 
 /// The reference normal of quad `q` for validity: the plane's on planar surfaces, else the
 /// sum of its nodes' reference normals (not the quad's own normal, which turns over with it).
@@ -40,9 +50,10 @@ const MAX_COT: f64 = 1.0 / VALID_KEY - 1.0;
 
 /// True when the quad `nodes` at the current positions is valid about `normal` (module
 /// docs): per corner, the sine about the unit normal is positive and |cot| at most
-/// [`MAX_COT`]; every edge is longer than [`MIN_EDGE_REL`] times its ends' mean size.
-/// Written with squared lengths and no division per corner (it runs on every quad at
-/// every gate check); NaN anywhere fails.
+/// [`MAX_COT`]; every edge is longer than [`MIN_EDGE_REL`] times its ends' mean size; on a
+/// curved surface every corner's scaled Jacobian about the quad's own normal is at least
+/// [`MIN_OWN_SJ`]. Written with squared lengths and no division per corner (it runs on
+/// every quad at every gate check); NaN anywhere fails.
 pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
     for i in 0..4 {
         for j in i + 1..4 {
@@ -75,7 +86,35 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
             return false;
         }
     }
-    true
+    l.planar || own_jacobian_ok(&p)
+}
+
+/// True when the quad `p` has a scaled Jacobian of at least [`MIN_OWN_SJ`] at every corner
+/// about its own normal (the cross product of its diagonals). Squared, without a division
+/// or a square root; NaN fails.
+pub(crate) fn own_jacobian_ok(p: &[DVec3; 4]) -> bool {
+    let own = (p[2] - p[0]).cross(p[3] - p[1]);
+    let own2 = own.length_squared();
+    (0..4).all(|k| {
+        let (a, b) = (p[(k + 1) & 3] - p[k], p[(k + 3) & 3] - p[k]);
+        let s = own.dot(a.cross(b));
+        let floor2 = MIN_OWN_SJ * MIN_OWN_SJ * own2 * a.length_squared() * b.length_squared();
+        s > 0.0 && s * s >= floor2
+    })
+}
+
+/// True when moving node `v` from `x0` to `p` keeps every quad around it that passes
+/// [`own_jacobian_ok`] at `x0` passing it (always on a planar surface, where the rule holds
+/// by itself). The smoothing sweeps' keys measure corners about the reference normal only;
+/// this keeps their moves from folding a quad about its own normal, which would cost the
+/// whole stage at the [`Gate`].
+pub(crate) fn keeps_own_jacobian(l: &Local, v: u32, x0: DVec3, p: DVec3) -> bool {
+    l.planar
+        || l.star(v).iter().all(|&q| {
+            let at =
+                |x: DVec3| l.quads[q as usize].map(|w| if w == v { x } else { l.pos[w as usize] });
+            !own_jacobian_ok(&at(x0)) || own_jacobian_ok(&at(p))
+        })
 }
 
 /// True when alive quad `q` is valid (module docs). It depends only on the quad's nodes and
@@ -353,6 +392,44 @@ mod tests {
         // a small move keeps every quad valid
         l.pos[v as usize] = c + DVec3::new(0.2, -0.1, 0.0);
         assert!(invalid_quads(&l).is_empty());
+    }
+
+    #[test]
+    fn a_quad_folded_about_its_own_normal_is_invalid_on_a_curved_surface() {
+        // every corner turns positively about the reference normal (+z), but the quad is
+        // bent so far that about its own normal (the cross product of its diagonals) one
+        // corner folds: invalid on a curved surface, where the rule is checked
+        let (mut l, _) = grid();
+        let q = 0u32;
+        let bent = [
+            [-0.08, 0.16, -1.61],
+            [0.99, -0.15, 0.18],
+            [1.1, 1.17, -1.52],
+            [0.09, 0.8, -0.78],
+        ];
+        let nodes = l.quads[q as usize];
+        // the grid's quads may start at any corner: keep the cyclic order
+        for (k, &v) in nodes.iter().enumerate() {
+            l.pos[v as usize] = DVec3::from_array(bent[k]);
+        }
+        let p = nodes.map(|v| l.pos[v as usize]);
+        assert!(crate::quality::view::quad4_scaled_jacobian(&p) < -0.1);
+        l.planar = true;
+        assert!(valid(&l, q), "valid about the plane's normal alone");
+        l.planar = false;
+        assert!(!valid(&l, q));
+        // a milder bend of the same quad is valid
+        for (k, &v) in nodes.iter().enumerate() {
+            let [x, y, z] = bent[k];
+            l.pos[v as usize] = DVec3::new(x, y, 0.2 * z);
+        }
+        assert!(valid(&l, q));
+    }
+
+    #[test]
+    fn the_own_jacobian_floor_is_the_sine_of_the_valid_eta() {
+        let s = (VALID_ETA * std::f64::consts::FRAC_PI_2).sin();
+        assert!((s - MIN_OWN_SJ).abs() < 1e-15, "{s}");
     }
 
     #[test]

@@ -321,10 +321,71 @@ pub struct RecombineReport {
     pub retriangulated: Vec<i32>,
     /// Volume elements dropped (with [`RecombineOptions::drop_volumes`]).
     pub dropped_volume_elements: usize,
+    /// Surfaces whose triangles fold over each other somewhere (opposite normals across an
+    /// edge): the folded edges were walled off (no quad across them), and this is the
+    /// first fold of each, as [`WalledFold::refusal`] reports it when the surface's quads
+    /// are not valid.
+    pub walled_folds: Vec<WalledFold>,
     /// Human-readable log lines.
     pub log: Vec<String>,
     /// Total wall time.
     pub time_total: Duration,
+}
+
+/// The first fold of a surface's triangles (two triangles with opposite normals across an
+/// edge), walled off by the topology instead of refused.
+#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
+pub struct WalledFold {
+    /// Surface entity tag.
+    pub surface: i32,
+    /// Element tag of the folded triangle.
+    pub element: u64,
+    /// The fold in words (the triangles and their common edge).
+    pub problem: String,
+    /// Tags of the nodes of the surface's folded edges (graph edges made walls): they
+    /// bound the walls, so a result that moved one of them is not kept.
+    pub nodes: Vec<u64>,
+}
+
+impl WalledFold {
+    /// The refusal naming the fold: what a surface whose quads cannot all be made valid
+    /// with its folds walled off fails with.
+    pub fn refusal(&self) -> RecombineError {
+        RecombineError::InvalidElement {
+            surface: self.surface,
+            element: self.element,
+            problem: self.problem.clone(),
+        }
+    }
+}
+
+/// Records the folds of `work` in `report` (each surface once), with a log line each.
+fn note_folds(work: &[SurfaceWork], report: &mut RecombineReport) {
+    for w in work {
+        let Some((
+            RecombineError::InvalidElement {
+                surface,
+                element,
+                problem,
+            },
+            nodes,
+        )) = &w.fold
+        else {
+            continue;
+        };
+        if report.walled_folds.iter().any(|f| f.surface == *surface) {
+            continue;
+        }
+        report.log.push(format!(
+            "surface {surface}, element {element}: {problem}; the folded edges are walled off (no quad across them)"
+        ));
+        report.walled_folds.push(WalledFold {
+            surface: *surface,
+            element: *element,
+            problem: problem.clone(),
+            nodes: nodes.clone(),
+        });
+    }
 }
 
 /// Why [`recombine`] refused or failed.
@@ -637,16 +698,21 @@ fn parity_stage(
     let plan = parity::plan(mesh, &nodes, &work);
     tm.lap("plan");
     tm.done();
+    note_folds(&work, report);
     if plan.odd.is_empty() {
         return Ok((nodes, work));
     }
     if opts.parity == ParityMode::Error {
         return Err(odd_parity_error(&plan));
     }
+    // with folds walled off, a parity repair that fails is the folds' doing: the first
+    // fold is the refusal
+    let first_fold = report.walled_folds.first().map(WalledFold::refusal);
+    let or_fold = |e: RecombineError| first_fold.clone().unwrap_or(e);
     if !plan.unsolved.is_empty() {
-        return Err(parity::unsolvable_error(&plan));
+        return Err(or_fold(parity::unsolvable_error(&plan)));
     }
-    let splits = parity::apply(mesh, &nodes, &plan.choices)?;
+    let splits = parity::apply(mesh, &nodes, &plan.choices).map_err(or_fold)?;
     for o in &plan.odd {
         report.log.push(format!(
             "surface {}: region {} of {} has {} triangles (odd)",
@@ -683,11 +749,12 @@ fn parity_stage(
     mesh.invalidate_element_data();
     let nodes = NodeTable::new(mesh);
     let curves = CurveInfo::new(mesh, &nodes)?;
-    let work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref())?;
+    let work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref()).map_err(or_fold)?;
     let again = parity::plan(mesh, &nodes, &work);
     if !again.odd.is_empty() {
-        return Err(parity::still_odd_error(&again.odd));
+        return Err(or_fold(parity::still_odd_error(&again.odd)));
     }
+    note_folds(&work, report);
     Ok((nodes, work))
 }
 

@@ -19,6 +19,9 @@ use crate::profile::{StageTimer, Trace, TraceEvent};
 pub(crate) struct SurfaceWork {
     pub tag: i32,
     pub topo: SurfaceTopo,
+    /// The refusal of the surface's first fold, when it has folds (walled off in `topo`),
+    /// and the node tags of the folded edges.
+    pub fold: Option<super::topology::Fold>,
     pub region: Vec<u32>,
     pub n_regions: usize,
     /// Element tag of each triangle.
@@ -112,7 +115,7 @@ pub(super) fn surface_work(
             tm.lap("ids");
             let normals = super::input::triangle_normals(tag, &tris, &elem_tags, nodes)?;
             tm.lap("checks");
-            let topo = SurfaceTopo::new(tris, &normals, nodes, curves, tag, &elem_tags)?;
+            let (topo, fold) = SurfaceTopo::new(tris, &normals, nodes, curves, tag, &elem_tags)?;
             drop(normals);
             tm.lap("adjacency");
             let (region, n_regions) = topo.regions();
@@ -121,6 +124,7 @@ pub(super) fn surface_work(
             Ok(SurfaceWork {
                 tag,
                 topo,
+                fold,
                 region,
                 n_regions,
                 elem_tags,

@@ -533,6 +533,34 @@ fn first_fold(
         .map(|(key, first, second)| (key, EdgeProblem::Folded { first, second }))
 }
 
+/// Makes every graph edge of `nbr` across which two triangles are folded (unit normals'
+/// dot product below [`FOLDED`]) a wall: both half-edges get [`NONE`]. Returns the nodes of
+/// those edges (sorted global ids).
+fn wall_folds(tris: &[[u32; 3]], normals: &[glam::DVec3], nbr: &mut [u32]) -> Vec<u32> {
+    let folded: Vec<usize> = (0..nbr.len())
+        .into_par_iter()
+        .with_min_len(4096)
+        .filter(|&h| {
+            let u = nbr[h];
+            u != NONE && normals[h / 3].dot(normals[u as usize]) < FOLDED
+        })
+        .collect();
+    let mut ends = Vec::with_capacity(2 * folded.len());
+    for h in folded {
+        nbr[h] = NONE;
+        let (t, k) = (h / 3, h % 3);
+        ends.push(tris[t][k]);
+        ends.push(tris[t][(k + 1) % 3]);
+    }
+    ends.sort_unstable();
+    ends.dedup();
+    ends
+}
+
+/// A surface's first fold, walled off: the refusal it would have given, and the node tags
+/// of every folded edge.
+pub(crate) type Fold = (RecombineError, Vec<u64>);
+
 /// One surface's triangles and their adjacency.
 pub(crate) struct SurfaceTopo {
     /// Triangles as global node ids, in the order of the surface's element tags (the file's
@@ -558,6 +586,14 @@ impl SurfaceTopo {
     /// When a surface has several, the one on the edge with the smallest node tags is
     /// reported, naming its triangles as if the half-edges were sorted by (edge tags, first
     /// node tag, file order).
+    ///
+    /// A fold (two consistently oriented triangles sharing an edge whose unit normals have
+    /// a dot product below [`FOLDED`]: Gmsh's mesh of a thin cylinder meshed coarser than
+    /// its radius) is not refused here: every folded edge becomes a wall (no graph edge
+    /// across it; parity repair sees it as a wall segment like any other), and the refusal
+    /// it would have given (the fold with the smallest edge) comes back beside the
+    /// topology with the node tags of the folded edges, for the caller to report if the
+    /// quads are not valid.
     pub fn new(
         tris: Vec<[u32; 3]>,
         normals: &[glam::DVec3],
@@ -565,7 +601,7 @@ impl SurfaceTopo {
         curves: &CurveInfo,
         surface: i32,
         elem_tags: &[u64],
-    ) -> Result<Self, RecombineError> {
+    ) -> Result<(Self, Option<Fold>), RecombineError> {
         let n = tris.len();
         let keys = sorted_half_edges(&tris);
         // bare curves that carry a boundary edge of this surface bound it: their segments
@@ -645,16 +681,25 @@ impl SurfaceTopo {
             }
             walled.extend(w);
         }
-        let refused = refused
-            .into_iter()
-            .chain(first_fold(&tris, normals, &nbr, &walled, nodes))
-            .min_by_key(|p| p.0);
-        if let Some((key, problem)) = refused {
-            return Err(edge_refusal(surface, key, problem, |t| {
-                elem_tags.get(t).copied().unwrap_or(0)
-            }));
+        let tag = |t: usize| elem_tags.get(t).copied().unwrap_or(0);
+        let fold = first_fold(&tris, normals, &nbr, &walled, nodes);
+        if let Some(structural) = refused {
+            // refused whole: the problem on the smallest edge, the fold included
+            let (key, problem) = match fold {
+                Some(f) if f.0 < structural.0 => f,
+                _ => structural,
+            };
+            return Err(edge_refusal(surface, key, problem, tag));
         }
-        Ok(SurfaceTopo { tris, nbr })
+        // folds are walled off: no pair across them (a fold across a curve is a wall
+        // already); the first one is kept to be reported if the result is not valid
+        let mut nbr = nbr;
+        let fold = fold.map(|(key, problem)| {
+            let ends = wall_folds(&tris, normals, &mut nbr);
+            let tags = ends.iter().map(|&v| nodes.tags[v as usize]).collect();
+            (edge_refusal(surface, key, problem, tag), tags)
+        });
+        Ok((SurfaceTopo { tris, nbr }, fold))
     }
 
     /// Number of triangles.

@@ -743,8 +743,9 @@ fn thin_spikes_each_its_own_surface_and_named_group() {
 /// Gmsh's mesh of a very sharp OpenCASCADE cone (apex half-angle 2.9 degrees, meshed by
 /// the old `corpus/cone_sharp.geo`): along the cone's seam it repeats triangles (a triangle
 /// and its reverse: dropped with a warning) and folds triangles over their neighbours, so
-/// no quad there could be oriented like the surface; the file is refused in one line naming
-/// the surface, the element and the fold.
+/// no quad there could be oriented like the surface. The folds are walled off first (no
+/// quad across them); that cannot give valid quads here, so the file is refused in one line
+/// naming the surface, the element and the first fold, as the topology names it.
 #[test]
 fn sharp_occ_cone_folded_along_its_seam_is_refused_naming_the_fold() {
     let name = "v41_occ_sharp_cone_folded.msh";

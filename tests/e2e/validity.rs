@@ -245,3 +245,104 @@ fn a_round_that_only_optimizes_reuses_the_recombination() {
         }
     }
 }
+
+/// Gmsh's mesh of a box with five filleted edges (`tests/data/cad/fillet_box.py`, MSH 2.2,
+/// default sizes): on its 7-quad fillet face, recombination and optimization measured only
+/// about the input's normals gave a quad whose scaled Jacobian about its own normal (the
+/// cross product of its diagonals) was -0.17 (Gmsh's minSJ -0.78), written with exit 0.
+/// Every quad written must have a positive scaled Jacobian at all four corners about its
+/// own normal: the library's own measure (`quality`'s `sj_min`) and Gmsh's minSJ (through
+/// the independent checker) agree.
+#[test]
+fn a_filleted_box_gets_no_quad_folded_about_its_own_normal() {
+    let input = common::repo_dir().join("tests/data/cad/v22_fillet_box_own_jacobian.msh");
+    let mut mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    let before = mesh.clone();
+    quadrangulate(&mut mesh, &Options::default()).unwrap_or_else(|e| panic!("{e}"));
+    assert!(validity::invalid_quads(&before, &mesh).is_empty());
+    let (measures, _) = blossomquad::quality::view::quad_measures(&mesh);
+    assert!(!measures.is_empty());
+    for (tag, _, sj) in &measures {
+        assert!(*sj > 0.0, "quad {tag}: scaled Jacobian {sj}");
+    }
+    // the CLI, `quality` and Gmsh's minSJ
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("fillet-quads.msh");
+    let (code, _, stderr) = blossomquad_run([input.as_os_str(), "-o".as_ref(), output.as_os_str()]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let (code, stdout, stderr) =
+        blossomquad_run(["quality".as_ref(), output.as_os_str(), "--json".as_ref()]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let sjs: Vec<f64> = stdout
+        .match_indices("\"sj_min\"")
+        .filter_map(|(i, _)| common::json_number(&stdout[i..], "sj_min"))
+        .collect();
+    assert!(sjs.len() > 1, "{stdout}");
+    assert!(sjs.iter().all(|&sj| sj > 0.0), "{stdout}");
+    let report = check_mesh(&input, &output, &[]);
+    assert!(report.ok, "{}", report.report);
+    let gmsh_sj = common::json_number(&report.report, "quad_min_sj")
+        .unwrap_or_else(|| panic!("{}", report.report));
+    assert!(gmsh_sj > 0.0, "{}", report.report);
+}
+
+/// Gmsh's mesh of a box with a thin cylinder fused on top, meshed coarser than the
+/// cylinder's radius (`tests/data/cad/thin_cylinder.py`): around the cylinder triangles fold
+/// over their neighbours. The folded edges are walled off (no quad across them); here that
+/// leaves regions parity repair cannot make even, so the file is refused in one line naming
+/// the first fold (surface, element, the triangle it folds over, the edge), and nothing is
+/// written.
+#[test]
+fn a_thin_cylinder_folded_by_gmsh_is_refused_naming_the_fold() {
+    let input = common::repo_dir().join("tests/data/cad/v41_thin_cylinder_folded.msh");
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    // the quirk: consistently oriented triangles of surface 7 with opposite normals
+    let coords: std::collections::HashMap<u64, [f64; 3]> = mesh
+        .node_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().copied().zip(b.coords.iter().copied()))
+        .collect();
+    let normal = |t: &[u64]| {
+        let p = t
+            .iter()
+            .map(|v| glam::DVec3::from_array(coords[v]))
+            .collect::<Vec<_>>();
+        (p[1] - p[0]).cross(p[2] - p[0]).normalize()
+    };
+    let mut by_tag = std::collections::HashMap::new();
+    for b in mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_tag == 7 && b.entity_dim == 2)
+    {
+        for i in 0..b.len() {
+            by_tag.insert(b.tags[i], b.element(i).to_vec());
+        }
+    }
+    let (t695, t758) = (&by_tag[&695], &by_tag[&758]);
+    assert!(t695.contains(&84) && t695.contains(&312) && t758.contains(&84) && t758.contains(&312));
+    assert!(normal(t695).dot(normal(t758)) < -0.99);
+    let mut m = mesh.clone();
+    let err = quadrangulate(&mut m, &Options::default()).expect_err("refused");
+    assert_eq!(m, mesh, "the mesh is unchanged on error");
+    let msg = err.to_string();
+    for w in [
+        "surface 7",
+        "element 695",
+        "folded over triangle 758",
+        "84-312",
+    ] {
+        assert!(msg.contains(w), "{w:?} not in {msg}");
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("out.msh");
+    let (code, _, stderr) = blossomquad_run([input.as_os_str(), "-o".as_ref(), output.as_os_str()]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert_eq!(
+        stderr.lines().filter(|l| !l.trim().is_empty()).count(),
+        1,
+        "{stderr}"
+    );
+    assert!(stderr.contains("folded over triangle 758"), "{stderr}");
+    assert!(!output.exists(), "nothing written");
+}
