@@ -49,13 +49,13 @@ const KNOWN_FAILING: &[(&str, &str, &str)] = &[
 ];
 
 /// Gmsh options as (name, value) pairs.
-type GmshOptions = &'static [(&'static str, &'static str)];
+pub(crate) type GmshOptions = &'static [(&'static str, &'static str)];
 
 /// One run's model, variant and outcome.
 type Outcome = (String, String, Result<(), String>);
 
 /// The three variants: name and the Gmsh options selecting it.
-const VARIANTS: [(&str, GmshOptions); 3] = [
+pub(crate) const VARIANTS: [(&str, GmshOptions); 3] = [
     ("msh41", &[("Mesh.MshFileVersion", "4.1")]),
     (
         "msh22-all",
@@ -68,16 +68,16 @@ const VARIANTS: [(&str, GmshOptions); 3] = [
 ];
 
 /// One line of `corpus/models.tsv`.
-struct Model {
-    name: String,
-    coarse: String,
+pub(crate) struct Model {
+    pub(crate) name: String,
+    pub(crate) coarse: String,
 }
 
 fn corpus_dir() -> PathBuf {
     repo_dir().join("corpus")
 }
 
-fn models() -> Vec<Model> {
+pub(crate) fn models() -> Vec<Model> {
     let path = corpus_dir().join("models.tsv");
     let text = std::fs::read_to_string(&path)
         .unwrap_or_else(|e| panic!("cannot read {}: {e}", path.display()));
@@ -100,7 +100,12 @@ fn models() -> Vec<Model> {
 
 /// Meshes a model (`corpus/NAME.geo` or `corpus/NAME.py`) at `size` with the Gmsh
 /// options of a variant into `out`; Err with Gmsh's log on failure.
-fn mesh_model(name: &str, size: &str, options: &[(&str, &str)], out: &Path) -> Result<(), String> {
+pub(crate) fn mesh_model(
+    name: &str,
+    size: &str,
+    options: &[(&str, &str)],
+    out: &Path,
+) -> Result<(), String> {
     let geo = corpus_dir().join(format!("{name}.geo"));
     let py = corpus_dir().join(format!("{name}.py"));
     let mut cmd;
@@ -161,7 +166,7 @@ fn run_one(
 }
 
 /// The expected failure text and the reason of a KNOWN_FAILING (model, variant).
-fn known_failing(model: &str, variant: &str) -> Option<(&'static str, &'static str)> {
+pub(crate) fn known_failing(model: &str, variant: &str) -> Option<(&'static str, &'static str)> {
     KNOWN_FAILING.iter().find_map(|(key, expected, reason)| {
         let (m, v) = key.split_once(':').unwrap_or((key, "*"));
         (m == model && (v == "*" || v == variant)).then_some((*expected, *reason))
