@@ -31,7 +31,9 @@ For every model of corpus/models.tsv and every size:
 
 A row fails the goals (flag column) when the tool refuses, crashes or writes an invalid
 mesh; when the model has at least 500 input triangles and more than 0.6 new quads per
-input triangle; or when eta_w < min(0.2, the wall-corner bound).
+input triangle; when eta_w < min(0.2, the wall-corner bound); or when a quad has a
+corner with a scaled Jacobian <= 0 about its own normal (`sj_min` of `blossomquad
+quality`).
 
 The table is written into the Markdown file (default BENCHMARKS.md) between the markers
 `<!-- footprint-table:begin -->` and `<!-- footprint-table:end -->` (appended with the
@@ -199,6 +201,8 @@ def goal_failures(row):
     goal = ETA_GOAL if bound is None else min(ETA_GOAL, bound)
     if row.get("eta_w") is not None and row["eta_w"] < goal:
         fails.append("η_w")
+    if row.get("sj_min") is not None and row["sj_min"] <= 0:
+        fails.append("sj")
     return fails
 
 
@@ -283,6 +287,7 @@ def summary(rows):
     big = [r for r in rows if (r.get("triangles") or 0) >= MIN_TRIANGLES and r.get("quads_per_triangle") is not None]
     over = [r for r in big if r["quads_per_triangle"] > MAX_QUADS_PER_TRIANGLE]
     low = [r for r in rows if "η_w" in r.get("fails", [])]
+    folded = [r for r in rows if "sj" in r.get("fails", [])]
     refused = [r for r in rows if r.get("status") in ("refused", "crash")]
     invalid = [r for r in rows if r.get("status") == "invalid"]
     timed = [r for r in rows if r.get("seconds") is not None]
@@ -294,6 +299,7 @@ def summary(rows):
         f"{MAX_QUADS_PER_TRIANGLE} new quads per input triangle"
         + (f" (up to {max(r['quads_per_triangle'] for r in over):.2f})" if over else "")
         + f"; {len(low)} runs end below min({ETA_GOAL}, wall-corner bound); "
+        f"{len(folded)} runs have a quad with sj_min ≤ 0; "
         f"{len(refused)} refused or crashed; {len(invalid)} invalid outputs.",
     ]
     if worst:
@@ -322,23 +328,24 @@ def table(rows, jobs, repeat, load, date):
         "split: triangles the fallback split into three quads; rnd: fallback rounds; bound: the "
         "input's wall-corner bound (smallest sum of a surface's triangle angles at a boundary node, "
         "/ 90°, capped at 1); η_w, η̄: worst and mean quad quality (eq. 3, `blossomquad quality`); "
+        "sj_min: the smallest scaled Jacobian of a quad corner about the quad's own normal; "
         "time, CPU: wall and CPU (user + system, all threads) seconds of the whole "
         "`blossomquad IN -o OUT` run, read and write included. Gmsh: the same model recombined from "
         "the CAD (`Mesh.RecombineAll = 1`, blossom): tris left, η_w, η̄, and the wall and CPU "
         "seconds of its 2D meshing with recombination minus without, by Gmsh's own clock (Gmsh "
         "runs one thread; on a loaded machine the CPU columns are the steadier). goals: ✗ when refused or invalid, when q/t > 0.6 with "
-        "≥ 500 triangles, or when η_w < min(0.2, bound).",
+        "≥ 500 triangles, when η_w < min(0.2, bound), or when sj_min ≤ 0.",
         "",
-        "| model | size | tris | status | q/t | split | rnd | bound | η_w | η̄ | time s | CPU s "
+        "| model | size | tris | status | q/t | split | rnd | bound | η_w | η̄ | sj_min | time s | CPU s "
         "| Gmsh tris | Gmsh η_w | Gmsh η̄ | Gmsh s | Gmsh CPU s | goals |",
-        "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+        "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for r in rows:
         fails = r.get("fails", [])
         lines.append(
             f"| {r['model']} | {r['size']} | {fmt(r.get('triangles'))} | {r.get('status')} | "
             f"{fmt(r.get('quads_per_triangle'), 2)} | {fmt(r.get('split'))} | {fmt(r.get('rounds'))} | "
-            f"{fmt(r.get('bound'), 2)} | {fmt(r.get('eta_w'))} | {fmt(r.get('eta_mean'))} | "
+            f"{fmt(r.get('bound'), 2)} | {fmt(r.get('eta_w'))} | {fmt(r.get('eta_mean'))} | {fmt(r.get('sj_min'))} | "
             f"{fmt(r.get('seconds'), 2)} | {fmt(r.get('cpu_seconds'), 2)} | {fmt(r.get('gmsh_tris'))} | "
             f"{fmt(r.get('gmsh_eta_w'))} | {fmt(r.get('gmsh_eta_mean'))} | {fmt(r.get('gmsh_seconds'), 3)} | "
             f"{fmt(r.get('gmsh_cpu_seconds'), 3)} | "
