@@ -17,10 +17,9 @@ For every model of corpus/models.tsv and every size:
      model's surfaces, capped at 1 (a quad with a corner of that angle has eta at most
      the bound, eq. 3);
   3. `blossomquad IN -o OUT` runs (wall time of the whole process, read and write
-     included); its log gives the fallback: rounds are its `fallback round N: ...` lines,
-     the triangles split are the last such line's `K triangle(s) split into three quads`
-     (the splits of a round include the earlier rounds'); `tests/check_mesh.py IN OUT`
-     says whether the output is valid;
+     included); its log gives the fallback's rounds, triangles split into three quads
+     and matched pairs removed from the matching (see `fallback_of`);
+     `tests/check_mesh.py IN OUT` says whether the output is valid;
   4. `blossomquad quality --json OUT` gives the quads, eta_w (worst quad, eq. 3) and the
      mean eta; new quads per input triangle = (output quads - input quads) / input
      triangles (0.5 when every triangle pairs with a neighbour);
@@ -69,6 +68,7 @@ ETA_GOAL = 0.2
 GMSH_RECOMBINE = [("Mesh.RecombineAll", "1"), ("Mesh.RecombinationAlgorithm", "1")]
 FALLBACK_LINE = re.compile(r"^fallback round (\d+):")
 SPLIT_COUNT = re.compile(r"(\d+) triangle\(s\) split into three quads")
+PAIRS_REMOVED = re.compile(r"matched pair\(s\).* removed .*\((\d+) in all\)")
 MESH_2D = re.compile(r"Done meshing 2D \(Wall ([0-9.eE+-]+)s, CPU ([0-9.eE+-]+)s")
 
 
@@ -177,14 +177,21 @@ def median(values):
 
 
 def fallback_of(log):
-    """(rounds, triangles split) from the tool's log."""
-    rounds, split = 0, 0
+    """(rounds, triangles split, matched pairs removed) from the tool's log: rounds are
+    the distinct N of its `fallback round N: ...` lines, the triangles split the last
+    `K triangle(s) split into three quads` count (a round's splits include the earlier
+    rounds'), the pairs removed the last `(M in all)` of a line on removed matched pairs."""
+    rounds, split, removed = set(), 0, 0
     for line in log.splitlines():
-        if FALLBACK_LINE.match(line):
-            rounds += 1
-            m = SPLIT_COUNT.search(line)
-            split = int(m.group(1)) if m else split
-    return rounds, split
+        m = FALLBACK_LINE.match(line)
+        if not m:
+            continue
+        rounds.add(int(m.group(1)))
+        s = SPLIT_COUNT.search(line)
+        split = int(s.group(1)) if s else split
+        r = PAIRS_REMOVED.search(line)
+        removed = int(r.group(1)) if r else removed
+    return len(rounds), split, removed
 
 
 def goal_failures(row):
@@ -235,7 +242,7 @@ def one(name, cls, level, size, workdir, tool, repeat):
         walls.append(wall)
         cpus.append(cpu)
     row["seconds"], row["cpu_seconds"] = median(walls), median(cpus)
-    row["rounds"], row["split"] = fallback_of(log)
+    row["rounds"], row["split"], row["pairs_removed"] = fallback_of(log)
     if code == 1:
         row["status"] = "refused"
         row["message"] = log.strip().splitlines()[-1][:300] if log.strip() else ""
@@ -325,7 +332,8 @@ def table(rows, jobs, repeat, load, date):
         f"Generated on {date}, {len(rows)} runs, {jobs} job(s) at once, "
         f"times are a {timing} (load average {load:.1f} at the start). Input: `gmsh -2` in MSH 4.1. "
         "tris: input triangles; q/t: new quads per input triangle (0.5 when every triangle pairs); "
-        "split: triangles the fallback split into three quads; rnd: fallback rounds; bound: the "
+        "split: triangles the fallback split into three quads; rm: matched pairs the fallback removed "
+        "from the matching; rnd: fallback rounds; bound: the "
         "input's wall-corner bound (smallest sum of a surface's triangle angles at a boundary node, "
         "/ 90°, capped at 1); η_w, η̄: worst and mean quad quality (eq. 3, `blossomquad quality`); "
         "sj_min: the smallest scaled Jacobian of a quad corner about the quad's own normal; "
@@ -336,15 +344,16 @@ def table(rows, jobs, repeat, load, date):
         "runs one thread; on a loaded machine the CPU columns are the steadier). goals: ✗ when refused or invalid, when q/t > 0.6 with "
         "≥ 500 triangles, when η_w < min(0.2, bound), or when sj_min ≤ 0.",
         "",
-        "| model | size | tris | status | q/t | split | rnd | bound | η_w | η̄ | sj_min | time s | CPU s "
+        "| model | size | tris | status | q/t | split | rm | rnd | bound | η_w | η̄ | sj_min | time s | CPU s "
         "| Gmsh tris | Gmsh η_w | Gmsh η̄ | Gmsh s | Gmsh CPU s | goals |",
-        "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
+        "|---|---|---:|---|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---:|---|",
     ]
     for r in rows:
         fails = r.get("fails", [])
         lines.append(
             f"| {r['model']} | {r['size']} | {fmt(r.get('triangles'))} | {r.get('status')} | "
-            f"{fmt(r.get('quads_per_triangle'), 2)} | {fmt(r.get('split'))} | {fmt(r.get('rounds'))} | "
+            f"{fmt(r.get('quads_per_triangle'), 2)} | {fmt(r.get('split'))} | {fmt(r.get('pairs_removed', 0))} | "
+            f"{fmt(r.get('rounds'))} | "
             f"{fmt(r.get('bound'), 2)} | {fmt(r.get('eta_w'))} | {fmt(r.get('eta_mean'))} | {fmt(r.get('sj_min'))} | "
             f"{fmt(r.get('seconds'), 2)} | {fmt(r.get('cpu_seconds'), 2)} | {fmt(r.get('gmsh_tris'))} | "
             f"{fmt(r.get('gmsh_eta_w'))} | {fmt(r.get('gmsh_eta_mean'))} | {fmt(r.get('gmsh_seconds'), 3)} | "
