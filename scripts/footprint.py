@@ -15,9 +15,9 @@ For every model of corpus/models.tsv and every size:
      that only one of the surface's triangles has), the sum of the surface's triangle
      angles there, divided by 90 degrees; the bound is the smallest such value over the
      model's surfaces, capped at 1 (a quad with a corner of that angle has eta at most
-     the bound, eq. 3);
-  3. `blossomquad IN -o OUT` runs (wall time of the whole process, read and write
-     included); its log gives the fallback's rounds, triangles split into three quads
+     the bound, eq. 3); none (shown "–", the goal is then 0.2) for closed surfaces;
+  3. `blossomquad IN -o OUT` runs (wall and CPU time, user + system over all threads, of
+     the whole process, read and write included); its log gives the fallback's rounds, triangles split into three quads
      and matched pairs removed from the matching (see `fallback_of`);
      `tests/check_mesh.py IN OUT` says whether the output is valid;
   4. `blossomquad quality --json OUT` gives the quads, eta_w (worst quad, eq. 3) and the
@@ -25,8 +25,9 @@ For every model of corpus/models.tsv and every size:
      triangles (0.5 when every triangle pairs with a neighbour);
   5. Gmsh recombines the same model from the CAD (`Mesh.RecombineAll = 1`,
      `Mesh.RecombinationAlgorithm = 1`, blossom), measured the same way (triangles left,
-     eta_w, mean eta); Gmsh's time is its "Done meshing 2D" wall time with recombination
-     minus the same without (Gmsh's own clock, inside the process).
+     eta_w, mean eta); Gmsh's time is its "Done meshing 2D" wall and CPU time with
+     recombination minus the same without (Gmsh's own clock, inside the process; Gmsh
+     runs one thread, and on a loaded machine the CPU figures are the steadier).
 
 A row fails the goals (flag column) when the tool refuses, crashes or writes an invalid
 mesh; when the model has at least 500 input triangles and more than 0.6 new quads per
