@@ -10,6 +10,7 @@ mod cli;
 mod convert;
 mod corpus;
 mod fixtures;
+mod footprint;
 mod fuzz_regressions;
 mod numbering;
 mod parity_periodic;
