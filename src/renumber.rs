@@ -629,7 +629,8 @@ mod tests {
     fn without_physical_groups_nodes_no_element_uses_go_last() {
         let mut m = gappy();
         // node 3 (a dropped volume's, say) is used by no element
-        m.node_blocks.push(node_block(3, vec![3], vec![[0.5, 0.5, 1.0]]));
+        m.node_blocks
+            .push(node_block(3, vec![3], vec![[0.5, 0.5, 1.0]]));
         renumber(&mut m, None);
         assert_eq!(m.node_blocks[0].tags, vec![3, 1]);
         assert_eq!(m.node_blocks[1].tags, vec![4, 2]);
