@@ -10,10 +10,11 @@
 //! The renumbering is the rank of each tag among the tags in use (nodes and elements
 //! separately): it keeps the order of the tags, so a tag below the first gap keeps its
 //! value, new nodes and elements still follow the kept ones, and a mesh already numbered
-//! 1..N is left exactly as it is. One exception, as in Gmsh's own numbering: when the mesh
-//! has physical groups, the nodes no element of a physical group uses (the centre point of
-//! a circle, a point or curve outside every group) come after all the others, in the order
-//! of their tags (Gmsh leaves them out of its files unless `Mesh.SaveAll`; DOLFINx reads
+//! 1..N is left exactly as it is. One exception, as in Gmsh's own numbering: the nodes no
+//! element of a physical group uses (no element at all, when there is no group: a dropped
+//! volume's nodes; the centre point of a circle, a point or curve outside every group) come
+//! after all the others, in the order of their tags (Gmsh leaves them out of its files
+//! unless `Mesh.SaveAll`, its MSH 2 reader drops nodes no element uses, and DOLFINx reads
 //! only the physical groups' elements and fails on such a node before a used one). Everything that names a node or element tag follows:
 //! element node lists, `$Periodic` node pairs and the `$NodeData`, `$ElementData` and
 //! `$ElementNodeData` sections. Entities and physical groups name entity tags, which do not
@@ -152,15 +153,15 @@ impl Ranks {
     }
 }
 
-/// The nodes elements of a physical group's entity use (`None` when the mesh has no physical
-/// group): `used[t]` for tag t, or the set of them when the tags are sparse.
+/// The nodes elements of a physical group's entity use (of any entity, when the mesh has no
+/// physical group): `used[t]` for tag t, or the set of them when the tags are sparse.
 enum Used {
     Dense(Vec<bool>),
     Sparse(HashSet<u64>),
 }
 
 impl Used {
-    fn of(mesh: &Mesh) -> Option<Used> {
+    fn of(mesh: &Mesh) -> Used {
         let physical: HashSet<(i32, i32)> = mesh
             .entities
             .iter()
@@ -168,13 +169,12 @@ impl Used {
             .filter(|e| !e.physical_tags.is_empty())
             .map(|e| (e.dim, e.tag))
             .collect();
-        if physical.is_empty() {
-            return None;
-        }
+        // without physical groups, every element counts
+        let all = physical.is_empty();
         let blocks = || {
             mesh.element_blocks
                 .iter()
-                .filter(|b| physical.contains(&(b.entity_dim, b.entity_tag)))
+                .filter(move |b| all || physical.contains(&(b.entity_dim, b.entity_tag)))
         };
         let max = mesh.max_node_tag();
         if max <= (4 * mesh.node_count() as u64).max(1024) {
@@ -186,11 +186,9 @@ impl Used {
                     }
                 }
             }
-            Some(Used::Dense(used))
+            Used::Dense(used)
         } else {
-            Some(Used::Sparse(
-                blocks().flat_map(|b| b.nodes.iter().copied()).collect(),
-            ))
+            Used::Sparse(blocks().flat_map(|b| b.nodes.iter().copied()).collect())
         }
     }
 
@@ -221,7 +219,7 @@ pub fn renumber(mesh: &mut Mesh, input: Option<InputTags>) -> RenumberReport {
     // nodes no physical group's element uses go last, as in Gmsh's own numbering (DOLFINx
     // reads only those elements and fails on an unused node before a used one)
     let used = Used::of(mesh);
-    let nodes = Ranks::new(node_tags, |t| used.as_ref().is_some_and(|u| !u.contains(t)));
+    let nodes = Ranks::new(node_tags, |t| !used.contains(t));
     drop(used);
     let dangling = mesh.element_blocks.par_iter().find_map_any(|b| {
         b.tags
@@ -625,5 +623,17 @@ mod tests {
         let before = m.clone();
         renumber(&mut m, None);
         assert_eq!(m, before);
+    }
+
+    #[test]
+    fn without_physical_groups_nodes_no_element_uses_go_last() {
+        let mut m = gappy();
+        // node 3 (a dropped volume's, say) is used by no element
+        m.node_blocks
+            .push(node_block(3, vec![3], vec![[0.5, 0.5, 1.0]]));
+        renumber(&mut m, None);
+        assert_eq!(m.node_blocks[0].tags, vec![3, 1]);
+        assert_eq!(m.node_blocks[1].tags, vec![4, 2]);
+        assert_eq!(m.node_blocks[2].tags, vec![5]);
     }
 }
