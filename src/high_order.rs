@@ -670,8 +670,6 @@ pub fn elevate(
         }
     }
     let geo = Geometry::new(input);
-    // an input mid-edge node whose edge the linear job split once becomes the new corner
-    let taken = take_split_mid_nodes(&mut out, &geo, input_max);
     // the linear job's nodes (flat positions)
     let flat = NodeTable::new(&out);
     let pos = |t: u64| flat.at(t).unwrap_or(DVec3::ZERO);
@@ -715,8 +713,7 @@ pub fn elevate(
             if moved(a) || moved(b) {
                 continue;
             }
-            let is_new = |t: u64| geo.at(t).is_none() || taken.contains(&t);
-            let Some(chain) = chain_between(&adjacency, c, a, b, &is_new) else {
+            let Some(chain) = chain_between(&adjacency, c, a, b, &|t| geo.at(t).is_none()) else {
                 continue;
             };
             let pts: Vec<DVec3> = chain.iter().map(|&t| pos(t)).collect();
@@ -1288,132 +1285,6 @@ pub fn elevate(
     report.straight = straight;
     report.invalid = bad_tags.iter().map(|b| b.2).collect();
     Ok((out, report))
-}
-
-/// Gives the mid-edge node of each input boundary edge (a 3-node line's, or a face edge
-/// used once on its surface) that the linear job split exactly once (parity repair, the
-/// fallback, refinement: one new node between the edge's two unmoved ends, both halves
-/// edges of the result, the edge itself gone) to the new node there: it takes the mid-edge
-/// node's tag and input coordinates (on the curved geometry, where the linear job put it
-/// on the chord or on the curve), so the input's node is the new corner. Returns the tags
-/// given. Nodes above `input_max` are the linear job's new ones.
-fn take_split_mid_nodes(out: &mut Mesh, geo: &Geometry, input_max: u64) -> HashSet<u64> {
-    let flat = NodeTable::new(out);
-    // edges of the result's quads and lines
-    let mut edges: HashSet<(u64, u64)> = HashSet::new();
-    let mut nbrs: FastMap<u64, Vec<u64>> = FastMap::default();
-    for b in &out.element_blocks {
-        let ring: &[usize] = match (b.entity_dim, b.element_type) {
-            (2, etype::QUAD4) => &[0, 1, 2, 3],
-            (1, etype::LINE2) => &[0, 1],
-            _ => continue,
-        };
-        let k = b.nodes_per_element();
-        for e in b.nodes.chunks_exact(k) {
-            for (j, &i) in ring.iter().enumerate() {
-                let (x, y) = (e[i], e[ring[(j + 1) % ring.len()]]);
-                if x != y && edges.insert(key(x, y)) {
-                    nbrs.entry(x).or_default().push(y);
-                    nbrs.entry(y).or_default().push(x);
-                }
-            }
-        }
-    }
-    // the input's boundary edges: 3-node lines, face edges used once on their surface
-    let mut boundary: HashSet<(u64, u64)> = HashSet::new();
-    let mut uses: FastMap<(i32, (u64, u64)), u32> = FastMap::default();
-    for b in &geo.input.element_blocks {
-        let corners = match (b.entity_dim, b.element_type) {
-            (1, etype::LINE3) => {
-                for e in b.nodes.chunks_exact(3) {
-                    boundary.insert(key(e[0], e[1]));
-                }
-                continue;
-            }
-            (2, etype::TRI6) => 3,
-            (2, etype::QUAD9 | etype::QUAD8) => 4,
-            _ => continue,
-        };
-        for e in b.nodes.chunks_exact(b.nodes_per_element()) {
-            for j in 0..corners {
-                *uses
-                    .entry((b.entity_tag, key(e[j], e[(j + 1) % corners])))
-                    .or_default() += 1;
-            }
-        }
-    }
-    boundary.extend(uses.into_iter().filter(|x| x.1 == 1).map(|x| (x.0).1));
-    let present: HashSet<u64> = out
-        .node_blocks
-        .iter()
-        .flat_map(|b| b.tags.iter().copied())
-        .collect();
-    // new node -> (mid-edge node, its coordinates)
-    let mut take: FastMap<u64, (u64, DVec3)> = FastMap::default();
-    let mut given: HashSet<u64> = HashSet::new();
-    let mut news: Vec<u64> = nbrs.keys().copied().filter(|&t| t > input_max).collect();
-    news.sort_unstable();
-    for n in news {
-        let Some(p) = flat.at(n) else { continue };
-        let around = &nbrs[&n];
-        'pairs: for (i, &a) in around.iter().enumerate() {
-            for &b in &around[i + 1..] {
-                if !boundary.contains(&key(a, b)) {
-                    continue;
-                }
-                let Some(&m) = geo.mid.get(&key(a, b)) else {
-                    continue;
-                };
-                let (Some(xa), Some(xb), Some(xm)) = (flat.at(a), flat.at(b), geo.at(m)) else {
-                    continue;
-                };
-                // both ends where the input has them, the new node between them (within
-                // the middle half of the chord, off it by less than half its length), the
-                // edge gone, the mid-edge node not used by the result
-                let unmoved = geo.at(a) == Some(xa) && geo.at(b) == Some(xb);
-                let d = xb - xa;
-                let u = (p - xa).dot(d) / d.length_squared();
-                let between =
-                    (0.25..=0.75).contains(&u) && (p - xa - d * u).length() < 0.5 * d.length();
-                if unmoved
-                    && between
-                    && !edges.contains(&key(a, b))
-                    && !present.contains(&m)
-                    && given.insert(m)
-                {
-                    take.insert(n, (m, xm));
-                    break 'pairs;
-                }
-            }
-        }
-    }
-    if take.is_empty() {
-        return HashSet::new();
-    }
-    let rename = |t: &mut u64| {
-        if let Some(&(m, _)) = take.get(t) {
-            *t = m;
-        }
-    };
-    for b in &mut out.node_blocks {
-        for (t, c) in b.tags.iter_mut().zip(b.coords.iter_mut()) {
-            if let Some(&(m, x)) = take.get(t) {
-                *t = m;
-                *c = x.to_array();
-            }
-        }
-    }
-    for b in &mut out.element_blocks {
-        b.nodes.iter_mut().for_each(rename);
-    }
-    for l in &mut out.periodic {
-        for (a, b) in &mut l.node_pairs {
-            rename(a);
-            rename(b);
-        }
-    }
-    out.invalidate_element_data();
-    given
 }
 
 /// The chain of curve-`c` nodes from `a` to `b` through nodes `is_new` accepts, following
