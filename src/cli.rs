@@ -243,6 +243,7 @@ fn second_file_hint(args: &[std::ffi::OsString]) -> Option<String> {
         "--cross-field",
         "--refine",
         "--smooth",
+        "--tag-map",
     ];
     let mut files = Vec::new();
     let mut has_output = false;

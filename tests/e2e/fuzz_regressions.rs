@@ -34,6 +34,8 @@ fn run(dir: &Path, text: &str, verify: bool) -> (i32, String, std::path::PathBuf
         .arg("-o")
         .arg(&output)
         .args(verify.then_some("--verify"))
+        // the checks below compare the input and the output by node tag
+        .arg("--keep-tags")
         .arg("--quiet")
         .output()
         .expect("run blossomquad");
@@ -426,7 +428,10 @@ fn assert_valid_recombination(name: &str) {
     // the invariants on the mesh in memory (an MSH 2.2 file read back may derive its
     // entities differently from the input's)
     let mut mesh = input.clone();
-    blossomquad::quadrangulate(&mut mesh, &blossomquad::Options::default()).expect("Ok");
+    // by tag: the invariants compare the input and the output node by node
+    let mut opts = blossomquad::Options::default();
+    opts.keep_tags = true;
+    blossomquad::quadrangulate(&mut mesh, &opts).expect("Ok");
     blossomquad::recombine::check_invariants(&input, &mesh).expect("invariants hold");
     assert!(blossomquad::validity::invalid_quads(&input, &mesh).is_empty());
 }

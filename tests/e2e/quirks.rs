@@ -149,6 +149,8 @@ fn recombine_ok(dir: &Path, name: &str, extra: &[&str], version: MshVersion) -> 
             "-o".as_ref(),
             out_path.as_os_str(),
             "--quiet".as_ref(),
+            // the checks below compare the input and the output by tag
+            "--keep-tags".as_ref(),
         ]
         .into_iter()
         .chain(extra.iter().map(|s| s.as_ref())),

@@ -57,8 +57,12 @@ fn recombine_and_check(input: &Path, extra: &[&str], check_flags: &[&str]) -> (S
     let output = input.with_extension("quads.msh");
     let map = common::tag_map_path(&output);
     let keep = extra.contains(&"--keep-tags");
-    let mut args: Vec<std::ffi::OsString> =
-        vec![input.into(), "-o".into(), output.clone().into(), "-v".into()];
+    let mut args: Vec<std::ffi::OsString> = vec![
+        input.into(),
+        "-o".into(),
+        output.clone().into(),
+        "-v".into(),
+    ];
     args.extend(extra.iter().map(std::ffi::OsString::from));
     if !keep {
         args.extend(common::tag_map_args(&output));

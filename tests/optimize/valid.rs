@@ -205,6 +205,8 @@ fn islands_stay_valid(size: f64, seed: u64) -> (f64, f64) {
             input.as_os_str().to_owned(),
             "-o".into(),
             out.as_os_str().to_owned(),
+            // the checks below compare the input and the outputs by node tag
+            "--keep-tags".into(),
         ];
         args.extend(extra.map(Into::into));
         let (code, _, stderr) = blossomquad_run(args);
