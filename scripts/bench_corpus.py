@@ -135,18 +135,6 @@ def table(rows, tool):
     return "\n".join(lines) + "\n"
 
 
-def write_section(path, section):
-    text = open(path).read() if os.path.exists(path) else ""
-    if BEGIN in text and END in text:
-        head, rest = text.split(BEGIN, 1)
-        _, tail = rest.split(END, 1)
-        text = head + section.rstrip("\n") + tail
-    else:
-        text = text.rstrip("\n") + "\n\n" + section
-    with open(path, "w") as f:
-        f.write(text)
-
-
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", default="coarse,fine")
@@ -167,7 +155,7 @@ def main(argv):
             print(f"{name:<26} {level:<6} {row.get('status'):<9} tris {fmt(row.get('triangles'))} "
                   f"eta_w {fmt(row.get('eta_w'))} eta {fmt(row.get('eta_mean'))} "
                   f"gmsh left {fmt(row.get('gmsh_tris'))} eta_w {fmt(row.get('gmsh_eta_w'))}", flush=True)
-        write_section(a.out, table(rows, a.tool))  # after each size, so a coarse table survives
+        corpus.write_section(a.out, table(rows, a.tool), BEGIN, END)  # after each size, so a coarse table survives
     return 0
 
 

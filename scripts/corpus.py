@@ -51,6 +51,20 @@ VARIANTS = {
 TIMEOUT = 600
 
 
+def write_section(path, section, begin, end):
+    """Puts `section` (which starts with `begin` and ends with `end`) into the file at
+    `path` in place of the text between those markers, or at its end when it has none."""
+    text = open(path).read() if os.path.exists(path) else ""
+    if begin in text and end in text:
+        head, rest = text.split(begin, 1)
+        _, tail = rest.split(end, 1)
+        text = head + section.rstrip("\n") + tail
+    else:
+        text = text.rstrip("\n") + "\n\n" + section
+    with open(path, "w") as f:
+        f.write(text)
+
+
 def read_models(path=os.path.join(CORPUS, "models.tsv")):
     """[(name, class, {"coarse": size, "fine": size})] from corpus/models.tsv."""
     models = []

@@ -364,18 +364,6 @@ def table(rows, jobs, repeat, load, date):
     return "\n".join(lines) + "\n"
 
 
-def write_section(path, section):
-    text = open(path).read() if os.path.exists(path) else ""
-    if BEGIN in text and END in text:
-        head, rest = text.split(BEGIN, 1)
-        _, tail = rest.split(END, 1)
-        text = head + section.rstrip("\n") + tail
-    else:
-        text = text.rstrip("\n") + "\n\n" + section
-    with open(path, "w") as f:
-        f.write(text)
-
-
 def main(argv):
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--sizes", default="coarse,fine")
@@ -398,7 +386,7 @@ def main(argv):
         if a.no_write:
             print(section)
         else:
-            write_section(a.out, section)
+            corpus.write_section(a.out, section, BEGIN, END)
         print(summary(rows))
         return 0
     if a.wall_bound:
@@ -444,7 +432,7 @@ def main(argv):
     if a.no_write:
         print(section)
     else:
-        write_section(a.out, section)
+        corpus.write_section(a.out, section, BEGIN, END)
     print(summary(rows))
     return 0
 

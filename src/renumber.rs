@@ -276,16 +276,16 @@ fn remap(tag: &mut u64, ranks: &Ranks) -> bool {
     }
 }
 
+/// Maps every tag of `tags` in place; returns how many changed.
+fn remap_all(tags: &mut [u64], ranks: &Ranks) -> usize {
+    tags.iter_mut().map(|t| usize::from(remap(t, ranks))).sum()
+}
+
 fn renumber_nodes(mesh: &mut Mesh, ranks: &Ranks, warnings: &mut Vec<String>) -> usize {
     let changed = mesh
         .node_blocks
         .par_iter_mut()
-        .map(|b| {
-            b.tags
-                .iter_mut()
-                .map(|t| usize::from(remap(t, ranks)))
-                .sum::<usize>()
-        })
+        .map(|b| remap_all(&mut b.tags, ranks))
         .sum();
     mesh.element_blocks.par_iter_mut().for_each(|b| {
         b.nodes.par_iter_mut().for_each(|t| {
@@ -311,12 +311,7 @@ fn renumber_elements(mesh: &mut Mesh, ranks: &Ranks, warnings: &mut Vec<String>)
     let changed = mesh
         .element_blocks
         .par_iter_mut()
-        .map(|b| {
-            b.tags
-                .iter_mut()
-                .map(|t| usize::from(remap(t, ranks)))
-                .sum::<usize>()
-        })
+        .map(|b| remap_all(&mut b.tags, ranks))
         .sum();
     renumber_data(mesh, ranks, DataKind::Element, warnings);
     renumber_data(mesh, ranks, DataKind::ElementNode, warnings);
