@@ -1,24 +1,14 @@
-//! The MSH reader on arbitrary bytes: it must return a mesh or an error, never panic, and a
-//! mesh it returns must be written in its own format and read
-//! back.
+//! The MSH reader on arbitrary bytes; the check is `fuzz/check/read.rs`, shared with the
+//! ordinary test suite, which runs it over the seed corpus. Any finding is a panic.
 #![no_main]
+
+#[path = "../check/read.rs"]
+mod check;
 
 use libfuzzer_sys::fuzz_target;
 
 fuzz_target!(|data: &[u8]| {
-    if data.len() > 64 * 1024 {
-        return;
-    }
-    let Ok(mesh) = blossomquad::msh::read_bytes(data, "fuzz.msh") else {
-        return;
-    };
-    let format = blossomquad::msh::default_output_format(&mesh);
-    let mut out = Vec::new();
-    // a write error (e.g. a mesh the format cannot hold) is an answer, not a finding
-    if blossomquad::msh::write(&mesh, &mut out, format).is_ok() {
-        // what the writer writes, the reader reads
-        if let Err(e) = blossomquad::msh::read_bytes(&out, "rewritten.msh") {
-            panic!("a mesh read from the input does not read back after writing: {e}");
-        }
+    if let Err(finding) = check::check(data) {
+        panic!("{finding}");
     }
 });

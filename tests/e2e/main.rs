@@ -12,6 +12,7 @@ mod corpus;
 mod fixtures;
 mod footprint;
 mod fuzz_regressions;
+mod fuzz_seeds;
 mod numbering;
 mod parity_periodic;
 mod quirks;
