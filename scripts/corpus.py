@@ -137,7 +137,9 @@ def run_one(name, level, size, variant, outdir, tool):
         return rec
     if os.path.exists(outp):
         os.remove(outp)
-    tcmd = [tool, inp, "-o", outp]
+    # the tag map lets the checker compare the output (numbered 1..N) with the input
+    tag_map = outp + ".tag-map.json"
+    tcmd = [tool, inp, "-o", outp, "--tag-map", tag_map]
     code, so, se, secs = run(tcmd)
     rec.update(tool_cmd=shlex.join(tcmd), tool_exit=code, tool_seconds=round(secs, 3), tool_stderr=se.strip())
     if code == 1:
@@ -146,7 +148,7 @@ def run_one(name, level, size, variant, outdir, tool):
     if code != 0:
         rec.update(status="crash", message=f"exit {code}: {first_lines(se)}")
         return rec
-    ccmd = [os.environ.get("PYTHON", sys.executable), CHECKER, inp, outp]
+    ccmd = [os.environ.get("PYTHON", sys.executable), CHECKER, inp, outp, "--tag-map=" + tag_map]
     code, so, se, _ = run(ccmd)
     rec["check_cmd"] = shlex.join(ccmd)
     try:

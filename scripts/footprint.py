@@ -217,6 +217,7 @@ def goal_failures(row):
 def one(name, cls, level, size, workdir, tool, repeat):
     base = os.path.join(workdir, f"{name}-{level}")
     tri, out, gq = base + ".msh", base + ".quads.msh", base + ".gmsh-quads.msh"
+    tag_map = base + ".tag-map.json"
     row = {"model": name, "class": cls, "size": level, "size_value": size}
     plain = []
     for _ in range(repeat):
@@ -239,7 +240,9 @@ def one(name, cls, level, size, workdir, tool, repeat):
     for _ in range(repeat):
         if os.path.exists(out):
             os.remove(out)
-        code, log, wall, cpu = run_timed([tool, tri, "-o", out])
+        # -v: the log holds the fallback's lines; the tag map lets the checker compare the
+        # output (numbered 1..N) with the input
+        code, log, wall, cpu = run_timed([tool, tri, "-o", out, "-v", "--tag-map", tag_map])
         walls.append(wall)
         cpus.append(cpu)
     row["seconds"], row["cpu_seconds"] = median(walls), median(cpus)
@@ -250,7 +253,8 @@ def one(name, cls, level, size, workdir, tool, repeat):
     elif code != 0:
         row["status"] = "crash"
     else:
-        c = subprocess.run([sys.executable, corpus.CHECKER, tri, out], capture_output=True, timeout=corpus.TIMEOUT)
+        c = subprocess.run([sys.executable, corpus.CHECKER, tri, out, "--tag-map=" + tag_map],
+                           capture_output=True, timeout=corpus.TIMEOUT)
         row["status"] = "pass" if c.returncode == 0 else "invalid"
         q = quality(tool, out)
         if q and row["triangles"]:
