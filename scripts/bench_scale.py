@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Scale and peer benchmark (issue 15, items 1 and 5). Not a test.
+"""Scale and peer benchmark: time and memory from 1e6 triangles up, Gmsh and LEMON. Not a test.
 
 Four parts, each printed as a Markdown table on stdout (progress on stderr):
 

@@ -196,7 +196,7 @@ def case(binary, fixture, target, work, timeout):
         rows.append({"method": "Gmsh API recombine() on MSH", "note": "timeout" if r["timeout"] else "failed"})
 
     for label, extra, note in [
-        ("blossomquad --no-optimize", ["--no-optimize"], "matching only (issue 4's before)"),
+        ("blossomquad --no-optimize", ["--no-optimize"], "matching only"),
         ("blossomquad", [], "whole run: read, recombine, optimise, write"),
     ]:
         out = f"{stem}-{label.replace(' ', '').replace('--', '-')}.msh"

@@ -7,7 +7,8 @@ fn main() -> std::process::ExitCode {
     blossomquad::cli::main()
 }
 
-/// glibc's allocator, tuned for the peak memory of one large job (see BENCHMARKS.md, issue 15).
+/// glibc's allocator, tuned for the peak memory of one large job (figures in BENCHMARKS.md,
+/// "Measurements behind the defaults", Memory).
 #[cfg(all(target_os = "linux", target_env = "gnu"))]
 mod glibc {
     use std::ffi::c_int;

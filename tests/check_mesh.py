@@ -42,7 +42,7 @@ code. Checks (names as in the JSON report):
                     surface: on a planar surface its normal agrees with the
                     input's average normal; on a curved surface with the sum of
                     the input surface's area-weighted normals at its nodes (the
-                    normal README's validity is measured about; faces with no input
+                    normal GUIDE.md's validity is measured about; faces with no input
                     node, e.g. a fallback split's centre quad, use the normal of the
                     input triangle nearest their centroid). (The nearest triangle
                     alone is ill-defined on a thin tube: a quad across it has its

@@ -66,7 +66,7 @@ def blossomquad_exe() -> str:
 def mesh(out: str, size: float, order: int = 1, fmt: Optional[str] = None, binary: bool = False,
          geo: str = GEO) -> str:
     """`gmsh -2 [-order 2] GEO -setnumber size SIZE [-format FMT] [-bin] -o OUT` (without
-    FMT, Gmsh's default MSH 4.1: the README's command)."""
+    FMT, Gmsh's default MSH 4.1: GUIDE.md's command)."""
     cmd = [gmsh_exe(), "-2", geo, "-setnumber", "size", str(size)]
     if fmt:
         cmd += ["-format", fmt]
@@ -79,7 +79,7 @@ def mesh(out: str, size: float, order: int = 1, fmt: Optional[str] = None, binar
 
 
 def recombine(inp: str, out: str, *flags: str) -> str:
-    """`blossomquad IN -o OUT` (the README's command)."""
+    """`blossomquad IN -o OUT` (the README's and GUIDE.md's command)."""
     run([blossomquad_exe(), inp, "-o", out, "-q", *flags])
     return out
 
@@ -239,7 +239,7 @@ def geometry_degree(domain) -> int:
 
 
 def dolfinx_read(path: str, gdim: int = 2):
-    """`dolfinx.io.gmsh.read_from_msh(path, MPI.COMM_WORLD, 0, gdim=gdim)` (the README's
+    """`dolfinx.io.gmsh.read_from_msh(path, MPI.COMM_WORLD, 0, gdim=gdim)` (GUIDE.md's
     line)."""
     from dolfinx.io import gmsh as gmshio
     from mpi4py import MPI
@@ -250,7 +250,7 @@ def dolfinx_read(path: str, gdim: int = 2):
 def dolfinx_from_model(size: float, order: int = 1, geo: str = GEO, gdim: int = 2,
                        options: Optional[dict] = None, counts: Optional[dict] = None):
     """In one process: Gmsh meshes `geo`, `blossomquad.recombine_gmsh()` recombines the
-    open model, `dolfinx.io.gmsh.model_to_mesh` reads it (the README's lines). `counts`,
+    open model, `dolfinx.io.gmsh.model_to_mesh` reads it (GUIDE.md's lines). `counts`,
     when given, gets the model's "quads" (4- and 9-node), its "nodes" and how many of them
     the physical groups' elements "used"."""
     import gmsh

@@ -182,8 +182,8 @@ pub enum VertexOrder {
     BreadthFirst,
     /// The caller's numbering, for graphs numbered along a space-filling curve (mesh
     /// triangles in the Morton order of their centroids): neighbours are then closer than
-    /// breadth-first layers put them (figures in BENCHMARKS.md, "Issue 15: the matching in
-    /// the Morton order of the triangles").
+    /// breadth-first layers put them (figures in BENCHMARKS.md, "Measurements behind the
+    /// defaults").
     Given,
 }
 

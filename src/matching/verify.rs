@@ -1,4 +1,4 @@
-//! Optimality certificate (issue 3, point 3) and Tutte-witness check.
+//! Optimality certificate and Tutte-witness check.
 
 use super::{components, Matching, NoPerfectMatching, NONE};
 

@@ -65,7 +65,7 @@ pub(crate) const REACH_RINGS: usize = WIDE_DEPTH + 2;
 
 /// Longest rotation sequence searched from a quad with a node of [`Topo::wide_corner`]: one
 /// more than elsewhere, which together with [`WIDE_FLOOR`] lifts the worst quad next to
-/// wide corners (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// wide corners (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const WIDE_DEPTH: usize = 3;
 
 /// How much the prefixes of a sequence searched from a wide corner may raise the energy:
@@ -78,8 +78,8 @@ const WIDE_FLOOR: i32 = WIDE_CORNER_PENALTY + 4;
 /// A quad with this many free corners of valence 3 (their corners want 120°, so the fourth
 /// is pressed towards 0° or the quad towards a triangle: η about 0.57 at best after
 /// smoothing) is searched like a wide corner's: [`WIDE_DEPTH`] rotations, prefixes up to
-/// [`CROWDED_FLOOR`] above the energy (figures in BENCHMARKS.md, "Issue 15: the topology
-/// passes in two halves (session 16)").
+/// [`CROWDED_FLOOR`] above the energy (figures in BENCHMARKS.md, "Measurements behind the
+/// defaults").
 const CROWDED: usize = 3;
 
 /// How much the prefixes of a sequence searched from a [`CROWDED`] quad may raise the

@@ -43,12 +43,13 @@ pub(crate) const MAX_ITERATIONS: usize = 100;
 
 /// Share β of the current corner aspect ratio the energy keeps (module docs): between pure
 /// squares (β = 0) and the aspect fully kept (β = 1), the value that did best on the
-/// fixtures (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// fixtures (figures in BENCHMARKS.md, "Measurements behind the defaults").
 pub(crate) const KEEP_ASPECT: f64 = 0.3;
 
 /// Rounds of reverting the nodes of quads a step made invalid (or worse, if invalid
 /// already) to their positions before the solve, before the step is rejected: reverting
-/// keeps most of a step that rejecting it whole would lose (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// keeps most of a step that rejecting it whole would lose (figures in BENCHMARKS.md,
+/// "Measurements behind the defaults").
 const REVERT_ROUNDS: usize = 4;
 
 /// Relative residual at which the solve stops.

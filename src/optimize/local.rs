@@ -210,7 +210,7 @@ impl Local {
     /// (eq. 1 then integrates exactly), as `blossomquad quality --reference` measures it;
     /// else the nodes' own target sizes. Nodes move by up to about h during the
     /// optimization: on a graded field the size where a node started is not the size where
-    /// it is (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+    /// it is (figures in BENCHMARKS.md, "Measurements behind the defaults").
     pub fn tau_estimate(&self) -> f64 {
         let h: std::borrow::Cow<[f64]> = match (&self.reference, self.ref_sizes.is_empty()) {
             (Some(r), false) => (0..self.pos.len())

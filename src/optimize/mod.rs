@@ -70,7 +70,7 @@ pub mod synth;
 mod topo;
 mod valid;
 
-/// Helpers shared by the optimizer's unit tests.
+/// Code shared by the optimizer's unit tests.
 #[cfg(test)]
 pub(crate) mod test_util {
     use glam::DVec3;
@@ -143,8 +143,8 @@ pub struct OptimizeOptions<'a> {
 impl Default for OptimizeOptions<'_> {
     /// Defaults: 5 smoothing sweeps, topology on for at most 4 rounds, diagonal
     /// weight 0.5, 2 final pattern-search sweeps, no size scale. They were chosen by
-    /// measurement with `examples/optimize_bench` (figures in BENCHMARKS.md, "Figures moved
-    /// out of doc comments (issue 13)").
+    /// measurement with `examples/optimize_bench` (figures in BENCHMARKS.md, "Measurements
+    /// behind the defaults").
     fn default() -> Self {
         OptimizeOptions {
             smooth_iterations: 5,

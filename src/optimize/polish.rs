@@ -20,13 +20,13 @@ use super::smooth::pattern_search8;
 use glam::DVec3;
 
 /// Sweeps of [`polish_mean`] on surfaces of 20k quads or more: the second sweep gains about
-/// a third as much η̄ as the first at the same cost (figures in BENCHMARKS.md, "Issue 15:
-/// fewer optimizer passes on large surfaces").
+/// a third as much η̄ as the first at the same cost (figures in BENCHMARKS.md,
+/// "Measurements behind the defaults").
 pub(crate) const MEAN_SWEEPS: usize = 1;
 
 /// Weight of the size term (module docs) against the star's summed η: it trades a little
 /// mean η for τ; [`SIZE_TERM_MAX_COT`] keeps it off the stars whose worst quad the polish
-/// must still lift (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// must still lift (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const SIZE_WEIGHT: f64 = 0.3;
 
 /// The size term applies only to stars whose worst |cot α| is at most this (worst corner
@@ -36,13 +36,14 @@ const SIZE_TERM_MAX_COT: f64 = 0.68;
 /// Stars with more edges than this get no size term (valence above 8 is rare).
 const MAX_SIZE_EDGES: usize = 8;
 
-/// Sweeps of [`polish_mean`] on surfaces under 20k quads, where they are cheap (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// Sweeps of [`polish_mean`] on surfaces under 20k quads, where they are cheap (figures in
+/// BENCHMARKS.md, "Measurements behind the defaults").
 pub(crate) const MEAN_SWEEPS_SMALL: usize = 4;
 
 /// `atan(t)` for `t ≥ 0` within about 1e-5 rad (a minimax polynomial on [0, 1] and
 /// `atan t = π/2 − atan(1/t)` above): the polish compares sums of η over a star, so a
 /// consistent approximation is enough, and the library `atan` was a large share of the
-/// polish's time (BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// polish's time (BENCHMARKS.md, "Measurements behind the defaults").
 fn atan_fast(t: f64) -> f64 {
     let (x, flip) = if t > 1.0 { (1.0 / t, true) } else { (t, false) };
     let x2 = x * x;

@@ -132,8 +132,8 @@ const ETA_W_SLACK: f64 = 0.002;
 
 /// How many points lower τ ([`Local::tau_estimate`]) a schedule may end with than the plain
 /// one and still be chosen: above what a schedule worth keeping has cost, below what a
-/// harmful one has (the fixtures' figures are in BENCHMARKS.md, "Figures moved out of doc
-/// comments (issue 13)").
+/// harmful one has (the fixtures' figures are in BENCHMARKS.md, "Measurements behind the
+/// defaults").
 const TAU_SLACK: f64 = 0.7;
 
 /// Tests: `l` in the state the last stages see in the pipeline (the first smoothing and the
@@ -211,14 +211,13 @@ fn topology_rounds(
 /// Surfaces of this many quads or more run each topology pass in two halves side by side,
 /// then along their seam (`halves`): the passes are serial and, at 10^5 quads and beyond,
 /// a large share of the optimizer's time; below, the band along the seam is a large part
-/// of the surface (figures in BENCHMARKS.md, "Issue 15: the topology passes in two halves
-/// (session 16)").
+/// of the surface (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const HALVES_FROM: usize = 1 << 15;
 
 /// Surfaces of [`RESMOOTH_ALL_BELOW`] quads or more stop their topology rounds after a pass
 /// that changed fewer than one quad in this many: each pass changes about a tenth as much as
 /// the one before, and the rounds after such a pass gained under 0.0005 η̄ and 0.1 point of
-/// d4 (figures in BENCHMARKS.md, "Issue 15: fewer optimizer passes on large surfaces").
+/// d4 (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const ROUNDS_STOP_SHARE: usize = 100;
 
 /// The last stages: conformal solve (keeping `keep_aspect` of the aspect ratios), max-min
@@ -293,8 +292,7 @@ fn finish_ticking(
 /// surfaces also run half of `angle_sweeps` pattern sweeps (rounded up: 1 of the default 2):
 /// with both changes they end with the same η̄, d4 and τ and an η_w as high or higher, since
 /// the last max-min polish lifts the few quads the mean polish left below η 0.6 and visits
-/// only their nodes (figures in BENCHMARKS.md, "Issue 15: one pattern sweep and a last
-/// max-min polish on large surfaces").
+/// only their nodes (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const LAST_WORST_SWEEPS: usize = WORST_SWEEPS_LARGE;
 
 /// Sweeps of the max-min polish ([`smooth::polish_worst`]) on surfaces under
@@ -305,27 +303,26 @@ const WORST_SWEEPS: usize = 4;
 /// the shorter first smoothing ([`FIRST_SWEEPS_NUM`]) four sweeps left one quad of the 1e5
 /// rectangle fixture at η 0.593, eight lift it to 0.600. The sweeps only visit the nodes
 /// around quads below η 0.6 and the neighbours of moved nodes, and stop when nothing moves,
-/// so the extra ones cost next to nothing (figures in BENCHMARKS.md, "Issue 15: a shorter
-/// first smoothing on large surfaces").
+/// so the extra ones cost next to nothing.
 const WORST_SWEEPS_LARGE: usize = 8;
 
 /// After a topological pass, smoothing starts from the nodes within this many quad rings of
 /// the changes: about the quality of smoothing every node, at a fraction of the work
-/// (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const RESMOOTH_RINGS: usize = 2;
 
 /// Sweeps of the smoothing around a topology pass's changes on surfaces of
 /// [`RESMOOTH_ALL_BELOW`] quads or more, in fifths of `smooth_iterations` (rounded up: 3 of
 /// the default 5): the fewest that keep the quality of full sweeps (figures in
-/// BENCHMARKS.md, "Figures moved out of doc comments (issue 13)"; 2 cost η_w after a
-/// shorter first smoothing, "Issue 15: a shorter first smoothing on large surfaces").
+/// BENCHMARKS.md, "Measurements behind the defaults"; 2 cost η_w with the one-sweep first
+/// smoothing of [`FIRST_SWEEPS_NUM`]).
 const NEAR_SWEEPS_NUM: usize = 3;
 
 /// Sweeps of the first smoothing on surfaces of [`RESMOOTH_ALL_BELOW`] quads or more, in
 /// fifths of `smooth_iterations` (rounded up: 1 of the default 5). The topology rounds
 /// re-smooth around every change and the conformal solve removes the low-frequency
-/// distortion later, so the further sweeps gained no final quality (figures in
-/// BENCHMARKS.md, "Issue 15: a shorter first smoothing on large surfaces").
+/// distortion later, so the further sweeps gain no final quality (figures in
+/// BENCHMARKS.md, "Measurements behind the defaults").
 const FIRST_SWEEPS_NUM: usize = 1;
 
 /// Sweeps of the first smoothing of `l`: all of `smooth_iterations` on surfaces under
@@ -348,13 +345,13 @@ fn by_size(l: &Local, small: usize, large: usize) -> usize {
 
 /// Surfaces with fewer quads re-smooth every node after each topological pass: cheap there,
 /// and on small curved surfaces local re-smoothing alone loses mean quality (figures in
-/// BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// BENCHMARKS.md, "Measurements behind the defaults").
 pub(super) const RESMOOTH_ALL_BELOW: usize = 20_000;
 
 /// Small planar surfaces try the alternative schedules (module docs) only when their mean η
 /// after the first smoothing is below this: surfaces already above it gain next to nothing
-/// from them, for most of their time (figures in BENCHMARKS.md, "Figures moved out of doc
-/// comments (issue 13)").
+/// from them, for most of their time (figures in BENCHMARKS.md, "Measurements behind the
+/// defaults").
 const ALTERNATIVES_BELOW: f64 = 0.84;
 
 /// Nodes within `rings` quad rings of what a topological pass changed, given the quads,

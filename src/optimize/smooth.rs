@@ -26,7 +26,7 @@
 //! [`optimize_angles`] then polishes nodes around poor quads by a pattern search on the
 //! star's mean η that keeps every star's worst. η (eq. 3) sees angles only and accepts
 //! elongated rectangles, so these raise η̄ and η_w at some cost in τ (figures in
-//! BENCHMARKS.md).
+//! BENCHMARKS.md, "Measurements behind the defaults").
 
 use super::local::{rotate_to, Local, StarEval};
 use super::valid::keeps_own_jacobian;
@@ -74,7 +74,7 @@ fn sweep(
 
 /// A node whose move exceeds `MOVE_TOL` · h makes its neighbours active for the next sweep:
 /// small enough to cost no mean quality, large enough to cut the work of later sweeps
-/// (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const MOVE_TOL: f64 = 1e-3;
 
 /// Sweeps `propose` over the free nodes up to `sweeps` times, each sweep only over the nodes

@@ -34,7 +34,8 @@ use super::OperationCounts;
 use glam::DVec3;
 
 /// Longest rotation sequence [`cleanup`](super::cleanup) searches: deeper searches find
-/// more regular nodes at a growing cost (figures in BENCHMARKS.md, "Figures moved out of doc comments (issue 13)").
+/// more regular nodes at a growing cost (figures in BENCHMARKS.md, "Measurements behind the
+/// defaults").
 const CLEANUP_DEPTH: usize = 2;
 
 /// One pass of the operators; returns how many were applied. Leaves the adjacency stale:

@@ -41,8 +41,8 @@ pub(crate) fn triangle_normals(topo: &SurfaceTopo, coords: &[DVec3]) -> Vec<DVec
 /// Corner quality below which a corner at a wall node makes a quad as bad as a folded one
 /// (see the edge cost): η of the corner alone ≤ 0.25, i.e. an angle above 157.5° or below
 /// 22.5°. A lower bound lets the matching put consecutive wall nodes of a curved edge into
-/// one quad with a corner no smoothing can open (figures in BENCHMARKS.md, "Figures moved
-/// out of doc comments (issue 13)").
+/// one quad with a corner no smoothing can open (figures in BENCHMARKS.md, "Measurements
+/// behind the defaults").
 pub const FIXED_CORNER_MIN_ETA: f64 = 0.25;
 
 /// A set of ids (global node ids, or triangles) as a bitmap.

@@ -99,7 +99,8 @@
 //!    [`RecombineOptions::harmonic_cross_field`], the smooth field of `cross_field.rs`
 //!    (the walls' directions interpolated harmonically in the 4θ representation; its cost
 //!    is scaled by the field's confidence `|z|`, which drops near singularities). The CLI
-//!    uses w = 0.05 by default (measured in the README); the library default is 0.
+//!    uses w = 0.05 by default (measured in BENCHMARKS.md, "Cross-field weight"); the
+//!    recombination's own default is 0.
 //! 5. **Extra edges** (section 5.3). Around every vertex, the triangles between two walls
 //!    form a *fan* `t1 … tk` (each sharing a graph edge `{v, a_i}` with the next). The paper
 //!    joins the triangles of two successive boundary edges; here every fan with k ≥ 3 whose
@@ -225,11 +226,11 @@ pub struct RecombineOptions {
     /// Weight of the cross-field alignment cost (eq. 7) added to the quality cost (eq. 4):
     /// a graph edge costs `10⁴ · (1 − η_s + w · c₇)`, the cross field following the
     /// nearest wall in graph steps (a breadth-first search from the wall edges). 0 (default)
-    /// is eq. 4 alone (the CLI's default is 0.05); clamped to [0, 5]. See the README for its
-    /// measured effect.
+    /// is eq. 4 alone (the CLI's default is 0.05); clamped to [0, 5]. Its measured effect is
+    /// in BENCHMARKS.md, "Cross-field weight".
     pub cross_field_weight: f64,
     /// With `cross_field_weight` > 0: use the smooth (harmonic) cross field of
-    /// `cross_field.rs` instead of the nearest-wall one (off by default; see the README).
+    /// `cross_field.rs` instead of the nearest-wall one (off by default; see GUIDE.md).
     pub harmonic_cross_field: bool,
     /// Nodes with a tag at least this are split nodes like parity repair's (the halves of a
     /// triangle split there cost [`split_halves_cost`] to merge back): the pipeline's

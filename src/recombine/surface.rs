@@ -98,8 +98,8 @@ pub(super) fn surface_work(
                 .sum();
             // speed: a large surface's triangles in the Morton order of their centroids, so
             // that the topology, the graph and the matching touch nearby memory (the file's
-            // order is not local enough; figures in BENCHMARKS.md, "Issue 15: triangles in
-            // Morton order on large surfaces")
+            // order is not local enough; figures in BENCHMARKS.md, "Measurements behind the
+            // defaults")
             let morton = tris.len() >= MORTON_FROM;
             if morton {
                 let order = crate::keysort::morton_order(&tris, &nodes.coords);
@@ -198,8 +198,7 @@ pub(super) fn match_surface(
         std::mem::take(&mut g.edges)
     };
     // speed: a surface in Morton order is more local in that order than in the solver's
-    // breadth-first one (BENCHMARKS.md, "Issue 15: the matching in the Morton order of the
-    // triangles")
+    // breadth-first one (BENCHMARKS.md, "Measurements behind the defaults")
     let order = if w.morton {
         crate::matching::VertexOrder::Given
     } else {

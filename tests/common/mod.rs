@@ -1,4 +1,4 @@
-//! Helpers shared by the end-to-end tests: where the fixtures and the corpus
+//! Code shared by the end-to-end tests: where the fixtures and the corpus
 //! are, generating fixture meshes with Gmsh in each MSH variant, asking Gmsh
 //! what it reads from a file, the independent checker (`tests/check_mesh.py`)
 //! and the `blossomquad` binary.
@@ -7,7 +7,7 @@
 //! fail with a message saying how to install it when it is missing
 //! (`scripts/test.sh` installs it).
 
-// Each test binary uses a different subset of these helpers.
+// Each test binary uses a different subset of these functions.
 #![allow(dead_code)]
 
 use std::ffi::OsStr;

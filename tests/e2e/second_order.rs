@@ -1,4 +1,4 @@
-//! Second-order meshes (issue 12): 6-node triangles made by `gmsh -2 -order 2` in MSH 4.1
+//! Second-order meshes: 6-node triangles made by `gmsh -2 -order 2` in MSH 4.1
 //! and 2.2, ASCII and binary, recombined by the CLI into 9-node quads (8-node with
 //! `--incomplete`) and 3-node lines, checked by `tests/check_second_order.py` with Gmsh's
 //! own reader and its `minSJ` quality (no triangle left, only second-order quads and

@@ -1,4 +1,4 @@
-//! Helpers shared by the matching tests.
+//! Code shared by the matching tests.
 
 /// Small deterministic RNG (SplitMix64), so tests need no RNG crate and use fixed seeds.
 pub struct Rng(pub u64);

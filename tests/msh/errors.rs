@@ -1,4 +1,4 @@
-//! One test per bad-input class of issue 2 point 6: each gives one clear error line naming
+//! One test per class of bad input: each gives one clear error line naming
 //! the file, the section and the line (ASCII) or byte offset (binary), and never panics.
 
 use crate::msh_common;

@@ -1,4 +1,4 @@
-//! Helpers shared by the `msh_*` integration tests: corpus location, canonical mesh views
+//! Code shared by the `msh_*` integration tests: corpus location, canonical mesh views
 //! for comparisons, and Gmsh invocation.
 #![allow(dead_code)]
 

@@ -1,4 +1,4 @@
-//! The optimizer never turns a valid quad invalid (issue 11, deliverable 3): on the island
+//! The optimizer never turns a valid quad invalid: on the island
 //! domain of `corpus/island_domain.py` (an ocean-like rectangle with 60 small polygonal islands,
 //! meshed by Gmsh) and, as a property, on random planar domains with holes.
 //!
@@ -238,7 +238,7 @@ fn islands_stay_valid(size: f64, seed: u64) -> (f64, f64) {
     let worst = after.good.iter().map(|g| g.1).fold(f64::INFINITY, f64::min);
     let mean = after.good.iter().map(|g| g.1).sum::<f64>() / after.good.len() as f64;
     assert!(mean > 0.75, "seed {seed}: mean eta {mean}");
-    // issue 11: eta_w >= 0.2 wherever the input allows it (up to rounding of the angles)
+    // the goal: eta_w >= 0.2 wherever the input allows it (up to rounding of the angles)
     let allowed = 0.2_f64.min(input_bound(&read(&input)));
     assert!(
         worst >= allowed - 1e-6,

@@ -29,7 +29,7 @@ const LOCAL_GROWS: usize = 64;
 /// Grow budget of the second local pass ([`Solver::fractional_local_wide`]): on mesh
 /// graphs most of the searches the first pass abandons end within it, and each one ended
 /// there is a tree fewer in the global pass, whose dual updates visit every live tree
-/// (figures in BENCHMARKS.md, "Issue 15: a second local pass in the fractional start").
+/// (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const WIDE_GROWS: usize = 4096;
 
 /// Searches per window of the second local pass.
@@ -38,7 +38,7 @@ const WIDE_WINDOW: usize = 64;
 /// Windows in a row that end fewer than half their searches after which the second local
 /// pass stops. One is too few: on a twice-refined mesh (costs tied in large groups) a
 /// single bad window among hundreds of good ones left 115,000 trees to the global pass
-/// instead of 10,000 (figures in BENCHMARKS.md, "Issue 15: the second local pass's stop").
+/// instead of 10,000 (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const WIDE_BAD_WINDOWS: usize = 4;
 
 /// When the second local pass stops (module docs of [`Solver::fractional_local_wide`]):
