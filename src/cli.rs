@@ -686,6 +686,12 @@ fn summary_line(report: &crate::Report, mesh: &Mesh, output: &Path, seconds: f64
     if splits > 0 {
         notes.push(format!("parity repair split {splits} boundary segment(s)"));
     }
+    if report.priced_out > 0 {
+        notes.push(format!(
+            "the fallback paired the triangles of {} invalid or poor quad(s) otherwise",
+            report.priced_out
+        ));
+    }
     if let Some(f) = &report.fallback {
         notes.push(format!(
             "the fallback split {} triangle(s) into three quads each",

@@ -12,13 +12,29 @@
 //! [`Report::invalid`] instead of failing.
 //!
 //! # The fallback
-//! When quads are not valid after a run, the input triangles around each bad quad (those
-//! holding one of its input nodes) are split into three quads each before the matching
-//! ([`crate::recombine::split_triangles`]), and the whole job runs again from the input.
-//! The set grows over up to [`FALLBACK_ROUNDS`] rounds (one more ring of triangles in the
-//! second round; from the third on, every triangle of each surface that still has a bad
-//! quad).
-//! A run whose quads are all valid the first time pays only for the check.
+//! When quads are not valid after a run, the job runs again from the input, locally:
+//! 1. **Pricing.** A bad quad that two adjacent input triangles form is priced out: the
+//!    matching gives that pair the cost of three extra edges
+//!    ([`crate::recombine::RecombineOptions::priced_out`]) and solves the surface again, so
+//!    it pairs those triangles otherwise unless nothing else works. At most
+//!    [`PRICING_ROUNDS`] rounds price new quads.
+//! 2. **Splits.** When no bad quad is left to price, the input triangles around each bad
+//!    quad (those holding one of its input nodes, or the nearest one to a quad of new
+//!    nodes) are split into three quads each before the matching
+//!    ([`crate::recombine::split_triangles`]); a second split round adds one more ring (the
+//!    triangles touching those), up to [`SPLIT_RINGS`] rings.
+//! 3. **Last resort.** Quads still bad after that get every triangle of their surface split
+//!    (the splits' halved neighbours along shared curves may bring another surface there in
+//!    the next round), up to [`FALLBACK_ROUNDS`] rounds in all.
+//! 4. **The worst quad.** A valid optimized result gets up to three more tries
+//!    ([`raise_worst_quad`]): where the fallback priced quads out, the fallback with splits
+//!    only; quads under η [`ETA_FLOOR`] priced out; one ring around those still under it
+//!    split. Each is kept only when it raises the worst quad without breaking the
+//!    element-count rule.
+//!
+//! Quads still bad after the fallback are refused (or listed with
+//! [`Options::allow_invalid`]). A run whose quads are all valid the first time, with no
+//! quad under η [`ETA_FLOOR`], pays only for the check.
 
 use std::collections::HashSet;
 use std::sync::Arc;
@@ -53,11 +69,15 @@ pub(crate) fn release_memory() {
     }
 }
 
-/// Rounds of the fallback after the first run at most: 1-ring, 2-ring, then whole surfaces
-/// (the edge splits of a surface split into quads halve the triangles of its neighbours
-/// along shared curves, which may in turn need their whole surface split; every round
-/// adds triangles, and a surface split whole has no halved triangle left).
-pub const FALLBACK_ROUNDS: usize = 8;
+/// Rounds after the first run at most: the fallback's pricing and split rounds, and (without
+/// optimization) the rounds that optimize the surfaces whose matching left bad quads.
+pub const FALLBACK_ROUNDS: usize = 10;
+
+/// Fallback rounds that price out new bad quads at most (see the module doc).
+pub const PRICING_ROUNDS: usize = 2;
+
+/// Rings of input triangles around a bad quad that the fallback splits at most.
+pub const SPLIT_RINGS: usize = 2;
 
 /// The stage a [`Progress`] report is about, in pipeline order. [`quadrangulate`] reports
 /// the stages from [`Stage::Topology`] to [`Stage::Check`]; reading and writing are the
@@ -348,6 +368,9 @@ pub struct Report {
     /// Fallback splits done before the final round's recombination (empty when the first
     /// run was valid).
     pub fallback: Option<recombine::FallbackSplit>,
+    /// Quads the fallback priced out of the final round's matching (their triangles were
+    /// paired otherwise where the matching could).
+    pub priced_out: usize,
     /// Runs done (1 + fallback rounds).
     pub rounds: usize,
     /// Quads still invalid (only with [`Options::allow_invalid`]; empty otherwise).
@@ -461,9 +484,10 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         Some((m, lines)) => (m, lines.clone()),
         None => (&input, Vec::new()),
     };
-    let result = run_rounds(base, opts);
+    let result = run_rounds(base, opts, FallbackStart::default())
+        .and_then(|first| raise_worst_quad(base, opts, first));
     match result {
-        Ok((out, mut report)) => {
+        Ok((out, mut report, _)) => {
             *mesh = out;
             report.log.splice(
                 0..0,
@@ -493,10 +517,22 @@ fn moved_any(input: &Mesh, output: &Mesh, tags: &[u64]) -> bool {
     tags.iter().any(|&t| a.get(t) != b.get(t))
 }
 
-fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
+/// The rounds of one job on `input` (see the module doc), starting from `start`'s priced-out
+/// quads and split triangles; returns the result with the fallback's state at its end.
+fn run_rounds(
+    input: &Mesh,
+    opts: &Options,
+    start: FallbackStart,
+) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut times = Times::default();
     let mut log = Vec::new();
-    let mut chosen: HashSet<u64> = HashSet::new();
+    let mut chosen: HashSet<u64> = start.chosen;
+    let splits_only = start.splits_only;
+    let mut local = LocalFallback {
+        priced: start.priced,
+        pricing_rounds: if splits_only { PRICING_ROUNDS } else { 0 },
+        ..Default::default()
+    };
     let mut fallback = None;
     let mut folds: Vec<recombine::WalledFold> = Vec::new();
     // without optimization: surfaces optimized all the same because their matching left
@@ -526,7 +562,15 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
                     fallback = Some(split);
                     times.recombine += t.elapsed();
                 }
-                recombine_once(input, mesh, opts, optimizing, &mut checks, &mut times)?
+                recombine_once(
+                    input,
+                    mesh,
+                    opts,
+                    &local.priced.iter().map(|p| p.1).collect::<Vec<_>>(),
+                    optimizing,
+                    &mut checks,
+                    &mut times,
+                )?
             }
         };
         let Recombined {
@@ -608,6 +652,7 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
         }
         report.log.splice(0..0, log.iter().cloned());
         report.fallback = fallback.clone();
+        report.priced_out = local.priced.len();
         report.rounds = round + 1;
         if bad.is_empty() {
             // the nodes of walled-off folds bound walls: a result that moved one (the
@@ -616,7 +661,12 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
                 return Err(Error::Recombine(fold.refusal()));
             }
             report.times = times;
-            return Ok((mesh, report));
+            let state = FallbackStart {
+                priced: local.priced,
+                chosen,
+                splits_only,
+            };
+            return Ok((mesh, report, state));
         }
         let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
         log.push(format!(
@@ -649,8 +699,24 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
                 continue;
             }
         }
-        let more = fallback_triangles(input, &bad, &chosen, round);
-        if round == FALLBACK_ROUNDS || more.is_empty() {
+        let next = if round == FALLBACK_ROUNDS {
+            Next::GiveUp
+        } else {
+            local.next(input, &mesh, &bad, &chosen)
+        };
+        let more = match next {
+            Next::Price(quads) => {
+                log.push(format!(
+                    "fallback round {}: {} quad(s) priced out of the matching",
+                    round + 1,
+                    quads
+                ));
+                continue;
+            }
+            Next::Split(more) => more,
+            Next::GiveUp => HashSet::new(),
+        };
+        if more.is_empty() {
             if opts.allow_invalid {
                 report.log.push(format!(
                     "warning: writing {} invalid quad(s) (--allow-invalid): {}",
@@ -662,7 +728,12 @@ fn run_rounds(input: &Mesh, opts: &Options) -> Result<(Mesh, Report), Error> {
                 ));
                 report.invalid = bad;
                 report.times = times;
-                return Ok((mesh, report));
+                let state = FallbackStart {
+                    priced: local.priced,
+                    chosen,
+                    splits_only,
+                };
+                return Ok((mesh, report, state));
             }
             // a surface whose folds were walled off and whose quads are still not valid
             // is refused naming its fold
@@ -713,43 +784,349 @@ fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String {
         .join(", ")
 }
 
-/// The input triangles to split for the next round: after the first run, those of the bad
-/// quad's surface holding one of its nodes (the whole surface when none does); after the
-/// second, also those touching a node of an already chosen triangle of that surface; then
-/// every triangle of a surface with a bad quad. Only triangles not chosen yet.
+/// What the fallback does after a round with bad quads.
+enum Next {
+    /// Solve again with this many more quads priced out.
+    Price(usize),
+    /// Split these input triangles too (empty: nothing more to split).
+    Split(HashSet<u64>),
+    /// Nothing more to try.
+    GiveUp,
+}
+
+/// The fallback's state over the rounds (see the module doc): the quads priced out of the
+/// matching and the rounds spent.
+#[derive(Default)]
+struct LocalFallback {
+    /// Quads priced out: surface and sorted node tags.
+    priced: Vec<(i32, [u64; 4])>,
+    pricing_rounds: usize,
+    split_rounds: usize,
+}
+
+impl LocalFallback {
+    /// The next step after a round whose quads `bad` are not valid (`mesh` the round's
+    /// result, `chosen` the triangles split so far).
+    fn next(&mut self, input: &Mesh, mesh: &Mesh, bad: &[BadQuad], chosen: &HashSet<u64>) -> Next {
+        let spots: Vec<(i32, [u64; 4])> = bad.iter().map(|b| (b.surface, b.nodes)).collect();
+        if self.pricing_rounds < PRICING_ROUNDS {
+            let new = pairs_of(input, &spots, &self.priced);
+            if !new.is_empty() {
+                self.pricing_rounds += 1;
+                let count = new.len();
+                self.priced.extend(new);
+                return Next::Price(count);
+            }
+        }
+        self.split_rounds += 1;
+        if self.split_rounds > SPLIT_RINGS {
+            // the last resort, after the local rounds: every triangle of the surfaces that
+            // still have a bad quad (the splits' halved neighbours along shared curves may
+            // bring another surface here in the next round)
+            return Next::Split(surface_triangles(input, &spots, chosen));
+        }
+        Next::Split(fallback_triangles(
+            input,
+            mesh,
+            &spots,
+            chosen,
+            self.split_rounds,
+        ))
+    }
+}
+
+/// The fallback's state at the start (and the end) of a job's rounds: the quads priced out
+/// of the matching (sorted node tags, sorted) and the input triangles split into quads.
+#[derive(Debug, Clone, Default)]
+struct FallbackStart {
+    priced: Vec<(i32, [u64; 4])>,
+    chosen: HashSet<u64>,
+    /// Split only, never price (the fallback of the other result that
+    /// [`raise_worst_quad`] tries).
+    splits_only: bool,
+}
+
+/// Quads whose η (eq. 3) is below this are repaired after the fallback when that raises the
+/// worst quad ([`raise_worst_quad`]).
+pub const ETA_FLOOR: f64 = 0.2;
+
+/// New quads per input triangle that the repair of the worst quad may not exceed (unless
+/// the result before it did already): 0.5 when every triangle pairs with a neighbour.
+const MAX_QUADS_PER_TRIANGLE: f64 = 0.6;
+
+/// The quads of `mesh`'s surfaces with η below [`ETA_FLOOR`], as (surface, node tags), and
+/// the worst η of all its quads.
+fn low_quads(mesh: &Mesh) -> (Vec<(i32, [u64; 4])>, f64) {
+    let coords = TagCoords::new(mesh);
+    let mut low = Vec::new();
+    let mut worst = f64::INFINITY;
+    for b in mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4)
+    {
+        for i in 0..b.len() {
+            let e = b.element(i);
+            let q = [e[0], e[1], e[2], e[3]];
+            let Some(p) = q
+                .iter()
+                .map(|&t| coords.get(t).map(glam::DVec3::from_array))
+                .collect::<Option<Vec<_>>>()
+            else {
+                continue;
+            };
+            let eta = crate::quality::eta(&[p[0], p[1], p[2], p[3]]);
+            worst = worst.min(eta);
+            if eta < ETA_FLOOR {
+                low.push((b.entity_tag, q));
+            }
+        }
+    }
+    (low, worst)
+}
+
+/// New quads per input triangle of `out` against `input` (quads already in the input do
+/// not count).
+fn quads_per_triangle(input: &Mesh, out: &Mesh) -> f64 {
+    let count = |m: &Mesh, t: u32| -> usize {
+        m.element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 2 && b.element_type == t)
+            .map(|b| b.len())
+            .sum()
+    };
+    let triangles = count(input, etype::TRI3).max(1);
+    (count(out, etype::QUAD4) as f64 - count(input, etype::QUAD4) as f64) / triangles as f64
+}
+
+/// After the fallback, with optimization, other results that may have a better worst
+/// quad, each a new job kept only when it is valid, raises the worst quad's η and keeps the
+/// new quads per input triangle at most [`MAX_QUADS_PER_TRIANGLE`] (a result above it
+/// already: at most a quarter more than it has):
+/// 1. when the fallback priced quads out, the fallback with splits only (triangles split
+///    into quads around a bad quad may give better quads than the matching's way around
+///    it);
+/// 2. quads with η below [`ETA_FLOOR`] priced out;
+/// 3. one ring of input triangles around the quads still below [`ETA_FLOOR`] split.
+fn raise_worst_quad(
+    input: &Mesh,
+    opts: &Options,
+    first: (Mesh, Report, FallbackStart),
+) -> Result<(Mesh, Report, FallbackStart), Error> {
+    let mut best = first;
+    // without optimization the quads are the matching's as they are (low by design)
+    if !opts.optimize || !best.1.invalid.is_empty() {
+        return Ok(best);
+    }
+    for step in 0..3 {
+        let (low, worst) = low_quads(&best.0);
+        let mut start = best.2.clone();
+        let what = match step {
+            0 => {
+                if start.priced.is_empty() {
+                    continue;
+                }
+                start = FallbackStart {
+                    splits_only: true,
+                    ..FallbackStart::default()
+                };
+                "the fallback with splits only".to_string()
+            }
+            1 => {
+                let new = pairs_of(input, &low, &start.priced);
+                if new.is_empty() {
+                    continue;
+                }
+                let n = new.len();
+                start.priced.extend(new);
+                format!("{n} quad(s) under eta {ETA_FLOOR} priced out")
+            }
+            _ => {
+                let more = fallback_triangles(input, &best.0, &low, &start.chosen, 1);
+                if low.is_empty() || more.is_empty() {
+                    continue;
+                }
+                let n = more.len();
+                start.chosen.extend(more);
+                format!("{n} triangle(s) around quads under eta {ETA_FLOOR} split")
+            }
+        };
+        let Ok(candidate) = run_rounds(input, opts, start) else {
+            continue;
+        };
+        if !candidate.1.invalid.is_empty() {
+            continue;
+        }
+        let (_, new_worst) = low_quads(&candidate.0);
+        // a result above the element-count rule already may grow by a quarter
+        let before = quads_per_triangle(input, &best.0);
+        let limit = if before <= MAX_QUADS_PER_TRIANGLE {
+            MAX_QUADS_PER_TRIANGLE
+        } else {
+            1.25 * before
+        };
+        if new_worst > worst + 1e-3 && quads_per_triangle(input, &candidate.0) <= limit {
+            let mut kept = candidate;
+            kept.1.log.splice(
+                0..0,
+                best.1.log.iter().cloned().chain(std::iter::once(format!(
+                    "worst quad: {what}: eta_w {worst:.3} -> {new_worst:.3}"
+                ))),
+            );
+            kept.1.times = add_times(&best.1.times, &kept.1.times);
+            best = kept;
+        } else {
+            best.1.times = add_times(&best.1.times, &candidate.1.times);
+        }
+    }
+    Ok(best)
+}
+
+/// The stage times of two jobs added.
+fn add_times(a: &Times, b: &Times) -> Times {
+    Times {
+        recombine: a.recombine + b.recombine,
+        refine: a.refine + b.refine,
+        optimize: a.optimize + b.optimize,
+        check: a.check + b.check,
+        second_order: a.second_order + b.second_order,
+    }
+}
+
+/// Every triangle of `input` on the surfaces of `spots`, without those already `chosen`.
+fn surface_triangles(
+    input: &Mesh,
+    spots: &[(i32, [u64; 4])],
+    chosen: &HashSet<u64>,
+) -> HashSet<u64> {
+    let surfaces: HashSet<i32> = spots.iter().map(|s| s.0).collect();
+    input
+        .element_blocks
+        .iter()
+        .filter(|b| {
+            b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
+        })
+        .flat_map(|b| b.tags.iter().copied())
+        .filter(|t| !chosen.contains(t))
+        .collect()
+}
+
+/// The quads of `spots` (surface, node tags), as (surface, sorted node tags), that two
+/// adjacent triangles of `input` on the same surface form, and that `priced` does not hold
+/// yet.
+fn pairs_of(
+    input: &Mesh,
+    spots: &[(i32, [u64; 4])],
+    priced: &[(i32, [u64; 4])],
+) -> Vec<(i32, [u64; 4])> {
+    let surfaces: HashSet<i32> = spots.iter().map(|s| s.0).collect();
+    let mut triangles: HashSet<(i32, [u64; 3])> = HashSet::new();
+    for b in input.element_blocks.iter().filter(|b| {
+        b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
+    }) {
+        for i in 0..b.len() {
+            let mut t = [0u64; 3];
+            t.copy_from_slice(b.element(i));
+            t.sort_unstable();
+            triangles.insert((b.entity_tag, t));
+        }
+    }
+    let mut out = Vec::new();
+    for &(surface, n) in spots {
+        let mut sorted = n;
+        sorted.sort_unstable();
+        if priced.contains(&(surface, sorted)) || out.contains(&(surface, sorted)) {
+            continue;
+        }
+        // the two triangles of a diagonal (nodes 0-2 or 1-3 of the quad)
+        let halves = |a: [u64; 3], b: [u64; 3]| {
+            let (mut a, mut b) = (a, b);
+            a.sort_unstable();
+            b.sort_unstable();
+            triangles.contains(&(surface, a)) && triangles.contains(&(surface, b))
+        };
+        if halves([n[0], n[1], n[2]], [n[0], n[2], n[3]])
+            || halves([n[1], n[2], n[3]], [n[1], n[3], n[0]])
+        {
+            out.push((surface, sorted));
+        }
+    }
+    out
+}
+
+/// The input triangles to split after a round with bad quads `spots` (surface, node tags;
+/// `mesh` the round's result):
+/// on each bad quad's surface, the triangles holding one of its nodes (or, for a quad none
+/// of whose nodes an input triangle holds, the input triangle nearest to its centre), and
+/// from the second ring on also those touching a triangle split before; without those
+/// already `chosen`.
 fn fallback_triangles(
     input: &Mesh,
-    bad: &[BadQuad],
+    mesh: &Mesh,
+    spots: &[(i32, [u64; 4])],
     chosen: &HashSet<u64>,
-    round: usize,
+    ring: usize,
 ) -> HashSet<u64> {
-    let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+    let surfaces: HashSet<i32> = spots.iter().map(|s| s.0).collect();
     let tri_blocks = || {
         input.element_blocks.iter().filter(|b| {
             b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
         })
     };
-    let mut out = HashSet::new();
-    if round >= 2 {
-        for b in tri_blocks() {
-            out.extend(b.tags.iter().copied().filter(|t| !chosen.contains(t)));
-        }
-        return out;
-    }
-    let mut near: HashSet<(i32, u64)> = bad
+    let mut near: HashSet<(i32, u64)> = spots
         .iter()
-        .flat_map(|b| b.nodes.iter().map(move |&n| (b.surface, n)))
+        .flat_map(|&(s, q)| q.into_iter().map(move |n| (s, n)))
         .collect();
-    let mut uncovered: HashSet<i32> = surfaces.clone();
-    for b in tri_blocks() {
-        for i in 0..b.len() {
-            let e = b.element(i);
-            if e.iter().any(|&n| near.contains(&(b.entity_tag, n))) {
-                uncovered.remove(&b.entity_tag);
+    // quads none of whose nodes an input triangle of their surface holds (made of new
+    // nodes): the nearest input triangle to their centre stands for them
+    let held: HashSet<(i32, u64)> = tri_blocks()
+        .flat_map(|b| {
+            b.nodes
+                .iter()
+                .filter(|&&n| near.contains(&(b.entity_tag, n)))
+                .map(move |&n| (b.entity_tag, n))
+        })
+        .collect();
+    let orphans: Vec<&(i32, [u64; 4])> = spots
+        .iter()
+        .filter(|(s, q)| !q.iter().any(|&n| held.contains(&(*s, n))))
+        .collect();
+    if !orphans.is_empty() {
+        let out_index = mesh.node_index();
+        let in_index = input.node_index();
+        let at = |m: &Mesh, index: &crate::mesh::NodeIndex, t: u64| {
+            index
+                .get(t)
+                .map(|r| m.node_blocks[r.block as usize].coords[r.index as usize])
+        };
+        for &(surface, q) in orphans {
+            let pts: Vec<[f64; 3]> = q.iter().filter_map(|&t| at(mesh, &out_index, t)).collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let c = centre(&pts);
+            let mut best: Option<(f64, [u64; 3])> = None;
+            for b in tri_blocks().filter(|b| b.entity_tag == surface) {
+                for i in 0..b.len() {
+                    let e = b.element(i);
+                    let corners: Vec<[f64; 3]> =
+                        e.iter().filter_map(|&t| at(input, &in_index, t)).collect();
+                    if corners.len() != 3 {
+                        continue;
+                    }
+                    let m = centre(&corners);
+                    let d = (0..3).map(|k| (m[k] - c[k]).powi(2)).sum::<f64>();
+                    if best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, [e[0], e[1], e[2]]));
+                    }
+                }
+            }
+            if let Some((_, t)) = best {
+                near.extend(t.iter().map(|&n| (surface, n)));
             }
         }
     }
-    if round >= 1 {
+    if ring >= 2 {
         for b in tri_blocks() {
             for i in 0..b.len() {
                 if chosen.contains(&b.tags[i]) {
@@ -758,21 +1135,32 @@ fn fallback_triangles(
             }
         }
     }
+    let mut out = HashSet::new();
     for b in tri_blocks() {
         for i in 0..b.len() {
             let t = b.tags[i];
-            let whole = uncovered.contains(&b.entity_tag);
             if !chosen.contains(&t)
-                && (whole
-                    || b.element(i)
-                        .iter()
-                        .any(|&n| near.contains(&(b.entity_tag, n))))
+                && b.element(i)
+                    .iter()
+                    .any(|&n| near.contains(&(b.entity_tag, n)))
             {
                 out.insert(t);
             }
         }
     }
     out
+}
+
+/// The mean of `points`.
+fn centre(points: &[[f64; 3]]) -> [f64; 3] {
+    let n = points.len().max(1) as f64;
+    let mut c = [0.0; 3];
+    for p in points {
+        for k in 0..3 {
+            c[k] += p[k] / n;
+        }
+    }
+    c
 }
 
 /// The input side of the final checks: the validity reference, and the invariants'
@@ -817,10 +1205,12 @@ struct Recombined {
 /// refine it, the optimizer's reference prepared on its own thread meanwhile when
 /// `optimizing`, and the input side of the checks too when they are missing and the
 /// optimizer will not run.
+#[allow(clippy::too_many_arguments)]
 fn recombine_once<'a>(
     input: &'a Mesh,
     mut mesh: Mesh,
     opts: &Options,
+    priced_out: &[[u64; 4]],
     optimizing: bool,
     checks: &mut Option<Checks<'a>>,
     times: &mut Times,
@@ -833,6 +1223,7 @@ fn recombine_once<'a>(
         harmonic_cross_field: opts.harmonic_cross_field,
         // the fallback's edge-split nodes (tags above the input's) are split nodes too
         split_nodes_from: Some(input.max_node_tag() + 1),
+        priced_out: priced_out.to_vec(),
         trace: opts.trace.clone(),
         progress: opts.progress.clone(),
         // `quadrangulate` removed them from `input` (the fallback's splits add none)

@@ -61,6 +61,16 @@ pub fn split_halves_cost(n: usize) -> i64 {
     2 * e + e / 2
 }
 
+/// Cost, in a graph of `n` triangles, of a pair priced out by the fallback
+/// ([`super::RecombineOptions::priced_out`]: its quad was not valid after optimization):
+/// three extra edges ([`extra_edge_cost`]), at most 3 · 2³⁸ < 2⁴⁰. The matching takes up to
+/// two more extra edges (whose quads optimization repairs) or merged split halves
+/// ([`split_halves_cost`]) to avoid it, and still has a perfect matching when nothing else
+/// works.
+pub fn priced_out_cost(n: usize) -> i64 {
+    3 * extra_edge_cost(n)
+}
+
 /// Cost (eq. 4) of merging `t` with its neighbour across local edge `k`: `1 − η_s` of the
 /// merged quad with angles measured in 3D about the sum of the two triangles' normals.
 ///

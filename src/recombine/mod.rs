@@ -185,8 +185,8 @@ pub use fallback::{split_triangles, FallbackSplit};
 pub use geometry::FIXED_CORNER_MIN_ETA;
 #[doc(hidden)]
 pub use graph::{
-    bad_extra_edge_cost, extra_edge_cost, split_halves_cost, COST_SCALE, HOPELESS_COST,
-    MAX_REAL_COST,
+    bad_extra_edge_cost, extra_edge_cost, priced_out_cost, split_halves_cost, COST_SCALE,
+    HOPELESS_COST, MAX_REAL_COST,
 };
 pub use invariants::{check_invariants, Before, EdgeSet, InvariantViolation};
 
@@ -236,6 +236,11 @@ pub struct RecombineOptions {
     /// triangle split there cost [`split_halves_cost`] to merge back): the pipeline's
     /// fallback sets it to the first tag its edge splits used. `None`: parity splits only.
     pub split_nodes_from: Option<u64>,
+    /// Quads the matching should avoid, each as its four node tags sorted: a graph edge
+    /// whose two triangles form one of them costs [`priced_out_cost`] (three extra edges).
+    /// The pipeline's fallback sets it to the quads that were not valid after
+    /// optimization; tags that are not nodes, or quads no pair forms, are ignored.
+    pub priced_out: Vec<[u64; 4]>,
     /// Where stage times and matching graphs go (see [`crate::profile`]); `None`: nowhere.
     pub trace: Option<crate::profile::Trace>,
     /// Where the progress of the stages [`crate::Stage::Topology`], [`crate::Stage::Graph`]
@@ -257,6 +262,7 @@ impl Default for RecombineOptions {
             cross_field_weight: 0.0,
             harmonic_cross_field: false,
             split_nodes_from: None,
+            priced_out: Vec::new(),
             trace: None,
             progress: None,
             repeated_dropped: false,
@@ -302,6 +308,10 @@ pub struct SurfaceReport {
     pub vertex_duplications: usize,
     /// Matching cost in units of 1/[`COST_SCALE`] (extra edges included).
     pub matching_cost: i64,
+    /// Graph edges priced out ([`RecombineOptions::priced_out`]).
+    pub pairs_priced_out: usize,
+    /// Of those, the ones the optimal matching still uses.
+    pub priced_out_used: usize,
     /// Time to build topology and graph.
     pub time_graph: Duration,
     /// Time in the matching solver (and certificate check).
@@ -582,6 +592,23 @@ pub fn recombine(
             }
             split_nodes.sort_unstable();
             let split_nodes = &split_nodes;
+            // the priced-out quads as sorted node ids (quads naming an unknown node are
+            // no pair's)
+            let mut priced: Vec<[u32; 4]> = opts
+                .priced_out
+                .iter()
+                .filter_map(|q| {
+                    let mut ids = [0u32; 4];
+                    for (id, &t) in ids.iter_mut().zip(q) {
+                        *id = nodes.id(t)?;
+                    }
+                    ids.sort_unstable();
+                    Some(ids)
+                })
+                .collect();
+            priced.sort_unstable();
+            priced.dedup();
+            let priced = &priced;
             // memory: the graphs and the matchings read only the coordinates; the rest of
             // the node table (tags, blocks, tag index) is built again for the write back
             // (the nodes do not change in between)
@@ -598,7 +625,17 @@ pub fn recombine(
             });
             let results: Result<Vec<SurfaceResult>, RecombineError> = work
                 .par_iter()
-                .map(|w| match_surface(w, coords, split_nodes, n_global, opts, tracker.as_ref()))
+                .map(|w| {
+                    match_surface(
+                        w,
+                        coords,
+                        split_nodes,
+                        priced,
+                        n_global,
+                        opts,
+                        tracker.as_ref(),
+                    )
+                })
                 .collect();
             if let Some(t) = &tracker {
                 t.emit();

@@ -147,6 +147,7 @@ pub(super) fn match_surface(
     w: &SurfaceWork,
     coords: &[glam::DVec3],
     split_nodes: &[u32],
+    priced: &[[u32; 4]],
     n_global: u32,
     opts: &RecombineOptions,
     tracker: Option<&Arc<Tracker>>,
@@ -162,6 +163,7 @@ pub(super) fn match_surface(
         opts.extra_edges,
         opts.trace.as_ref(),
     );
+    let priced_edges = price_out(&w.topo, &mut g, priced);
     let time_graph = w.time + t0.elapsed();
     if let Some(trace) = &opts.trace {
         trace.emit(&TraceEvent::MatchingGraph {
@@ -241,11 +243,40 @@ pub(super) fn match_surface(
         edge_swaps: faces.swaps,
         vertex_duplications: faces.duplications,
         matching_cost: m.cost,
+        pairs_priced_out: priced_edges.len(),
+        priced_out_used: priced_edges
+            .iter()
+            .filter(|&&(t, u)| m.mate[t as usize] == u)
+            .count(),
         time_graph,
         time_matching,
         time_post: t2.elapsed(),
     };
     Ok(SurfaceResult { faces, report })
+}
+
+/// Gives every real graph edge of `g` whose quad (the union of its two triangles, as
+/// sorted node ids) is in `priced` (sorted) the cost [`graph::priced_out_cost`]; returns
+/// those edges' triangles.
+fn price_out(topo: &SurfaceTopo, g: &mut graph::Graph, priced: &[[u32; 4]]) -> Vec<(u32, u32)> {
+    let mut out = Vec::new();
+    if priced.is_empty() {
+        return out;
+    }
+    let cost = graph::priced_out_cost(topo.len());
+    for e in &mut g.edges[..g.real] {
+        let (a, b) = (topo.tris[e.0 as usize], topo.tris[e.1 as usize]);
+        let Some(&far) = b.iter().find(|v| !a.contains(v)) else {
+            continue;
+        };
+        let mut q = [a[0], a[1], a[2], far];
+        q.sort_unstable();
+        if priced.binary_search(&q).is_ok() {
+            e.2 = e.2.max(cost);
+            out.push((e.0, e.1));
+        }
+    }
+    out
 }
 
 /// The progress of the graphs and matchings of all surfaces, which run side by side (see

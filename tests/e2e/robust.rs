@@ -24,12 +24,6 @@ use std::sync::Mutex;
 /// is a refused-input fixture, `tests/data/quirks/v41_occ_sharp_cone_folded.msh`.)
 const KNOWN_FAILING: &[(&str, &str, &str)] = &[
     (
-        "periodic_prism_odd:*",
-        "is periodic",
-        "parity repair and the fallback split the master's and the slave's boundaries \
-         differently, so the slave is no longer the master's image",
-    ),
-    (
         "second_order_plate:msh41",
         "fixed_nodes",
         "second order without line elements: mid-edge input nodes of curve segments that \

@@ -17,4 +17,5 @@ mod gmsh;
 mod optimal;
 mod parity;
 mod parity_property;
+mod priced;
 mod random;
