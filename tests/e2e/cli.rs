@@ -181,6 +181,42 @@ fn geo_file_given_by_mistake_is_exit_1() {
     assert!(!out.exists());
 }
 
+/// An MSH 1 file (and one of a version the reader does not know) is refused with exit 1 in
+/// one line naming the version and the Gmsh command that re-saves it, for the main job and
+/// for `info`; nothing is written.
+#[test]
+fn an_msh1_file_is_named_with_the_way_out() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let old = dir.path().join("old.msh");
+    std::fs::write(
+        &old,
+        "$NOD\n4\n1 0 0 0\n2 1 0 0\n3 1 1 0\n4 0 1 0\n$ENDNOD\n\
+         $ELM\n2\n1 2 1 1 3 1 2 3\n2 2 1 1 3 1 3 4\n$ENDELM\n",
+    )
+    .expect("write input");
+    let v3 = dir.path().join("v3.msh");
+    std::fs::write(&v3, "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n").expect("write input");
+    let out = dir.path().join("out.msh");
+    for (input, version) in [(&old, "MSH version 1 "), (&v3, "MSH version 3.0 ")] {
+        for args in [
+            vec![input.as_os_str(), "-o".as_ref(), out.as_os_str()],
+            vec!["info".as_ref(), input.as_os_str()],
+        ] {
+            let (code, _, stderr) = blossomquad_run(args);
+            assert_eq!(code, Some(1), "{stderr}");
+            assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+            assert!(
+                stderr.contains(version)
+                    && stderr.contains("is not supported")
+                    && stderr.contains("gmsh IN -0 -format msh41 -o OUT.msh (or -format msh22)"),
+                "{stderr}"
+            );
+            assert!(!stderr.contains("truncated"), "{stderr}");
+        }
+    }
+    assert!(!out.exists());
+}
+
 #[test]
 fn usage_errors_are_exit_2() {
     let shipped = geo_dir().join("rectangle.msh");
