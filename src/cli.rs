@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use crate::mesh::{Mesh, MshFormat, MshVersion};
+use crate::mesh::{etype, Mesh, MshFormat, MshVersion};
 use crate::{msh, quality, recombine};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
@@ -565,6 +565,8 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         .map_or(Ok(()), Err)
         .inspect_err(|_| finish())?;
 
+    // the summary counts the input's triangles, as `info` does (parity repair adds some)
+    let triangles = input_triangles(&mesh);
     let mut opts = crate::Options {
         parity: match args.parity {
             ParityArg::Repair => recombine::ParityMode::Repair,
@@ -631,7 +633,7 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     }
     if !quiet {
         let seconds = t0.elapsed().as_secs_f64();
-        log.say(summary_line(&report, &mesh, &output, seconds));
+        log.say(summary_line(&report, triangles, &mesh, &output, seconds));
     }
     Ok(())
 }
@@ -661,17 +663,27 @@ fn nothing_to_recombine(mesh: &Mesh) -> Option<String> {
     })
 }
 
-/// The line a run ends with: surfaces, triangles -> quads, the quads' worst and mean η
-/// (eq. 3), what changed besides the pairing (parity repair, fallback, refinement), where
-/// the mesh went and the whole run's time.
-fn summary_line(report: &crate::Report, mesh: &Mesh, output: &Path, seconds: f64) -> String {
-    let surfaces = report.recombine.surfaces.len();
-    let triangles: usize = report
-        .recombine
-        .surfaces
+/// The triangles (3- or 6-node) on the surfaces of `mesh`: the count `info` reports for
+/// the input, before parity repair or the fallback split any.
+fn input_triangles(mesh: &Mesh) -> usize {
+    mesh.element_blocks
         .iter()
-        .map(|s| s.triangles_in)
-        .sum();
+        .filter(|b| b.entity_dim == 2 && matches!(b.element_type, etype::TRI3 | etype::TRI6))
+        .map(|b| b.len())
+        .sum()
+}
+
+/// The line a run ends with: surfaces, the input's `triangles` -> quads, the quads' worst
+/// and mean η (eq. 3), what changed besides the pairing (parity repair, fallback,
+/// refinement), where the mesh went and the whole run's time.
+fn summary_line(
+    report: &crate::Report,
+    triangles: usize,
+    mesh: &Mesh,
+    output: &Path,
+    seconds: f64,
+) -> String {
+    let surfaces = report.recombine.surfaces.len();
     let etas = quality::quad_etas(mesh);
     let quads = etas.len();
     let quality = if quads > 0 {

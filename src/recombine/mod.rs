@@ -649,8 +649,12 @@ pub fn recombine(
     tm.lap("write back");
     for r in &results {
         let s = &r.report;
+        let after_splits = match s.parity_splits {
+            0 => String::new(),
+            k => format!(" (after {k} parity split(s))"),
+        };
         report.log.push(format!(
-            "surface {}: {} triangles -> {} quads (cost {}, {} extra edges used, {} edge swaps, {} vertex duplications)",
+            "surface {}: {} triangles{after_splits} -> {} quads (cost {}, {} extra edges used, {} edge swaps, {} vertex duplications)",
             s.surface, s.triangles_in, s.quads_out, s.matching_cost, s.extra_edges_used, s.edge_swaps, s.vertex_duplications
         ));
     }

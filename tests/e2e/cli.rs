@@ -103,6 +103,35 @@ fn info_reports_odd_surfaces_in_every_variant() {
     }
 }
 
+/// The summary counts the input's triangles, the count `info` gives, also when parity
+/// repair splits boundary segments (which add triangles); the splits are reported apart.
+#[test]
+fn the_summary_counts_the_triangles_info_counts() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let msh = generate("even_curves", Variant::Msh41Ascii, dir.path(), 1.0, &[]);
+    let counts: Vec<u64> = info(&msh)
+        .lines()
+        .filter_map(|l| l.split("triangle count ").nth(1))
+        .filter_map(|rest| rest.split_whitespace().next()?.parse().ok())
+        .collect();
+    assert_eq!(counts.len(), 3, "{}", info(&msh));
+    assert!(
+        counts.iter().any(|n| n % 2 == 1),
+        "{counts:?}: no odd surface"
+    );
+    let total: u64 = counts.iter().sum();
+    let out = dir.path().join("out.msh");
+    let err = main_job_stderr(&[msh.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    assert!(
+        err.starts_with(&format!("3 surfaces, {total} triangles -> ")),
+        "info counts {total}: {err}"
+    );
+    assert!(
+        err.contains("; parity repair split 2 boundary segment(s)"),
+        "{err}"
+    );
+}
+
 #[test]
 fn quality_of_triangle_input_and_of_our_quads() {
     let dir = tempfile::tempdir().expect("temp dir");
