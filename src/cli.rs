@@ -135,6 +135,11 @@ struct RunArgs {
     /// Skip the whole optimization (smoothing and topology).
     #[arg(long)]
     no_optimize: bool,
+    /// Optimize the surfaces that hold no triangle in the input (all quads already, e.g. a
+    /// transfinite or extruded surface with Recombine) like the others. Without it they are
+    /// written as read: nodes, coordinates and quads unchanged.
+    #[arg(long)]
+    smooth_quads: bool,
     /// Write the mesh even when some quads are not valid (a corner not strictly between 0
     /// and 180 degrees, a zero-length edge) after the fallback, listing them as warnings;
     /// without it such a mesh is refused (exit 1) and nothing is written.
@@ -580,6 +585,7 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         smooth: args.smooth,
         topology: !args.no_topology,
         optimize: !args.no_optimize,
+        smooth_quads: args.smooth_quads,
         allow_invalid: args.allow_invalid,
         incomplete: args.incomplete,
         keep_tags: args.keep_tags,

@@ -283,6 +283,13 @@ pub struct Options {
     /// they are dropped with a warning; the CLI's `--quality-view` encodes them for the
     /// format it writes).
     pub quality_view: bool,
+    /// Optimize the surfaces that hold no triangle in the input (already all quads, as Gmsh's
+    /// recombination, a transfinite or an extruded surface with `Recombine` leave them)
+    /// like the others. By default they are written as read: their nodes (coordinates and
+    /// parametric coordinates) and quads, in their order, unless parity repair or the
+    /// fallback splits a curve segment they share with a triangle surface (their quads
+    /// along it are then split too, to stay conforming).
+    pub smooth_quads: bool,
     /// Keep the input's node and element tags exactly, gaps and all; by default the result
     /// is numbered 1..N without gaps, as Gmsh numbers its files ([`crate::renumber`]).
     pub keep_tags: bool,
@@ -313,6 +320,7 @@ impl Default for Options {
             allow_invalid: false,
             incomplete: false,
             quality_view: false,
+            smooth_quads: false,
             keep_tags: false,
             tag_map: false,
             progress: None,
@@ -949,7 +957,7 @@ fn optimize_once<'a>(
     let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
     // periodic surfaces keep the matching's quads (master and slave stay images of
     // each other, node for node)
-    let mut periodic: Vec<i32> = mesh
+    let mut skip: Vec<i32> = mesh
         .periodic
         .iter()
         .filter(|p| p.dim == 2)
@@ -957,16 +965,25 @@ fn optimize_once<'a>(
         .collect();
     if !opts.optimize {
         // only the surfaces in `force`
-        periodic.extend(
+        skip.extend(
             mesh.element_blocks
                 .iter()
                 .filter(|b| b.entity_dim == 2 && !force.contains(&b.entity_tag))
                 .map(|b| b.entity_tag),
         );
     }
-    periodic.sort_unstable();
-    periodic.dedup();
-    oopts.skip = &periodic;
+    if !opts.smooth_quads {
+        // the surfaces the user meshed with quads alone stay as read (those in `force`
+        // excepted: without `optimize`, the ones the checks found not valid)
+        skip.extend(
+            quad_only_surfaces(input)
+                .into_iter()
+                .filter(|s| !force.contains(s)),
+        );
+    }
+    skip.sort_unstable();
+    skip.dedup();
+    oopts.skip = &skip;
     // memory: the input side of the final checks is prepared while the optimizer runs
     // (its arrays are then live anyway), not during the matching
     let want_checks = checks.is_none();
@@ -995,6 +1012,16 @@ fn optimize_once<'a>(
     report.optimize = Some(orep);
     times.optimize += t.elapsed();
     Ok(())
+}
+
+/// The surfaces of `mesh` with 4-node quads and no 3-node triangle: meshed with quads
+/// alone, they have nothing to recombine.
+fn quad_only_surfaces(mesh: &Mesh) -> Vec<i32> {
+    let with = |t: u32| mesh.sorted_surfaces(|b| b.element_type == t && !b.is_empty());
+    let triangles = with(etype::TRI3);
+    let mut quads = with(etype::QUAD4);
+    quads.retain(|s| triangles.binary_search(s).is_err());
+    quads
 }
 
 #[cfg(test)]

@@ -42,6 +42,7 @@ _OPTIONS = {
     "smooth": "smooth",
     "topology": "topology",
     "optimize": "optimize",
+    "smooth_quads": "smooth_quads",
     "verify": "verify",
     "drop_volumes": "drop_volumes",
     "allow_invalid": "allow_invalid",
@@ -95,7 +96,8 @@ def recombine_file(
     entity; nodes and elements are numbered 1..N without gaps, as Gmsh numbers its files,
     keeping their order). Options as the command line's flags: ``parity`` ('repair' or
     'error'), ``cross_field`` (float), ``harmonic_cross_field``, ``refine`` (0-3), ``smooth``
-    (sweeps), ``topology``, ``optimize``, ``verify``, ``drop_volumes``, ``allow_invalid``,
+    (sweeps), ``topology``, ``optimize``, ``smooth_quads`` (optimize the surfaces that hold
+    no triangle in the input too; by default they are written as read), ``verify``, ``drop_volumes``, ``allow_invalid``,
     ``incomplete``, ``keep_tags`` (keep the input's node and element tags exactly, gaps and
     all), ``tag_map`` (the report's ``renumber["map"]`` gives ``nodes`` and ``elements``:
     ``[input tag, output tag]`` of every kept one), and ``quality_view`` (adds the "eta", "scaled jacobian" and "valence"

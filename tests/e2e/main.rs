@@ -19,4 +19,5 @@ mod recombine;
 mod refine;
 mod robust;
 mod second_order;
+mod user_quads;
 mod validity;
