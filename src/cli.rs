@@ -340,9 +340,14 @@ fn progress_bar(quiet: bool) -> Option<indicatif::ProgressBar> {
 /// The progress line's template: [`progress_line`], then the elapsed time.
 const PROGRESS_TEMPLATE: &str = "{msg}  {elapsed}";
 
-/// Shows `p` on the progress line.
+/// Shows `p` on the progress line. The reports that start or end a stage are drawn at
+/// once, so every stage shows 0% and 100% (the others are drawn at most 20 times a second,
+/// and one that comes too soon after the last drawn is left to the next).
 fn show_progress(b: &indicatif::ProgressBar, p: &crate::Progress) {
     b.set_message(progress_line(p));
+    if p.done == 0 || p.done == p.total {
+        b.force_draw();
+    }
 }
 
 /// The progress line of `p` (see [`progress_bar`]).

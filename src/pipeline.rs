@@ -113,7 +113,8 @@ impl Stage {
 /// only optimizes the surfaces whose matching left quads that are not valid starts again
 /// from [`Stage::Optimize`]): within a round, stages come in [`Stage`]
 /// order; within a stage `done` never decreases and `done <= total`, `total > 0`; each stage
-/// a round goes through ends with a report where `done == total`. Reports are throttled (a
+/// a round goes through starts with a report where `done == 0` and ends with one where
+/// `done == total`. Reports are throttled (a
 /// few hundred per call at most, whatever the mesh size), so a callback may redraw on each.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[non_exhaustive]
@@ -187,8 +188,9 @@ impl PartialEq for ProgressFn {
 }
 
 /// Where the stages send their progress: forwards to a [`ProgressFn`] only what keeps the
-/// promises of [`Progress`] (stage order, `done` not decreasing) and what moved by at least
-/// 1/[`Reporter::STEPS`] of the stage since the last report, or ends it; one call at a time,
+/// promises of [`Progress`] (stage order, `done` not decreasing, a stage's reports from 0 to
+/// `total`) and what moved by at least 1/[`Reporter::STEPS`] of the stage since the last
+/// report, or ends it; one call at a time,
 /// so reports from several threads arrive in order. A report of [`Stage::Topology`] at 0,
 /// or of any stage at 0 after a finished [`Stage::Check`], starts a new round.
 struct Reporter {
@@ -216,6 +218,8 @@ impl Reporter {
         let Ok(mut last) = self.last.lock() else {
             return;
         };
+        // a stage's first report forwarded: preceded by one at 0 when it is past 0
+        let mut starts = true;
         if let Some(l) = *last {
             // a fallback round starts again from the first stage, and a round that only
             // optimizes more surfaces (without `optimize`) from the optimizer, once the
@@ -225,6 +229,7 @@ impl Reporter {
             if p.stage < l.stage && !restart {
                 return;
             }
+            starts = p.stage != l.stage;
             if p.stage == l.stage {
                 let ended = p.done == p.total && l.done < l.total;
                 let moved = (p.fraction() - l.fraction()) * Self::STEPS as f64 >= 1.0;
@@ -242,6 +247,15 @@ impl Reporter {
                     ..l
                 });
             }
+        }
+        if starts && p.done > 0 {
+            // a stage starts at 0 (its first units may have been done before it is
+            // reported, such as surfaces matched while another's graph was built)
+            (self.f.0)(Progress {
+                done: 0,
+                surfaces_done: 0,
+                ..p
+            });
         }
         *last = Some(p);
         (self.f.0)(p);
@@ -1032,8 +1046,13 @@ mod tests {
     /// Every report of one `quadrangulate` of the repository's rectangle (1792 triangles,
     /// one surface).
     fn reports(opts: Options) -> (Vec<Progress>, Report) {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("geo/rectangle.msh");
-        let mut mesh = crate::msh::read_file(&path).expect("geo/rectangle.msh");
+        reports_of("geo/rectangle.msh", opts)
+    }
+
+    /// Every report of one `quadrangulate` of the repository's file `path`.
+    fn reports_of(path: &str, opts: Options) -> (Vec<Progress>, Report) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
+        let mut mesh = crate::msh::read_file(&path).expect("a mesh of the repository");
         let seen = Arc::new(Mutex::new(Vec::new()));
         let sink = Arc::clone(&seen);
         let opts = Options {
@@ -1099,6 +1118,48 @@ mod tests {
         assert!(optimize >= 4, "{seen:?}");
         // throttled: far fewer reports than triangles
         assert!(seen.len() < 400, "{} reports", seen.len());
+    }
+
+    /// `seen` cut where the stage changes: each stretch is one stage of one round.
+    fn stretches(seen: &[Progress]) -> Vec<&[Progress]> {
+        seen.chunk_by(|a, b| a.stage == b.stage).collect()
+    }
+
+    #[test]
+    fn every_stage_moves_from_0_to_1() {
+        // one surface; twelve surfaces matched side by side (a surface's matching may be
+        // done before the last graph is, so the matching stage starts past 0 unless the
+        // reporter says 0 first); refinement and a fallback round
+        for (path, opts) in [
+            ("geo/rectangle.msh", Options::default()),
+            (
+                "geo/rectangle.msh",
+                Options {
+                    refine: 1,
+                    ..Options::default()
+                },
+            ),
+            (
+                "tests/data/cad/v22_fillet_box_own_jacobian.msh",
+                Options::default(),
+            ),
+        ] {
+            let (seen, _) = reports_of(path, opts);
+            let runs = stretches(&seen);
+            assert!(runs.len() >= 5, "{path}: {seen:?}");
+            for run in runs {
+                let stage = run[0].stage;
+                assert_eq!(run[0].done, 0, "{path}: {stage:?} starts past 0: {run:?}");
+                for w in run.windows(2) {
+                    assert!(w[0].fraction() <= w[1].fraction(), "{path}: {w:?}");
+                }
+                let last = run[run.len() - 1];
+                assert_eq!(
+                    last.done, last.total,
+                    "{path}: {stage:?} ends short: {run:?}"
+                );
+            }
+        }
     }
 
     #[test]
@@ -1170,6 +1231,7 @@ mod tests {
                 (Stage::Graph, 0),
                 (Stage::Graph, 500),
                 (Stage::Graph, 1000),
+                (Stage::Matching, 0), // a stage starts at 0
                 (Stage::Matching, 10),
                 (Stage::Matching, 1000),
                 (Stage::Topology, 0),

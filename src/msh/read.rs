@@ -89,13 +89,15 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
     read_with_progress(d, file, &mut |_, _| {})
 }
 
-/// [`read`], calling `progress(bytes parsed, bytes in all)` at each section and every
-/// [`v4::TICK_LINES`] lines of an ASCII node or element section.
+/// [`read`], calling `progress(bytes parsed, bytes in all)` with 0 first, then at each
+/// section and every [`v4::TICK_LINES`] lines of an ASCII node or element section, and
+/// with both equal once the mesh is read.
 pub(crate) fn read_with_progress(
     d: &[u8],
     file: &str,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Mesh, MshError> {
+    progress(0, d.len() as u64);
     if d.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(MshError::new(file, ErrorKind::Empty));
     }

@@ -773,7 +773,7 @@ fn a_mesh_with_nothing_to_recombine_says_so() {
 }
 
 /// Reading and writing report progress as they go on a big file (several megabytes):
-/// values that grow, some strictly between start and end, the last one complete.
+/// values that grow from 0, some strictly between start and end, the last one complete.
 #[test]
 fn reading_and_writing_report_progress_on_big_files() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -806,6 +806,7 @@ fn reading_and_writing_report_progress_on_big_files() {
             "{what}: {calls:?}"
         );
         assert!(calls.iter().all(|&(d, t)| d <= t), "{what}: {calls:?}");
+        assert_eq!(calls.first().map(|c| c.0), Some(0), "{what}: {calls:?}");
         assert_eq!(calls.last(), Some(&(size, size)), "{what}: {calls:?}");
         let inside = calls.iter().filter(|&&(d, t)| d > 0 && d < t).count();
         assert!(inside >= 3, "{what}: too few steps: {calls:?}");
