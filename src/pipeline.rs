@@ -69,7 +69,7 @@ pub enum Stage {
     /// Reading the input file (`done`/`total`: bytes).
     Read,
     /// Input checks, each surface's triangles, adjacency and regions, and parity repair
-    /// (`done`/`total`: steps of these four).
+    /// (`done`/`total`: these four steps, weighted by their usual share of the time).
     Topology,
     /// The matching graphs and their costs (`done`/`total`: triangles of the surfaces whose
     /// graph is built, of all).

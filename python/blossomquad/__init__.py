@@ -31,7 +31,7 @@ ProgressCallback = Callable[[str, int, int], None]
 """``progress(stage, done, total)``: ``done`` of ``total`` (> 0) units of ``stage``, one of
 "topology", "graph", "matching", "refine", "optimize", "check", in that order (a fallback
 round starts again from "topology"); within a stage ``done / total`` never decreases, and
-each stage ends with ``done == total``. Calls are throttled (a few hundred per run)."""
+each stage starts with ``done == 0`` and ends with ``done == total``. Calls are throttled (a few hundred per run)."""
 
 # Python keyword -> field of the library's Options
 _OPTIONS = {
