@@ -383,6 +383,26 @@ def test_recombine_gmsh_leaves_the_entities_it_does_not_change_alone(model):
     assert 2 not in element_counts(2)
 
 
+def test_recombine_gmsh_leaves_the_surfaces_meshed_with_quads_alone(model):
+    # a graded transfinite surface (1) and an extruded boundary layer (8), both recombined
+    # by Gmsh, beside a triangle surface (2)
+    geo = os.path.join(REPO, "tests", "common", "user_quads.geo")
+    for smooth_quads in (False, True):
+        gmsh.clear()
+        gmsh.open(geo)
+        gmsh.model.mesh.generate(2)
+        before = gmsh.model.mesh.getNodes(2, 1, returnParametricCoord=True)
+        report = blossomquad.recombine_gmsh(keep_tags=True, smooth_quads=smooth_quads)
+        surfaces = [t for d, t, _ in report["model"]["rewritten"] if d == 2]
+        after = gmsh.model.mesh.getNodes(2, 1, returnParametricCoord=True)
+        same = all(np.array_equal(a, b) for a, b in zip(before, after))
+        if smooth_quads:
+            assert 1 in surfaces and not same
+        else:
+            assert surfaces == [2] and same
+        assert 2 not in element_counts(2)
+
+
 def test_recombine_gmsh_replaces_the_whole_mesh_when_gmsh_keeps_an_entity(
     model, monkeypatch
 ):
