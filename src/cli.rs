@@ -12,7 +12,7 @@ use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::Instant;
 
-use crate::mesh::{Mesh, MshFormat, MshVersion};
+use crate::mesh::{etype, Mesh, MshFormat, MshVersion};
 use crate::{msh, quality, recombine};
 use clap::{Args, Parser, Subcommand, ValueEnum};
 
@@ -135,6 +135,11 @@ struct RunArgs {
     /// Skip the whole optimization (smoothing and topology).
     #[arg(long)]
     no_optimize: bool,
+    /// Optimize the surfaces that hold no triangle in the input (all quads already, e.g. a
+    /// transfinite or extruded surface with Recombine) like the others. Without it they are
+    /// written as read: nodes, coordinates and quads unchanged.
+    #[arg(long)]
+    smooth_quads: bool,
     /// Write the mesh even when some quads are not valid (a corner not strictly between 0
     /// and 180 degrees, a zero-length edge) after the fallback, listing them as warnings;
     /// without it such a mesh is refused (exit 1) and nothing is written.
@@ -335,9 +340,14 @@ fn progress_bar(quiet: bool) -> Option<indicatif::ProgressBar> {
 /// The progress line's template: [`progress_line`], then the elapsed time.
 const PROGRESS_TEMPLATE: &str = "{msg}  {elapsed}";
 
-/// Shows `p` on the progress line.
+/// Shows `p` on the progress line. The reports that start or end a stage are drawn at
+/// once, so every stage shows 0% and 100% (the others are drawn at most 20 times a second,
+/// and one that comes too soon after the last drawn is left to the next).
 fn show_progress(b: &indicatif::ProgressBar, p: &crate::Progress) {
     b.set_message(progress_line(p));
+    if p.done == 0 || p.done == p.total {
+        b.force_draw();
+    }
 }
 
 /// The progress line of `p` (see [`progress_bar`]).
@@ -565,6 +575,8 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         .map_or(Ok(()), Err)
         .inspect_err(|_| finish())?;
 
+    // the summary counts the input's triangles, as `info` does (parity repair adds some)
+    let triangles = input_triangles(&mesh);
     let mut opts = crate::Options {
         parity: match args.parity {
             ParityArg::Repair => recombine::ParityMode::Repair,
@@ -578,6 +590,7 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         smooth: args.smooth,
         topology: !args.no_topology,
         optimize: !args.no_optimize,
+        smooth_quads: args.smooth_quads,
         allow_invalid: args.allow_invalid,
         incomplete: args.incomplete,
         keep_tags: args.keep_tags,
@@ -631,7 +644,7 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
     }
     if !quiet {
         let seconds = t0.elapsed().as_secs_f64();
-        log.say(summary_line(&report, &mesh, &output, seconds));
+        log.say(summary_line(&report, triangles, &mesh, &output, seconds));
     }
     Ok(())
 }
@@ -661,17 +674,27 @@ fn nothing_to_recombine(mesh: &Mesh) -> Option<String> {
     })
 }
 
-/// The line a run ends with: surfaces, triangles -> quads, the quads' worst and mean η
-/// (eq. 3), what changed besides the pairing (parity repair, fallback, refinement), where
-/// the mesh went and the whole run's time.
-fn summary_line(report: &crate::Report, mesh: &Mesh, output: &Path, seconds: f64) -> String {
-    let surfaces = report.recombine.surfaces.len();
-    let triangles: usize = report
-        .recombine
-        .surfaces
+/// The triangles (3- or 6-node) on the surfaces of `mesh`: the count `info` reports for
+/// the input, before parity repair or the fallback split any.
+fn input_triangles(mesh: &Mesh) -> usize {
+    mesh.element_blocks
         .iter()
-        .map(|s| s.triangles_in)
-        .sum();
+        .filter(|b| b.entity_dim == 2 && matches!(b.element_type, etype::TRI3 | etype::TRI6))
+        .map(|b| b.len())
+        .sum()
+}
+
+/// The line a run ends with: surfaces, the input's `triangles` -> quads, the quads' worst
+/// and mean η (eq. 3), what changed besides the pairing (parity repair, fallback,
+/// refinement), where the mesh went and the whole run's time.
+fn summary_line(
+    report: &crate::Report,
+    triangles: usize,
+    mesh: &Mesh,
+    output: &Path,
+    seconds: f64,
+) -> String {
+    let surfaces = report.recombine.surfaces.len();
     let etas = quality::quad_etas(mesh);
     let quads = etas.len();
     let quality = if quads > 0 {

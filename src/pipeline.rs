@@ -89,7 +89,7 @@ pub enum Stage {
     /// Reading the input file (`done`/`total`: bytes).
     Read,
     /// Input checks, each surface's triangles, adjacency and regions, and parity repair
-    /// (`done`/`total`: steps of these four).
+    /// (`done`/`total`: these four steps, weighted by their usual share of the time).
     Topology,
     /// The matching graphs and their costs (`done`/`total`: triangles of the surfaces whose
     /// graph is built, of all).
@@ -133,7 +133,8 @@ impl Stage {
 /// only optimizes the surfaces whose matching left quads that are not valid starts again
 /// from [`Stage::Optimize`]): within a round, stages come in [`Stage`]
 /// order; within a stage `done` never decreases and `done <= total`, `total > 0`; each stage
-/// a round goes through ends with a report where `done == total`. Reports are throttled (a
+/// a round goes through starts with a report where `done == 0` and ends with one where
+/// `done == total`. Reports are throttled (a
 /// few hundred per call at most, whatever the mesh size), so a callback may redraw on each.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
 #[non_exhaustive]
@@ -207,8 +208,9 @@ impl PartialEq for ProgressFn {
 }
 
 /// Where the stages send their progress: forwards to a [`ProgressFn`] only what keeps the
-/// promises of [`Progress`] (stage order, `done` not decreasing) and what moved by at least
-/// 1/[`Reporter::STEPS`] of the stage since the last report, or ends it; one call at a time,
+/// promises of [`Progress`] (stage order, `done` not decreasing, a stage's reports from 0 to
+/// `total`) and what moved by at least 1/[`Reporter::STEPS`] of the stage since the last
+/// report, or ends it; one call at a time,
 /// so reports from several threads arrive in order. A report of [`Stage::Topology`] at 0,
 /// or of any stage at 0 after a finished [`Stage::Check`], starts a new round.
 struct Reporter {
@@ -236,6 +238,8 @@ impl Reporter {
         let Ok(mut last) = self.last.lock() else {
             return;
         };
+        // a stage's first report forwarded: preceded by one at 0 when it is past 0
+        let mut starts = true;
         if let Some(l) = *last {
             // a fallback round starts again from the first stage, and a round that only
             // optimizes more surfaces (without `optimize`) from the optimizer, once the
@@ -245,6 +249,7 @@ impl Reporter {
             if p.stage < l.stage && !restart {
                 return;
             }
+            starts = p.stage != l.stage;
             if p.stage == l.stage {
                 let ended = p.done == p.total && l.done < l.total;
                 let moved = (p.fraction() - l.fraction()) * Self::STEPS as f64 >= 1.0;
@@ -262,6 +267,15 @@ impl Reporter {
                     ..l
                 });
             }
+        }
+        if starts && p.done > 0 {
+            // a stage starts at 0 (its first units may have been done before it is
+            // reported, such as surfaces matched while another's graph was built)
+            (self.f.0)(Progress {
+                done: 0,
+                surfaces_done: 0,
+                ..p
+            });
         }
         *last = Some(p);
         (self.f.0)(p);
@@ -303,6 +317,13 @@ pub struct Options {
     /// they are dropped with a warning; the CLI's `--quality-view` encodes them for the
     /// format it writes).
     pub quality_view: bool,
+    /// Optimize the surfaces that hold no triangle in the input (already all quads, as Gmsh's
+    /// recombination, a transfinite or an extruded surface with `Recombine` leave them)
+    /// like the others. By default they are written as read: their nodes (coordinates and
+    /// parametric coordinates) and quads, in their order, unless parity repair or the
+    /// fallback splits a curve segment they share with a triangle surface (their quads
+    /// along it are then split too, to stay conforming).
+    pub smooth_quads: bool,
     /// Keep the input's node and element tags exactly, gaps and all; by default the result
     /// is numbered 1..N without gaps, as Gmsh numbers its files ([`crate::renumber`]).
     pub keep_tags: bool,
@@ -333,6 +354,7 @@ impl Default for Options {
             allow_invalid: false,
             incomplete: false,
             quality_view: false,
+            smooth_quads: false,
             keep_tags: false,
             tag_map: false,
             progress: None,
@@ -855,16 +877,17 @@ pub const ETA_FLOOR: f64 = 0.2;
 const MAX_QUADS_PER_TRIANGLE: f64 = 0.6;
 
 /// The quads of `mesh`'s surfaces with η below [`ETA_FLOOR`], as (surface, node tags), and
-/// the worst η of all its quads.
-fn low_quads(mesh: &Mesh) -> (Vec<(i32, [u64; 4])>, f64) {
+/// the worst η of those quads; surfaces in `skip` (sorted: those the input meshed with quads
+/// alone, which no job changes) are left out.
+fn low_quads(mesh: &Mesh, skip: &[i32]) -> (Vec<(i32, [u64; 4])>, f64) {
     let coords = TagCoords::new(mesh);
     let mut low = Vec::new();
     let mut worst = f64::INFINITY;
-    for b in mesh
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4)
-    {
+    for b in mesh.element_blocks.iter().filter(|b| {
+        b.entity_dim == 2
+            && b.element_type == etype::QUAD4
+            && skip.binary_search(&b.entity_tag).is_err()
+    }) {
         for i in 0..b.len() {
             let e = b.element(i);
             let q = [e[0], e[1], e[2], e[3]];
@@ -918,8 +941,13 @@ fn raise_worst_quad(
     if !opts.optimize || !best.1.invalid.is_empty() {
         return Ok(best);
     }
+    let skip = if opts.smooth_quads {
+        Vec::new()
+    } else {
+        quad_only_surfaces(input)
+    };
     for step in 0..3 {
-        let (low, worst) = low_quads(&best.0);
+        let (low, worst) = low_quads(&best.0, &skip);
         let mut start = best.2.clone();
         let what = match step {
             0 => {
@@ -957,7 +985,7 @@ fn raise_worst_quad(
         if !candidate.1.invalid.is_empty() {
             continue;
         }
-        let (_, new_worst) = low_quads(&candidate.0);
+        let (_, new_worst) = low_quads(&candidate.0, &skip);
         // a result above the element-count rule already may grow by a quarter
         let before = quads_per_triangle(input, &best.0);
         let limit = if before <= MAX_QUADS_PER_TRIANGLE {
@@ -1340,7 +1368,7 @@ fn optimize_once<'a>(
     let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
     // periodic surfaces keep the matching's quads (master and slave stay images of
     // each other, node for node)
-    let mut periodic: Vec<i32> = mesh
+    let mut skip: Vec<i32> = mesh
         .periodic
         .iter()
         .filter(|p| p.dim == 2)
@@ -1348,16 +1376,25 @@ fn optimize_once<'a>(
         .collect();
     if !opts.optimize {
         // only the surfaces in `force`
-        periodic.extend(
+        skip.extend(
             mesh.element_blocks
                 .iter()
                 .filter(|b| b.entity_dim == 2 && !force.contains(&b.entity_tag))
                 .map(|b| b.entity_tag),
         );
     }
-    periodic.sort_unstable();
-    periodic.dedup();
-    oopts.skip = &periodic;
+    if !opts.smooth_quads {
+        // the surfaces the user meshed with quads alone stay as read (those in `force`
+        // excepted: without `optimize`, the ones the checks found not valid)
+        skip.extend(
+            quad_only_surfaces(input)
+                .into_iter()
+                .filter(|s| !force.contains(s)),
+        );
+    }
+    skip.sort_unstable();
+    skip.dedup();
+    oopts.skip = &skip;
     // memory: the input side of the final checks is prepared while the optimizer runs
     // (its arrays are then live anyway), not during the matching
     let want_checks = checks.is_none();
@@ -1388,6 +1425,16 @@ fn optimize_once<'a>(
     Ok(())
 }
 
+/// The surfaces of `mesh` with 4-node quads and no 3-node triangle: meshed with quads
+/// alone, they have nothing to recombine.
+fn quad_only_surfaces(mesh: &Mesh) -> Vec<i32> {
+    let with = |t: u32| mesh.sorted_surfaces(|b| b.element_type == t && !b.is_empty());
+    let triangles = with(etype::TRI3);
+    let mut quads = with(etype::QUAD4);
+    quads.retain(|s| triangles.binary_search(s).is_err());
+    quads
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1396,8 +1443,13 @@ mod tests {
     /// Every report of one `quadrangulate` of the repository's rectangle (1792 triangles,
     /// one surface).
     fn reports(opts: Options) -> (Vec<Progress>, Report) {
-        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("geo/rectangle.msh");
-        let mut mesh = crate::msh::read_file(&path).expect("geo/rectangle.msh");
+        reports_of("geo/rectangle.msh", opts)
+    }
+
+    /// Every report of one `quadrangulate` of the repository's file `path`.
+    fn reports_of(path: &str, opts: Options) -> (Vec<Progress>, Report) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
+        let mut mesh = crate::msh::read_file(&path).expect("a mesh of the repository");
         let seen = Arc::new(Mutex::new(Vec::new()));
         let sink = Arc::clone(&seen);
         let opts = Options {
@@ -1463,6 +1515,48 @@ mod tests {
         assert!(optimize >= 4, "{seen:?}");
         // throttled: far fewer reports than triangles
         assert!(seen.len() < 400, "{} reports", seen.len());
+    }
+
+    /// `seen` cut where the stage changes: each stretch is one stage of one round.
+    fn stretches(seen: &[Progress]) -> Vec<&[Progress]> {
+        seen.chunk_by(|a, b| a.stage == b.stage).collect()
+    }
+
+    #[test]
+    fn every_stage_moves_from_0_to_1() {
+        // one surface; twelve surfaces matched side by side (a surface's matching may be
+        // done before the last graph is, so the matching stage starts past 0 unless the
+        // reporter says 0 first); refinement and a fallback round
+        for (path, opts) in [
+            ("geo/rectangle.msh", Options::default()),
+            (
+                "geo/rectangle.msh",
+                Options {
+                    refine: 1,
+                    ..Options::default()
+                },
+            ),
+            (
+                "tests/data/cad/v22_fillet_box_own_jacobian.msh",
+                Options::default(),
+            ),
+        ] {
+            let (seen, _) = reports_of(path, opts);
+            let runs = stretches(&seen);
+            assert!(runs.len() >= 5, "{path}: {seen:?}");
+            for run in runs {
+                let stage = run[0].stage;
+                assert_eq!(run[0].done, 0, "{path}: {stage:?} starts past 0: {run:?}");
+                for w in run.windows(2) {
+                    assert!(w[0].fraction() <= w[1].fraction(), "{path}: {w:?}");
+                }
+                let last = run[run.len() - 1];
+                assert_eq!(
+                    last.done, last.total,
+                    "{path}: {stage:?} ends short: {run:?}"
+                );
+            }
+        }
     }
 
     #[test]
@@ -1534,6 +1628,7 @@ mod tests {
                 (Stage::Graph, 0),
                 (Stage::Graph, 500),
                 (Stage::Graph, 1000),
+                (Stage::Matching, 0), // a stage starts at 0
                 (Stage::Matching, 10),
                 (Stage::Matching, 1000),
                 (Stage::Topology, 0),

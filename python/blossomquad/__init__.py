@@ -31,7 +31,7 @@ ProgressCallback = Callable[[str, int, int], None]
 """``progress(stage, done, total)``: ``done`` of ``total`` (> 0) units of ``stage``, one of
 "topology", "graph", "matching", "refine", "optimize", "check", in that order (a fallback
 round starts again from "topology"); within a stage ``done / total`` never decreases, and
-each stage ends with ``done == total``. Calls are throttled (a few hundred per run)."""
+each stage starts with ``done == 0`` and ends with ``done == total``. Calls are throttled (a few hundred per run)."""
 
 # Python keyword -> field of the library's Options
 _OPTIONS = {
@@ -42,6 +42,7 @@ _OPTIONS = {
     "smooth": "smooth",
     "topology": "topology",
     "optimize": "optimize",
+    "smooth_quads": "smooth_quads",
     "verify": "verify",
     "drop_volumes": "drop_volumes",
     "allow_invalid": "allow_invalid",
@@ -95,7 +96,8 @@ def recombine_file(
     entity; nodes and elements are numbered 1..N without gaps, as Gmsh numbers its files,
     keeping their order). Options as the command line's flags: ``parity`` ('repair' or
     'error'), ``cross_field`` (float), ``harmonic_cross_field``, ``refine`` (0-3), ``smooth``
-    (sweeps), ``topology``, ``optimize``, ``verify``, ``drop_volumes``, ``allow_invalid``,
+    (sweeps), ``topology``, ``optimize``, ``smooth_quads`` (optimize the surfaces that hold
+    no triangle in the input too; by default they are written as read), ``verify``, ``drop_volumes``, ``allow_invalid``,
     ``incomplete``, ``keep_tags`` (keep the input's node and element tags exactly, gaps and
     all), ``tag_map`` (the report's ``renumber["map"]`` gives ``nodes`` and ``elements``:
     ``[input tag, output tag]`` of every kept one), and ``quality_view`` (adds the "eta", "scaled jacobian" and "valence"
@@ -115,18 +117,24 @@ def quadrangulate(
     triangles: Any,
     *,
     fixed: Any = None,
+    return_index: bool = False,
     progress: Optional[ProgressCallback] = None,
     **options: Any,
-) -> Tuple[Any, Any]:
+) -> Tuple[Any, ...]:
     """Recombines one triangulated surface given as arrays into quads.
 
     ``points``: float array of shape (n, 3) (or (n, 2): z = 0); ``triangles``: integer array
     of shape (m, 3), indices into ``points`` (e.g. ``meshio.Mesh.points`` and
     ``mesh.cells_dict["triangle"]``). Boundary points never move; ``fixed`` (indices) pins
-    more points. An odd number of triangles is repaired by splitting boundary edges: the new
-    points are appended. Returns ``(points, quads)``: float64 (n', 3) where every input
-    point keeps its index (at its optimized position), and int64 (k, 4) quads oriented like
-    the triangles. Options as :func:`recombine_file`."""
+    more points. An odd number of triangles is repaired by splitting boundary edges, which
+    adds points. Returns ``(points, quads)``: float64 (n', 3), only the points the quads
+    use, the input's (at their optimized position) in the order of their index, then those
+    the run added: the order of the command line's output numbering; and int64 (k, 4)
+    quads of indices into them, oriented like the triangles. Input points no quad uses
+    (unused in the input, or removed by the optimizer) are left out. With
+    ``return_index=True``, returns ``(points, quads, index)``: ``index`` (int64, (n',)) is
+    the input index of each returned point, -1 for an added one. Options as
+    :func:`recombine_file`."""
     import numpy as np
 
     p = np.asarray(points)
@@ -157,10 +165,17 @@ def quadrangulate(
         _options(options),
         progress,
     )
-    return (
-        np.frombuffer(pts, dtype="<f8").reshape(-1, 3).copy(),
-        np.frombuffer(quads, dtype="<i8").reshape(-1, 4).copy(),
-    )
+    every = np.frombuffer(pts, dtype="<f8").reshape(-1, 3)
+    cells = np.frombuffer(quads, dtype="<i8").reshape(-1, 4)
+    # the native result keeps every input point at its index and appends the added ones
+    # in tag order: the points in use, in that order, are the output numbering's
+    used = np.unique(cells)
+    renumber = np.full(len(every), -1, dtype="<i8")
+    renumber[used] = np.arange(len(used), dtype="<i8")
+    out = (every[used].copy(), renumber[cells])
+    if return_index:
+        return out + (np.where(used < len(p), used, -1).astype("<i8"),)
+    return out
 
 
 def recombine_gmsh(

@@ -151,20 +151,48 @@ def check_quads(pts, quads, n_in):
 
 def test_quadrangulate_arrays_keeps_boundary_points_and_gives_valid_quads():
     pts, tris = grid()
-    out_pts, quads = blossomquad.quadrangulate(pts, tris)
-    assert len(out_pts) == len(pts)
+    out_pts, quads, index = blossomquad.quadrangulate(pts, tris, return_index=True)
+    assert len(out_pts) == len(index) <= len(pts)
     check_quads(out_pts, quads, len(pts))
     boundary = [i for i, p in enumerate(pts) if p[0] in (0, 6) or p[1] in (0, 6)]
-    assert np.array_equal(out_pts[boundary], pts[boundary])
+    at = {int(k): i for i, k in enumerate(index)}
+    assert all(b in at for b in boundary)
+    assert np.array_equal(out_pts[[at[b] for b in boundary]], pts[boundary])
 
 
-def test_an_odd_surface_gets_new_points_appended_and_fixed_points_stay():
+def test_an_odd_surface_gets_new_points_and_fixed_points_stay():
     pts, tris = grid()
     tris = tris[:-1]
-    out_pts, quads = blossomquad.quadrangulate(pts[:, :2], tris, fixed=[8])
-    assert len(out_pts) > len(pts)
-    assert np.array_equal(out_pts[8], pts[8])
+    out_pts, quads, index = blossomquad.quadrangulate(
+        pts[:, :2], tris, fixed=[8], return_index=True
+    )
+    assert (index == -1).any(), "parity repair adds a point"
+    at = list(index).index(8)
+    assert np.array_equal(out_pts[at], pts[8])
     check_quads(out_pts, quads, len(pts))
+
+
+def test_quadrangulate_returns_only_the_points_its_quads_use_in_output_order():
+    pts, tris = grid()
+    tris = tris[:-1]  # odd: parity repair adds points
+    # a point no triangle uses, between used ones
+    stray = np.array([[50.0, 50.0, 0.0]])
+    pts = np.vstack([pts[:10], stray, pts[10:]])
+    tris = np.where(tris >= 10, tris + 1, tris)
+    out_pts, quads, index = blossomquad.quadrangulate(pts, tris, return_index=True)
+    # every point returned is used, and only those
+    assert np.array_equal(np.unique(quads), np.arange(len(out_pts)))
+    assert 10 not in index
+    # the input's points in the order of their index, then the added ones (the command
+    # line's output numbering: the rank of the tag)
+    kept = index[index >= 0]
+    assert np.all(np.diff(kept) > 0)
+    assert np.all(index[len(kept):] == -1) and len(kept) < len(index)
+    check_quads(out_pts, quads, len(pts))
+    # without return_index: the same two arrays
+    two = blossomquad.quadrangulate(pts, tris)
+    assert len(two) == 2
+    assert np.array_equal(two[0], out_pts) and np.array_equal(two[1], quads)
 
 
 def test_meshio_data_works_directly(tmp_path):
@@ -172,6 +200,8 @@ def test_meshio_data_works_directly(tmp_path):
     m = meshio.read(RECTANGLE)
     pts, quads = blossomquad.quadrangulate(m.points, m.cells_dict["triangle"])
     assert len(quads) > 0
+    # a VTU of these arrays holds no unused point
+    assert np.array_equal(np.unique(quads), np.arange(len(pts)))
     check_quads(pts, quads, len(m.points))
 
 
@@ -351,6 +381,26 @@ def test_recombine_gmsh_leaves_the_entities_it_does_not_change_alone(model):
     times = report["model"]
     assert all(times[k] >= 0 for k in ("read_secs", "convert_secs", "write_secs"))
     assert 2 not in element_counts(2)
+
+
+def test_recombine_gmsh_leaves_the_surfaces_meshed_with_quads_alone(model):
+    # a graded transfinite surface (1) and an extruded boundary layer (8), both recombined
+    # by Gmsh, beside a triangle surface (2)
+    geo = os.path.join(REPO, "tests", "common", "user_quads.geo")
+    for smooth_quads in (False, True):
+        gmsh.clear()
+        gmsh.open(geo)
+        gmsh.model.mesh.generate(2)
+        before = gmsh.model.mesh.getNodes(2, 1, returnParametricCoord=True)
+        report = blossomquad.recombine_gmsh(keep_tags=True, smooth_quads=smooth_quads)
+        surfaces = [t for d, t, _ in report["model"]["rewritten"] if d == 2]
+        after = gmsh.model.mesh.getNodes(2, 1, returnParametricCoord=True)
+        same = all(np.array_equal(a, b) for a, b in zip(before, after))
+        if smooth_quads:
+            assert 1 in surfaces and not same
+        else:
+            assert surfaces == [2] and same
+        assert 2 not in element_counts(2)
 
 
 def test_recombine_gmsh_replaces_the_whole_mesh_when_gmsh_keeps_an_entity(

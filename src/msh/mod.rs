@@ -92,9 +92,9 @@ pub fn read_file(path: &Path) -> Result<Mesh, MshError> {
     read_file_with_progress(path, &mut |_, _| {})
 }
 
-/// [`read_file`], calling `progress(bytes parsed, bytes in all)` as the parse goes: at each
-/// section and every few ten thousand lines of an ASCII node or element section; the last
-/// call has both equal.
+/// [`read_file`], calling `progress(bytes parsed, bytes in all)` as the parse goes: with 0
+/// before the file is read, then at each section and every few ten thousand lines of an
+/// ASCII node or element section; the last call has both equal.
 pub fn read_file_with_progress(
     path: &Path,
     progress: &mut dyn FnMut(u64, u64),
@@ -108,6 +108,9 @@ pub fn read_file_with_progress(
         return read::read_with_progress(&data, "<stdin>", progress);
     }
     let name = path.display().to_string();
+    if let Ok(meta) = std::fs::metadata(path) {
+        progress(0, meta.len());
+    }
     let data = std::fs::read(path).map_err(|e| MshError::io(&name, "cannot read", e))?;
     read::read_with_progress(&data, &name, progress)
 }

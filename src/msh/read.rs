@@ -89,13 +89,15 @@ pub(crate) fn read(d: &[u8], file: &str) -> Result<Mesh, MshError> {
     read_with_progress(d, file, &mut |_, _| {})
 }
 
-/// [`read`], calling `progress(bytes parsed, bytes in all)` at each section and every
-/// [`v4::TICK_LINES`] lines of an ASCII node or element section.
+/// [`read`], calling `progress(bytes parsed, bytes in all)` with 0 first, then at each
+/// section and every [`v4::TICK_LINES`] lines of an ASCII node or element section, and
+/// with both equal once the mesh is read.
 pub(crate) fn read_with_progress(
     d: &[u8],
     file: &str,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<Mesh, MshError> {
+    progress(0, d.len() as u64);
     if d.iter().all(|b| b.is_ascii_whitespace()) {
         return Err(MshError::new(file, ErrorKind::Empty));
     }
@@ -227,6 +229,10 @@ fn duplicate_node(dup: Option<u64>, section_pos: usize) -> PResult<()> {
     }
 }
 
+/// What an error about an MSH version the reader does not handle says after naming it:
+/// the versions read, and the Gmsh command that re-saves the file in one of them.
+const RESAVE: &str = "(read: 2.0, 2.1, 2.2, 4.0 ASCII, 4.1); re-save it with gmsh IN -0 -format msh41 -o OUT.msh (or -format msh22)";
+
 struct Reader<'a, 'p> {
     d: &'a [u8],
     /// `progress(offset, length)` (see [`read_with_progress`]).
@@ -252,6 +258,13 @@ impl<'a> Reader<'a, '_> {
         }
         let Some(format) = self.format else {
             return match name {
+                // MSH 1 has no $MeshFormat: it opens with $NOD (nodes) or $ELM (elements)
+                "NOD" | "ELM" => Err(Fail::at(
+                    hpos,
+                    ErrorKind::Unsupported(format!(
+                        "MSH version 1 (${name} without $MeshFormat) is not supported {RESAVE}"
+                    )),
+                )),
                 "Nodes" | "Elements" | "Entities" | "PhysicalNames" | "Periodic" => Err(Fail::at(
                     hpos,
                     ErrorKind::Structure(format!("${name} before $MeshFormat")),
@@ -440,7 +453,7 @@ impl<'a> Reader<'a, '_> {
                 return Err(Fail::at(
                     pos,
                     ErrorKind::Unsupported(format!(
-                        "MSH version {} is not supported (read: 2.0, 2.1, 2.2, 4.0 ASCII, 4.1); re-save with gmsh IN -0 -format msh41 -o OUT.msh",
+                        "MSH version {} is not supported {RESAVE}",
                         show(ver)
                     )),
                 ))

@@ -13,7 +13,7 @@ pub struct SurfaceSummary {
     pub physical_tags: Vec<i32>,
     /// `(element type code, count)`, sorted by type code.
     pub counts: Vec<(u32, usize)>,
-    /// Number of 3-node triangles.
+    /// Number of triangles (3- or 6-node).
     pub triangles: usize,
 }
 
@@ -103,7 +103,7 @@ pub fn summary(mesh: &Mesh) -> MeshSummary {
             Some(c) => c.1 += b.len(),
             None => s.counts.push((b.element_type, b.len())),
         }
-        if b.element_type == etype::TRI3 {
+        if matches!(b.element_type, etype::TRI3 | etype::TRI6) {
             s.triangles += b.len();
         }
     }

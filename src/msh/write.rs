@@ -301,7 +301,8 @@ fn expected_size(mesh: &Mesh, format: MshFormat) -> u64 {
 }
 
 /// Writes `mesh` to `w` in `format` (MSH 4.0 is written as 4.1). `name` is used in errors;
-/// `progress(bytes written, bytes expected)` is called about once a megabyte and at the end.
+/// `progress(bytes written, bytes expected)` is called with 0 first, then about once a
+/// megabyte, and at the end with both equal.
 pub(crate) fn write_to(
     mesh: &Mesh,
     w: &mut dyn Write,
@@ -309,7 +310,9 @@ pub(crate) fn write_to(
     name: &str,
     progress: &mut dyn FnMut(u64, u64),
 ) -> Result<(), MshError> {
-    let mut out = Out::new(w, format.binary, expected_size(mesh, format), progress);
+    let expected = expected_size(mesh, format);
+    progress(0, expected.max(1));
+    let mut out = Out::new(w, format.binary, expected, progress);
     let r = match format.version {
         MshVersion::V2 { .. } => write_v22(mesh, &mut out, format),
         _ => write_v41(mesh, &mut out, format),

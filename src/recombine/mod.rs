@@ -618,7 +618,8 @@ pub fn recombine(
             crate::pipeline::release_memory();
             let coords = &coords;
             let tracker = opts.progress.as_ref().map(|p| {
-                p.report(crate::Progress::new(crate::Stage::Topology, 4, 4));
+                let end = TOPOLOGY_UNITS[4];
+                p.report(crate::Progress::new(crate::Stage::Topology, end, end));
                 let t = Arc::new(surface::Tracker::new(p.clone(), &work));
                 t.emit();
                 t
@@ -687,8 +688,12 @@ pub fn recombine(
     tm.lap("write back");
     for r in &results {
         let s = &r.report;
+        let after_splits = match s.parity_splits {
+            0 => String::new(),
+            k => format!(" (after {k} parity split(s))"),
+        };
         report.log.push(format!(
-            "surface {}: {} triangles -> {} quads (cost {}, {} extra edges used, {} edge swaps, {} vertex duplications)",
+            "surface {}: {} triangles{after_splits} -> {} quads (cost {}, {} extra edges used, {} edge swaps, {} vertex duplications)",
             s.surface, s.triangles_in, s.quads_out, s.matching_cost, s.extra_edges_used, s.edge_swaps, s.vertex_duplications
         ));
     }
@@ -712,12 +717,23 @@ pub fn sync_periodic(mesh: &mut Mesh) -> Result<usize, RecombineError> {
 
 /// Steps 2–3: topology of every surface, then parity repair (one round, checked).
 /// [`crate::Stage::Topology`] progress: `step` of its four steps (input checks, node table,
-/// surface topology, parity repair) done.
-fn topology_progress(opts: &RecombineOptions, step: u64) {
+/// surface topology, parity repair) done, each weighted by its usual share of the time
+/// ([`TOPOLOGY_UNITS`]).
+fn topology_progress(opts: &RecombineOptions, step: usize) {
     if let Some(p) = &opts.progress {
-        p.report(crate::Progress::new(crate::Stage::Topology, step, 4));
+        let units = TOPOLOGY_UNITS[step.min(4)];
+        p.report(crate::Progress::new(
+            crate::Stage::Topology,
+            units,
+            TOPOLOGY_UNITS[4],
+        ));
     }
 }
+
+/// The [`crate::Stage::Topology`] units done after each of its four steps: the input checks
+/// and the node table take one unit each, each surface's triangles, half-edges and regions
+/// twelve (most of the stage's time), the parity repair two.
+const TOPOLOGY_UNITS: [u64; 5] = [0, 1, 2, 14, 16];
 
 fn parity_stage(
     mesh: &mut Mesh,

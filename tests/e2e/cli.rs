@@ -103,6 +103,35 @@ fn info_reports_odd_surfaces_in_every_variant() {
     }
 }
 
+/// The summary counts the input's triangles, the count `info` gives, also when parity
+/// repair splits boundary segments (which add triangles); the splits are reported apart.
+#[test]
+fn the_summary_counts_the_triangles_info_counts() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let msh = generate("even_curves", Variant::Msh41Ascii, dir.path(), 1.0, &[]);
+    let counts: Vec<u64> = info(&msh)
+        .lines()
+        .filter_map(|l| l.split("triangle count ").nth(1))
+        .filter_map(|rest| rest.split_whitespace().next()?.parse().ok())
+        .collect();
+    assert_eq!(counts.len(), 3, "{}", info(&msh));
+    assert!(
+        counts.iter().any(|n| n % 2 == 1),
+        "{counts:?}: no odd surface"
+    );
+    let total: u64 = counts.iter().sum();
+    let out = dir.path().join("out.msh");
+    let err = main_job_stderr(&[msh.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    assert!(
+        err.starts_with(&format!("3 surfaces, {total} triangles -> ")),
+        "info counts {total}: {err}"
+    );
+    assert!(
+        err.contains("; parity repair split 2 boundary segment(s)"),
+        "{err}"
+    );
+}
+
 #[test]
 fn quality_of_triangle_input_and_of_our_quads() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -178,6 +207,42 @@ fn geo_file_given_by_mistake_is_exit_1() {
     let (code, _, stderr) = blossomquad_run([geo.as_os_str(), "-o".as_ref(), out.as_os_str()]);
     assert_eq!(code, Some(1), "{stderr}");
     assert!(stderr.contains("rectangle.geo"), "{stderr}");
+    assert!(!out.exists());
+}
+
+/// An MSH 1 file (and one of a version the reader does not know) is refused with exit 1 in
+/// one line naming the version and the Gmsh command that re-saves it, for the main job and
+/// for `info`; nothing is written.
+#[test]
+fn an_msh1_file_is_named_with_the_way_out() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let old = dir.path().join("old.msh");
+    std::fs::write(
+        &old,
+        "$NOD\n4\n1 0 0 0\n2 1 0 0\n3 1 1 0\n4 0 1 0\n$ENDNOD\n\
+         $ELM\n2\n1 2 1 1 3 1 2 3\n2 2 1 1 3 1 3 4\n$ENDELM\n",
+    )
+    .expect("write input");
+    let v3 = dir.path().join("v3.msh");
+    std::fs::write(&v3, "$MeshFormat\n3.0 0 8\n$EndMeshFormat\n").expect("write input");
+    let out = dir.path().join("out.msh");
+    for (input, version) in [(&old, "MSH version 1 "), (&v3, "MSH version 3.0 ")] {
+        for args in [
+            vec![input.as_os_str(), "-o".as_ref(), out.as_os_str()],
+            vec!["info".as_ref(), input.as_os_str()],
+        ] {
+            let (code, _, stderr) = blossomquad_run(args);
+            assert_eq!(code, Some(1), "{stderr}");
+            assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+            assert!(
+                stderr.contains(version)
+                    && stderr.contains("is not supported")
+                    && stderr.contains("gmsh IN -0 -format msh41 -o OUT.msh (or -format msh22)"),
+                "{stderr}"
+            );
+            assert!(!stderr.contains("truncated"), "{stderr}");
+        }
+    }
     assert!(!out.exists());
 }
 
@@ -708,7 +773,7 @@ fn a_mesh_with_nothing_to_recombine_says_so() {
 }
 
 /// Reading and writing report progress as they go on a big file (several megabytes):
-/// values that grow, some strictly between start and end, the last one complete.
+/// values that grow from 0, some strictly between start and end, the last one complete.
 #[test]
 fn reading_and_writing_report_progress_on_big_files() {
     let dir = tempfile::tempdir().expect("temp dir");
@@ -741,6 +806,7 @@ fn reading_and_writing_report_progress_on_big_files() {
             "{what}: {calls:?}"
         );
         assert!(calls.iter().all(|&(d, t)| d <= t), "{what}: {calls:?}");
+        assert_eq!(calls.first().map(|c| c.0), Some(0), "{what}: {calls:?}");
         assert_eq!(calls.last(), Some(&(size, size)), "{what}: {calls:?}");
         let inside = calls.iter().filter(|&&(d, t)| d > 0 && d < t).count();
         assert!(inside >= 3, "{what}: too few steps: {calls:?}");

@@ -20,4 +20,5 @@ mod recombine;
 mod refine;
 mod robust;
 mod second_order;
+mod user_quads;
 mod validity;

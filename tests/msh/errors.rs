@@ -307,6 +307,31 @@ fn msh40_binary_refused_clearly() {
     );
     let e = err("$MeshFormat\n3.0 0 8\n$EndMeshFormat\n");
     assert!(matches!(e.kind, ErrorKind::Unsupported(_)), "{e}");
+    assert!(
+        e.to_string().contains("MSH version 3.0 is not supported")
+            && e.to_string().contains("-format msh41")
+            && e.to_string().contains("-format msh22"),
+        "{e}"
+    );
+}
+
+/// A complete MSH 1 file (no `$MeshFormat`; `$NOD` ... `$ENDNOD`, `$ELM` ... `$ENDELM`) is
+/// named as MSH version 1 with the command that re-saves it, not taken for a truncated
+/// section.
+#[test]
+fn msh1_is_named_with_the_way_out() {
+    let msh1 = "$NOD\n3\n1 0 0 0\n2 1 0 0\n3 0 1 0\n$ENDNOD\n$ELM\n1\n1 2 1 1 3 1 2 3\n$ENDELM\n";
+    let e = err(msh1);
+    assert!(matches!(e.kind, ErrorKind::Unsupported(_)), "{e}");
+    assert_eq!(
+        e.to_string(),
+        "mesh.msh: $NOD, line 1: MSH version 1 ($NOD without $MeshFormat) is not supported \
+         (read: 2.0, 2.1, 2.2, 4.0 ASCII, 4.1); re-save it with gmsh IN -0 -format msh41 \
+         -o OUT.msh (or -format msh22)"
+    );
+    // elements first is MSH 1 as well
+    let e = err("$ELM\n0\n$ENDELM\n");
+    assert!(e.to_string().contains("MSH version 1 ($ELM"), "{e}");
 }
 
 #[test]
