@@ -26,11 +26,10 @@
 //! 3. **Last resort.** Quads still bad after that get every triangle of their surface split
 //!    (the splits' halved neighbours along shared curves may bring another surface there in
 //!    the next round), up to [`FALLBACK_ROUNDS`] rounds in all.
-//! 4. **The worst quad.** A valid optimized result gets up to three more tries
-//!    ([`raise_worst_quad`]): where the fallback priced quads out, the fallback with splits
-//!    only; quads under η [`ETA_FLOOR`] priced out; one ring around those still under it
-//!    split. Each is kept only when it raises the worst quad without breaking the
-//!    element-count rule.
+//! 4. **The worst quad.** A valid optimized result gets up to three more tries: where the
+//!    fallback priced quads out, the fallback with splits only; quads under η
+//!    [`ETA_FLOOR`] priced out; one ring around those still under it split. Each is kept
+//!    only when it raises the worst quad without breaking the element-count rule.
 //!
 //! Quads still bad after the fallback are refused (or listed with
 //! [`Options::allow_invalid`]). A run whose quads are all valid the first time, with no
@@ -869,7 +868,7 @@ struct FallbackStart {
 }
 
 /// Quads whose η (eq. 3) is below this are repaired after the fallback when that raises the
-/// worst quad ([`raise_worst_quad`]).
+/// worst quad (up to three more jobs after the fallback, see the module doc).
 pub const ETA_FLOOR: f64 = 0.2;
 
 /// New quads per input triangle that the repair of the worst quad may not exceed (unless
