@@ -36,6 +36,7 @@ pub mod quality;
 pub mod recombine;
 pub mod refine;
 pub mod renumber;
+mod reuse;
 pub mod validity;
 
 pub use mesh::{Mesh, MshFormat};

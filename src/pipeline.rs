@@ -42,6 +42,7 @@ use std::time::{Duration, Instant};
 use serde::{Deserialize, Serialize};
 
 use crate::mesh::{etype, Mesh, TagCoords};
+use crate::reuse::{Fingerprints, SurfaceCache};
 use crate::validity::BadQuad;
 use crate::{optimize, recombine, refine, validity};
 
@@ -71,6 +72,11 @@ pub(crate) fn release_memory() {
 /// Rounds after the first run at most: the fallback's pricing and split rounds, and (without
 /// optimization) the rounds that optimize the surfaces whose matching left bad quads.
 pub const FALLBACK_ROUNDS: usize = 10;
+
+/// Elements up to which a job keeps its optimized surfaces for the next job from its first
+/// round on ([`crate::reuse`]); larger meshes from their second round on (a first round that
+/// is valid, the usual case, then pays nothing for it).
+const REUSE_UP_TO: usize = 1 << 18;
 
 /// Fallback rounds that price out new bad quads at most (see the module doc).
 pub const PRICING_ROUNDS: usize = 2;
@@ -505,8 +511,9 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         Some((m, lines)) => (m, lines.clone()),
         None => (&input, Vec::new()),
     };
-    let result = run_rounds(base, opts, FallbackStart::default())
-        .and_then(|first| raise_worst_quad(base, opts, first));
+    let mut cache = SurfaceCache::default();
+    let result = run_rounds(base, opts, FallbackStart::default(), &mut cache)
+        .and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
     match result {
         Ok((out, mut report, _)) => {
             *mesh = out;
@@ -544,6 +551,7 @@ fn run_rounds(
     input: &Mesh,
     opts: &Options,
     start: FallbackStart,
+    cache: &mut SurfaceCache,
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut times = Times::default();
     let mut log = Vec::new();
@@ -555,6 +563,8 @@ fn run_rounds(
         ..Default::default()
     };
     let mut fallback = None;
+    // the input's largest tags: a job's own nodes and elements are above them
+    let input_tags = (input.max_node_tag(), input.max_element_tag());
     let mut folds: Vec<recombine::WalledFold> = Vec::new();
     // without optimization: surfaces optimized all the same because their matching left
     // quads that are not valid (vertex duplications fold quads until smoothed)
@@ -605,12 +615,29 @@ fn run_rounds(
         // may start from it)
         let keep = round > 0 && optimizing;
         let unoptimized = keep.then(|| mesh.clone());
+        // speed: the surfaces an earlier job optimized from the same recombination get
+        // that job's result back instead of being optimized again (exact: `crate::reuse`)
+        let fingerprints = (opts.optimize
+            && (round > 0 || !cache.is_empty() || mesh.element_count() <= REUSE_UP_TO))
+            .then(|| Fingerprints::of(&mesh, input_tags.0, input_tags.1));
+        let reused = match &fingerprints {
+            Some(fp) => cache.put_back(&mut mesh, fp),
+            None => Vec::new(),
+        };
         let mut run = recombine_report.clone();
+        if !reused.is_empty() {
+            run.log.push(format!(
+                "{} surface(s) optimized as in an earlier round: {}",
+                reused.len(),
+                sorted_list(&reused)
+            ));
+        }
         optimize_once(
             input,
             &mut mesh,
             opts,
             &force,
+            &reused,
             prepared,
             &mut checks,
             &mut times,
@@ -663,6 +690,9 @@ fn run_rounds(
         }
         progress(opts, Stage::Check, 1, 1);
         times.check += t.elapsed();
+        if let Some(fp) = &fingerprints {
+            cache.record(&mesh, fp);
+        }
         let mut report = run;
         // the folds walled off in any round (a fallback split can take a fold's triangles
         // out of later rounds' topology)
@@ -934,6 +964,7 @@ fn raise_worst_quad(
     input: &Mesh,
     opts: &Options,
     first: (Mesh, Report, FallbackStart),
+    cache: &mut SurfaceCache,
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut best = first;
     // without optimization the quads are the matching's as they are (low by design)
@@ -978,7 +1009,7 @@ fn raise_worst_quad(
                 format!("{n} triangle(s) around quads under eta {ETA_FLOOR} split")
             }
         };
-        let Ok(candidate) = run_rounds(input, opts, start) else {
+        let Ok(candidate) = run_rounds(input, opts, start, cache) else {
             continue;
         };
         if !candidate.1.invalid.is_empty() {
@@ -1338,6 +1369,7 @@ fn optimize_once<'a>(
     mesh: &mut Mesh,
     opts: &Options,
     force: &HashSet<i32>,
+    reused: &[i32],
     prepared: Option<optimize::PreparedReference>,
     checks: &mut Option<Checks<'a>>,
     times: &mut Times,
@@ -1391,6 +1423,8 @@ fn optimize_once<'a>(
                 .filter(|s| !force.contains(s)),
         );
     }
+    // the surfaces whose optimized state an earlier job gave back
+    skip.extend_from_slice(reused);
     skip.sort_unstable();
     skip.dedup();
     oopts.skip = &skip;

@@ -1,0 +1,331 @@
+//! A surface's optimized quads kept between the jobs of one run (the fallback's rounds and
+//! the worst-quad tries of [`crate::pipeline`]): a surface whose recombined quads, nodes and
+//! coordinates are the same as in an earlier job is not optimized again; its optimized
+//! state from that job is put back instead.
+//!
+//! The same means: the same quads in the same order over the same nodes at the same
+//! coordinates, where the nodes and elements the job made (tags above the input's largest)
+//! may carry other tags (a split elsewhere shifts the tags given after it). Those are
+//! matched by their place in the surface's blocks, and the optimized state put back
+//! carries the tags of the current job.
+//!
+//! This is exact, not an approximation: the optimizer of a surface reads only that
+//! surface's quads, the nodes they use and the input (its reference), in block order, and
+//! moves only the nodes that no other element uses; so the same recombined surface gives
+//! the same optimized surface. A surface is kept only when its node blocks hold no node that
+//! another entity's elements use and its quads use no node of another surface's node block,
+//! so that putting back its node blocks and quad blocks changes nothing else.
+
+use std::collections::{HashMap, HashSet};
+use std::hash::{DefaultHasher, Hash, Hasher};
+
+use crate::mesh::{etype, ElementBlock, Mesh, NodeBlock, TagCoords};
+
+/// The tags of the nodes and elements a job made (above the input's largest), in the order
+/// a surface's blocks list them: its quad blocks (element tag, then node tags) and then its
+/// node blocks.
+#[derive(Debug, Clone, Default, PartialEq)]
+struct Made {
+    nodes: Vec<u64>,
+    elements: Vec<u64>,
+}
+
+/// Fingerprints of a recombined mesh's surfaces (those with quads): a hash of each
+/// surface's quad blocks, of the coordinates of the nodes they use, and of its node blocks
+/// (coordinates, parametric coordinates), with the input's tags and without those the job
+/// made (see the module doc); and those made tags in order.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Fingerprints(HashMap<i32, (u64, Made)>);
+
+impl Fingerprints {
+    /// The fingerprints of `mesh`'s surfaces; node and element tags above `input_nodes`
+    /// and `input_elements` are the job's own.
+    pub(crate) fn of(mesh: &Mesh, input_nodes: u64, input_elements: u64) -> Fingerprints {
+        let coords = TagCoords::new(mesh);
+        let mut state: HashMap<i32, (DefaultHasher, Made)> = HashMap::new();
+        let node = |h: &mut DefaultHasher, made: &mut Made, n: u64| {
+            if n > input_nodes {
+                made.nodes.push(n);
+                u64::MAX.hash(h);
+            } else {
+                n.hash(h);
+            }
+        };
+        for b in mesh.element_blocks.iter().filter(|b| is_quads(b)) {
+            let (h, made) = state.entry(b.entity_tag).or_default();
+            b.len().hash(h);
+            for i in 0..b.len() {
+                let t = b.tags[i];
+                if t > input_elements {
+                    made.elements.push(t);
+                    u64::MAX.hash(h);
+                } else {
+                    t.hash(h);
+                }
+                for &n in b.element(i) {
+                    node(h, made, n);
+                    match coords.get(n) {
+                        Some(c) => c.iter().for_each(|x| x.to_bits().hash(h)),
+                        None => u64::MAX.hash(h),
+                    }
+                }
+            }
+        }
+        for b in mesh.node_blocks.iter().filter(|b| b.entity_dim == 2) {
+            if let Some((h, made)) = state.get_mut(&b.entity_tag) {
+                b.tags.len().hash(h);
+                for (&t, c) in b.tags.iter().zip(&b.coords) {
+                    node(h, made, t);
+                    c.iter().for_each(|x| x.to_bits().hash(h));
+                }
+                if let Some(p) = &b.params {
+                    p.iter().for_each(|x| x.to_bits().hash(h));
+                }
+            }
+        }
+        Fingerprints(
+            state
+                .into_iter()
+                .map(|(s, (h, made))| (s, (h.finish(), made)))
+                .collect(),
+        )
+    }
+}
+
+fn is_quads(b: &ElementBlock) -> bool {
+    b.entity_dim == 2 && b.element_type == etype::QUAD4
+}
+
+/// One surface's optimized state, and the tags its job made, in the order of
+/// [`Made`] in its recombined state.
+#[derive(Debug, Clone)]
+struct Entry {
+    made: Made,
+    node_blocks: Vec<NodeBlock>,
+    quad_blocks: Vec<ElementBlock>,
+}
+
+/// The optimized surfaces of earlier jobs (see the module doc).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct SurfaceCache {
+    /// By surface and the fingerprint of its recombined state.
+    entries: HashMap<(i32, u64), Entry>,
+}
+
+/// `from[i]` → `to[i]`, when that is a map (one image per tag, one tag per image).
+fn pairing(from: &[u64], to: &[u64]) -> Option<HashMap<u64, u64>> {
+    if from.len() != to.len() {
+        return None;
+    }
+    let mut map = HashMap::with_capacity(from.len());
+    let mut back = HashMap::with_capacity(from.len());
+    for (&a, &b) in from.iter().zip(to) {
+        if *map.entry(a).or_insert(b) != b || *back.entry(b).or_insert(a) != a {
+            return None;
+        }
+    }
+    Some(map)
+}
+
+impl SurfaceCache {
+    /// True when nothing is recorded.
+    pub(crate) fn is_empty(&self) -> bool {
+        self.entries.is_empty()
+    }
+
+    /// Puts the cached optimized state of every surface of `mesh` (a recombined mesh with
+    /// fingerprints `fp`) that an earlier job had in the same recombined state, block for
+    /// block in place, with the tags of this job; returns those surfaces, sorted (the
+    /// others are left as they are).
+    pub(crate) fn put_back(&self, mesh: &mut Mesh, fp: &Fingerprints) -> Vec<i32> {
+        let mut done = Vec::new();
+        for (&s, (f, made)) in &fp.0 {
+            let Some(e) = self.entries.get(&(s, *f)) else {
+                continue;
+            };
+            let (Some(nodes), Some(elements)) = (
+                pairing(&e.made.nodes, &made.nodes),
+                pairing(&e.made.elements, &made.elements),
+            ) else {
+                continue;
+            };
+            let node = |t: u64| nodes.get(&t).copied().unwrap_or(t);
+            let node_places: Vec<usize> = (0..mesh.node_blocks.len())
+                .filter(|&i| {
+                    let b = &mesh.node_blocks[i];
+                    b.entity_dim == 2 && b.entity_tag == s
+                })
+                .collect();
+            let quad_places: Vec<usize> = (0..mesh.element_blocks.len())
+                .filter(|&i| {
+                    is_quads(&mesh.element_blocks[i]) && mesh.element_blocks[i].entity_tag == s
+                })
+                .collect();
+            if node_places.len() != e.node_blocks.len() || quad_places.len() != e.quad_blocks.len()
+            {
+                continue;
+            }
+            for (i, b) in node_places.into_iter().zip(&e.node_blocks) {
+                let mut b = b.clone();
+                b.tags.iter_mut().for_each(|t| *t = node(*t));
+                mesh.node_blocks[i] = b;
+            }
+            for (i, b) in quad_places.into_iter().zip(&e.quad_blocks) {
+                let mut b = b.clone();
+                b.nodes.iter_mut().for_each(|t| *t = node(*t));
+                b.tags
+                    .iter_mut()
+                    .for_each(|t| *t = elements.get(t).copied().unwrap_or(*t));
+                mesh.element_blocks[i] = b;
+            }
+            done.push(s);
+        }
+        done.sort_unstable();
+        done
+    }
+
+    /// Records the optimized state of `mesh`'s surfaces, whose recombined state had the
+    /// fingerprints `fp`; surfaces that share nodes across blocks (see the module doc) are
+    /// not recorded.
+    pub(crate) fn record(&mut self, mesh: &Mesh, fp: &Fingerprints) {
+        // the surface whose node block holds each node
+        let mut block_of: HashMap<u64, i32> = HashMap::new();
+        for b in mesh.node_blocks.iter().filter(|b| b.entity_dim == 2) {
+            for &t in &b.tags {
+                block_of.insert(t, b.entity_tag);
+            }
+        }
+        let mut tangled: HashSet<i32> = HashSet::new();
+        for b in &mesh.element_blocks {
+            let own = is_quads(b).then_some(b.entity_tag);
+            for n in &b.nodes {
+                match (block_of.get(n), own) {
+                    (Some(&o), Some(s)) if o != s => {
+                        tangled.insert(o);
+                        tangled.insert(s);
+                    }
+                    (Some(&o), None) if !(b.entity_dim == 2 && b.entity_tag == o) => {
+                        tangled.insert(o);
+                    }
+                    _ => {}
+                }
+            }
+        }
+        for (&s, (f, made)) in &fp.0 {
+            if tangled.contains(&s) || self.entries.contains_key(&(s, *f)) {
+                continue;
+            }
+            let node_blocks = mesh
+                .node_blocks
+                .iter()
+                .filter(|b| b.entity_dim == 2 && b.entity_tag == s)
+                .cloned()
+                .collect();
+            let quad_blocks = mesh
+                .element_blocks
+                .iter()
+                .filter(|b| is_quads(b) && b.entity_tag == s)
+                .cloned()
+                .collect();
+            self.entries.insert(
+                (s, *f),
+                Entry {
+                    made: made.clone(),
+                    node_blocks,
+                    quad_blocks,
+                },
+            );
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optimize::{optimize, OptimizeOptions};
+    use crate::recombine::{recombine, RecombineOptions};
+
+    /// A thin annulus of two surfaces: the matching makes nodes and elements of its own
+    /// (vertex duplications, tags above the input's).
+    fn recombined() -> (Mesh, Mesh) {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("fuzz/corpus/pipeline/seed-thin_annulus41.msh");
+        let input = crate::msh::read_file(&path).expect("the seed reads");
+        let mut mesh = input.clone();
+        recombine(&mut mesh, &RecombineOptions::default()).expect("recombines");
+        (input, mesh)
+    }
+
+    /// `mesh` with every tag above the input's shifted by `by`.
+    fn shifted(mesh: &Mesh, nodes: u64, elements: u64, by: u64) -> Mesh {
+        let mut m = mesh.clone();
+        let node = |t: &mut u64| {
+            if *t > nodes {
+                *t += by;
+            }
+        };
+        for b in &mut m.node_blocks {
+            b.tags.iter_mut().for_each(node);
+        }
+        for b in &mut m.element_blocks {
+            b.nodes.iter_mut().for_each(node);
+            b.tags
+                .iter_mut()
+                .filter(|t| **t > elements)
+                .for_each(|t| *t += by);
+        }
+        m
+    }
+
+    #[test]
+    fn a_surface_put_back_is_what_optimizing_it_again_gives_whatever_its_own_tags() {
+        let (input, mesh) = recombined();
+        let (nodes, elements) = (input.max_node_tag(), input.max_element_tag());
+        let made = Fingerprints::of(&mesh, nodes, elements);
+        assert!(
+            made.0.values().any(|(_, m)| !m.nodes.is_empty()),
+            "the recombination made nodes of its own"
+        );
+        let opts = OptimizeOptions::default();
+        let mut optimized = mesh.clone();
+        optimize(&mut optimized, &input, &opts).expect("optimizes");
+        let mut cache = SurfaceCache::default();
+        cache.record(&optimized, &made);
+        // the same recombination with the job's own tags shifted (as a split elsewhere
+        // shifts them): the same fingerprints, and the state put back is the optimizer's
+        let other = shifted(&mesh, nodes, elements, 1000);
+        let fp = Fingerprints::of(&other, nodes, elements);
+        for (s, (f, _)) in &fp.0 {
+            assert_eq!(
+                made.0[s].0, *f,
+                "surface {s}: the fingerprint ignores own tags"
+            );
+        }
+        let mut put = other.clone();
+        let surfaces = cache.put_back(&mut put, &fp);
+        assert_eq!(surfaces.len(), fp.0.len(), "every surface put back");
+        let mut again = other.clone();
+        optimize(&mut again, &input, &opts).expect("optimizes");
+        assert_eq!(put.node_blocks, again.node_blocks);
+        assert_eq!(put.element_blocks, again.element_blocks);
+        // a moved node changes its surface's fingerprint: that surface is not put back
+        let mut moved = other.clone();
+        let b = moved
+            .node_blocks
+            .iter_mut()
+            .find(|b| b.entity_dim == 2 && !b.coords.is_empty())
+            .expect("a surface node");
+        b.coords[0][0] += 1e-9;
+        let surface = b.entity_tag;
+        let fp = Fingerprints::of(&moved, nodes, elements);
+        let mut put = moved.clone();
+        assert!(!cache.put_back(&mut put, &fp).contains(&surface));
+        let block = |m: &Mesh| {
+            m.node_blocks
+                .iter()
+                .find(|b| b.entity_dim == 2 && b.entity_tag == surface)
+                .cloned()
+        };
+        assert_eq!(block(&put), block(&moved));
+    }
+}
