@@ -29,7 +29,8 @@
 //! 4. **The worst quad.** A valid optimized result gets up to three more tries: where the
 //!    fallback priced quads out, the fallback with splits only; quads under η
 //!    [`ETA_FLOOR`] priced out; one ring around those still under it split. Each is kept
-//!    only when it raises the worst quad without breaking the element-count rule.
+//!    only when it raises the worst quad without breaking the element-count rule. (A mesh
+//!    of more than [`TRIES_UP_TO`] elements gets them only after a fallback.)
 //!
 //! Quads still bad after the fallback are refused (or listed with
 //! [`Options::allow_invalid`]). A run whose quads are all valid the first time, with no
@@ -73,10 +74,15 @@ pub(crate) fn release_memory() {
 /// optimization) the rounds that optimize the surfaces whose matching left bad quads.
 pub const FALLBACK_ROUNDS: usize = 10;
 
+/// Elements up to which a valid result that needed no fallback still gets the tries that
+/// may raise its worst quad (see the module doc); larger meshes get them only after a
+/// fallback.
+pub const TRIES_UP_TO: usize = 1 << 18;
+
 /// Elements up to which a job keeps its optimized surfaces for the next job from its first
 /// round on ([`crate::reuse`]); larger meshes from their second round on (a first round that
 /// is valid, the usual case, then pays nothing for it).
-const REUSE_UP_TO: usize = 1 << 18;
+const REUSE_UP_TO: usize = 1 << 15;
 
 /// Fallback rounds that price out new bad quads at most (see the module doc).
 pub const PRICING_ROUNDS: usize = 2;
@@ -967,8 +973,11 @@ fn raise_worst_quad(
     cache: &mut SurfaceCache,
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut best = first;
-    // without optimization the quads are the matching's as they are (low by design)
-    if !opts.optimize || !best.1.invalid.is_empty() {
+    // without optimization the quads are the matching's as they are (low by design); a
+    // large mesh that needed no fallback is not run again for its worst quad (a try costs
+    // a whole job)
+    let large = best.1.rounds == 1 && input.element_count() > TRIES_UP_TO;
+    if !opts.optimize || !best.1.invalid.is_empty() || large {
         return Ok(best);
     }
     let skip = if opts.smooth_quads {
@@ -976,8 +985,8 @@ fn raise_worst_quad(
     } else {
         quad_only_surfaces(input)
     };
+    let (mut low, mut worst) = low_quads(&best.0, &skip);
     for step in 0..3 {
-        let (low, worst) = low_quads(&best.0, &skip);
         let mut start = best.2.clone();
         let what = match step {
             0 => {
@@ -1033,6 +1042,7 @@ fn raise_worst_quad(
             );
             kept.1.times = add_times(&best.1.times, &kept.1.times);
             best = kept;
+            (low, worst) = low_quads(&best.0, &skip);
         } else {
             best.1.times = add_times(&best.1.times, &candidate.1.times);
         }
