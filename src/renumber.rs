@@ -251,12 +251,25 @@ pub fn renumber(mesh: &mut Mesh, input: Option<InputTags>) -> RenumberReport {
         .iter()
         .flat_map(|b| b.tags.iter().copied())
         .collect();
+    let count = element_tags.len();
     let elements = Ranks::new(element_tags, |_| false);
-    if let Some(limits) = input {
-        map.elements = elements.map_up_to(limits.max_element);
-    }
-    if !elements.identity() {
-        report.elements_changed = renumber_elements(mesh, &elements, &mut report.warnings);
+    if elements.sorted.len() < count {
+        // a tag used by more than one element (the reader keeps them, with a warning):
+        // every element gets a number of its own
+        drop(elements);
+        report.elements_changed = renumber_repeated_elements(
+            mesh,
+            input.map(|l| l.max_element),
+            &mut map,
+            &mut report.warnings,
+        );
+    } else {
+        if let Some(limits) = input {
+            map.elements = elements.map_up_to(limits.max_element);
+        }
+        if !elements.identity() {
+            report.elements_changed = renumber_elements(mesh, &elements, &mut report.warnings);
+        }
     }
     if input.is_some() {
         report.map = Some(map);
@@ -315,6 +328,53 @@ fn renumber_elements(mesh: &mut Mesh, ranks: &Ranks, warnings: &mut Vec<String>)
         .sum();
     renumber_data(mesh, ranks, DataKind::Element, warnings);
     renumber_data(mesh, ranks, DataKind::ElementNode, warnings);
+    changed
+}
+
+/// Numbers the elements 1..N in the order of (tag, block, place in block) when some tags
+/// repeat, so that every element has a tag of its own; `map` gets `(input tag, new tag)` of
+/// each element whose tag is at most `max_input` (a repeated tag once per element). The
+/// element data sections go, with a warning: their values cannot be told apart. Returns how
+/// many tags changed.
+fn renumber_repeated_elements(
+    mesh: &mut Mesh,
+    max_input: Option<u64>,
+    map: &mut TagMap,
+    warnings: &mut Vec<String>,
+) -> usize {
+    let mut order: Vec<(u64, u32, u32)> = mesh
+        .element_blocks
+        .iter()
+        .enumerate()
+        .flat_map(|(b, block)| {
+            block
+                .tags
+                .iter()
+                .enumerate()
+                .map(move |(i, &t)| (t, b as u32, i as u32))
+        })
+        .collect();
+    order.par_sort_unstable();
+    let mut changed = 0;
+    for (i, &(tag, b, e)) in order.iter().enumerate() {
+        let new = i as u64 + 1;
+        if max_input.is_some_and(|m| tag <= m) {
+            map.elements.push((tag, new));
+        }
+        if new != tag {
+            changed += 1;
+        }
+        mesh.element_blocks[b as usize].tags[e as usize] = new;
+    }
+    let before = mesh.data_sections.len();
+    mesh.data_sections
+        .retain(|d| !matches!(d.kind, DataKind::Element | DataKind::ElementNode));
+    let dropped = before - mesh.data_sections.len();
+    if dropped > 0 {
+        warnings.push(format!(
+            "{dropped} element data section(s) dropped: element tags repeat in the input, so their values cannot be told apart"
+        ));
+    }
     changed
 }
 

@@ -456,3 +456,55 @@ fn a_corner_seen_edge_on_from_the_surface_is_not_valid() {
     );
     assert!(!output.exists(), "nothing written");
 }
+
+/// Fuzz finding (6,318 runs of the pipeline target): the coarse cylinder seed with one
+/// triangle's tag changed to another's (the reader keeps a repeated element tag, with a
+/// warning). The output, numbered 1..N, gave both elements the same tag. Now every element
+/// gets a number of its own, and the tag map lists the repeated input tag once per element.
+#[test]
+fn a_repeated_element_tag_gets_a_number_for_each_element() {
+    let path =
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/fuzz/repeated-element-tag.msh");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("out.msh");
+    let map = dir.path().join("map.json");
+    let out = blossomquad()
+        .arg(&path)
+        .arg("-o")
+        .arg(&output)
+        .arg("--tag-map")
+        .arg(&map)
+        .output()
+        .expect("run blossomquad");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(0), "{err}");
+    assert!(
+        err.contains("element tag 64 is used by more than one element"),
+        "{err}"
+    );
+    let mesh = blossomquad::msh::read_file(&output).expect("output reads");
+    let mut tags: Vec<u64> = mesh
+        .element_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().copied())
+        .collect();
+    tags.sort_unstable();
+    let n = tags.len() as u64;
+    assert_eq!(
+        tags,
+        (1..=n).collect::<Vec<u64>>(),
+        "elements numbered 1..N, each its own"
+    );
+    let text = std::fs::read_to_string(&map).expect("tag map written");
+    let json: serde_json::Value = serde_json::from_str(&text).expect("tag map is JSON");
+    let repeated = json["elements"]
+        .as_array()
+        .expect("element pairs")
+        .iter()
+        .filter(|p| p[0] == 64)
+        .count();
+    assert_eq!(
+        repeated, 2,
+        "the repeated tag maps once per element: {text}"
+    );
+}
