@@ -18,7 +18,7 @@ For every model of corpus/models.tsv and every size:
      the bound, eq. 3); none (shown "–", the goal is then 0.2) for closed surfaces;
   3. `blossomquad IN -o OUT` runs (wall and CPU time, user + system over all threads, of
      the whole process, read and write included); its log gives the fallback's rounds, triangles split into three quads
-     and matched pairs removed from the matching (see `fallback_of`);
+     and quads priced out of the matching (see `fallback_of`);
      `tests/check_mesh.py IN OUT` says whether the output is valid;
   4. `blossomquad quality --json OUT` gives the quads, eta_w (worst quad, eq. 3) and the
      mean eta; new quads per input triangle = (output quads - input quads) / input
@@ -69,7 +69,7 @@ ETA_GOAL = 0.2
 GMSH_RECOMBINE = [("Mesh.RecombineAll", "1"), ("Mesh.RecombinationAlgorithm", "1")]
 FALLBACK_LINE = re.compile(r"^fallback round (\d+):")
 SPLIT_COUNT = re.compile(r"(\d+) triangle\(s\) split into three quads")
-PAIRS_REMOVED = re.compile(r"matched pair\(s\).* removed .*\((\d+) in all\)")
+PRICED_OUT = re.compile(r"(\d+) quad\(s\) priced out of the matching")
 MESH_2D = re.compile(r"Done meshing 2D \(Wall ([0-9.eE+-]+)s, CPU ([0-9.eE+-]+)s")
 
 
@@ -178,10 +178,11 @@ def median(values):
 
 
 def fallback_of(log):
-    """(rounds, triangles split, matched pairs removed) from the tool's log: rounds are
-    the distinct N of its `fallback round N: ...` lines, the triangles split the last
+    """(rounds, triangles split, quads priced out) from the tool's log: rounds are the
+    distinct N of its `fallback round N: ...` lines, the triangles split the last
     `K triangle(s) split into three quads` count (a round's splits include the earlier
-    rounds'), the pairs removed the last `(M in all)` of a line on removed matched pairs."""
+    rounds'), the quads priced out the sum of the `M quad(s) priced out of the matching`
+    counts (each round's new ones)."""
     rounds, split, removed = set(), 0, 0
     for line in log.splitlines():
         m = FALLBACK_LINE.match(line)
@@ -190,8 +191,8 @@ def fallback_of(log):
         rounds.add(int(m.group(1)))
         s = SPLIT_COUNT.search(line)
         split = int(s.group(1)) if s else split
-        r = PAIRS_REMOVED.search(line)
-        removed = int(r.group(1)) if r else removed
+        r = PRICED_OUT.search(line)
+        removed += int(r.group(1)) if r else 0
     return len(rounds), split, removed
 
 
@@ -337,8 +338,8 @@ def table(rows, jobs, repeat, load, date):
         f"Generated on {date}, {len(rows)} runs, {jobs} job(s) at once, "
         f"times are a {timing} (load average {load:.1f} at the start). Input: `gmsh -2` in MSH 4.1. "
         "tris: input triangles; q/t: new quads per input triangle (0.5 when every triangle pairs); "
-        "split: triangles the fallback split into three quads; rm: matched pairs the fallback removed "
-        "from the matching; rnd: fallback rounds; bound: the "
+        "split: triangles the fallback split into three quads; rm: quads the fallback priced out of "
+        "the matching (their triangles paired otherwise); rnd: fallback rounds; bound: the "
         "input's wall-corner bound (smallest sum of a surface's triangle angles at a boundary node, "
         "/ 90°, capped at 1); η_w, η̄: worst and mean quad quality (eq. 3, `blossomquad quality`); "
         "sj_min: the smallest scaled Jacobian of a quad corner about the quad's own normal; "
