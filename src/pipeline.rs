@@ -42,33 +42,13 @@ use std::time::{Duration, Instant};
 
 use serde::{Deserialize, Serialize};
 
+use crate::memory::release_memory;
+pub use crate::memory::set_memory_release;
 use crate::mesh::{etype, Mesh, TagCoords};
+pub use crate::progress::{Progress, ProgressFn, Stage};
 use crate::reuse::{Fingerprints, SurfaceCache};
 use crate::validity::BadQuad;
 use crate::{optimize, recombine, refine, validity};
-
-/// A function that hands the heap memory freed so far back to the operating system (with
-/// glibc: `malloc_trim(0)`), set once by the program with [`set_memory_release`]. The
-/// library holds no unsafe code, so it cannot call the allocator itself.
-static MEMORY_RELEASE: std::sync::OnceLock<fn()> = std::sync::OnceLock::new();
-
-/// Sets the function [`quadrangulate`] calls at a few stage boundaries (after the
-/// recombination's topology, before the solver of a large surface, before the optimizer,
-/// before the final checks) to hand freed
-/// heap memory back to the operating system. Without it, memory a stage frees may stay
-/// mapped by the allocator and add to the next stages' peak: glibc keeps the free pages of
-/// every thread's arena. Only the first call counts. The `blossomquad` program sets it on
-/// Linux with glibc.
-pub fn set_memory_release(release: fn()) {
-    let _ = MEMORY_RELEASE.set(release);
-}
-
-/// Calls the function set by [`set_memory_release`], if any.
-pub(crate) fn release_memory() {
-    if let Some(f) = MEMORY_RELEASE.get() {
-        f();
-    }
-}
 
 /// Rounds after the first run at most: the fallback's pricing and split rounds, and (without
 /// optimization) the rounds that optimize the surfaces whose matching left bad quads.
@@ -89,134 +69,6 @@ pub const PRICING_ROUNDS: usize = 2;
 
 /// Rings of input triangles around a bad quad that the fallback splits at most.
 pub const SPLIT_RINGS: usize = 2;
-
-/// The stage a [`Progress`] report is about, in pipeline order. [`quadrangulate`] reports
-/// the stages from [`Stage::Topology`] to [`Stage::Check`]; reading and writing are the
-/// caller's (the command line reports them too).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize)]
-#[serde(rename_all = "lowercase")]
-#[non_exhaustive]
-pub enum Stage {
-    /// Reading the input file (`done`/`total`: bytes).
-    Read,
-    /// Input checks, each surface's triangles, adjacency and regions, and parity repair
-    /// (`done`/`total`: these four steps, weighted by their usual share of the time).
-    Topology,
-    /// The matching graphs and their costs (`done`/`total`: triangles of the surfaces whose
-    /// graph is built, of all).
-    Graph,
-    /// The minimum-cost perfect matchings and the quads made from them (`done`/`total`:
-    /// triangles, each surface counting its share of the solver's progress).
-    Matching,
-    /// Uniform refinement (`done`/`total`: levels).
-    Refine,
-    /// Smoothing and topological optimization (`done`/`total`: quads times the steps of
-    /// the optimizer's schedule, summed over surfaces).
-    Optimize,
-    /// The invariant and validity checks (`done`/`total`: 0/1, then 1/1).
-    Check,
-    /// Writing the output file (`done`/`total`: 0/1, then 1/1).
-    Write,
-}
-
-impl Stage {
-    /// The stage's name in lower case, as serialized ("read", "topology", "graph",
-    /// "matching", "refine", "optimize", "check", "write").
-    pub fn name(self) -> &'static str {
-        match self {
-            Stage::Read => "read",
-            Stage::Topology => "topology",
-            Stage::Graph => "graph",
-            Stage::Matching => "matching",
-            Stage::Refine => "refine",
-            Stage::Optimize => "optimize",
-            Stage::Check => "check",
-            Stage::Write => "write",
-        }
-    }
-}
-
-/// A progress report: `done` of `total` units of `stage` (see [`Stage`] for the units),
-/// and for the stages that go surface by surface, how many surfaces are finished with it.
-///
-/// What stays true of the reports one [`quadrangulate`] call sends (fallback rounds start
-/// the stages again from [`Stage::Topology`]; without [`Options::optimize`], a round that
-/// only optimizes the surfaces whose matching left quads that are not valid starts again
-/// from [`Stage::Optimize`]): within a round, stages come in [`Stage`]
-/// order; within a stage `done` never decreases and `done <= total`, `total > 0`; each stage
-/// a round goes through starts with a report where `done == 0` and ends with one where
-/// `done == total`. Reports are throttled (a
-/// few hundred per call at most, whatever the mesh size), so a callback may redraw on each.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
-#[non_exhaustive]
-pub struct Progress {
-    /// The stage.
-    pub stage: Stage,
-    /// Units done.
-    pub done: u64,
-    /// Units in all (> 0).
-    pub total: u64,
-    /// Surfaces finished with this stage (0 for the stages that are not per surface).
-    pub surfaces_done: usize,
-    /// Surfaces the stage works on (0 for the stages that are not per surface).
-    pub surfaces: usize,
-}
-
-impl Progress {
-    /// `done` of `total` units of `stage`, no surface count (`total` 0: nothing to do, so
-    /// 1 of 1).
-    pub fn new(stage: Stage, done: u64, total: u64) -> Self {
-        let (done, total) = if total == 0 { (1, 1) } else { (done, total) };
-        Progress {
-            stage,
-            done: done.min(total),
-            total,
-            surfaces_done: 0,
-            surfaces: 0,
-        }
-    }
-
-    /// The same report with a surface count.
-    pub fn with_surfaces(mut self, done: usize, surfaces: usize) -> Self {
-        self.surfaces_done = done.min(surfaces);
-        self.surfaces = surfaces;
-        self
-    }
-
-    /// `done / total`, in [0, 1].
-    pub fn fraction(&self) -> f64 {
-        (self.done as f64 / self.total.max(1) as f64).clamp(0.0, 1.0)
-    }
-}
-
-/// A progress callback, called from any thread (one call at a time).
-#[derive(Clone)]
-pub struct ProgressFn(pub Arc<dyn Fn(Progress) + Send + Sync>);
-
-impl ProgressFn {
-    /// A callback calling `f` with every report.
-    pub fn new(f: impl Fn(Progress) + Send + Sync + 'static) -> Self {
-        ProgressFn(Arc::new(f))
-    }
-
-    /// Calls the callback.
-    pub fn report(&self, p: Progress) {
-        (self.0)(p)
-    }
-}
-
-impl std::fmt::Debug for ProgressFn {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str("ProgressFn")
-    }
-}
-
-impl PartialEq for ProgressFn {
-    /// The same callback.
-    fn eq(&self, other: &Self) -> bool {
-        Arc::ptr_eq(&self.0, &other.0)
-    }
-}
 
 /// Where the stages send their progress: forwards to a [`ProgressFn`] only what keeps the
 /// promises of [`Progress`] (stage order, `done` not decreasing, a stage's reports from 0 to

@@ -1,5 +1,5 @@
 //! A surface's optimized quads kept between the jobs of one run (the fallback's rounds and
-//! the worst-quad tries of [`crate::pipeline`]): a surface whose recombined quads, nodes and
+//! the worst-quad tries of the main job): a surface whose recombined quads, nodes and
 //! coordinates are the same as in an earlier job is not optimized again; its optimized
 //! state from that job is put back instead.
 //!

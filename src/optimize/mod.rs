@@ -130,10 +130,10 @@ pub struct OptimizeOptions<'a> {
     /// after N uniform refinements ([`crate::refine`]), whose quads are 2^N times smaller
     /// than the triangles they came from.
     pub reference_size_scale: f64,
-    /// Called with the [`crate::Stage::Optimize`] progress as surfaces progress (units:
+    /// Called with the [`crate::progress::Stage::Optimize`] progress as surfaces progress (units:
     /// each surface's quads times the steps of its schedule), from any thread, a few times
     /// per surface; `done` may arrive out of order from several threads.
-    pub progress: Option<&'a (dyn Fn(crate::Progress) + Sync)>,
+    pub progress: Option<&'a (dyn Fn(crate::progress::Progress) + Sync)>,
     /// Surfaces left as they are (their nodes count as shared, so neighbours keep them).
     pub skip: &'a [i32],
     /// Where stage times and rollbacks go (see [`crate::profile`]); `None`: nowhere.
@@ -293,14 +293,19 @@ pub fn optimize_prepared(
         let f = finished.fetch_add(usize::from(surface_done), Ordering::Relaxed)
             + usize::from(surface_done);
         if let Some(p) = opts.progress {
-            p(
-                crate::Progress::new(crate::Stage::Optimize, d.min(total), total)
-                    .with_surfaces(f, surfaces),
-            );
+            p(crate::progress::Progress::new(
+                crate::progress::Stage::Optimize,
+                d.min(total),
+                total,
+            )
+            .with_surfaces(f, surfaces));
         }
     };
     if let Some(p) = opts.progress {
-        p(crate::Progress::new(crate::Stage::Optimize, 0, total).with_surfaces(0, surfaces));
+        p(
+            crate::progress::Progress::new(crate::progress::Stage::Optimize, 0, total)
+                .with_surfaces(0, surfaces),
+        );
     }
     let PreparedReference {
         nodes: refnodes,

@@ -243,10 +243,10 @@ pub struct RecombineOptions {
     pub priced_out: Vec<[u64; 4]>,
     /// Where stage times and matching graphs go (see [`crate::profile`]); `None`: nowhere.
     pub trace: Option<crate::profile::Trace>,
-    /// Where the progress of the stages [`crate::Stage::Topology`], [`crate::Stage::Graph`]
-    /// and [`crate::Stage::Matching`] goes (called from any thread, a few hundred times at
+    /// Where the progress of the stages [`crate::progress::Stage::Topology`], [`crate::progress::Stage::Graph`]
+    /// and [`crate::progress::Stage::Matching`] goes (called from any thread, a few hundred times at
     /// most; a surface's solver reports from its own thread); `None`: nowhere.
-    pub progress: Option<crate::ProgressFn>,
+    pub progress: Option<crate::progress::ProgressFn>,
     /// The caller already removed repeated triangles ([`drop_repeated_triangles`] returned
     /// `None` or its mesh is the one given): [`recombine`] does not look for them again.
     pub repeated_dropped: bool,
@@ -615,11 +615,15 @@ pub fn recombine(
             let coords = nodes.into_coords();
             // memory: the topology's temporaries are freed; the graphs and the solvers
             // allocate next, maybe on other threads (other arenas)
-            crate::pipeline::release_memory();
+            crate::memory::release_memory();
             let coords = &coords;
             let tracker = opts.progress.as_ref().map(|p| {
                 let end = TOPOLOGY_UNITS[4];
-                p.report(crate::Progress::new(crate::Stage::Topology, end, end));
+                p.report(crate::progress::Progress::new(
+                    crate::progress::Stage::Topology,
+                    end,
+                    end,
+                ));
                 let t = Arc::new(surface::Tracker::new(p.clone(), &work));
                 t.emit();
                 t
@@ -716,21 +720,21 @@ pub fn sync_periodic(mesh: &mut Mesh) -> Result<usize, RecombineError> {
 }
 
 /// Steps 2–3: topology of every surface, then parity repair (one round, checked).
-/// [`crate::Stage::Topology`] progress: `step` of its four steps (input checks, node table,
+/// [`crate::progress::Stage::Topology`] progress: `step` of its four steps (input checks, node table,
 /// surface topology, parity repair) done, each weighted by its usual share of the time
 /// ([`TOPOLOGY_UNITS`]).
 fn topology_progress(opts: &RecombineOptions, step: usize) {
     if let Some(p) = &opts.progress {
         let units = TOPOLOGY_UNITS[step.min(4)];
-        p.report(crate::Progress::new(
-            crate::Stage::Topology,
+        p.report(crate::progress::Progress::new(
+            crate::progress::Stage::Topology,
             units,
             TOPOLOGY_UNITS[4],
         ));
     }
 }
 
-/// The [`crate::Stage::Topology`] units done after each of its four steps: the input checks
+/// The [`crate::progress::Stage::Topology`] units done after each of its four steps: the input checks
 /// and the node table take one unit each, each surface's triangles, half-edges and regions
 /// twelve (most of the stage's time), the parity repair two.
 const TOPOLOGY_UNITS: [u64; 5] = [0, 1, 2, 14, 16];

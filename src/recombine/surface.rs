@@ -138,7 +138,7 @@ pub(super) fn surface_work(
 }
 
 /// Triangles from which a surface hands the memory freed by its graph's construction back
-/// to the system before its solver allocates ([`crate::pipeline::set_memory_release`]):
+/// to the system before its solver allocates ([`crate::set_memory_release`]):
 /// below, the solver's arrays are small and the call would cost more than it frees.
 const RELEASE_BEFORE_SOLVE: usize = 100_000;
 
@@ -177,7 +177,7 @@ pub(super) fn match_surface(
     if n >= RELEASE_BEFORE_SOLVE {
         // memory: the graph's temporaries (normals, cross field, walls) are freed, maybe
         // on other threads' arenas; the solver allocates next
-        crate::pipeline::release_memory();
+        crate::memory::release_memory();
     }
     let sent = Arc::new(AtomicU64::new(0));
     let progress = tracker.map(|t| {
@@ -280,10 +280,10 @@ fn price_out(topo: &SurfaceTopo, g: &mut graph::Graph, priced: &[[u32; 4]]) -> V
 }
 
 /// The progress of the graphs and matchings of all surfaces, which run side by side (see
-/// [`crate::Stage::Graph`] and [`crate::Stage::Matching`]): the graph stage until every
+/// [`crate::progress::Stage::Graph`] and [`crate::progress::Stage::Matching`]): the graph stage until every
 /// surface has its graph, then the matching stage, both counted in triangles.
 pub(super) struct Tracker {
-    f: crate::ProgressFn,
+    f: crate::progress::ProgressFn,
     /// Triangles of all surfaces.
     triangles: u64,
     surfaces: usize,
@@ -297,7 +297,7 @@ pub(super) struct Tracker {
 }
 
 impl Tracker {
-    pub(super) fn new(f: crate::ProgressFn, work: &[SurfaceWork]) -> Self {
+    pub(super) fn new(f: crate::progress::ProgressFn, work: &[SurfaceWork]) -> Self {
         Tracker {
             f,
             triangles: work.iter().map(|w| w.topo.len() as u64).sum(),
@@ -329,15 +329,15 @@ impl Tracker {
     pub(super) fn emit(&self) {
         let graphs = self.graphs.load(Ordering::Relaxed);
         let p = if graphs < self.surfaces {
-            crate::Progress::new(
-                crate::Stage::Graph,
+            crate::progress::Progress::new(
+                crate::progress::Stage::Graph,
                 self.graph_triangles.load(Ordering::Relaxed),
                 self.triangles,
             )
             .with_surfaces(graphs, self.surfaces)
         } else {
-            crate::Progress::new(
-                crate::Stage::Matching,
+            crate::progress::Progress::new(
+                crate::progress::Stage::Matching,
                 self.matched.load(Ordering::Relaxed),
                 self.triangles,
             )
