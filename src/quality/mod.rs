@@ -10,6 +10,7 @@
 //! file (elements naming missing nodes are skipped and counted).
 
 pub mod eta;
+pub mod jacobian;
 pub mod locate;
 pub mod size;
 pub mod view;

@@ -7,7 +7,7 @@
 //! product of the two edges leaving the corner, divided by their lengths, measured about
 //! the quad's straight-sided normal (the diagonals' cross product); of an 8- or 9-node quad,
 //! the minimum at its nodes of `det J / (|∂x/∂ξ| |∂x/∂η|)` about the same normal
-//! ([`crate::high_order::min_scaled_jacobian_at_nodes`]).
+//! ([`super::jacobian::min_scaled_jacobian_at_nodes`]).
 //!
 //! [`add_views`] appends the same views to a mesh about to be written (`blossomquad IN -o
 //! OUT --quality-view`, [`crate::Options::quality_view`]), encoded for the output's
@@ -41,7 +41,7 @@ pub fn quad4_scaled_jacobian(p: &[DVec3; 4]) -> f64 {
 
 /// Scaled Jacobian of a quadrangle given all its nodes in Gmsh order: 4 nodes
 /// ([`quad4_scaled_jacobian`]), 8 or 9 nodes (the minimum at the nodes,
-/// [`crate::high_order::min_scaled_jacobian_at_nodes`], with an 8-node quad's centre
+/// [`super::jacobian::min_scaled_jacobian_at_nodes`], with an 8-node quad's centre
 /// taken as its serendipity centre). These are the values Gmsh reports as `minSIGE`;
 /// Gmsh's `minSJ` is a lower bound (from Bézier coefficients) and can be well below them
 /// on distorted quads. `None` for another node count.
@@ -56,7 +56,7 @@ pub fn scaled_jacobian(pts: &[DVec3]) -> Option<f64> {
             } else {
                 (x[4] + x[5] + x[6] + x[7]) * 0.5 - (x[0] + x[1] + x[2] + x[3]) * 0.25
             };
-            Some(crate::high_order::min_scaled_jacobian_at_nodes(&x))
+            Some(super::jacobian::min_scaled_jacobian_at_nodes(&x))
         }
         _ => None,
     }
