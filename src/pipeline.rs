@@ -763,6 +763,10 @@ pub const ETA_FLOOR: f64 = 0.2;
 /// the result before it did already): 0.5 when every triangle pairs with a neighbour.
 const MAX_QUADS_PER_TRIANGLE: f64 = 0.6;
 
+/// Input triangles from which [`MAX_QUADS_PER_TRIANGLE`] binds the worst-quad tries (a
+/// smaller mesh may take up to a quarter more quads than that for a better worst quad).
+const COUNT_RULE_FROM: usize = 500;
+
 /// The quads of `mesh`'s surfaces with η below [`ETA_FLOOR`], as (surface, node tags), and
 /// the worst η of those quads; surfaces in `skip` (sorted: those the input meshed with quads
 /// alone, which no job changes) are left out.
@@ -812,7 +816,8 @@ fn quads_per_triangle(input: &Mesh, out: &Mesh) -> f64 {
 /// After the fallback, with optimization, other results that may have a better worst
 /// quad, each a new job kept only when it is valid, raises the worst quad's η and keeps the
 /// new quads per input triangle at most [`MAX_QUADS_PER_TRIANGLE`] (a result above it
-/// already: at most a quarter more than it has):
+/// already, or a mesh of fewer than [`COUNT_RULE_FROM`] triangles: at most a quarter more
+/// than the larger of the two):
 /// 1. when the fallback priced quads out, the fallback with splits only (triangles split
 ///    into quads around a bad quad may give better quads than the matching's way around
 ///    it);
@@ -838,6 +843,12 @@ fn raise_worst_quad(
         quad_only_surfaces(input)
     };
     let (mut low, mut worst) = low_quads(&best.0, &skip);
+    let triangles: usize = input
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
+        .map(|b| b.len())
+        .sum();
     for step in 0..3 {
         let mut start = best.2.clone();
         let what = match step {
@@ -877,12 +888,13 @@ fn raise_worst_quad(
             continue;
         }
         let (_, new_worst) = low_quads(&candidate.0, &skip);
-        // a result above the element-count rule already may grow by a quarter
+        // a result above the element-count rule already, or of a small mesh (where the
+        // rule does not apply), may grow by a quarter
         let before = quads_per_triangle(input, &best.0);
-        let limit = if before <= MAX_QUADS_PER_TRIANGLE {
-            MAX_QUADS_PER_TRIANGLE
+        let limit = if before > MAX_QUADS_PER_TRIANGLE || triangles < COUNT_RULE_FROM {
+            1.25 * before.max(MAX_QUADS_PER_TRIANGLE)
         } else {
-            1.25 * before
+            MAX_QUADS_PER_TRIANGLE
         };
         if new_worst > worst + 1e-3 && quads_per_triangle(input, &candidate.0) <= limit {
             let mut kept = candidate;

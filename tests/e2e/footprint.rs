@@ -35,16 +35,8 @@ const ETA_GOAL: f64 = 0.2;
 /// it; a model missing them that is not listed fails the test.
 const EXCEEDING: &[(&str, &str)] = &[
     (
-        "bool_union_box_sphere",
-        "460 triangles, 0.49 quads/triangle, eta_w 0.152, bound 1.00",
-    ),
-    (
         "chamfer_thin",
         "660 triangles, 0.54 quads/triangle, eta_w 0.056, bound 0.61",
-    ),
-    (
-        "cone",
-        "390 triangles, 0.50 quads/triangle, eta_w 0.134, bound 1.00",
     ),
     (
         "cylinders_coarse",
