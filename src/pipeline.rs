@@ -802,15 +802,18 @@ fn low_quads(mesh: &Mesh, skip: &[i32]) -> (Vec<(i32, [u64; 4])>, f64) {
 /// New quads per input triangle of `out` against `input` (quads already in the input do
 /// not count).
 fn quads_per_triangle(input: &Mesh, out: &Mesh) -> f64 {
-    let count = |m: &Mesh, t: u32| -> usize {
-        m.element_blocks
-            .iter()
-            .filter(|b| b.entity_dim == 2 && b.element_type == t)
-            .map(|b| b.len())
-            .sum()
-    };
-    let triangles = count(input, etype::TRI3).max(1);
-    (count(out, etype::QUAD4) as f64 - count(input, etype::QUAD4) as f64) / triangles as f64
+    let triangles = surface_elements(input, etype::TRI3).max(1);
+    (surface_elements(out, etype::QUAD4) as f64 - surface_elements(input, etype::QUAD4) as f64)
+        / triangles as f64
+}
+
+/// Elements of type `t` on the surfaces of `m`.
+fn surface_elements(m: &Mesh, t: u32) -> usize {
+    m.element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == t)
+        .map(|b| b.len())
+        .sum()
 }
 
 /// After the fallback, with optimization, other results that may have a better worst
@@ -843,12 +846,7 @@ fn raise_worst_quad(
         quad_only_surfaces(input)
     };
     let (mut low, mut worst) = low_quads(&best.0, &skip);
-    let triangles: usize = input
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
-        .map(|b| b.len())
-        .sum();
+    let triangles = surface_elements(input, etype::TRI3);
     for step in 0..3 {
         let mut start = best.2.clone();
         let what = match step {
