@@ -12,7 +12,8 @@
 //!   fallback splits, refinement), or whose input faces cancel out, takes the summed normal
 //!   of the input faces of the surface nearest to it (every face within 1e-9 of the mesh's
 //!   extent of the nearest distance counts); the quad's own normal only when the surface
-//!   has no face at all;
+//!   has no face at all. Where those nearest faces cancel out too (a surface folded back
+//!   onto itself), the corner has no normal and the quad is not valid;
 //! - no corner is seen edge-on from the surface (its sine about that normal above
 //!   [`MIN_SINE`] of its edges' lengths);
 //! - each corner also turns positively (sine above [`MIN_SINE`] of its edges' lengths) about
@@ -85,6 +86,13 @@ pub enum Defect {
         /// The scaled Jacobian at that corner, in [−1, 1].
         scaled: f64,
     },
+    /// Corner `corner` is at a node where both the input's faces and the input faces
+    /// nearest to it cancel out (the surface folds back onto itself there): it has no
+    /// normal to be measured about.
+    NoNormal {
+        /// Index 0–3 of the corner.
+        corner: usize,
+    },
 }
 
 /// One quad that is not valid.
@@ -108,7 +116,8 @@ impl BadQuad {
             Defect::MissingNode(t) | Defect::RepeatedNode(t) => t,
             Defect::ZeroLengthEdge { corner }
             | Defect::Corner { corner, .. }
-            | Defect::OwnJacobian { corner, .. } => self.nodes[corner],
+            | Defect::OwnJacobian { corner, .. }
+            | Defect::NoNormal { corner } => self.nodes[corner],
         }
     }
 }
@@ -141,6 +150,13 @@ impl std::fmt::Display for BadQuad {
                 f,
                 "the quad folds over itself at node {} (scaled Jacobian {scaled:.3} about its \
                  own normal, the cross product of its diagonals)",
+                self.nodes[*corner]
+            ),
+            Defect::NoNormal { corner } => write!(
+                f,
+                "the corner at node {} has no input normal to be measured about (the input \
+                 faces nearest to it face opposite ways: the surface folds back onto itself \
+                 there)",
                 self.nodes[*corner]
             ),
         }
@@ -502,11 +518,10 @@ impl Nearest {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// The unit summed normal of the faces nearest to `p` (zero when there is none).
-    fn normal(&self, p: DVec3) -> DVec3 {
-        let Some(hit) = self.surface.closest(p) else {
-            return DVec3::ZERO;
-        };
+    /// The unit summed normal of the faces nearest to `p`: `None` when the surface has no
+    /// face, zero when the nearest faces cancel out.
+    fn normal(&self, p: DVec3) -> Option<DVec3> {
+        let hit = self.surface.closest(p)?;
         let best = (p - hit.point).length();
         let mut near: Vec<u32> = Vec::new();
         for &v in &self.surface.triangle(hit.tri) {
@@ -517,11 +532,13 @@ impl Nearest {
         }
         near.sort_unstable();
         near.dedup();
-        near.iter()
+        let n = near
+            .iter()
             .filter(|&&f| self.distance(f, p) <= best + self.tie)
             .map(|&f| self.faces[f as usize].normal)
             .sum::<DVec3>()
-            .normalize_or_zero()
+            .normalize_or_zero();
+        Some(n)
     }
 }
 
@@ -562,8 +579,9 @@ fn check_quad<'n>(
         let n = match at[k] {
             Some(n) => n,
             None => match nearest().normal(p[k]) {
-                n if n != DVec3::ZERO => n,
-                _ => own,
+                Some(n) if n == DVec3::ZERO => return Some(Defect::NoNormal { corner: k }),
+                Some(n) => n,
+                None => own,
             },
         };
         let s = n.dot(ab);
@@ -639,6 +657,41 @@ mod tests {
                 .len(),
             1
         );
+    }
+
+    #[test]
+    fn a_new_node_where_the_nearest_faces_cancel_has_no_normal() {
+        // triangle 1-3-5 lies on 1-2-3 turned over (node 5 is node 2's place): at nodes 1
+        // and 3 the input's normals cancel, and so do the nearest faces' at node 6, which is
+        // as near to either. A quad with such corners is not valid, whichever way it turns; on
+        // one face alone it would be.
+        let c = [
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.3, 0.6, 0.0],
+        ];
+        let folded = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 5]]);
+        let plain = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
+        for quad in [[1, 2, 3, 6], [6, 3, 2, 1]] {
+            let out = mesh(&c, etype::QUAD4, &[&quad]);
+            let bad = invalid_quads(&folded, &out);
+            assert_eq!(bad.len(), 1, "{quad:?}");
+            assert!(
+                matches!(bad[0].defect, Defect::NoNormal { .. }),
+                "{}",
+                bad[0]
+            );
+            assert!(
+                bad[0].to_string().contains("folds back onto itself"),
+                "{}",
+                bad[0]
+            );
+        }
+        let out = mesh(&c, etype::QUAD4, &[&[1, 2, 3, 6]]);
+        assert!(invalid_quads(&plain, &out).is_empty());
     }
 
     #[test]

@@ -508,3 +508,33 @@ fn a_repeated_element_tag_gets_a_number_for_each_element() {
         "the repeated tag maps once per element: {text}"
     );
 }
+
+/// Fuzz finding (pipeline target): two triangles on one surface whose second and fourth
+/// nodes coincide, so the second triangle lies on the first, turned over. Both were split
+/// into quads whose new nodes' nearest input faces cancel out, and the gate then measured
+/// those corners about the quads' own normals and let them pass (exit 0, two quads turned
+/// over). Now such a corner has no normal and is not valid, and the input is refused in
+/// one line naming the folded triangles, with nothing written.
+#[test]
+fn a_surface_folded_onto_itself_is_refused_not_written() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz/folded-pair-on-coincident-nodes.msh");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("out.msh");
+    let out = blossomquad()
+        .arg(&path)
+        .arg("-o")
+        .arg(&output)
+        .output()
+        .expect("run blossomquad");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "stderr:\n{err}");
+    assert_eq!(err.lines().count(), 1, "one error line:\n{err}");
+    assert!(
+        err.contains("folded-pair-on-coincident-nodes.msh")
+            && err.contains("element 5")
+            && err.contains("folded over triangle 6"),
+        "{err}"
+    );
+    assert!(!output.exists(), "nothing written");
+}
