@@ -25,8 +25,9 @@
 //!    the chain of input line3 elements. Then:
 //!    - an input node the linear job did not move keeps its tag and coordinates;
 //!    - the mid-edge node of an input boundary edge (a line3's, or a face edge used once on
-//!      its surface) that the linear job split once, at one new node, becomes that corner:
-//!      the new node takes its tag and coordinates (`take_split_mid_nodes`);
+//!      its surface) that the linear job split into an even number of pieces becomes the
+//!      middle corner of that chain: the new node there takes its tag and coordinates
+//!      (`take_split_mid_nodes`);
 //!    - a new node on a curve (parity split, fallback split, refinement) lies between the
 //!      two ends of one input line3: it goes onto that line3, at the parameter its place
 //!      along the chain of new segments gives (the chord-length fraction, snapped to the
@@ -63,9 +64,9 @@
 //!
 //! **Invariant:** the input's corner nodes the linear job kept in place, and its curve
 //! nodes, keep tag and coordinates; a kept mid-edge node keeps tag and coordinates, and so
-//! does the mid-edge node of a boundary edge split once (as the new corner); every
-//! new node has a tag above the input's largest; element tags, entities and physical
-//! groups are the linear job's (which keeps the input's).
+//! does the mid-edge node of a boundary edge split in two or more (as the middle new
+//! corner); every new node has a tag above the input's largest; element tags, entities
+//! and physical groups are the linear job's (which keeps the input's).
 
 use std::collections::{HashMap, HashSet};
 use std::hash::BuildHasherDefault;
@@ -671,6 +672,8 @@ pub fn elevate(
         }
     }
     let geo = Geometry::new(input);
+    // an input mid-edge node whose edge the linear job split once becomes the new corner
+    let taken = take_split_mid_nodes(&mut out, &geo, input_max);
     // the linear job's nodes (flat positions)
     let flat = NodeTable::new(&out);
     let pos = |t: u64| flat.at(t).unwrap_or(DVec3::ZERO);
@@ -714,7 +717,8 @@ pub fn elevate(
             if moved(a) || moved(b) {
                 continue;
             }
-            let Some(chain) = chain_between(&adjacency, c, a, b, &|t| geo.at(t).is_none()) else {
+            let is_new = |t: u64| geo.at(t).is_none() || taken.contains(&t);
+            let Some(chain) = chain_between(&adjacency, c, a, b, &is_new) else {
                 continue;
             };
             let pts: Vec<DVec3> = chain.iter().map(|&t| pos(t)).collect();
@@ -1286,6 +1290,168 @@ pub fn elevate(
     report.straight = straight;
     report.invalid = bad_tags.iter().map(|b| b.2).collect();
     Ok((out, report))
+}
+
+/// Gives the mid-edge node of each input boundary edge (a 3-node line's, or a face edge
+/// used once on its surface) that the linear job split (parity repair, the fallback,
+/// refinement: a chain of an even number of pieces between the edge's two unmoved ends,
+/// through new nodes only, along edges on the result's boundary, the edge itself gone) to
+/// the chain's middle node: it takes the mid-edge node's tag and input coordinates (on the
+/// curved geometry, where the linear job put it on the chord or on the curve), so the
+/// input's node is the new corner. Returns the tags given. Nodes above `input_max` are the
+/// linear job's new ones.
+fn take_split_mid_nodes(out: &mut Mesh, geo: &Geometry, input_max: u64) -> HashSet<u64> {
+    let flat = NodeTable::new(out);
+    // the result's boundary edges: line elements, and quad edges used once on their
+    // surface; each node's neighbours along them
+    let mut edges: HashSet<(u64, u64)> = HashSet::new();
+    let mut face_uses: FastMap<(i32, (u64, u64)), u32> = FastMap::default();
+    for b in &out.element_blocks {
+        let ring: &[usize] = match (b.entity_dim, b.element_type) {
+            (2, etype::QUAD4) => &[0, 1, 2, 3],
+            (1, etype::LINE2) => &[0, 1],
+            _ => continue,
+        };
+        let k = b.nodes_per_element();
+        for e in b.nodes.chunks_exact(k) {
+            for (j, &i) in ring.iter().enumerate() {
+                let (x, y) = (e[i], e[ring[(j + 1) % ring.len()]]);
+                if x == y {
+                    continue;
+                }
+                edges.insert(key(x, y));
+                let tag = if b.entity_dim == 2 { b.entity_tag } else { -1 };
+                *face_uses.entry((tag, key(x, y))).or_default() += 1;
+            }
+        }
+    }
+    let mut along: FastMap<u64, Vec<u64>> = FastMap::default();
+    for (&(s, (x, y)), &n) in &face_uses {
+        if s == -1 || n == 1 {
+            along.entry(x).or_default().push(y);
+            along.entry(y).or_default().push(x);
+        }
+    }
+    for v in along.values_mut() {
+        v.sort_unstable();
+        v.dedup();
+    }
+    // the input's boundary edges: 3-node lines, face edges used once on their surface
+    let mut boundary: HashSet<(u64, u64)> = HashSet::new();
+    let mut uses: FastMap<(i32, (u64, u64)), u32> = FastMap::default();
+    for b in &geo.input.element_blocks {
+        let corners = match (b.entity_dim, b.element_type) {
+            (1, etype::LINE3) => {
+                for e in b.nodes.chunks_exact(3) {
+                    boundary.insert(key(e[0], e[1]));
+                }
+                continue;
+            }
+            (2, etype::TRI6) => 3,
+            (2, etype::QUAD9 | etype::QUAD8) => 4,
+            _ => continue,
+        };
+        for e in b.nodes.chunks_exact(b.nodes_per_element()) {
+            for j in 0..corners {
+                *uses
+                    .entry((b.entity_tag, key(e[j], e[(j + 1) % corners])))
+                    .or_default() += 1;
+            }
+        }
+    }
+    boundary.extend(uses.into_iter().filter(|x| x.1 == 1).map(|x| (x.0).1));
+    let present: HashSet<u64> = out
+        .node_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().copied())
+        .collect();
+    // the chain of new nodes from `a` to `b` along the result's boundary (at most
+    // `MAX_PIECES` pieces), its inner nodes in order
+    const MAX_PIECES: usize = 64;
+    let chain = |a: u64, b: u64| -> Option<Vec<u64>> {
+        for &first in along.get(&a)? {
+            let (mut prev, mut at) = (a, first);
+            let mut inner = Vec::new();
+            while at > input_max && inner.len() < MAX_PIECES {
+                inner.push(at);
+                // a new node on a boundary has two neighbours along it (both surfaces of
+                // a shared curve see the same two)
+                let next = along.get(&at).and_then(|v| {
+                    let mut it = v.iter().filter(|&&x| x != prev);
+                    let n = it.next().copied();
+                    n.filter(|_| it.next().is_none())
+                });
+                let Some(next) = next else { break };
+                (prev, at) = (at, next);
+            }
+            if at == b && !inner.is_empty() {
+                return Some(inner);
+            }
+        }
+        None
+    };
+    // new node -> (mid-edge node, its coordinates)
+    let mut take: FastMap<u64, (u64, DVec3)> = FastMap::default();
+    let mut given: HashSet<u64> = HashSet::new();
+    let mut split: Vec<(u64, u64)> = boundary
+        .iter()
+        .copied()
+        .filter(|e| !edges.contains(e))
+        .collect();
+    split.sort_unstable();
+    for (a, b) in split {
+        let Some(&m) = geo.mid.get(&key(a, b)) else {
+            continue;
+        };
+        let (Some(xa), Some(xb), Some(xm)) = (flat.at(a), flat.at(b), geo.at(m)) else {
+            continue;
+        };
+        // both ends where the input has them, the mid-edge node not used by the result
+        if geo.at(a) != Some(xa) || geo.at(b) != Some(xb) || present.contains(&m) {
+            continue;
+        }
+        let Some(inner) = chain(a, b) else { continue };
+        if inner.len() % 2 == 0 {
+            continue;
+        }
+        let n = inner[inner.len() / 2];
+        let Some(p) = flat.at(n) else { continue };
+        // the middle node between the ends: within the middle half of the chord, off it
+        // by less than half its length
+        let d = xb - xa;
+        let u = (p - xa).dot(d) / d.length_squared();
+        let between = (0.25..=0.75).contains(&u) && (p - xa - d * u).length() < 0.5 * d.length();
+        if between && !take.contains_key(&n) && given.insert(m) {
+            take.insert(n, (m, xm));
+        }
+    }
+    if take.is_empty() {
+        return HashSet::new();
+    }
+    let rename = |t: &mut u64| {
+        if let Some(&(m, _)) = take.get(t) {
+            *t = m;
+        }
+    };
+    for b in &mut out.node_blocks {
+        for (t, c) in b.tags.iter_mut().zip(b.coords.iter_mut()) {
+            if let Some(&(m, x)) = take.get(t) {
+                *t = m;
+                *c = x.to_array();
+            }
+        }
+    }
+    for b in &mut out.element_blocks {
+        b.nodes.iter_mut().for_each(rename);
+    }
+    for l in &mut out.periodic {
+        for (a, b) in &mut l.node_pairs {
+            rename(a);
+            rename(b);
+        }
+    }
+    out.invalidate_element_data();
+    given
 }
 
 /// The chain of curve-`c` nodes from `a` to `b` through nodes `is_new` accepts, following

@@ -127,6 +127,7 @@ class Mesh:
         self.physicals = []
         self.faces = {}  # surface tag -> list of (type, node tuple), duplicates removed
         self.lines = {}  # curve tag -> list of (a, b) corner segments
+        self.mid = {}  # sorted corner pair -> mid-edge node of a second-order element's edge
         self.volume_elements = 0
         self.with_elements = set()  # entities that carry elements
         self.msh2 = False
@@ -245,6 +246,13 @@ def load(path):
             _, edim, _, nnodes, _, ncorner = gmsh.model.mesh.getElementProperties(etype)
             conn = [int(n) for n in conn]
             elements = [tuple(conn[i:i + nnodes][:ncorner]) for i in range(0, len(conn), nnodes)]
+            if nnodes > ncorner and ncorner in (2, 3, 4):
+                # Gmsh's order: the corners, then the mid-edge nodes of edges 0-1, 1-2, ...
+                for i in range(0, len(conn), nnodes):
+                    e = conn[i:i + nnodes]
+                    ring = ncorner if ncorner > 2 else 1
+                    for k in range(ring):
+                        mesh.mid.setdefault(key(e[k], e[(k + 1) % ncorner]), e[ncorner + k])
             if dim == 2:
                 for e, t in zip(elements, etags):
                     mesh.face_tags.setdefault((tag, tuple(sorted(e))), int(t))
@@ -408,7 +416,8 @@ def match_split(expected, actual, inp, out, tol, refined=0):
     """Matches expected edges (from INPUT) against actual edges (of OUTPUT).
 
     Each expected edge must be in `actual`, or be split into a chain (a, m1), (m1, m2),
-    ..., (mk, b) of nodes absent from INPUT lying on the segment: k = 1 (parity repair)
+    ..., (mk, b) of nodes absent from INPUT lying on the segment (one of them may be the input's own
+    mid-edge node of that second-order edge, on the curve): k = 1 (parity repair)
     without refinement; with `refined` uniform refinements, k + 1 = 2^refined pieces
     (2^(refined + 1) after a parity split) and the nodes may lie off the chord by up to a
     tenth of the segment (new curve nodes follow the curve). Returns (missing, extra, splits) where splits maps an expected edge key
@@ -439,9 +448,13 @@ def match_split(expected, actual, inp, out, tol, refined=0):
                 m = e[1] if e[0] == path[-1] else e[0]
                 if m == b and len(path) in pieces:
                     return tuple(path[1:])
-                if m in inp.nodes or m not in out.nodes or m in path or len(path) > max_inner:
+                own_mid = inp.mid.get(key(a, b)) == m
+                if (m in inp.nodes and not own_mid) or m not in out.nodes or m in path \
+                        or len(path) > max_inner:
                     continue
-                if on_segment(out.nodes[m], pa, pb, band):
+                # the input's own mid-edge node lies on the curve, off the chord by the
+                # edge's bulge: fixed_nodes holds it to its input coordinates
+                if own_mid or on_segment(out.nodes[m], pa, pb, band):
                     stack.append(path + [m])
         return None
 

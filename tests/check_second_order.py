@@ -13,6 +13,11 @@ uses blossomquad's code. Prints one JSON object; exits 0 when every check holds.
   min_sj         Gmsh's `minSJ` (getElementQualities) > 0 for every surface element.
   fixed_nodes    every input node on a curve or a point, and every input mid-edge node
                  still in OUTPUT, keeps its coordinates exactly.
+  boundary_mid_nodes
+                 every input mid-edge node of a 3-node line or of a 6-node triangle's
+                 boundary edge (used by one triangle of its surface) is in OUTPUT with
+                 its tag and coordinates: kept on its edge, or the middle corner of
+                 the chain the edge was split into.
   new_tags       every node tag not in INPUT is above INPUT's largest node tag.
   curve_nodes    every node of an OUTPUT 3-node line lies on INPUT's chain of 3-node
                  lines of that curve (distance <= 1e-9 of the model's size).
@@ -127,11 +132,17 @@ def main(argv):
                 in_mid.add(n[2])
                 curves.setdefault(ent, []).append(tuple(in_nodes[k] for k in n))
     in_quads = {}
+    boundary_mid = {n[2] for _, t, _, nodes in elements(1) if t == 8 for n in nodes}
     for ent, t, tags, nodes in elements(2):
         if t == 9:
+            uses = {}
             for n in nodes:
                 in_mid.update(n[3:])
                 tris.append([in_nodes[k] for k in n])
+                for k in range(3):
+                    e = tuple(sorted((n[k], n[(k + 1) % 3])))
+                    uses.setdefault(e, []).append(n[3 + k])
+            boundary_mid.update(m[0] for m in uses.values() if len(m) == 1)
         if t in (10, 16):
             for tag, n in zip(tags, nodes):
                 in_mid.update(n[4:])
@@ -202,6 +213,10 @@ def main(argv):
     info["fixed_missing"] = sorted(missing_fixed)[:10]
     info["kept_mid_nodes"] = sum(1 for t in in_mid if t in out_nodes)
     checks["fixed_nodes"] = not moved and not missing_fixed
+
+    lost = sorted(t for t in boundary_mid if out_nodes.get(t) != in_nodes[t])
+    info["boundary_mid_lost"] = lost[:10]
+    checks["boundary_mid_nodes"] = not lost
 
     new = [t for t in out_nodes if t not in in_nodes]
     info["new_nodes"] = len(new)

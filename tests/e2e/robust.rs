@@ -22,25 +22,11 @@ use std::sync::Mutex;
 /// (`cone_sharp` was listed until its OpenCASCADE cone, which Gmsh meshes with folds along
 /// the seam, was replaced by the same cone built with the built-in kernel; the folded mesh
 /// is a refused-input fixture, `tests/data/quirks/v41_occ_sharp_cone_folded.msh`.)
-const KNOWN_FAILING: &[(&str, &str, &str)] = &[
-    (
-        "second_order_plate:msh41",
-        "fixed_nodes",
-        "second order without line elements: mid-edge input nodes of curve segments that \
-         parity repair or the fallback splits are lost",
-    ),
-    (
-        "second_order_plate:msh22-all",
-        "fixed_nodes",
-        "second order: mid-edge input nodes of curve segments that parity repair or the \
-         fallback splits are lost",
-    ),
-    (
-        "thin_pins_folded:*",
-        "is folded over",
-        "Gmsh's mesh folds on pins thinner than the mesh size; the whole part is refused",
-    ),
-];
+const KNOWN_FAILING: &[(&str, &str, &str)] = &[(
+    "thin_pins_folded:*",
+    "is folded over",
+    "Gmsh's mesh folds on pins thinner than the mesh size; the whole part is refused",
+)];
 
 /// Gmsh options as (name, value) pairs.
 pub(crate) type GmshOptions = &'static [(&'static str, &'static str)];

@@ -180,6 +180,32 @@ fn msh22_without_line_elements_and_refinement() {
     assert!(number(&report, "curve_distance") <= 1e-9, "{report}");
 }
 
+/// Surface-only physical groups (Gmsh writes no line elements then, in 4.1 as in 2.2): the
+/// only record of a curve segment's mid-edge node is the 6-node triangle's. Parity repair
+/// splits a boundary segment at its midpoint; the input's mid-edge node of that segment
+/// must become the new corner (same tag, same coordinates) instead of a new tag at about
+/// the same place. The checker's `boundary_mid_nodes` holds every boundary mid-edge node
+/// of the input to that, through the tag map by default and as is with `--keep-tags`.
+#[test]
+fn a_parity_split_segment_keeps_its_mid_edge_node_as_the_new_corner() {
+    if !gmsh_gate::require_gmsh() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let geo = repo_dir().join("tests/common/plate_hole_order2.geo");
+    for (variant, extra) in [
+        (Variant::Msh41Ascii, &[][..]),
+        (Variant::Msh22Binary, &[][..]),
+        (Variant::Msh41Ascii, &["--keep-tags"][..]),
+    ] {
+        let input = mesh_order2(&geo, dir.path(), variant, 0.35, &[("lines", 0.0)]);
+        let (report, log) = recombine_and_check(&input, extra, &[]);
+        assert!(log.contains("parity repair: split segment"), "{log}");
+        assert!(report.contains("\"boundary_mid_nodes\": true"), "{report}");
+        assert_eq!(number(&report, "lines"), 0.0, "{report}");
+    }
+}
+
 #[test]
 fn third_order_input_is_refused_in_plain_words() {
     if !gmsh_gate::require_gmsh() {
