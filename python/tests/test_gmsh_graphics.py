@@ -1,5 +1,6 @@
 """recombine_gmsh() with a Gmsh window open: the next draw shows the quads. Rendered under
-Xvfb (xvfb-run) in a process of its own; skipped without xvfb-run, a failure under CI."""
+Xvfb (xvfb-run) in a process of its own; skipped without xvfb-run (a failure under CI on
+Linux, where .ci/run installs it)."""
 
 import os
 import shutil
@@ -46,7 +47,7 @@ gmsh.finalize()
 def test_an_open_window_draws_the_quads(tmp_path):
     xvfb = shutil.which("xvfb-run")
     if xvfb is None:
-        if os.environ.get("CI") == "true":
+        if os.environ.get("CI") == "true" and sys.platform.startswith("linux"):
             pytest.fail("CI must run this test: xvfb-run is missing (apt-get install xvfb)")
         pytest.skip("xvfb-run is not installed (apt-get install xvfb)")
     (tmp_path / "draw.py").write_text(SCRIPT)
