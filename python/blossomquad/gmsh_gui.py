@@ -254,8 +254,9 @@ OPTIONS: List[Tuple[str, str, str, float, Dict[str, Any]]] = [
         "min": 0, "max": 5, "step": 0.05, "help": (
             "weight of the alignment with a cross field added to the quality cost")}),
     ("parity", "6Parity", "Odd surfaces", 0, {"choices": [0, 1], "value_labels": {
-        0: "repair (split a boundary segment)", 1: "refuse"}, "help": (
-            "a surface with an odd number of triangles cannot be paired as it is")}),
+        0: "repair", 1: "refuse"}, "help": (
+            "a surface with an odd number of triangles: split a boundary segment (repair) "
+            "or refuse the mesh")}),
     ("drop_volumes", "7DropVolumes", "Drop volume elements", 0, dict(_CHECK, help=(
         "a 3D mesh is refused unless its volume elements are dropped"))),
     ("quality_view", "8QualityViews", "Quality views", 0, dict(_CHECK, help=(
