@@ -15,7 +15,7 @@ sdist=$(ls target/wheels/blossomquad-*.tar.gz)
 # the sdist: licences and sources in, the repository's test data and tools out
 listing=$(tar tzf "$sdist")
 for needed in LICENSE-MIT LICENSE-APACHE pyproject.toml Cargo.lock python/src/lib.rs \
-    python/blossomquad/gmsh_gui.py src/lib.rs; do
+    blossomquad/gmsh_gui.py src/lib.rs; do
     if ! grep -q "^blossomquad-[^/]*/$needed\$" <<<"$listing"; then
         echo "scripts/test_wheel.sh: $sdist lacks $needed" >&2
         exit 1
