@@ -197,7 +197,8 @@ def recombine_gmsh(
     entity written back, ``what`` being ``"mesh"``, ``"elements"`` or ``"all"``) and the
     seconds spent reading the model (``read_secs``), converting to and from the library's
     mesh (``convert_secs``) and writing the model (``write_secs``); the rest is in
-    ``report["times"]``. On error the model is unchanged."""
+    ``report["times"]``. A window of ``gmsh.fltk`` open on the model shows the quads at
+    its next draw. On error the model is unchanged."""
     import time
 
     import gmsh
@@ -274,6 +275,10 @@ def recombine_gmsh(
     )
     t_write = time.perf_counter()
     rewritten = _write_back(gmsh.model.mesh, all_entities, changed, nodes, elements, periodic)
+    if rewritten:
+        # marks the mesh changed for Gmsh's graphics: the next draw (gmsh.graphics.draw(),
+        # gmsh.fltk.run()) shows the quads instead of the triangles it had drawn
+        model.setCurrent(model.getCurrent())
     out = json.loads(report)
     done = time.perf_counter()
     out["model"] = {
