@@ -16,8 +16,11 @@
 //! 1. **Pricing.** A bad quad that two adjacent input triangles form is priced out: the
 //!    matching gives that pair the cost of three extra edges
 //!    ([`crate::recombine::RecombineOptions::priced_out`]) and solves the surface again, so
-//!    it pairs those triangles otherwise unless nothing else works. At most
-//!    [`PRICING_ROUNDS`] rounds price new quads.
+//!    it pairs those triangles otherwise unless nothing else works. A bad quad at the node
+//!    of a parity repair's split puts that boundary segment on the parity repair's list of
+//!    segments to avoid ([`crate::recombine::RecombineOptions::parity_avoid`]), so the
+//!    repair splits another segment that fixes the same odd regions where there is one. At
+//!    most [`PRICING_ROUNDS`] rounds price new quads or avoid new segments.
 //! 2. **Splits.** When no bad quad is left to price, the input triangles around each bad
 //!    quad (those holding one of its input nodes, or the nearest one to a quad of new
 //!    nodes) are split into three quads each before the matching
@@ -417,6 +420,8 @@ fn run_rounds(
     let splits_only = start.splits_only;
     let mut local = LocalFallback {
         priced: start.priced,
+        avoid: start.avoid,
+        flat_halves_out: start.flat_halves_out,
         pricing_rounds: if splits_only { PRICING_ROUNDS } else { 0 },
         ..Default::default()
     };
@@ -456,6 +461,8 @@ fn run_rounds(
                     mesh,
                     opts,
                     &local.priced.iter().map(|p| p.1).collect::<Vec<_>>(),
+                    &local.avoid,
+                    local.flat_halves_out,
                     optimizing,
                     &mut checks,
                     &mut times,
@@ -572,6 +579,8 @@ fn run_rounds(
             report.times = times;
             let state = FallbackStart {
                 priced: local.priced,
+                avoid: local.avoid,
+                flat_halves_out: local.flat_halves_out,
                 chosen,
                 splits_only,
             };
@@ -611,15 +620,25 @@ fn run_rounds(
         let next = if round == FALLBACK_ROUNDS {
             Next::GiveUp
         } else {
-            local.next(input, &mesh, &bad, &chosen)
+            local.next(
+                input,
+                &mesh,
+                &bad,
+                &chosen,
+                &recombine_report.recombine.parity_splits,
+            )
         };
         let more = match next {
-            Next::Price(quads) => {
-                log.push(format!(
+            Next::Price(quads, segments) => {
+                let mut line = format!(
                     "fallback round {}: {} quad(s) priced out of the matching",
                     round + 1,
                     quads
-                ));
+                );
+                if segments > 0 {
+                    line += &format!(", {segments} parity split segment(s) avoided");
+                }
+                log.push(line);
                 continue;
             }
             Next::Split(more) => more,
@@ -639,6 +658,8 @@ fn run_rounds(
                 report.times = times;
                 let state = FallbackStart {
                     priced: local.priced,
+                    avoid: local.avoid,
+                    flat_halves_out: local.flat_halves_out,
                     chosen,
                     splits_only,
                 };
@@ -695,8 +716,9 @@ fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String {
 
 /// What the fallback does after a round with bad quads.
 enum Next {
-    /// Solve again with this many more quads priced out.
-    Price(usize),
+    /// Solve again with this many more quads priced out and parity split segments
+    /// avoided.
+    Price(usize, usize),
     /// Split these input triangles too (empty: nothing more to split).
     Split(HashSet<u64>),
     /// Nothing more to try.
@@ -709,6 +731,11 @@ enum Next {
 struct LocalFallback {
     /// Quads priced out: surface and sorted node tags.
     priced: Vec<(i32, [u64; 4])>,
+    /// Boundary segments the parity repair avoids (node tags).
+    avoid: Vec<(u64, u64)>,
+    /// Merged halves of split triangles priced out
+    /// ([`crate::recombine::RecombineOptions::flat_halves_out`]).
+    flat_halves_out: bool,
     pricing_rounds: usize,
     split_rounds: usize,
 }
@@ -716,15 +743,35 @@ struct LocalFallback {
 impl LocalFallback {
     /// The next step after a round whose quads `bad` are not valid (`mesh` the round's
     /// result, `chosen` the triangles split so far).
-    fn next(&mut self, input: &Mesh, mesh: &Mesh, bad: &[BadQuad], chosen: &HashSet<u64>) -> Next {
+    fn next(
+        &mut self,
+        input: &Mesh,
+        mesh: &Mesh,
+        bad: &[BadQuad],
+        chosen: &HashSet<u64>,
+        splits: &[recombine::ParitySplit],
+    ) -> Next {
         let spots: Vec<(i32, [u64; 4])> = bad.iter().map(|b| (b.surface, b.nodes)).collect();
         if self.pricing_rounds < PRICING_ROUNDS {
             let new = pairs_of(input, &spots, &self.priced);
-            if !new.is_empty() {
+            // the parity splits whose node is a corner of a bad quad
+            let mut segments: Vec<(u64, u64)> = splits
+                .iter()
+                .filter(|s| bad.iter().any(|b| b.nodes.contains(&s.new_node)))
+                .map(|s| s.segment)
+                .filter(|s| !self.avoid.contains(s))
+                .collect();
+            segments.sort_unstable();
+            segments.dedup();
+            if !segments.is_empty() {
+                self.flat_halves_out = true;
+            }
+            if !new.is_empty() || !segments.is_empty() {
                 self.pricing_rounds += 1;
-                let count = new.len();
+                let count = (new.len(), segments.len());
                 self.priced.extend(new);
-                return Next::Price(count);
+                self.avoid.extend(segments);
+                return Next::Price(count.0, count.1);
             }
         }
         self.split_rounds += 1;
@@ -749,6 +796,10 @@ impl LocalFallback {
 #[derive(Debug, Clone, Default)]
 struct FallbackStart {
     priced: Vec<(i32, [u64; 4])>,
+    /// Boundary segments the parity repair avoids (node tags).
+    avoid: Vec<(u64, u64)>,
+    /// Merged halves of split triangles priced out.
+    flat_halves_out: bool,
     chosen: HashSet<u64>,
     /// Split only, never price (the fallback of the other result that
     /// [`raise_worst_quad`] tries).
@@ -1141,6 +1192,8 @@ fn recombine_once<'a>(
     mut mesh: Mesh,
     opts: &Options,
     priced_out: &[[u64; 4]],
+    parity_avoid: &[(u64, u64)],
+    flat_halves_out: bool,
     optimizing: bool,
     checks: &mut Option<Checks<'a>>,
     times: &mut Times,
@@ -1154,6 +1207,8 @@ fn recombine_once<'a>(
         // the fallback's edge-split nodes (tags above the input's) are split nodes too
         split_nodes_from: Some(input.max_node_tag() + 1),
         priced_out: priced_out.to_vec(),
+        parity_avoid: parity_avoid.to_vec(),
+        flat_halves_out,
         trace: opts.trace.clone(),
         progress: opts.progress.clone(),
         // `quadrangulate` removed them from `input` (the fallback's splits add none)

@@ -91,12 +91,28 @@ pub(crate) fn has_hopeless_corner(
     normal: DVec3,
     on_wall: impl Fn(usize) -> bool,
 ) -> bool {
+    has_corner_at_most(pts, normal, on_wall, FIXED_CORNER_MIN_ETA)
+}
+
+/// Corner quality at most which a corner at a parity-split node counts as flat: the split
+/// node lies on the chord of a straight boundary (an angle above about 179°), so the quad
+/// of the split triangle's two halves is never valid.
+pub(crate) const FLAT_SPLIT_ETA: f64 = 0.01;
+
+/// True when a corner `k` of the quad with `on_wall(k)` has corner quality ≤ `eta`.
+/// `normal` need not be of unit length.
+pub(crate) fn has_corner_at_most(
+    pts: &[DVec3; 4],
+    normal: DVec3,
+    on_wall: impl Fn(usize) -> bool,
+    eta: f64,
+) -> bool {
     // the unit normal only when some corner is on a wall (most quads have none)
     let mut unit = None;
     (0..4).any(|k| {
         on_wall(k) && {
             let unit = *unit.get_or_insert_with(|| normal.normalize_or_zero());
-            corner_eta(signed_angle(pts, unit, k)) <= FIXED_CORNER_MIN_ETA
+            corner_eta(signed_angle(pts, unit, k)) <= eta
         }
     })
 }

@@ -6,7 +6,10 @@ use rayon::prelude::*;
 
 use super::cross_field::{boundary_cross_field, cross_cost, smooth_cross_field, CrossField};
 use super::fan::{duplication_margin, fans, Fan};
-use super::geometry::{has_hopeless_corner, merged_quad, triangle_normals, NodeSet};
+use super::geometry::{
+    has_corner_at_most, has_hopeless_corner, merged_quad, triangle_normals, NodeSet,
+    FIXED_CORNER_MIN_ETA, FLAT_SPLIT_ETA,
+};
 use super::topology::{SurfaceTopo, NONE};
 use crate::quality::eta_signed_fast;
 
@@ -39,7 +42,7 @@ pub fn extra_edge_cost(n: usize) -> i64 {
 
 /// Cost of an extra edge whose fan has no valid vertex duplication (every candidate position
 /// of the new vertex folds a face: slivers along a nearly straight boundary), `7/2` of an
-/// ordinary extra edge, more than merged split halves ([`split_halves_cost`]), at most
+/// ordinary extra edge, less than merged split halves ([`split_halves_cost`]), at most
 /// 3.5 · 2³⁸ < 2⁴⁰. Such an edge is still there for graphs that need it.
 pub fn bad_extra_edge_cost(n: usize) -> i64 {
     let e = extra_edge_cost(n);
@@ -47,16 +50,34 @@ pub fn bad_extra_edge_cost(n: usize) -> i64 {
 }
 
 /// Cost, in a graph of `n` triangles, of merging back the two halves of a triangle split by
-/// a parity repair: a "quad" with a 180° corner at the split node, which lies on a wall and
-/// never moves. It is `5/2` of an extra edge ([`extra_edge_cost`]), at most
-/// 2.5 · 2³⁸ < 2⁴⁰ (the solver's cost limit): an extra edge ends in an edge swap or a vertex
-/// duplication (section 5.3) whose quads optimization repairs, while this quad stays
-/// invalid for good, so the matching takes up to two more extra edges to avoid it. (This
-/// happens when the split falls in a rigid strip of a surface that needs extra edges anyway,
-/// e.g. a boundary row of a `gmsh -2` mesh with even curves.) Other hopeless quads keep
-/// [`HOPELESS_COST`]: on slivers along a nearly straight boundary a vertex duplication may
-/// have no valid position, so trading them for extra edges is not always a gain.
+/// a parity repair or by the fallback's edge splits on a straight boundary: a "quad" with a
+/// flat corner at the split node (above about 179°),
+/// which lies on a wall and never moves, so it is not valid unless the optimizer's topology
+/// passes rebuild the quads around it. Where merged halves were not valid after a run
+/// ([`super::RecombineOptions::flat_halves_out`], which the pipeline's fallback sets), it
+/// is `15/4` of
+/// an extra edge ([`extra_edge_cost`]), at most 3.75 · 2³⁸ < 2⁴⁰ (the solver's cost limit):
+/// above three extra edges, a pair the fallback priced out ([`priced_out_cost`]) and an
+/// extra edge with no valid vertex duplication ([`bad_extra_edge_cost`]), whose quads
+/// optimization or the fallback's pricing can still repair, so the matching merges split
+/// halves only when nothing else gives a perfect matching; otherwise it is
+/// [`curved_split_halves_cost`]. (Merged halves sent the fallback
+/// after a parity split in a rigid strip of a surface that needs extra edges anyway, e.g.
+/// a boundary row of a `gmsh -2` mesh with even curves or a fillet's strip, and each split
+/// round's new parity split made another.) Other hopeless quads keep [`HOPELESS_COST`]: on
+/// slivers along a nearly straight boundary a vertex duplication may have no valid
+/// position, so trading them for extra edges is not always a gain.
 pub fn split_halves_cost(n: usize) -> i64 {
+    let e = extra_edge_cost(n);
+    3 * e + 3 * (e / 4)
+}
+
+/// Cost, in a graph of `n` triangles, of merging back the two halves of a split triangle
+/// whose split node lies on a curved boundary (placed on the curve, off the chord): a quad
+/// with a corner near 180° that stays valid. It is `5/2` of an extra edge, at most
+/// 2.5 · 2³⁸ < 2⁴⁰: below a priced-out pair ([`priced_out_cost`]), so the matching keeps
+/// such a quad rather than three extra edges or a pair the fallback priced out.
+pub fn curved_split_halves_cost(n: usize) -> i64 {
     let e = extra_edge_cost(n);
     2 * e + e / 2
 }
@@ -64,9 +85,9 @@ pub fn split_halves_cost(n: usize) -> i64 {
 /// Cost, in a graph of `n` triangles, of a pair priced out by the fallback
 /// ([`super::RecombineOptions::priced_out`]: its quad was not valid after optimization):
 /// three extra edges ([`extra_edge_cost`]), at most 3 · 2³⁸ < 2⁴⁰. The matching takes up to
-/// two more extra edges (whose quads optimization repairs) or merged split halves
-/// ([`split_halves_cost`]) to avoid it, and still has a perfect matching when nothing else
-/// works.
+/// two more extra edges (whose quads optimization repairs) to avoid it, but not merged split
+/// halves ([`split_halves_cost`]), which are never valid, and still has a perfect matching
+/// when nothing else works.
 pub fn priced_out_cost(n: usize) -> i64 {
     3 * extra_edge_cost(n)
 }
@@ -102,11 +123,22 @@ pub(crate) fn edge_cost(
     let eta = if eta.is_finite() { eta } else { -1.0 };
     let cost = (COST_SCALE as f64 * (1.0 - eta)).round() as i64;
     if has_hopeless_corner(&pts, normal, |k| wall_nodes.contains(quad[k])) {
-        let at_split = !split_nodes.is_empty()
-            && has_hopeless_corner(&pts, normal, |k| {
-                split_nodes.binary_search(&quad[k]).is_ok()
-            });
-        return if at_split { split_cost } else { HOPELESS_COST };
+        let at_split = |eta: f64| {
+            !split_nodes.is_empty()
+                && has_corner_at_most(
+                    &pts,
+                    normal,
+                    |k| split_nodes.binary_search(&quad[k]).is_ok(),
+                    eta,
+                )
+        };
+        return if at_split(FLAT_SPLIT_ETA) {
+            split_cost
+        } else if at_split(FIXED_CORNER_MIN_ETA) {
+            curved_split_halves_cost(topo.len())
+        } else {
+            HOPELESS_COST
+        };
     }
     cost
 }
@@ -126,6 +158,13 @@ pub(crate) fn wall_nodes(topo: &SurfaceTopo) -> Vec<u32> {
     out.sort_unstable();
     out.dedup();
     out
+}
+
+/// The split nodes of a surface (sorted ids: parity and fallback splits) and whether the
+/// merged halves at a flat one are priced out ([`split_halves_cost`]).
+pub(crate) struct SplitNodes<'a> {
+    pub nodes: &'a [u32],
+    pub flat_halves_out: bool,
 }
 
 /// The matching graph of one surface.
@@ -149,7 +188,7 @@ pub(crate) struct Graph {
 pub(crate) fn build(
     topo: &SurfaceTopo,
     coords: &[DVec3],
-    split_nodes: &[u32],
+    splits: SplitNodes,
     cross_w: f64,
     harmonic: bool,
     with_extra: bool,
@@ -161,7 +200,15 @@ pub(crate) fn build(
     let walls = &walls;
     let normals = &triangle_normals(topo, coords);
     tm.lap("walls");
-    let split_cost = split_halves_cost(n);
+    // merged halves at a flat split node: priced out once they were not valid, else at
+    // the cost of a curved boundary's (the optimizer's topology passes may still repair
+    // them)
+    let split_nodes = splits.nodes;
+    let split_cost = if splits.flat_halves_out {
+        split_halves_cost(n)
+    } else {
+        curved_split_halves_cost(n)
+    };
     let field = match (cross_w > 0.0, harmonic) {
         (false, _) => CrossField::default(),
         (true, false) => {

@@ -91,8 +91,12 @@
 //!    ∈ [0, 2·10⁴] ([`COST_SCALE`]). A *hopeless* quad, with a (nearly) straight or zero
 //!    corner at a wall node ([`FIXED_CORNER_MIN_ETA`]) — which optimization can never move —
 //!    costs [`HOPELESS_COST`] = 10⁵; the two halves of a parity-split triangle (a 180° corner
-//!    at the split node) cost 5/2 of an extra edge ([`split_halves_cost`]): the matching
-//!    takes up to two more extra edges (whose quads optimization repairs) to avoid them.
+//!    at the split node) cost 5/2 of an extra edge ([`curved_split_halves_cost`]): the
+//!    matching takes up to two more extra edges (whose quads optimization repairs) to
+//!    avoid them; with [`RecombineOptions::flat_halves_out`] (set by the pipeline's
+//!    fallback once such a quad was not valid), halves at a flat split node cost 15/4
+//!    ([`split_halves_cost`]), above three extra edges, a priced-out pair or an extra edge
+//!    without a valid vertex duplication.
 //!    With [`RecombineOptions::cross_field_weight`] `w` > 0, the paper's alternative cost
 //!    (eq. 7) is added to ordinary edges: `10⁴ · w · c₇`, c₇ = 0 when the shared edge (the
 //!    quad's diagonal) bisects a cross field that follows the nearest wall, or, with
@@ -108,7 +112,7 @@
 //!    orientation changes count as boundary, so post-processing never crosses a curve). Its
 //!    cost, `10⁵ · (n/2 + 1) + 1` ([`extra_edge_cost`]), exceeds the cost of any
 //!    perfect matching's other edges, so the optimum uses the fewest extra edges possible
-//!    (counting merged split halves as 5/2) — none when the original graph has a perfect
+//!    (counting merged split halves as 5/2 or 15/4) — none when the original graph has a perfect
 //!    matching that keeps split halves apart. A fan where no position of a duplicated
 //!    vertex leaves its triangles unfolded prices its extra edge at 7/2
 //!    ([`bad_extra_edge_cost`]).
@@ -185,8 +189,8 @@ pub use fallback::{split_triangles, FallbackSplit};
 pub use geometry::FIXED_CORNER_MIN_ETA;
 #[doc(hidden)]
 pub use graph::{
-    bad_extra_edge_cost, extra_edge_cost, priced_out_cost, split_halves_cost, COST_SCALE,
-    HOPELESS_COST, MAX_REAL_COST,
+    bad_extra_edge_cost, curved_split_halves_cost, extra_edge_cost, priced_out_cost,
+    split_halves_cost, COST_SCALE, HOPELESS_COST, MAX_REAL_COST,
 };
 pub use invariants::{check_invariants, Before, EdgeSet, InvariantViolation};
 
@@ -241,6 +245,17 @@ pub struct RecombineOptions {
     /// The pipeline's fallback sets it to the quads that were not valid after
     /// optimization; tags that are not nodes, or quads no pair forms, are ignored.
     pub priced_out: Vec<[u64; 4]>,
+    /// Boundary segments (their two node tags, either order) that parity repair splits only
+    /// when no other segment fixes the same odd regions: the pipeline's fallback sets it to
+    /// the segments whose split node ended in a quad that was not valid (the matching
+    /// merged the split halves back, or paired them badly). Tags that are not nodes, or
+    /// pairs that are no boundary segment, are ignored.
+    pub parity_avoid: Vec<(u64, u64)>,
+    /// Price the two halves of a triangle split on a straight boundary (a flat corner at
+    /// the split node) above every other way out ([`split_halves_cost`]) instead of like
+    /// those of a curved boundary ([`curved_split_halves_cost`]): the pipeline's fallback
+    /// sets it once a quad at a split node was not valid.
+    pub flat_halves_out: bool,
     /// Where stage times and matching graphs go (see [`crate::profile`]); `None`: nowhere.
     pub trace: Option<crate::profile::Trace>,
     /// Where the progress of the stages [`crate::progress::Stage::Topology`], [`crate::progress::Stage::Graph`]
@@ -263,6 +278,8 @@ impl Default for RecombineOptions {
             harmonic_cross_field: false,
             split_nodes_from: None,
             priced_out: Vec::new(),
+            parity_avoid: Vec::new(),
+            flat_halves_out: false,
             trace: None,
             progress: None,
             repeated_dropped: false,
@@ -753,7 +770,14 @@ fn parity_stage(
     let work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref())?;
     tm.lap("surface work");
     topology_progress(opts, 3);
-    let plan = parity::plan(mesh, &nodes, &work);
+    // the segments to avoid, as edge keys of node ids (sorted)
+    let mut avoid: Vec<u64> = opts
+        .parity_avoid
+        .iter()
+        .filter_map(|&(a, b)| Some(topology::edge_key(nodes.id(a)?, nodes.id(b)?)))
+        .collect();
+    avoid.sort_unstable();
+    let plan = parity::plan(mesh, &nodes, &work, &avoid);
     tm.lap("plan");
     tm.done();
     note_folds(&work, report);
@@ -808,7 +832,7 @@ fn parity_stage(
     let nodes = NodeTable::new(mesh);
     let curves = CurveInfo::new(mesh, &nodes)?;
     let work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref()).map_err(or_fold)?;
-    let again = parity::plan(mesh, &nodes, &work);
+    let again = parity::plan(mesh, &nodes, &work, &[]);
     if !again.odd.is_empty() {
         return Err(or_fold(parity::still_odd_error(&again.odd)));
     }

@@ -54,8 +54,8 @@ pub(crate) struct Group {
     curve: Option<i32>,
     /// Regions flipped, sorted.
     sig: Vec<u32>,
-    /// (no ear beside it, length, a, b) of the best segment so far.
-    best: (bool, f64, u32, u32),
+    /// (not avoided, no ear beside it, length, a, b) of the best segment so far.
+    best: (bool, bool, f64, u32, u32),
     /// Segments split together with the best one (its periodic images, or the rest of a
     /// quad chord), with their curve when known.
     with: Vec<(u32, u32, Option<i32>)>,
@@ -63,7 +63,9 @@ pub(crate) struct Group {
 
 /// Finds the odd regions and a set of segments whose splits make all of them even: a
 /// T-join on the graph whose nodes are the regions plus a "ground" node (see module doc).
-pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan {
+/// A segment in `avoid` (sorted edge keys) is split only when no other segment flips the
+/// same regions.
+pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork], avoid: &[u64]) -> Plan {
     // regions, their sizes and owners
     let mut offset = Vec::with_capacity(work.len());
     let mut region_surface: Vec<(i32, usize, usize)> = Vec::new();
@@ -196,18 +198,19 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
         }
         let len = (nodes.coords[a as usize] - nodes.coords[b as usize]).length();
         let no_ear = run.iter().all(|x| !x.2);
+        let wanted = avoid.binary_search(&key).is_err();
         let id = *groups.entry((class, sig.clone())).or_insert_with(|| {
             list.push(Group {
                 curve,
                 sig,
-                best: (false, -1.0, a, b),
+                best: (false, false, -1.0, a, b),
                 with: Vec::new(),
             });
             list.len() - 1
         });
         let best = list[id].best;
-        if (no_ear, len) > (best.0, best.1) {
-            list[id].best = (no_ear, len, a, b);
+        if (wanted, no_ear, len) > (best.0, best.1, best.2) {
+            list[id].best = (wanted, no_ear, len, a, b);
             list[id].curve = curve;
             list[id].with = with;
         }
@@ -262,7 +265,7 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
                     let grp = Group {
                         curve,
                         sig: sig.clone(),
-                        best: (true, 0.0, a, b),
+                        best: (true, true, 0.0, a, b),
                         with: ch[1..].to_vec(),
                     };
                     match by_sig.get(&sig) {
@@ -307,8 +310,8 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Plan
             surfaces.sort_unstable();
             surfaces.dedup();
             Choice {
-                a: grp.best.2,
-                b: grp.best.3,
+                a: grp.best.3,
+                b: grp.best.4,
                 curve: grp.curve,
                 surfaces,
                 with: grp.with.clone(),

@@ -157,7 +157,10 @@ pub(super) fn match_surface(
     let mut g = graph::build(
         &w.topo,
         coords,
-        split_nodes,
+        graph::SplitNodes {
+            nodes: split_nodes,
+            flat_halves_out: opts.flat_halves_out,
+        },
         cross,
         opts.harmonic_cross_field,
         opts.extra_edges,

@@ -373,3 +373,58 @@ fn periodic_curves_are_split_with_their_images() {
     assert_eq!(count(&m, etype::TRI3), 0);
     check_invariants(&before, &m).unwrap();
 }
+
+/// A segment on `RecombineOptions::parity_avoid` (what the pipeline's fallback sets when a
+/// split node ended in a quad that is not valid) is not split when another segment fixes
+/// the same odd surface; when it is the only one, it still is.
+#[test]
+fn an_avoided_segment_gives_way_to_another_of_the_same_surface() {
+    let mut before = grid(&Grid {
+        nx: 3,
+        ny: 3,
+        ..Default::default()
+    });
+    let left = line_of(&before, 4, 0);
+    split_edge(&mut before, left[0], left[1], 1, 4);
+    let mut first = before.clone();
+    let r = recombine(&mut first, &verify_opts()).unwrap();
+    assert_eq!(r.parity_splits.len(), 1);
+    let chosen = r.parity_splits[0].segment;
+    let mut m = before.clone();
+    let opts = RecombineOptions {
+        parity_avoid: vec![(chosen.1, chosen.0)],
+        ..verify_opts()
+    };
+    let r = recombine(&mut m, &opts).unwrap();
+    assert_eq!(r.parity_splits.len(), 1);
+    let other = r.parity_splits[0].segment;
+    let same = |a: (u64, u64), b: (u64, u64)| a == b || a == (b.1, b.0);
+    assert!(!same(other, chosen), "{other:?} was to be avoided");
+    assert_eq!(count(&m, etype::TRI3), 0);
+    check_invariants(&before, &m).unwrap();
+
+    // a fan of 5 triangles around one node: every boundary segment flips it, so avoiding
+    // all but one leaves that one, and avoiding every one still splits one
+    let mut b = Builder::new();
+    b.entity(2, 1, &[], &[]);
+    fan(&mut b, 1, [0.0, 0.0], 5);
+    let fan_mesh = b.mesh;
+    let mut probe = fan_mesh.clone();
+    let r = recombine(&mut probe, &verify_opts()).unwrap();
+    let seg = r.parity_splits[0].segment;
+    let mut m = fan_mesh.clone();
+    let all: Vec<(u64, u64)> = (0..fan_mesh.max_node_tag())
+        .flat_map(|a| (0..=fan_mesh.max_node_tag()).map(move |b| (a, b)))
+        .collect();
+    let opts = RecombineOptions {
+        parity_avoid: all,
+        ..verify_opts()
+    };
+    let r = recombine(&mut m, &opts).unwrap();
+    assert_eq!(r.parity_splits.len(), 1, "still repaired");
+    assert!(
+        same(r.parity_splits[0].segment, seg),
+        "the usual choice among equals"
+    );
+    check_invariants(&fan_mesh, &m).unwrap();
+}
