@@ -13,6 +13,10 @@
 //!   becomes two quads (or four around its centre when both pairs of opposite edges are
 //!   split).
 //!
+//! A split on either side of a `$Periodic` link (curves or surfaces) is mirrored on the
+//! other: the image of a chosen triangle is chosen, the image of a split edge is split, and
+//! the new nodes are paired in the link, so a slave stays the image of its master.
+//!
 //! Every child of a split triangle is a convex quad (a corner of the triangle, two edge
 //! midpoints and the centroid), oriented like its parent; edge midpoints are chord
 //! midpoints, so planar areas and straight curves are unchanged. New edge nodes are
@@ -93,18 +97,83 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
         let (bi, i) = faces[id as usize];
         mesh.element_blocks[bi].element(i)
     };
-    // close the split edges: no triangle outside the chosen set keeps two of them, and a
-    // quad with one gets its opposite one too (the split runs along the quad strip)
+    // `$Periodic` links of curves and surfaces, both ways (slave -> master, master ->
+    // slave): a split on one side is mirrored on the other, so the slave stays the image
+    // of its master
+    let links: Vec<[HashMap<u64, u64>; 2]> = mesh
+        .periodic
+        .iter()
+        .filter(|l| l.dim == 1 || l.dim == 2)
+        .map(|l| {
+            [
+                l.node_pairs.iter().copied().collect(),
+                l.node_pairs.iter().map(|&(a, b)| (b, a)).collect(),
+            ]
+        })
+        .collect();
+    let tri_of: HashMap<[u64; 3], u32> = if links.is_empty() {
+        HashMap::new()
+    } else {
+        (0..faces.len() as u32)
+            .filter(|&id| face_nodes(id).len() == 3)
+            .map(|id| {
+                let n = face_nodes(id);
+                let mut k = [n[0], n[1], n[2]];
+                k.sort_unstable();
+                (k, id)
+            })
+            .collect()
+    };
+    let edge_images = |e: (u64, u64)| -> Vec<(u64, u64)> {
+        let mut out = Vec::new();
+        for map in links.iter().flatten() {
+            if let (Some(&x), Some(&y)) = (map.get(&e.0), map.get(&e.1)) {
+                if at_edge.contains_key(&key(x, y)) {
+                    out.push(key(x, y));
+                }
+            }
+        }
+        out
+    };
+    let tri_images = |n: &[u64]| -> Vec<u32> {
+        let mut out = Vec::new();
+        for map in links.iter().flatten() {
+            let img: Option<Vec<u64>> = n.iter().map(|t| map.get(t).copied()).collect();
+            if let Some(img) = img {
+                let mut k = [img[0], img[1], img[2]];
+                k.sort_unstable();
+                if let Some(&id) = tri_of.get(&k) {
+                    out.push(id);
+                }
+            }
+        }
+        out
+    };
+    // close the split edges: no triangle outside the chosen set keeps two of them, a quad
+    // with one gets its opposite one too (the split runs along the quad strip), and the
+    // image of a chosen triangle or of a split edge through a periodic link is chosen or
+    // split too
     let mut split: HashSet<(u64, u64)> = HashSet::new();
     let mut work: Vec<(u64, u64)> = Vec::new();
-    for (t, _) in marked.iter().enumerate().filter(|(_, m)| **m) {
-        let n = face_nodes(t as u32);
-        work.extend((0..3).map(|j| key(n[j], n[(j + 1) % 3])));
-    }
-    while let Some(e) = work.pop() {
+    let mut tris: Vec<u32> = (0..marked.len() as u32)
+        .filter(|&t| marked[t as usize])
+        .collect();
+    loop {
+        while let Some(t) = tris.pop() {
+            let n = face_nodes(t);
+            work.extend((0..3).map(|j| key(n[j], n[(j + 1) % 3])));
+            for img in tri_images(n) {
+                if !marked[img as usize] {
+                    marked[img as usize] = true;
+                    tris.push(img);
+                }
+            }
+        }
+        let Some(e) = work.pop() else { break };
         if !split.insert(e) {
             continue;
         }
+        work.extend(edge_images(e));
         for &o in at_edge.get(&e).map(|v| &v[..]).unwrap_or(&[]) {
             let on = face_nodes(o);
             if on.len() == 4 {
@@ -120,7 +189,7 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
             let edges = [0, 1, 2].map(|k| key(on[k], on[(k + 1) % 3]));
             if edges.iter().filter(|x| split.contains(x)).count() >= 2 {
                 marked[o as usize] = true;
-                work.extend(edges);
+                tris.push(o);
             }
         }
     }
@@ -388,9 +457,44 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
     }
     mesh.node_blocks = node_blocks;
     mesh.element_blocks = blocks;
+    link_new_nodes(mesh, &new_nodes);
     mesh.invalidate_element_data();
     report.surfaces.sort_unstable();
     report
+}
+
+/// Adds to every `$Periodic` link of curves and surfaces the pairs of new nodes whose
+/// parents (the ends of a split edge, the corners of a split face) it pairs: the splits are
+/// mirrored (see [`split_triangles`]), so a slave's new node has its master's counterpart.
+fn link_new_nodes(mesh: &mut Mesh, new_nodes: &[NewNode]) {
+    if mesh.periodic.is_empty() || new_nodes.is_empty() {
+        return;
+    }
+    let sorted = |v: &[u64]| {
+        let mut v = v.to_vec();
+        v.sort_unstable();
+        v
+    };
+    let by_parents: HashMap<Vec<u64>, u64> =
+        new_nodes.iter().map(|n| (sorted(&n.3), n.0)).collect();
+    for link in mesh
+        .periodic
+        .iter_mut()
+        .filter(|l| l.dim == 1 || l.dim == 2)
+    {
+        let to_master: HashMap<u64, u64> = link.node_pairs.iter().copied().collect();
+        let mut add = Vec::new();
+        for (tag, _, _, parents) in new_nodes {
+            let image: Option<Vec<u64>> =
+                parents.iter().map(|p| to_master.get(p).copied()).collect();
+            if let Some(&m) = image.and_then(|i| by_parents.get(&sorted(&i))) {
+                if m != *tag {
+                    add.push((*tag, m));
+                }
+            }
+        }
+        link.node_pairs.extend(add);
+    }
 }
 
 #[cfg(test)]

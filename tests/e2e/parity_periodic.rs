@@ -101,3 +101,33 @@ fn periodic_surfaces_and_curves_stay_periodic() {
         check(&msh, dir.path(), true);
     }
 }
+
+/// A periodic box meshed far coarser than its faces (`corpus/periodic_surface.geo` at
+/// sizes 1.2 and 2: four triangles around a centre node per face, so every pair of them
+/// has a flat corner and the fallback splits them): the splits on a master face are
+/// mirrored on its slave and their new nodes paired in `$Periodic`, so the output stays
+/// periodic instead of being refused ("node ... has no periodic counterpart").
+#[test]
+fn fallback_splits_on_a_periodic_master_are_mirrored_on_its_slave() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    for s in [1.2, 2.0] {
+        let msh = dir.path().join(format!("box-{s}.msh"));
+        generate_geo(
+            &repo_dir().join("corpus/periodic_surface.geo"),
+            &msh,
+            Variant::Msh41Ascii,
+            s,
+            &[],
+        );
+        let out = dir.path().join(format!("box-{s}-quads.msh"));
+        let (code, stdout, stderr) =
+            blossomquad_run([msh.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+        let said = stdout + &stderr;
+        assert_eq!(code, Some(0), "{said}");
+        assert!(
+            said.contains("the fallback split"),
+            "the fallback ran: {said}"
+        );
+        check(&msh, dir.path(), true);
+    }
+}
