@@ -1,0 +1,340 @@
+//! The fallback's decisions between the rounds of a job (see the module doc of
+//! [`crate::pipeline`]): which quads to price out of the matching and which parity split
+//! segments to avoid, which input triangles to split, and the measures the worst-quad tries
+//! are judged by. The rounds themselves (the jobs) run in the pipeline; nothing here runs
+//! one.
+
+use std::collections::HashSet;
+
+use crate::mesh::{etype, Mesh, TagCoords};
+use crate::recombine;
+use crate::validity::BadQuad;
+
+/// Quads whose η (eq. 3) is below this are repaired after the fallback when that raises the
+/// worst quad (up to three more jobs after the fallback, see the module doc).
+pub const ETA_FLOOR: f64 = 0.2;
+
+/// Fallback rounds that price out new bad quads at most (see the module doc).
+pub const PRICING_ROUNDS: usize = 2;
+
+/// Rings of input triangles around a bad quad that the fallback splits at most.
+pub const SPLIT_RINGS: usize = 2;
+
+/// What the fallback does after a round with bad quads.
+pub(super) enum Next {
+    /// Solve again with this many more quads priced out and parity split segments
+    /// avoided.
+    Price(usize, usize),
+    /// Split these input triangles too (empty: nothing more to split).
+    Split(HashSet<u64>),
+    /// Nothing more to try.
+    GiveUp,
+}
+
+/// The fallback's state over the rounds (see the module doc): the quads priced out of the
+/// matching and the rounds spent.
+#[derive(Default)]
+pub(super) struct LocalFallback {
+    /// Quads priced out: surface and sorted node tags.
+    pub(super) priced: Vec<(i32, [u64; 4])>,
+    /// Boundary segments the parity repair avoids (node tags).
+    pub(super) avoid: Vec<(u64, u64)>,
+    /// Merged halves of split triangles priced out
+    /// ([`crate::recombine::RecombineOptions::flat_halves_out`]).
+    pub(super) flat_halves_out: bool,
+    pub(super) pricing_rounds: usize,
+    pub(super) split_rounds: usize,
+}
+
+impl LocalFallback {
+    /// The next step after a round whose quads `bad` are not valid (`mesh` the round's
+    /// result, `chosen` the triangles split so far).
+    pub(super) fn next(
+        &mut self,
+        input: &Mesh,
+        mesh: &Mesh,
+        bad: &[BadQuad],
+        chosen: &HashSet<u64>,
+        splits: &[recombine::ParitySplit],
+    ) -> Next {
+        let spots: Vec<(i32, [u64; 4])> = bad.iter().map(|b| (b.surface, b.nodes)).collect();
+        if self.pricing_rounds < PRICING_ROUNDS {
+            let new = pairs_of(input, &spots, &self.priced);
+            // the parity splits whose node is a corner of a bad quad
+            let mut segments: Vec<(u64, u64)> = splits
+                .iter()
+                .filter(|s| bad.iter().any(|b| b.nodes.contains(&s.new_node)))
+                .map(|s| s.segment)
+                .filter(|s| !self.avoid.contains(s))
+                .collect();
+            segments.sort_unstable();
+            segments.dedup();
+            if !segments.is_empty() {
+                self.flat_halves_out = true;
+            }
+            if !new.is_empty() || !segments.is_empty() {
+                self.pricing_rounds += 1;
+                let count = (new.len(), segments.len());
+                self.priced.extend(new);
+                self.avoid.extend(segments);
+                return Next::Price(count.0, count.1);
+            }
+        }
+        self.split_rounds += 1;
+        if self.split_rounds > SPLIT_RINGS {
+            // the last resort, after the local rounds: every triangle of the surfaces that
+            // still have a bad quad (the splits' halved neighbours along shared curves may
+            // bring another surface here in the next round)
+            return Next::Split(surface_triangles(input, &spots, chosen));
+        }
+        Next::Split(fallback_triangles(
+            input,
+            mesh,
+            &spots,
+            chosen,
+            self.split_rounds,
+        ))
+    }
+}
+
+/// The fallback's state at the start (and the end) of a job's rounds: the quads priced out
+/// of the matching (sorted node tags, sorted) and the input triangles split into quads.
+#[derive(Debug, Clone, Default)]
+pub(super) struct FallbackStart {
+    pub(super) priced: Vec<(i32, [u64; 4])>,
+    /// Boundary segments the parity repair avoids (node tags).
+    pub(super) avoid: Vec<(u64, u64)>,
+    /// Merged halves of split triangles priced out.
+    pub(super) flat_halves_out: bool,
+    pub(super) chosen: HashSet<u64>,
+    /// Split only, never price (the fallback of the other result that
+    /// [`super::raise_worst_quad`] tries).
+    pub(super) splits_only: bool,
+}
+
+/// New quads per input triangle that the repair of the worst quad may not exceed (unless
+/// the result before it did already): 0.5 when every triangle pairs with a neighbour.
+pub(super) const MAX_QUADS_PER_TRIANGLE: f64 = 0.6;
+
+/// Input triangles from which [`MAX_QUADS_PER_TRIANGLE`] binds the worst-quad tries (a
+/// smaller mesh may take up to a quarter more quads than that for a better worst quad).
+pub(super) const COUNT_RULE_FROM: usize = 500;
+
+/// The quads of `mesh`'s surfaces with η below [`ETA_FLOOR`], as (surface, node tags), and
+/// the worst η of those quads; surfaces in `skip` (sorted: those the input meshed with quads
+/// alone, which no job changes) are left out.
+pub(super) fn low_quads(mesh: &Mesh, skip: &[i32]) -> (Vec<(i32, [u64; 4])>, f64) {
+    let coords = TagCoords::new(mesh);
+    let mut low = Vec::new();
+    let mut worst = f64::INFINITY;
+    for b in mesh.element_blocks.iter().filter(|b| {
+        b.entity_dim == 2
+            && b.element_type == etype::QUAD4
+            && skip.binary_search(&b.entity_tag).is_err()
+    }) {
+        for i in 0..b.len() {
+            let e = b.element(i);
+            let q = [e[0], e[1], e[2], e[3]];
+            let Some(p) = q
+                .iter()
+                .map(|&t| coords.get(t).map(glam::DVec3::from_array))
+                .collect::<Option<Vec<_>>>()
+            else {
+                continue;
+            };
+            let eta = crate::quality::eta(&[p[0], p[1], p[2], p[3]]);
+            worst = worst.min(eta);
+            if eta < ETA_FLOOR {
+                low.push((b.entity_tag, q));
+            }
+        }
+    }
+    (low, worst)
+}
+
+/// New quads per input triangle of `out` against `input` (quads already in the input do
+/// not count).
+pub(super) fn quads_per_triangle(input: &Mesh, out: &Mesh) -> f64 {
+    let triangles = surface_elements(input, etype::TRI3).max(1);
+    (surface_elements(out, etype::QUAD4) as f64 - surface_elements(input, etype::QUAD4) as f64)
+        / triangles as f64
+}
+
+/// Elements of type `t` on the surfaces of `m`.
+pub(super) fn surface_elements(m: &Mesh, t: u32) -> usize {
+    m.element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == t)
+        .map(|b| b.len())
+        .sum()
+}
+
+/// Every triangle of `input` on the surfaces of `spots`, without those already `chosen`.
+pub(super) fn surface_triangles(
+    input: &Mesh,
+    spots: &[(i32, [u64; 4])],
+    chosen: &HashSet<u64>,
+) -> HashSet<u64> {
+    let surfaces: HashSet<i32> = spots.iter().map(|s| s.0).collect();
+    input
+        .element_blocks
+        .iter()
+        .filter(|b| {
+            b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
+        })
+        .flat_map(|b| b.tags.iter().copied())
+        .filter(|t| !chosen.contains(t))
+        .collect()
+}
+
+/// The quads of `spots` (surface, node tags), as (surface, sorted node tags), that two
+/// adjacent triangles of `input` on the same surface form, and that `priced` does not hold
+/// yet.
+pub(super) fn pairs_of(
+    input: &Mesh,
+    spots: &[(i32, [u64; 4])],
+    priced: &[(i32, [u64; 4])],
+) -> Vec<(i32, [u64; 4])> {
+    let surfaces: HashSet<i32> = spots.iter().map(|s| s.0).collect();
+    let mut triangles: HashSet<(i32, [u64; 3])> = HashSet::new();
+    for b in input.element_blocks.iter().filter(|b| {
+        b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
+    }) {
+        for i in 0..b.len() {
+            let mut t = [0u64; 3];
+            t.copy_from_slice(b.element(i));
+            t.sort_unstable();
+            triangles.insert((b.entity_tag, t));
+        }
+    }
+    let mut out = Vec::new();
+    for &(surface, n) in spots {
+        let mut sorted = n;
+        sorted.sort_unstable();
+        if priced.contains(&(surface, sorted)) || out.contains(&(surface, sorted)) {
+            continue;
+        }
+        // the two triangles of a diagonal (nodes 0-2 or 1-3 of the quad)
+        let halves = |a: [u64; 3], b: [u64; 3]| {
+            let (mut a, mut b) = (a, b);
+            a.sort_unstable();
+            b.sort_unstable();
+            triangles.contains(&(surface, a)) && triangles.contains(&(surface, b))
+        };
+        if halves([n[0], n[1], n[2]], [n[0], n[2], n[3]])
+            || halves([n[1], n[2], n[3]], [n[1], n[3], n[0]])
+        {
+            out.push((surface, sorted));
+        }
+    }
+    out
+}
+
+/// The input triangles to split after a round with bad quads `spots` (surface, node tags;
+/// `mesh` the round's result):
+/// on each bad quad's surface, the triangles holding one of its nodes (or, for a quad none
+/// of whose nodes an input triangle holds, the input triangle nearest to its centre), and
+/// from the second ring on also those touching a triangle split before; without those
+/// already `chosen`.
+pub(super) fn fallback_triangles(
+    input: &Mesh,
+    mesh: &Mesh,
+    spots: &[(i32, [u64; 4])],
+    chosen: &HashSet<u64>,
+    ring: usize,
+) -> HashSet<u64> {
+    let surfaces: HashSet<i32> = spots.iter().map(|s| s.0).collect();
+    let tri_blocks = || {
+        input.element_blocks.iter().filter(|b| {
+            b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
+        })
+    };
+    let mut near: HashSet<(i32, u64)> = spots
+        .iter()
+        .flat_map(|&(s, q)| q.into_iter().map(move |n| (s, n)))
+        .collect();
+    // quads none of whose nodes an input triangle of their surface holds (made of new
+    // nodes): the nearest input triangle to their centre stands for them
+    let held: HashSet<(i32, u64)> = tri_blocks()
+        .flat_map(|b| {
+            b.nodes
+                .iter()
+                .filter(|&&n| near.contains(&(b.entity_tag, n)))
+                .map(move |&n| (b.entity_tag, n))
+        })
+        .collect();
+    let orphans: Vec<&(i32, [u64; 4])> = spots
+        .iter()
+        .filter(|(s, q)| !q.iter().any(|&n| held.contains(&(*s, n))))
+        .collect();
+    if !orphans.is_empty() {
+        let out_index = mesh.node_index();
+        let in_index = input.node_index();
+        let at = |m: &Mesh, index: &crate::mesh::NodeIndex, t: u64| {
+            index
+                .get(t)
+                .map(|r| m.node_blocks[r.block as usize].coords[r.index as usize])
+        };
+        for &(surface, q) in orphans {
+            let pts: Vec<[f64; 3]> = q.iter().filter_map(|&t| at(mesh, &out_index, t)).collect();
+            if pts.is_empty() {
+                continue;
+            }
+            let c = centre(&pts);
+            let mut best: Option<(f64, [u64; 3])> = None;
+            for b in tri_blocks().filter(|b| b.entity_tag == surface) {
+                for i in 0..b.len() {
+                    let e = b.element(i);
+                    let corners: Vec<[f64; 3]> =
+                        e.iter().filter_map(|&t| at(input, &in_index, t)).collect();
+                    if corners.len() != 3 {
+                        continue;
+                    }
+                    let m = centre(&corners);
+                    let d = (0..3).map(|k| (m[k] - c[k]).powi(2)).sum::<f64>();
+                    if best.is_none_or(|(bd, _)| d < bd) {
+                        best = Some((d, [e[0], e[1], e[2]]));
+                    }
+                }
+            }
+            if let Some((_, t)) = best {
+                near.extend(t.iter().map(|&n| (surface, n)));
+            }
+        }
+    }
+    if ring >= 2 {
+        for b in tri_blocks() {
+            for i in 0..b.len() {
+                if chosen.contains(&b.tags[i]) {
+                    near.extend(b.element(i).iter().map(|&n| (b.entity_tag, n)));
+                }
+            }
+        }
+    }
+    let mut out = HashSet::new();
+    for b in tri_blocks() {
+        for i in 0..b.len() {
+            let t = b.tags[i];
+            if !chosen.contains(&t)
+                && b.element(i)
+                    .iter()
+                    .any(|&n| near.contains(&(b.entity_tag, n)))
+            {
+                out.insert(t);
+            }
+        }
+    }
+    out
+}
+
+/// The mean of `points`.
+pub(super) fn centre(points: &[[f64; 3]]) -> [f64; 3] {
+    let n = points.len().max(1) as f64;
+    let mut c = [0.0; 3];
+    for p in points {
+        for k in 0..3 {
+            c[k] += p[k] / n;
+        }
+    }
+    c
+}
