@@ -579,14 +579,7 @@ fn run_rounds(
                 return Err(Error::Recombine(fold.refusal()));
             }
             report.times = times;
-            let state = FallbackStart {
-                priced: local.priced,
-                avoid: local.avoid,
-                flat_halves_out: local.flat_halves_out,
-                chosen,
-                splits_only,
-            };
-            return Ok((mesh, report, state));
+            return Ok((mesh, report, local.finish(chosen, splits_only)));
         }
         let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
         log.push(format!(
@@ -658,14 +651,7 @@ fn run_rounds(
                 ));
                 report.invalid = bad;
                 report.times = times;
-                let state = FallbackStart {
-                    priced: local.priced,
-                    avoid: local.avoid,
-                    flat_halves_out: local.flat_halves_out,
-                    chosen,
-                    splits_only,
-                };
-                return Ok((mesh, report, state));
+                return Ok((mesh, report, local.finish(chosen, splits_only)));
             }
             // a surface whose folds were walled off and whose quads are still not valid
             // is refused naming its fold

@@ -47,6 +47,18 @@ pub(super) struct LocalFallback {
 }
 
 impl LocalFallback {
+    /// The state at the end of a job (`chosen` the triangles split, `splits_only` as the
+    /// job started): what another job of the same input starts from.
+    pub(super) fn finish(self, chosen: HashSet<u64>, splits_only: bool) -> FallbackStart {
+        FallbackStart {
+            priced: self.priced,
+            avoid: self.avoid,
+            flat_halves_out: self.flat_halves_out,
+            chosen,
+            splits_only,
+        }
+    }
+
     /// The next step after a round whose quads `bad` are not valid (`mesh` the round's
     /// result, `chosen` the triangles split so far).
     pub(super) fn next(
