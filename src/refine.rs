@@ -46,6 +46,7 @@ use crate::mesh::{element_dim, etype, ElementBlock, Mesh, NodeBlock, NodeIndex};
 
 /// Why a mesh cannot be refined.
 #[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
 pub enum RefineError {
     /// An element block of a type refinement does not handle.
     UnsupportedElements {

@@ -4,6 +4,7 @@ use super::{components, Matching, NoPerfectMatching, NONE};
 
 /// Why a matching failed its optimality certificate.
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[non_exhaustive]
 pub enum CertificateError {
     /// Array lengths or indices in the matching or duals are inconsistent.
     #[error("malformed certificate: {0}")]

@@ -19,6 +19,7 @@ pub enum Location {
 
 /// What went wrong. Each variant is one class of bad input (or an I/O failure).
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum ErrorKind {
     /// Reading or writing the file failed at the operating-system level.
     #[error("{action}: {source}")]

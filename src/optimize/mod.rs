@@ -177,6 +177,7 @@ impl std::fmt::Debug for OptimizeOptions<'_> {
 
 /// Errors of [`optimize`].
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum OptimizeError {
     /// A quad names a node tag that no node block holds.
     #[error("surface {surface}: element {element} names node {node}, which does not exist")]

@@ -25,6 +25,7 @@ use std::fmt;
 
 /// Errors of the quality module.
 #[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
 pub enum QualityError {
     /// The size expression does not compile (or names unknown variables/functions).
     #[error("size expression `{expr}`: {message}")]

@@ -418,6 +418,7 @@ fn note_folds(work: &[SurfaceWork], report: &mut RecombineReport) {
 
 /// Why [`recombine`] refused or failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
 pub enum RecombineError {
     /// Volume elements are present (recombining their boundary would break conformity).
     #[error("the mesh has {count} volume elements (volumes {}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone (--drop-volumes)", list_tags(.volumes))]
