@@ -672,7 +672,8 @@ pub fn elevate(
         }
     }
     let geo = Geometry::new(input);
-    // an input mid-edge node whose edge the linear job split once becomes the new corner
+    // an input mid-edge node whose edge the linear job split becomes the middle corner of
+    // the split chain
     let taken = take_split_mid_nodes(&mut out, &geo, input_max);
     // the linear job's nodes (flat positions)
     let flat = NodeTable::new(&out);

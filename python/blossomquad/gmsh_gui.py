@@ -177,7 +177,7 @@ class Connection:
 
 
 class Client:
-    """A ONELAB client session with Gmsh: queries, parameters, messages."""
+    """A ONELAB client connection to Gmsh: queries, parameters, messages."""
 
     def __init__(self, name: str, address: str) -> None:
         self.name = name

@@ -51,19 +51,18 @@ pub fn bad_extra_edge_cost(n: usize) -> i64 {
 
 /// Cost, in a graph of `n` triangles, of merging back the two halves of a triangle split by
 /// a parity repair or by the fallback's edge splits on a straight boundary: a "quad" with a
-/// flat corner at the split node (above about 179°),
-/// which lies on a wall and never moves, so it is not valid unless the optimizer's topology
-/// passes rebuild the quads around it. Where merged halves were not valid after a run
+/// flat corner at the split node (above about 179°), which lies on a wall and never moves,
+/// so it is not valid unless the optimizer's topology passes rebuild the quads around it.
+/// Where merged halves were not valid after a run
 /// ([`super::RecombineOptions::flat_halves_out`], which the pipeline's fallback sets), it
-/// is `15/4` of
-/// an extra edge ([`extra_edge_cost`]), at most 3.75 · 2³⁸ < 2⁴⁰ (the solver's cost limit):
-/// above three extra edges, a pair the fallback priced out ([`priced_out_cost`]) and an
-/// extra edge with no valid vertex duplication ([`bad_extra_edge_cost`]), whose quads
-/// optimization or the fallback's pricing can still repair, so the matching merges split
-/// halves only when nothing else gives a perfect matching; otherwise it is
-/// [`curved_split_halves_cost`]. (Merged halves sent the fallback
-/// after a parity split in a rigid strip of a surface that needs extra edges anyway, e.g.
-/// a boundary row of a `gmsh -2` mesh with even curves or a fillet's strip, and each split
+/// is `15/4` of an extra edge ([`extra_edge_cost`]), at most 3.75 · 2³⁸ < 2⁴⁰ (the solver's
+/// cost limit): above three extra edges, a pair the fallback priced out
+/// ([`priced_out_cost`]) and an extra edge with no valid vertex duplication
+/// ([`bad_extra_edge_cost`]), whose quads optimization or the fallback's pricing can still
+/// repair, so the matching merges split halves only when nothing else gives a perfect
+/// matching; otherwise it is [`curved_split_halves_cost`]. (Merged halves sent the fallback
+/// after a parity split in a rigid strip of a surface that needs extra edges anyway, e.g. a
+/// boundary row of a `gmsh -2` mesh with even curves or a fillet's strip, and each split
 /// round's new parity split made another.) Other hopeless quads keep [`HOPELESS_COST`]: on
 /// slivers along a nearly straight boundary a vertex duplication may have no valid
 /// position, so trading them for extra edges is not always a gain.
@@ -101,8 +100,9 @@ pub fn priced_out_cost(n: usize) -> i64 {
 /// halves of a triangle split by a parity repair, merged back into a "quad" with a 180°
 /// angle — can never become valid, so it costs [`HOPELESS_COST`], far more than a folded
 /// quad, and the matching takes it only when avoiding it would cost even more; when the
-/// straight corner is at a parity-split node (`split_nodes`, sorted) it costs `split_cost`
-/// ([`split_halves_cost`]). `wall_nodes` holds the surface's wall nodes, `normals` the
+/// straight corner is at a parity-split node (`split_nodes`, sorted) it costs
+/// `split_costs[0]` when that corner is flat ([`FLAT_SPLIT_ETA`], a straight boundary), else
+/// `split_costs[1]` (a curved one; see [`split_halves_cost`]). `wall_nodes` holds the surface's wall nodes, `normals` the
 /// triangles' [`tri_normal`](super::geometry::tri_normal)s.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn edge_cost(
@@ -111,7 +111,7 @@ pub(crate) fn edge_cost(
     normals: &[DVec3],
     wall_nodes: &NodeSet,
     split_nodes: &[u32],
-    split_cost: i64,
+    split_costs: [i64; 2],
     t: usize,
     k: usize,
 ) -> i64 {
@@ -133,9 +133,9 @@ pub(crate) fn edge_cost(
                 )
         };
         return if at_split(FLAT_SPLIT_ETA) {
-            split_cost
+            split_costs[0]
         } else if at_split(FIXED_CORNER_MIN_ETA) {
-            curved_split_halves_cost(topo.len())
+            split_costs[1]
         } else {
             HOPELESS_COST
         };
@@ -204,11 +204,15 @@ pub(crate) fn build(
     // the cost of a curved boundary's (the optimizer's topology passes may still repair
     // them)
     let split_nodes = splits.nodes;
-    let split_cost = if splits.flat_halves_out {
-        split_halves_cost(n)
-    } else {
-        curved_split_halves_cost(n)
-    };
+    let curved = curved_split_halves_cost(n);
+    let split_costs = [
+        if splits.flat_halves_out {
+            split_halves_cost(n)
+        } else {
+            curved
+        },
+        curved,
+    ];
     let field = match (cross_w > 0.0, harmonic) {
         (false, _) => CrossField::default(),
         (true, false) => {
@@ -228,7 +232,7 @@ pub(crate) fn build(
                 let u = topo.nbr[3 * t + k];
                 (u != NONE && (t as u32) < u).then(|| {
                     let mut c =
-                        edge_cost(topo, coords, normals, walls, split_nodes, split_cost, t, k);
+                        edge_cost(topo, coords, normals, walls, split_nodes, split_costs, t, k);
                     if cross_w > 0.0 && c <= 2 * COST_SCALE {
                         let tri = topo.tris[t];
                         let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];
