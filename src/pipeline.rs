@@ -21,15 +21,23 @@
 //!    segments to avoid ([`crate::recombine::RecombineOptions::parity_avoid`]), so the
 //!    repair splits another segment that fixes the same odd regions where there is one. At
 //!    most [`PRICING_ROUNDS`] rounds price new quads or avoid new segments.
-//! 2. **Splits.** When no bad quad is left to price, the input triangles around each bad
+//! 2. **Segments under fans.** A bad quad that pricing could not avoid and that is a fan
+//!    of two triangles with their bases on one side of a strip or band (flat at a
+//!    boundary node, its diagonal's other end on the other side) gets a boundary segment
+//!    at that other end split at its midpoint, with every triangle on it
+//!    ([`crate::recombine::split_triangles`]), so the fan's triangles find partners on
+//!    that side; at most [`SEGMENT_ROUNDS`] rounds, before any triangle is split. A job
+//!    that still fails with such splits runs again without them.
+//! 3. **Splits.** When no bad quad is left to price, the input triangles around each bad
 //!    quad (those holding one of its input nodes, or the nearest one to a quad of new
 //!    nodes) are split into three quads each before the matching
 //!    ([`crate::recombine::split_triangles`]); a second split round adds one more ring (the
 //!    triangles touching those), up to [`SPLIT_RINGS`] rings.
-//! 3. **Last resort.** Quads still bad after that get every triangle of their surface split
+//! 4. **Last resort.** Quads still bad after that get every triangle of their surface split
 //!    (the splits' halved neighbours along shared curves may bring another surface there in
-//!    the next round), up to [`FALLBACK_ROUNDS`] rounds in all.
-//! 4. **The worst quad.** A valid optimized result gets up to three more tries: where the
+//!    the next round; segment splits are dropped then), up to [`FALLBACK_ROUNDS`] rounds in
+//!    all.
+//! 5. **The worst quad.** A valid optimized result gets up to three more tries: where the
 //!    fallback priced quads out, the fallback with splits only; quads under η
 //!    [`ETA_FLOOR`] priced out; one ring around those still under it split. Each is kept
 //!    only when it raises the worst quad without breaking the element-count rule. (A mesh
@@ -59,7 +67,7 @@ use fallback::{
     fallback_triangles, low_quads, pairs_of, quads_per_triangle, surface_elements, FallbackStart,
     LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE,
 };
-pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SPLIT_RINGS};
+pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_RINGS};
 
 /// Rounds after the first run at most: the fallback's pricing and split rounds, and (without
 /// optimization) the rounds that optimize the surfaces whose matching left bad quads.
@@ -375,8 +383,28 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         None => (&input, Vec::new()),
     };
     let mut cache = SurfaceCache::default();
-    let result = run_rounds(base, opts, FallbackStart::default(), &mut cache)
-        .and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
+    let mut segments_used = false;
+    let result = run_rounds(
+        base,
+        opts,
+        FallbackStart::default(),
+        &mut cache,
+        &mut segments_used,
+    )
+    .or_else(|e| match e {
+        // a fallback that split boundary segments under fans and still failed runs again
+        // without them (on strips that share curves, a segment split moves one strip's
+        // imbalance to the next)
+        Error::Invalid(_) | Error::FallbackExhausted if segments_used => {
+            let start = FallbackStart {
+                no_segments: true,
+                ..FallbackStart::default()
+            };
+            run_rounds(base, opts, start, &mut cache, &mut false)
+        }
+        e => Err(e),
+    })
+    .and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
     match result {
         Ok((out, mut report, _)) => {
             *mesh = out;
@@ -415,6 +443,7 @@ fn run_rounds(
     opts: &Options,
     start: FallbackStart,
     cache: &mut SurfaceCache,
+    segments_used: &mut bool,
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut times = Times::default();
     let mut log = Vec::new();
@@ -424,7 +453,14 @@ fn run_rounds(
         priced: start.priced,
         avoid: start.avoid,
         flat_halves_out: start.flat_halves_out,
+        segments: start.segments,
         pricing_rounds: if splits_only { PRICING_ROUNDS } else { 0 },
+        segment_rounds: if splits_only || start.no_segments {
+            SEGMENT_ROUNDS
+        } else {
+            0
+        },
+        no_segments: start.no_segments,
         ..Default::default()
     };
     let mut fallback = None;
@@ -445,16 +481,24 @@ fn run_rounds(
             Some(c) => c,
             None => {
                 let mut mesh = input.clone();
-                if !chosen.is_empty() {
+                if !chosen.is_empty() || !local.segments.is_empty() {
                     let t = Instant::now();
-                    let split = recombine::split_triangles(&mut mesh, &chosen);
-                    log.push(format!(
-                        "fallback round {round}: {} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
+                    let split = recombine::split_triangles(&mut mesh, &chosen, &local.segments);
+                    let mut line = format!("fallback round {round}: ");
+                    if split.segments_split > 0 {
+                        line += &format!(
+                            "{} boundary segment(s) under fans split at their midpoints, ",
+                            split.segments_split
+                        );
+                    }
+                    line += &format!(
+                        "{} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
                         split.triangles_to_quads,
                         sorted_list(&split.surfaces),
                         split.triangles_halved,
                         split.lines_split
-                    ));
+                    );
+                    log.push(line);
                     fallback = Some(split);
                     times.recombine += t.elapsed();
                 }
@@ -636,6 +680,14 @@ fn run_rounds(
                 log.push(line);
                 continue;
             }
+            Next::Segments(count) => {
+                *segments_used = true;
+                log.push(format!(
+                    "fallback round {}: {count} boundary segment(s) under fan quads to split",
+                    round + 1
+                ));
+                continue;
+            }
             Next::Split(more) => more,
             Next::GiveUp => HashSet::new(),
         };
@@ -765,7 +817,7 @@ fn raise_worst_quad(
                 format!("{n} triangle(s) around quads under eta {ETA_FLOOR} split")
             }
         };
-        let Ok(candidate) = run_rounds(input, opts, start, cache) else {
+        let Ok(candidate) = run_rounds(input, opts, start, cache, &mut false) else {
             continue;
         };
         if !candidate.1.invalid.is_empty() {

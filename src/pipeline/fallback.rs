@@ -20,11 +20,16 @@ pub const PRICING_ROUNDS: usize = 2;
 /// Rings of input triangles around a bad quad that the fallback splits at most.
 pub const SPLIT_RINGS: usize = 2;
 
+/// Fallback rounds that split new boundary segments under fans at most (see the module doc).
+pub const SEGMENT_ROUNDS: usize = 2;
+
 /// What the fallback does after a round with bad quads.
 pub(super) enum Next {
     /// Solve again with this many more quads priced out and parity split segments
     /// avoided.
     Price(usize, usize),
+    /// Solve again with this many more boundary segments split under fans.
+    Segments(usize),
     /// Split these input triangles too (empty: nothing more to split).
     Split(HashSet<u64>),
     /// Nothing more to try.
@@ -42,7 +47,12 @@ pub(super) struct LocalFallback {
     /// Merged halves of split triangles priced out
     /// ([`crate::recombine::RecombineOptions::flat_halves_out`]).
     pub(super) flat_halves_out: bool,
+    /// Boundary segments split at their midpoints (node tags).
+    pub(super) segments: Vec<(u64, u64)>,
+    /// No segment splits (the job's start said so).
+    pub(super) no_segments: bool,
     pub(super) pricing_rounds: usize,
+    pub(super) segment_rounds: usize,
     pub(super) split_rounds: usize,
 }
 
@@ -54,6 +64,8 @@ impl LocalFallback {
             priced: self.priced,
             avoid: self.avoid,
             flat_halves_out: self.flat_halves_out,
+            segments: self.segments,
+            no_segments: self.no_segments,
             chosen,
             splits_only,
         }
@@ -92,11 +104,23 @@ impl LocalFallback {
                 return Next::Price(count.0, count.1);
             }
         }
+        if self.segment_rounds < SEGMENT_ROUNDS && self.split_rounds == 0 {
+            let new = fan_segments(input, bad, &self.segments);
+            if !new.is_empty() {
+                self.segment_rounds += 1;
+                let count = new.len();
+                self.segments.extend(new);
+                return Next::Segments(count);
+            }
+        }
         self.split_rounds += 1;
         if self.split_rounds > SPLIT_RINGS {
             // the last resort, after the local rounds: every triangle of the surfaces that
             // still have a bad quad (the splits' halved neighbours along shared curves may
-            // bring another surface here in the next round)
+            // bring another surface here in the next round), without the segment splits (a
+            // split on a curve between two strips moves the strips' imbalance to the other
+            // strip)
+            self.segments.clear();
             return Next::Split(surface_triangles(input, &spots, chosen));
         }
         Next::Split(fallback_triangles(
@@ -118,6 +142,10 @@ pub(super) struct FallbackStart {
     pub(super) avoid: Vec<(u64, u64)>,
     /// Merged halves of split triangles priced out.
     pub(super) flat_halves_out: bool,
+    /// Boundary segments split at their midpoints (node tags).
+    pub(super) segments: Vec<(u64, u64)>,
+    /// No segment splits (after a job with them failed).
+    pub(super) no_segments: bool,
     pub(super) chosen: HashSet<u64>,
     /// Split only, never price (the fallback of the other result that
     /// [`super::raise_worst_quad`] tries).
@@ -242,6 +270,104 @@ pub(super) fn pairs_of(
     out
 }
 
+/// Boundary segments whose split lets the triangles of a bad fan quad pair otherwise, and
+/// that `done` does not hold yet. A fan quad is two input triangles `(u, v, x)` and
+/// `(v, w, x)` of one surface whose bad corner is at `v`, a boundary node of the surface
+/// (on a strip or a band between two curves, a run of triangles with their bases on the
+/// same side: the corner at `v` is flat). When `x` is a boundary node too, the longer
+/// boundary segment `(x, y)` of a triangle `(x, y, w)` or `(x, y, u)` is split: its two
+/// halves give `(v, w, x)` (or `(u, v, x)`) a partner with a base on `x`'s side, as a
+/// parity repair's split would.
+pub(super) fn fan_segments(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -> Vec<(u64, u64)> {
+    let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+    let index = input.node_index();
+    let at = |t: u64| {
+        index.get(t).map(|r| {
+            glam::DVec3::from_array(input.node_blocks[r.block as usize].coords[r.index as usize])
+        })
+    };
+    // per surface: its triangles (sorted nodes) and how many of them hold each edge
+    let mut triangles: HashSet<(i32, [u64; 3])> = HashSet::new();
+    let mut edge_count: std::collections::HashMap<(i32, u64, u64), u32> =
+        std::collections::HashMap::new();
+    let key = |a: u64, b: u64| (a.min(b), a.max(b));
+    for b in input.element_blocks.iter().filter(|b| {
+        b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
+    }) {
+        for i in 0..b.len() {
+            let e = b.element(i);
+            let mut t = [e[0], e[1], e[2]];
+            t.sort_unstable();
+            triangles.insert((b.entity_tag, t));
+            for j in 0..3 {
+                let (a, c) = key(e[j], e[(j + 1) % 3]);
+                *edge_count.entry((b.entity_tag, a, c)).or_default() += 1;
+            }
+        }
+    }
+    let is_triangle = |s: i32, a: u64, b: u64, c: u64| {
+        let mut t = [a, b, c];
+        t.sort_unstable();
+        triangles.contains(&(s, t))
+    };
+    let on_boundary = |s: i32, a: u64, b: u64| {
+        let (a, b) = key(a, b);
+        edge_count.get(&(s, a, b)) == Some(&1)
+    };
+    // the boundary segments of each surface at each node
+    let mut segments_at: std::collections::HashMap<(i32, u64), Vec<u64>> =
+        std::collections::HashMap::new();
+    for (&(s, a, b), &c) in &edge_count {
+        if c == 1 {
+            segments_at.entry((s, a)).or_default().push(b);
+            segments_at.entry((s, b)).or_default().push(a);
+        }
+    }
+    let mut out: Vec<(u64, u64)> = Vec::new();
+    for q in bad {
+        let s = q.surface;
+        let n = q.nodes;
+        let Some(k) = n.iter().position(|&t| t == q.node()) else {
+            continue;
+        };
+        // the quad as (u, v, w, x) with the bad corner at v and the diagonal v-x
+        let (u, v, w, x) = (n[(k + 3) % 4], n[k], n[(k + 1) % 4], n[(k + 2) % 4]);
+        if !is_triangle(s, u, v, x) || !is_triangle(s, v, w, x) {
+            continue;
+        }
+        if !segments_at.contains_key(&(s, v)) || !on_boundary(s, u, v) || !on_boundary(s, v, w) {
+            continue;
+        }
+        let Some(ys) = segments_at.get(&(s, x)) else {
+            continue;
+        };
+        let mut ys = ys.clone();
+        ys.sort_unstable();
+        let mut best: Option<(f64, (u64, u64))> = None;
+        for y in ys {
+            if y == u || y == w || !(is_triangle(s, x, y, w) || is_triangle(s, x, y, u)) {
+                continue;
+            }
+            let seg = key(x, y);
+            if done.contains(&seg) || out.contains(&seg) {
+                continue;
+            }
+            let (Some(px), Some(py)) = (at(x), at(y)) else {
+                continue;
+            };
+            let len = px.distance(py);
+            if best.is_none_or(|(l, _)| len > l) {
+                best = Some((len, seg));
+            }
+        }
+        if let Some((_, seg)) = best {
+            out.push(seg);
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
 /// The input triangles to split after a round with bad quads `spots` (surface, node tags;
 /// `mesh` the round's result):
 /// on each bad quad's surface, the triangles holding one of its nodes (or, for a quad none
@@ -349,4 +475,79 @@ pub(super) fn centre(points: &[[f64; 3]]) -> [f64; 3] {
         }
     }
     c
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::mesh::testing::{node_block, one_surface};
+    use crate::validity::Defect;
+
+    /// A strip between two straight curves, bottom nodes 1-3 and top nodes 4-8, whose
+    /// triangles 3 and 4 form a fan at node 2: their bases are both on the top.
+    fn strip() -> Mesh {
+        let coords = vec![
+            [0.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [5.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [2.0, 1.0, 0.0],
+            [3.0, 1.0, 0.0],
+            [5.0, 1.0, 0.0],
+        ];
+        one_surface(
+            vec![node_block(2, (1..=8).collect(), coords)],
+            etype::TRI3,
+            &[
+                &[1, 5, 4],
+                &[1, 2, 5],
+                &[2, 6, 5],
+                &[2, 7, 6],
+                &[2, 3, 7],
+                &[3, 8, 7],
+            ],
+        )
+    }
+
+    fn bad(nodes: [u64; 4], corner: usize) -> BadQuad {
+        BadQuad {
+            surface: 1,
+            element: 1,
+            nodes,
+            defect: Defect::Corner {
+                corner,
+                degrees: 180.0,
+            },
+        }
+    }
+
+    #[test]
+    fn a_fan_quad_gets_the_longer_segment_under_its_apex_split() {
+        let m = strip();
+        // the quad 5-6-7-2 of the fan at node 2 is flat at node 6
+        let got = fan_segments(&m, &[bad([5, 6, 7, 2], 1)], &[]);
+        // segments 1-2 (length 2, its triangle holds node 5) and 2-3 (length 3, its
+        // triangle holds node 7): the longer one
+        assert_eq!(got, vec![(2, 3)]);
+        // the same quad named from another corner, with the same bad node
+        assert_eq!(fan_segments(&m, &[bad([7, 2, 5, 6], 3)], &[]), vec![(2, 3)]);
+        // a segment split already is not split again: the other one is
+        assert_eq!(
+            fan_segments(&m, &[bad([5, 6, 7, 2], 1)], &[(2, 3)]),
+            vec![(1, 2)]
+        );
+    }
+
+    #[test]
+    fn a_bad_corner_that_is_not_a_fan_on_a_boundary_gets_no_segment() {
+        let m = strip();
+        // bad at the apex (node 2), not at the flat top node: no segment
+        assert!(fan_segments(&m, &[bad([5, 6, 7, 2], 3)], &[]).is_empty());
+        // not two triangles of the input (5-6-7-8 is no pair)
+        assert!(fan_segments(&m, &[bad([5, 6, 7, 8], 1)], &[]).is_empty());
+        // a pair of triangles, but not a fan: 1-2-5 and 2-6-5 (the corner at node 2
+        // joins a bottom and a cross edge)
+        assert!(fan_segments(&m, &[bad([1, 2, 6, 5], 1)], &[]).is_empty());
+    }
 }

@@ -1,6 +1,8 @@
 //! The fallback that always gives valid quads where pairing triangles cannot: chosen
 //! triangles are split into three quads each (centroid and edge midpoints, the refinement
-//! rule of Figure 2 applied locally), before the matching runs on what is left.
+//! rule of Figure 2 applied locally), before the matching runs on what is left. Chosen
+//! boundary segments are split at their midpoints too, as a parity repair's split is: the
+//! triangles on them become two each.
 //!
 //! Splitting a triangle's edge at its midpoint also splits the element on the other side of
 //! that edge, whatever surface it belongs to, so the mesh stays conforming:
@@ -43,6 +45,8 @@ pub struct FallbackSplit {
     pub quads_split: usize,
     /// Line elements split in two.
     pub lines_split: usize,
+    /// Chosen segments split at their midpoints.
+    pub segments_split: usize,
     /// New nodes.
     pub nodes_added: usize,
     /// Surfaces whose triangles were split into quads.
@@ -58,9 +62,14 @@ fn key(a: u64, b: u64) -> (u64, u64) {
 }
 
 /// Splits the 3-node triangles whose element tags are in `chosen` (and the ones the rule of
-/// the module doc adds) into three quads each. Tags that are not triangles are ignored.
-/// Triangles naming a missing node are left alone.
-pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit {
+/// the module doc adds) into three quads each, and the edges `segments` (node tags, either
+/// order) at their midpoints. Tags that are not triangles are ignored, and so are segments
+/// that no element has. Triangles naming a missing node are left alone.
+pub fn split_triangles(
+    mesh: &mut Mesh,
+    chosen: &HashSet<u64>,
+    segments: &[(u64, u64)],
+) -> FallbackSplit {
     let mut report = FallbackSplit::default();
     let index = mesh.node_index();
     let pos = |t: u64| -> Option<DVec3> {
@@ -158,6 +167,12 @@ pub fn split_triangles(mesh: &mut Mesh, chosen: &HashSet<u64>) -> FallbackSplit 
     let mut tris: Vec<u32> = (0..marked.len() as u32)
         .filter(|&t| marked[t as usize])
         .collect();
+    for &(a, b) in segments {
+        if at_edge.contains_key(&key(a, b)) && !work.contains(&key(a, b)) {
+            work.push(key(a, b));
+            report.segments_split += 1;
+        }
+    }
     loop {
         while let Some(t) = tris.pop() {
             let n = face_nodes(t);
@@ -546,9 +561,42 @@ mod tests {
     }
 
     #[test]
+    fn a_chosen_segment_halves_the_triangles_on_both_sides_and_its_line() {
+        let mut m = two_surfaces();
+        // the curve segment 2-3 (either order); 1-5 is no edge and is ignored
+        let r = split_triangles(&mut m, &HashSet::new(), &[(3, 2), (1, 5)]);
+        assert_eq!(r.segments_split, 1);
+        assert_eq!(r.triangles_to_quads, 0);
+        assert_eq!(r.triangles_halved, 2);
+        assert_eq!(r.lines_split, 1);
+        assert_eq!(r.nodes_added, 1);
+        let on_curve = m
+            .node_blocks
+            .iter()
+            .find(|b| b.entity_dim == 1 && b.entity_tag == 7)
+            .map(|b| (b.tags.clone(), b.coords.clone()));
+        assert_eq!(on_curve, Some((vec![6], vec![[1.0, 0.5, 0.0]])));
+        // surface 1: (1 2 3) halved at 6, (1 3 4) kept; surface 2: (2 5 3) halved
+        let triangles = |s: i32| -> Vec<Vec<u64>> {
+            let b = m
+                .element_blocks
+                .iter()
+                .find(|b| b.entity_tag == s && b.element_type == etype::TRI3)
+                .expect("triangles");
+            (0..b.len()).map(|i| b.element(i).to_vec()).collect()
+        };
+        assert_eq!(triangles(1).len(), 3);
+        assert_eq!(triangles(2).len(), 2);
+        assert!(triangles(1)
+            .iter()
+            .chain(&triangles(2))
+            .all(|t| !t.contains(&2) || !t.contains(&3)));
+    }
+
+    #[test]
     fn a_chosen_triangle_becomes_three_quads_and_its_neighbours_stay_conforming() {
         let mut m = two_surfaces();
-        let r = split_triangles(&mut m, &HashSet::from([1]));
+        let r = split_triangles(&mut m, &HashSet::from([1]), &[]);
         // triangle 1 has split edges 1-2, 2-3, 3-1; triangle 2 (1 3 4) gets one (1-3) and
         // is halved; triangle 3 (2 5 3) gets one (2-3) and is halved; the line is split
         assert_eq!(r.triangles_to_quads, 1);
@@ -595,12 +643,12 @@ mod tests {
         let mut m = two_surfaces();
         // choosing both triangles of surface 1 splits all of their edges; the triangle of
         // surface 2 has one split edge (2-3) only
-        let r = split_triangles(&mut m, &HashSet::from([1, 2]));
+        let r = split_triangles(&mut m, &HashSet::from([1, 2]), &[]);
         assert_eq!(r.triangles_to_quads, 2);
         assert_eq!(r.triangles_halved, 1);
         let mut m = two_surfaces();
         // a square split on its diagonal: choosing (2 5 3) splits 2-3, which triangle 1 shares
-        let r = split_triangles(&mut m, &HashSet::from([3]));
+        let r = split_triangles(&mut m, &HashSet::from([3]), &[]);
         assert_eq!((r.triangles_to_quads, r.triangles_halved), (1, 1));
         assert_eq!(r.surfaces, vec![2]);
     }
