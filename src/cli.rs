@@ -604,20 +604,28 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         }));
     }
     let result = crate::quadrangulate(&mut mesh, &opts);
-    let report = result
-        .inspect_err(|_| finish())
-        .map_err(|e| format!("{}: {e}", input.display()))?;
+    let report = result.inspect_err(|_| finish()).map_err(|e| {
+        if let (true, crate::Error::Invalid { log: lines, .. }) = (args.verbose, &e) {
+            log.say_all(lines);
+        }
+        format!("{}: {e}{}", input.display(), error_hint(&e))
+    })?;
     if args.verbose {
         log.say_all(&report.log);
-    } else {
-        let warnings: Vec<String> = report
-            .log
-            .iter()
-            .filter(|l| l.starts_with("warning:"))
-            .cloned()
-            .collect();
-        log.say_all(&warnings);
     }
+    let warnings: Vec<String> = report
+        .warnings
+        .iter()
+        .map(|w| {
+            let flag = if w.is_invalid_written() {
+                " (--allow-invalid)"
+            } else {
+                ""
+            };
+            format!("warning: {w}{flag}")
+        })
+        .collect();
+    log.say_all(&warnings);
     if args.quality_view {
         // encoded for the format written (the library option encodes for the default one)
         let binary = output_format(&mesh, &args.format).binary;
@@ -647,6 +655,21 @@ fn recombine_main(args: RunArgs) -> Result<(), String> {
         log.say(summary_line(&report, triangles, &mesh, &output, seconds));
     }
     Ok(())
+}
+
+/// The command-line flag that is the way past error `e`, as text to append to its message
+/// (empty when there is none).
+fn error_hint(e: &crate::Error) -> &'static str {
+    use crate::high_order::HighOrderError;
+    use crate::recombine::RecombineError;
+    match e {
+        crate::Error::Invalid { .. }
+        | crate::Error::SecondOrder(HighOrderError::Invalid { .. }) => {
+            " (rerun with --allow-invalid to write the mesh anyway)"
+        }
+        crate::Error::Recombine(RecombineError::VolumeElements { .. }) => " (--drop-volumes)",
+        _ => "",
+    }
 }
 
 /// Why `mesh` gives the main job nothing to work on (no surface element at all, as

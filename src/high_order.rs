@@ -138,7 +138,7 @@ pub enum HighOrderError {
         count: usize,
     },
     /// Second-order quads whose Jacobian is not positive even with straight-sided nodes.
-    #[error("{count} second-order element(s) have a Jacobian determinant that is not positive everywhere even with straight-sided nodes; first: element {element} on entity ({dim}, {entity}) (rerun with --allow-invalid to write the mesh anyway)")]
+    #[error("{count} second-order element(s) have a Jacobian determinant that is not positive everywhere even with straight-sided nodes; first: element {element} on entity ({dim}, {entity})")]
     Invalid {
         /// Entity dimension of the first bad element.
         dim: i32,
@@ -238,11 +238,10 @@ pub(crate) fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, E
         ));
     }
     if !so.invalid.is_empty() {
-        report.log.push(format!(
-            "warning: writing {} second-order element(s) whose Jacobian is not positive everywhere (--allow-invalid): {}",
-            so.invalid.len(),
-            short_list(&so.invalid)
-        ));
+        report.warnings.push(crate::Warning::InvalidSecondOrder {
+            count: so.invalid.len(),
+            list: short_list(&so.invalid),
+        });
     }
     report.second_order = Some(so);
     report.times.second_order += t.elapsed();

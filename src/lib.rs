@@ -40,6 +40,7 @@ pub mod refine;
 pub mod renumber;
 mod reuse;
 pub mod validity;
+mod warning;
 
 pub use mesh::{Mesh, MshFormat};
 
@@ -48,6 +49,7 @@ pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 pub use pipeline::{
     quadrangulate, set_memory_release, Error, Options, Progress, ProgressFn, Report, Stage,
 };
+pub use warning::Warning;
 
 /// Reads an MSH file (2.x or 4.x, ASCII or binary; `-` reads stdin).
 pub fn read(path: impl AsRef<std::path::Path>) -> Result<Mesh, Error> {

@@ -59,6 +59,7 @@ use crate::mesh::{etype, Mesh, TagCoords};
 pub use crate::progress::{Progress, ProgressFn, Stage};
 use crate::reuse::{Fingerprints, SurfaceCache};
 use crate::validity::BadQuad;
+use crate::warning::Warning;
 use crate::{optimize, recombine, refine, validity};
 
 mod fallback;
@@ -278,8 +279,11 @@ pub struct Report {
     /// The renumbering of nodes and elements to 1..N (all zero with
     /// [`Options::keep_tags`]).
     pub renumber: crate::renumber::RenumberReport,
-    /// Human-readable log lines, in order.
+    /// What the job did, in order, as lines in plain words (what `--verbose` prints).
     pub log: Vec<String>,
+    /// What the caller may not expect (every warning is also worth showing without
+    /// `--verbose`).
+    pub warnings: Vec<Warning>,
     /// Wall times.
     pub times: Times,
 }
@@ -314,22 +318,25 @@ pub enum Error {
     #[error("internal error: the fallback ended without a result")]
     FallbackExhausted,
     /// Some quads are not valid even after the fallback.
-    #[error("{}", invalid_message(.0))]
-    Invalid(Vec<BadQuad>),
+    #[error("{}", invalid_message(bad))]
+    Invalid {
+        /// The quads still bad after the last round.
+        bad: Vec<BadQuad>,
+        /// The rounds' log up to the refusal (what [`Report::log`] would have held).
+        log: Vec<String>,
+    },
     /// Second-order input refused, or second-order elements not valid.
     #[error(transparent)]
     SecondOrder(#[from] crate::high_order::HighOrderError),
 }
 
 fn invalid_message(bad: &[BadQuad]) -> String {
-    let mut msg = format!(
+    format!(
         "{} quad(s) on surface(s) {} are not valid even after splitting their triangles into quads; first: {}",
         bad.len(),
         sorted_list(bad.iter().map(|b| &b.surface)),
         bad.first().map(|b| b.to_string()).unwrap_or_default()
-    );
-    msg.push_str(" (rerun with --allow-invalid to write the mesh anyway)");
-    msg
+    )
 }
 
 /// Turns every surface's triangles into valid quads (see the module doc): recombination
@@ -349,9 +356,11 @@ pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
     if !opts.keep_tags {
         report.renumber = crate::renumber::renumber(mesh, input_tags);
         let warnings = std::mem::take(&mut report.renumber.warnings);
-        report
-            .log
-            .extend(warnings.into_iter().map(|w| format!("warning: {w}")));
+        report.warnings.extend(
+            warnings
+                .into_iter()
+                .map(|text| Warning::Renumbering { text }),
+        );
     }
     if opts.quality_view {
         let binary = crate::msh::default_output_format(mesh).binary;
@@ -395,7 +404,7 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         // a fallback that split boundary segments under fans and still failed runs again
         // without them (on strips that share curves, a segment split moves one strip's
         // imbalance to the next)
-        Error::Invalid(_) | Error::FallbackExhausted if segments_used => {
+        Error::Invalid { .. } | Error::FallbackExhausted if segments_used => {
             let start = FallbackStart {
                 no_segments: true,
                 ..FallbackStart::default()
@@ -408,9 +417,11 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
     match result {
         Ok((out, mut report, _)) => {
             *mesh = out;
-            report.log.splice(
+            report.warnings.splice(
                 0..0,
-                dropped.into_iter().map(|line| format!("warning: {line}")),
+                dropped
+                    .into_iter()
+                    .map(|text| Warning::RepeatedTriangles { text }),
             );
             Ok(report)
         }
@@ -693,14 +704,14 @@ fn run_rounds(
         };
         if more.is_empty() {
             if opts.allow_invalid {
-                report.log.push(format!(
-                    "warning: writing {} invalid quad(s) (--allow-invalid): {}",
-                    bad.len(),
-                    bad.iter()
+                report.warnings.push(Warning::InvalidQuads {
+                    count: bad.len(),
+                    list: bad
+                        .iter()
                         .map(|b| b.to_string())
                         .collect::<Vec<_>>()
-                        .join("; ")
-                ));
+                        .join("; "),
+                });
                 report.invalid = bad;
                 report.times = times;
                 return Ok((mesh, report, local.finish(chosen, splits_only)));
@@ -710,7 +721,9 @@ fn run_rounds(
             if let Some(fold) = folds.iter().find(|f| surfaces.contains(&f.surface)) {
                 return Err(Error::Recombine(fold.refusal()));
             }
-            return Err(Error::Invalid(bad));
+            let mut lines = std::mem::take(&mut report.log);
+            lines.extend(log.last().cloned());
+            return Err(Error::Invalid { bad, log: lines });
         }
         chosen.extend(more);
     }
@@ -966,6 +979,7 @@ fn recombine_once<'a>(
     times.recombine += t.elapsed();
     let mut report = Report {
         log: rreport.log.clone(),
+        warnings: rreport.warnings.clone(),
         recombine: rreport,
         ..Default::default()
     };

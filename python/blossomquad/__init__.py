@@ -103,7 +103,8 @@ def recombine_file(
     ``[input tag, output tag]`` of every kept one), and ``quality_view`` (adds the "eta", "scaled jacobian" and "valence"
     views to the output, coloured by ``gmsh OUTPUT``). ``progress(stage, done, total)`` is called as the work advances (see
     ``ProgressCallback``). Returns the report
-    (what was done per surface, times, log lines) as a dict. Nothing is written on error."""
+    (what was done per surface, times, log lines, and ``warnings``: a list of ``{"kind",
+    "message"}``) as a dict. Nothing is written on error."""
     import os
 
     report = _native.recombine_file(

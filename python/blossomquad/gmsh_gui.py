@@ -361,7 +361,7 @@ def compute(client: Client, options: Dict[str, Any]) -> None:
                 source, result, progress=progress, **options)
         except blossomquad.Error as e:
             message = str(e).replace(f"{source}: ", "").replace(str(source), "the mesh")
-            message = message.replace("(--drop-volumes)", '(tick "Drop volume elements")')
+            message = message.replace("(drop_volumes=True)", '(tick "Drop volume elements")')
             raise GuiError(message) from None
         total = _quality(result)
 
@@ -388,9 +388,8 @@ def compute(client: Client, options: Dict[str, Any]) -> None:
         f"{len(surfaces)} surface{'s' if len(surfaces) != 1 else ''}, {triangles_in} "
         f"triangles -> {total['quads']} quads (quality eta: worst {total['eta_worst']:.3f}, "
         f"mean {total['eta_mean']:.3f}; min scaled Jacobian {total['sj_min']:.3f})")
-    for log in report["log"]:
-        if log.startswith("warning: "):
-            client.conn.send(WARNING, log[len("warning: "):])
+    for warning in report["warnings"]:
+        client.conn.send(WARNING, warning["message"])
     client.info(line)
 
 

@@ -40,6 +40,24 @@ fn parse_options(json: &str, progress: Option<Py<PyAny>>) -> PyResult<blossomqua
     Ok(opts)
 }
 
+/// `e`'s message with, where an option is the way past it, that option as the Python
+/// functions name it.
+fn message(e: &blossomquad::Error) -> String {
+    use blossomquad::high_order::HighOrderError;
+    use blossomquad::recombine::RecombineError;
+    let hint = match e {
+        blossomquad::Error::Invalid { .. }
+        | blossomquad::Error::SecondOrder(HighOrderError::Invalid { .. }) => {
+            " (pass allow_invalid=True to write the mesh anyway)"
+        }
+        blossomquad::Error::Recombine(RecombineError::VolumeElements { .. }) => {
+            " (drop_volumes=True)"
+        }
+        _ => "",
+    };
+    format!("{e}{hint}")
+}
+
 fn report_json(report: &blossomquad::Report) -> PyResult<String> {
     serde_json::to_string(report).map_err(|e| PyValueError::new_err(e.to_string()))
 }
@@ -76,7 +94,7 @@ fn recombine_file(
             on_own_thread(|| -> Result<blossomquad::Report, String> {
                 let mut mesh = blossomquad::read(&input).map_err(|e| e.to_string())?;
                 let report = blossomquad::quadrangulate(&mut mesh, &opts)
-                    .map_err(|e| format!("{}: {e}", input.display()))?;
+                    .map_err(|e| format!("{}: {}", input.display(), message(&e)))?;
                 let format = blossomquad::msh::default_output_format(&mesh);
                 blossomquad::write(&mesh, &output, format).map_err(|e| e.to_string())?;
                 Ok(report)
@@ -150,7 +168,7 @@ fn quadrangulate_arrays<'py>(
                 let mut mesh = blossomquad::arrays::surface_mesh(&pts, &tris, &f)
                     .map_err(|e| e.to_string())?;
                 let report =
-                    blossomquad::quadrangulate(&mut mesh, &opts).map_err(|e| e.to_string())?;
+                    blossomquad::quadrangulate(&mut mesh, &opts).map_err(|e| message(&e))?;
                 let (p, q) = blossomquad::arrays::quads_of(&mesh, &pts);
                 Ok((p, q, report))
             })
@@ -389,7 +407,7 @@ fn recombine_model<'py>(
             drop(before);
             Ok((report, changed, copy + t.elapsed()))
         })
-        .map_err(|e| Error::new_err(e.to_string()))?;
+        .map_err(|e| Error::new_err(message(&e)))?;
     let t_out = Instant::now();
     let after = by_entity(&mesh);
     let mut out = Vec::new();

@@ -105,6 +105,24 @@ def test_recombine_file_quality_view_adds_one_value_per_quad(tmp_path):
         blossomquad.quadrangulate(*grid(), quality_view=True)
 
 
+def test_invalid_quads_are_refused_or_written_with_a_typed_warning(tmp_path):
+    # a strip with a nearly flat boundary corner at node 2: no quad holding it is valid
+    flat = tmp_path / "flat.msh"
+    flat.write_text(
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n4\n1 0 0 0\n2 1 -1e-7 0\n3 2 0 0\n"
+        "4 1 1 0\n$EndNodes\n$Elements\n2\n1 2 2 1 1 1 2 3\n2 2 2 1 1 1 3 4\n$EndElements\n")
+    out = tmp_path / "out.msh"
+    with pytest.raises(blossomquad.Error, match="allow_invalid=True") as e:
+        blossomquad.recombine_file(flat, out)
+    assert "--" not in str(e.value) and not out.exists()
+    report = blossomquad.recombine_file(flat, out, allow_invalid=True)
+    kinds = [w["kind"] for w in report["warnings"]]
+    assert kinds == ["invalid_quads"], report["warnings"]
+    assert report["warnings"][0]["message"].startswith("writing ")
+    assert "invalid quad(s)" in report["warnings"][0]["message"]
+    assert out.exists()
+
+
 def test_recombine_file_errors_are_one_line_and_write_nothing(tmp_path):
     bad = tmp_path / "bad.msh"
     bad.write_text("$MeshFormat\n4.1 0 8\n$EndMeshFormat\n$Nodes\n1 2\n")
@@ -454,8 +472,10 @@ def test_recombine_gmsh_errors_leave_the_model_unchanged(model):
     gmsh.option.setNumber("Mesh.MeshSizeMax", 0.5)
     gmsh.model.mesh.generate(3)
     before = element_counts(3)
-    with pytest.raises(blossomquad.Error, match="volume"):
+    with pytest.raises(blossomquad.Error, match="volume") as e:
         blossomquad.recombine_gmsh()
+    # the way past it, named as the Python functions name it (not the command line's flag)
+    assert "drop_volumes=True" in str(e.value) and "--" not in str(e.value), str(e.value)
     assert element_counts(3) == before
     volume_nodes = gmsh.model.mesh.getNodes(3, 1)[0].tolist()
     report = blossomquad.recombine_gmsh(drop_volumes=True, keep_tags=True)

@@ -356,6 +356,8 @@ pub struct RecombineReport {
     pub walled_folds: Vec<WalledFold>,
     /// Human-readable log lines.
     pub log: Vec<String>,
+    /// What the caller may not expect (triangles dropped).
+    pub warnings: Vec<crate::Warning>,
     /// Total wall time.
     pub time_total: Duration,
 }
@@ -421,7 +423,7 @@ fn note_folds(work: &[SurfaceWork], report: &mut RecombineReport) {
 #[non_exhaustive]
 pub enum RecombineError {
     /// Volume elements are present (recombining their boundary would break conformity).
-    #[error("the mesh has {count} volume elements (volumes {}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone (--drop-volumes)", list_tags(.volumes))]
+    #[error("the mesh has {count} volume elements (volumes {}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone", list_tags(.volumes))]
     VolumeElements {
         /// Number of volume elements.
         count: usize,
@@ -571,9 +573,11 @@ pub fn recombine(
         .flatten();
     if let Some((cleaned, lines)) = cleaned {
         *mesh = cleaned;
-        report
-            .log
-            .extend(lines.into_iter().map(|l| format!("warning: {l}")));
+        report.warnings.extend(
+            lines
+                .into_iter()
+                .map(|text| crate::Warning::RepeatedTriangles { text }),
+        );
     }
     tm.lap("repeated triangles");
     topology_progress(opts, 0);

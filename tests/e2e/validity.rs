@@ -122,14 +122,29 @@ fn a_nearly_flat_input_corner_is_refused_naming_the_surface_or_written_with_allo
     let err = quadrangulate(&mut mesh, &Options::default()).expect_err("refused");
     let msg = err.to_string();
     assert!(msg.contains("surface 1"), "{msg}");
-    assert!(msg.contains("--allow-invalid"), "{msg}");
+    // the library names no command-line flag (the command line adds it)
+    assert!(!msg.contains("--"), "{msg}");
     assert!(!msg.contains('{') && !msg.contains("BadQuad"), "{msg}");
+    // the rounds' log travels with the refusal, up to the last round's bad quads
+    match &err {
+        blossomquad::Error::Invalid { bad, log } => {
+            assert!(!bad.is_empty());
+            assert!(
+                log.last().is_some_and(|l| l.contains("not valid")),
+                "{log:?}"
+            );
+        }
+        other => panic!("not a refusal of invalid quads: {other}"),
+    }
     assert_eq!(mesh, input, "the mesh is unchanged on error");
     let mut opts = Options::default();
     opts.allow_invalid = true;
     let report = quadrangulate(&mut mesh, &opts).expect("written anyway");
     assert!(!report.invalid.is_empty());
-    assert!(report.log.iter().any(|l| l.contains("--allow-invalid")));
+    assert!(report
+        .warnings
+        .iter()
+        .any(|w| matches!(w, blossomquad::Warning::InvalidQuads { count, .. } if *count == report.invalid.len())));
 }
 
 #[test]
@@ -150,6 +165,21 @@ fn the_cli_refuses_an_invalid_result_and_writes_nothing_unless_allowed() {
         .find(|l| l.starts_with("blossomquad: error:"))
         .unwrap_or_else(|| panic!("no error line in {stderr}"));
     assert!(line.contains("flat.msh") && line.contains("surface 1") && line.contains("node"));
+    // the command line names its own flag as the way past the refusal
+    assert!(line.contains("rerun with --allow-invalid"), "{line}");
+    assert!(!output.exists(), "nothing written");
+    // with --verbose the fallback's rounds come before the refusal, saying what was tried
+    let (code, _, stderr) = blossomquad_run([
+        input.as_os_str(),
+        "-o".as_ref(),
+        output.as_os_str(),
+        "-v".as_ref(),
+    ]);
+    assert_eq!(code, Some(1), "{stderr}");
+    let error_at = stderr.find("blossomquad: error:").expect("an error line");
+    let round_at = stderr.find("round 1: ").expect("the rounds' log");
+    assert!(round_at < error_at, "{stderr}");
+    assert!(stderr.contains("fallback round"), "{stderr}");
     assert!(!output.exists(), "nothing written");
     let (code, _, stderr) = blossomquad_run([
         input.as_os_str(),
@@ -158,7 +188,11 @@ fn the_cli_refuses_an_invalid_result_and_writes_nothing_unless_allowed() {
         "--allow-invalid".as_ref(),
     ]);
     assert_eq!(code, Some(0), "{stderr}");
-    assert!(stderr.contains("warning: writing"), "{stderr}");
+    let warning = stderr
+        .lines()
+        .find(|l| l.starts_with("warning: writing"))
+        .unwrap_or_else(|| panic!("no warning in {stderr}"));
+    assert!(warning.ends_with("(--allow-invalid)"), "{warning}");
     assert!(output.exists());
 }
 

@@ -1,0 +1,115 @@
+//! What the main job tells its caller beside the result: [`Warning`]s, typed so that a
+//! caller can tell them apart, each with a sentence in plain words
+//! ([`std::fmt::Display`]). No sentence names a command-line flag: the command line adds
+//! those where a flag is the way out.
+
+use serde::ser::SerializeStruct;
+
+/// Something the main job did that the caller may not expect (see [`crate::Report`]).
+#[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum Warning {
+    /// Triangles that repeat another triangle's nodes (zero-area pockets) were dropped
+    /// before the work; `text` names them.
+    RepeatedTriangles {
+        /// Which triangles, in words.
+        text: String,
+    },
+    /// The renumbering to 1..N kept some tags or data as they were; `text` says which and
+    /// why.
+    Renumbering {
+        /// What was kept, in words.
+        text: String,
+    },
+    /// Quads written although they are not valid (only when invalid quads are allowed).
+    InvalidQuads {
+        /// How many.
+        count: usize,
+        /// The quads and what is wrong with each, in words.
+        list: String,
+    },
+    /// Second-order elements written although their Jacobian is not positive everywhere
+    /// (only when invalid elements are allowed).
+    InvalidSecondOrder {
+        /// How many.
+        count: usize,
+        /// The elements, in words.
+        list: String,
+    },
+}
+
+impl Warning {
+    /// A short name of the kind, in snake case (`"invalid_quads"`), as the JSON report
+    /// gives it.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Warning::RepeatedTriangles { .. } => "repeated_triangles",
+            Warning::Renumbering { .. } => "renumbering",
+            Warning::InvalidQuads { .. } => "invalid_quads",
+            Warning::InvalidSecondOrder { .. } => "invalid_second_order",
+        }
+    }
+
+    /// True for the warnings that only come when invalid elements are allowed.
+    pub fn is_invalid_written(&self) -> bool {
+        matches!(
+            self,
+            Warning::InvalidQuads { .. } | Warning::InvalidSecondOrder { .. }
+        )
+    }
+}
+
+impl std::fmt::Display for Warning {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Warning::RepeatedTriangles { text } | Warning::Renumbering { text } => {
+                f.write_str(text)
+            }
+            Warning::InvalidQuads { count, list } => {
+                write!(f, "writing {count} invalid quad(s): {list}")
+            }
+            Warning::InvalidSecondOrder { count, list } => write!(
+                f,
+                "writing {count} second-order element(s) whose Jacobian is not positive everywhere: {list}"
+            ),
+        }
+    }
+}
+
+/// `{"kind": ..., "message": ...}`.
+impl serde::Serialize for Warning {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        let mut st = s.serialize_struct("Warning", 2)?;
+        st.serialize_field("kind", self.kind())?;
+        st.serialize_field("message", &self.to_string())?;
+        st.end()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_warning_is_a_sentence_without_flags_and_a_kind_in_json() {
+        let w = Warning::InvalidQuads {
+            count: 2,
+            list: "surface 1, quad 3".into(),
+        };
+        assert_eq!(
+            w.to_string(),
+            "writing 2 invalid quad(s): surface 1, quad 3"
+        );
+        assert!(w.is_invalid_written());
+        let json = serde_json::to_string(&w).expect("json");
+        assert_eq!(
+            json,
+            r#"{"kind":"invalid_quads","message":"writing 2 invalid quad(s): surface 1, quad 3"}"#
+        );
+        let r = Warning::Renumbering {
+            text: "node tags kept".into(),
+        };
+        assert!(!r.is_invalid_written());
+        assert_eq!(r.to_string(), "node tags kept");
+    }
+}
