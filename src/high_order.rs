@@ -1,10 +1,10 @@
 //! Second-order surface meshes: 6-node triangles (Gmsh type 9) with 3-node lines (type 8)
-//! on curves in, 9-node quads (type 10) or, with [`Options::incomplete`], 8-node quads
+//! on curves in, 9-node quads (type 10) or, with [`ElevateOptions::incomplete`], 8-node quads
 //! (type 16) with 3-node lines out. 9- and 8-node quads already in the input (Gmsh's
 //! transfinite, layered and recombined faces at order 2) are kept.
 //!
-//! [`crate::pipeline::quadrangulate`] sends a mesh with 6-node triangles here. It runs in
-//! three steps:
+//! [`crate::pipeline::quadrangulate`] runs a mesh with 6-node triangles in three steps,
+//! the first and the last from here (this module does not run the linear job):
 //! 1. **Linear copy** ([`linearize`]): every tri6 becomes the tri3 of its corners, every
 //!    quad9 or quad8 the quad4 of its corners and every line3 the line2 of its ends (same
 //!    element tags; the linear job keeps existing quads); the high-order nodes no corner uses
@@ -59,8 +59,8 @@
 //! at the linear job's positions (which the linear validity gate accepted; a straight-sided
 //! quad passes exactly when its corners turn positively), and the elements around them
 //! straight sides. The report's log names the elements placed straight. What still fails
-//! makes the call fail ([`HighOrderError::Invalid`]) unless [`Options::allow_invalid`] is
-//! set.
+//! makes the call fail ([`HighOrderError::Invalid`]) unless
+//! [`ElevateOptions::allow_invalid`] is set.
 //!
 //! **Invariant:** the input's corner nodes the linear job kept in place, and its curve
 //! nodes, keep tag and coordinates; a kept mid-edge node keeps tag and coordinates, and so
@@ -70,7 +70,6 @@
 
 use std::collections::{HashMap, HashSet};
 use std::hash::BuildHasherDefault;
-use std::time::Instant;
 
 use glam::DVec3;
 use rayon::prelude::*;
@@ -78,7 +77,6 @@ use serde::Serialize;
 
 use crate::mesh::NodeTable;
 use crate::mesh::{element_dim, element_node_count, etype, ElementBlock, Mesh, NodeBlock};
-use crate::pipeline::{Error, Options, Report};
 use crate::quality::jacobian::{min_scaled_jacobian_at_nodes, quad9_derivatives, straight_normal};
 use crate::quality::locate::TriSurface;
 use crate::recombine::RecombineError;
@@ -122,9 +120,13 @@ type FastMap<K, V> = HashMap<K, V, BuildHasherDefault<TagHasher>>;
 type FastSet<K> = HashSet<K, BuildHasherDefault<TagHasher>>;
 
 /// Why the second-order path refused a mesh or could not make it valid.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum HighOrderError {
+    /// The linear copy was refused as the linear job refuses a mesh (an unknown node, a
+    /// malformed block, volume elements).
+    #[error(transparent)]
+    Recombine(#[from] RecombineError),
     /// An element type the second-order path does not handle.
     #[error("entity ({dim}, {entity}) has {count} elements of type {element_type}; a second-order mesh must have 6-node triangles (type 9, and 3-node triangles), 9- or 8-node quads (types 10, 16) on surfaces and 3-node lines (type 8, and 2-node lines) on curves: mesh with Mesh.ElementOrder = 2 or 1")]
     Unsupported {
@@ -194,77 +196,19 @@ pub fn is_second_order(mesh: &Mesh) -> bool {
     })
 }
 
-/// The second-order job (see the module doc). On error `mesh` is unchanged.
-pub(crate) fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
-    let (mut linear, dropped) = linearize(mesh, opts.drop_volumes)?;
-    let linear_max = linear.max_node_tag();
-    // the views are measured on the second-order result, not on the linear copy, and
-    // `elevate` finds the input's nodes by tag: the renumbering comes after it
-    let linear_opts = Options {
-        quality_view: false,
-        keep_tags: true,
-        tag_map: false,
-        ..opts.clone()
-    };
-    let mut report = crate::pipeline::quadrangulate(&mut linear, &linear_opts)?;
-    let t = Instant::now();
-    if dropped > 0 {
-        report.recombine.dropped_volume_elements = dropped;
-        report
-            .log
-            .insert(0, format!("dropped {dropped} volume elements"));
-    }
-    let (out, so) = elevate(mesh, linear, linear_max, opts)?;
-    report.log.push(format!(
-        "second order: {} {}-node quads, {} 3-node lines; mid-edge nodes: {} kept from the input, {} new on curves, {} new on surfaces; face nodes: {} kept, {} new; {} moved corner(s) placed on the curved geometry; min scaled Jacobian {:.3}, mean {:.3}",
-        so.quads,
-        if so.quad_type == etype::QUAD9 { 9 } else { 8 },
-        so.lines,
-        so.kept_mid_nodes,
-        so.curve_mid_nodes,
-        so.surface_mid_nodes,
-        so.kept_face_nodes,
-        so.face_nodes,
-        so.corners_placed,
-        so.min_scaled_jacobian,
-        so.mean_scaled_jacobian,
-    ));
-    if !so.straight.is_empty() {
-        report.log.push(format!(
-            "second order: {} element(s) got straight-sided nodes because the curved placement made their Jacobian not positive ({} corner(s) put back at the linear position): {}",
-            so.straight.len(),
-            so.corners_reverted,
-            short_list(&so.straight)
-        ));
-    }
-    if !so.invalid.is_empty() {
-        report.warnings.push(crate::Warning::InvalidSecondOrder {
-            count: so.invalid.len(),
-            list: short_list(&so.invalid),
-        });
-    }
-    report.second_order = Some(so);
-    report.times.second_order += t.elapsed();
-    *mesh = out;
-    Ok(report)
-}
-
-fn short_list(tags: &[u64]) -> String {
-    let mut s = tags
-        .iter()
-        .take(20)
-        .map(|t| t.to_string())
-        .collect::<Vec<_>>()
-        .join(", ");
-    if tags.len() > 20 {
-        s.push_str(&format!(", ... ({} in all)", tags.len()));
-    }
-    s
+/// How [`elevate`] builds and checks the second-order elements.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct ElevateOptions {
+    /// 8-node quads (type 16) instead of 9-node ones.
+    pub incomplete: bool,
+    /// Write elements whose Jacobian is not positive everywhere (listed in
+    /// [`SecondOrderReport::invalid`]) instead of refusing them.
+    pub allow_invalid: bool,
 }
 
 /// The linear copy of a second-order mesh (module doc, step 1) and the number of volume
 /// elements dropped (with `drop_volumes`; refused otherwise, as the linear job would).
-pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Error> {
+pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), HighOrderError> {
     let mut volumes: Vec<i32> = Vec::new();
     let mut dropped = 0usize;
     let mut blocks = Vec::with_capacity(input.element_blocks.len());
@@ -301,8 +245,7 @@ pub fn linearize(input: &Mesh, drop_volumes: bool) -> Result<(Mesh, usize), Erro
                     entity: b.entity_tag,
                     element_type: b.element_type,
                     count: b.len(),
-                }
-                .into())
+                })
             }
         };
         match lower {
@@ -646,8 +589,8 @@ pub fn elevate(
     input: &Mesh,
     mut out: Mesh,
     linear_max: u64,
-    opts: &Options,
-) -> Result<(Mesh, SecondOrderReport), Error> {
+    opts: ElevateOptions,
+) -> Result<(Mesh, SecondOrderReport), HighOrderError> {
     let input_max = input.max_node_tag();
     // new nodes of the linear job above the input's tags
     let shift = input_max.saturating_sub(linear_max);
@@ -1041,8 +984,7 @@ pub fn elevate(
             entity: first.1,
             element: first.2,
             count: bad_tags.len(),
-        }
-        .into());
+        });
     }
 
     // quality at the nodes
@@ -1085,7 +1027,7 @@ pub fn elevate(
         let bi = *block_of.get(&owner)?;
         old_blocks[bi].params.as_ref()?;
         let np = owner.0.max(0) as usize;
-        Some(crate::refine::mean_params(&old_blocks, &out_index, bi, np, parents).0)
+        Some(crate::mesh::mean_params(&old_blocks, &out_index, bi, np, parents).0)
     };
     let mut edge_tag = vec![0u64; edges.len()];
     for (i, e) in edges.iter().enumerate() {
@@ -1656,6 +1598,7 @@ fn line_valid(a: DVec3, b: DVec3, m: DVec3) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::pipeline::Options;
 
     fn square9(bulge: f64) -> [DVec3; 9] {
         let p = |x: f64, y: f64| DVec3::new(x, y, 0.0);
@@ -1840,8 +1783,12 @@ mod tests {
 
     #[test]
     fn linearize_checks_blocks_as_the_linear_job_does() {
-        let malformed =
-            |e: &Error| matches!(e, Error::Recombine(RecombineError::MalformedBlock { .. }));
+        let malformed = |e: &HighOrderError| {
+            matches!(
+                e,
+                HighOrderError::Recombine(RecombineError::MalformedBlock { .. })
+            )
+        };
         // a type of unknown size: kept when empty, unsupported (not malformed) otherwise
         let mut m = two_tri6();
         let unknown = ElementBlock {
@@ -1862,10 +1809,7 @@ mod tests {
             ..unknown
         });
         let e = linearize(&m, false).expect_err("unknown type refused");
-        assert!(
-            matches!(e, Error::SecondOrder(HighOrderError::Unsupported { .. })),
-            "{e}"
-        );
+        assert!(matches!(e, HighOrderError::Unsupported { .. }), "{e}");
         // one partition list per element, as recombination requires
         let mut m = two_tri6();
         m.element_blocks[0].partitions = Some(vec![vec![1]]);

@@ -12,10 +12,12 @@
 //!
 //! **Invariant:** this module does no I/O; only `msh` and the CLI touch files.
 
+mod curves;
 mod nodes;
 #[cfg(test)]
 pub(crate) mod testing;
 
+pub(crate) use curves::{classified_curve, lined_curves, mean_params};
 pub(crate) use nodes::{NodeIds, NodeTable, TagCoords};
 pub use nodes::{NodeIndex, NodeRef};
 

@@ -327,7 +327,17 @@ pub enum Error {
     },
     /// Second-order input refused, or second-order elements not valid.
     #[error(transparent)]
-    SecondOrder(#[from] crate::high_order::HighOrderError),
+    SecondOrder(crate::high_order::HighOrderError),
+}
+
+/// A refusal of the linear copy is the linear job's refusal ([`Error::Recombine`]).
+impl From<crate::high_order::HighOrderError> for Error {
+    fn from(e: crate::high_order::HighOrderError) -> Self {
+        match e {
+            crate::high_order::HighOrderError::Recombine(e) => Error::Recombine(e),
+            e => Error::SecondOrder(e),
+        }
+    }
 }
 
 fn invalid_message(bad: &[BadQuad]) -> String {
@@ -349,7 +359,7 @@ pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
         (opts.tag_map && !opts.keep_tags).then(|| crate::renumber::InputTags::of(mesh));
     let mut report = if crate::high_order::is_second_order(mesh) {
         // the linear job on the corners, then second-order nodes on the input's geometry
-        crate::high_order::quadrangulate(mesh, opts)?
+        quadrangulate_second_order(mesh, opts)?
     } else {
         quadrangulate_linear(mesh, opts)?
     };
@@ -367,6 +377,81 @@ pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
         crate::quality::view::add_views(mesh, binary);
     }
     Ok(report)
+}
+
+/// [`quadrangulate`] of a second-order mesh ([`crate::high_order`]'s module doc): its
+/// linear copy, the linear job on it, then the second-order elements on the input's
+/// geometry. On error `mesh` is unchanged.
+fn quadrangulate_second_order(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
+    use crate::high_order::{elevate, linearize, ElevateOptions};
+    let (mut linear, dropped) = linearize(mesh, opts.drop_volumes)?;
+    let linear_max = linear.max_node_tag();
+    // the views are measured on the second-order result, not on the linear copy, and
+    // `elevate` finds the input's nodes by tag: the renumbering comes after it
+    let linear_opts = Options {
+        quality_view: false,
+        keep_tags: true,
+        tag_map: false,
+        ..opts.clone()
+    };
+    let mut report = quadrangulate_linear(&mut linear, &linear_opts)?;
+    let t = Instant::now();
+    if dropped > 0 {
+        report.recombine.dropped_volume_elements = dropped;
+        report
+            .log
+            .insert(0, format!("dropped {dropped} volume elements"));
+    }
+    let elevation = ElevateOptions {
+        incomplete: opts.incomplete,
+        allow_invalid: opts.allow_invalid,
+    };
+    let (out, so) = elevate(mesh, linear, linear_max, elevation)?;
+    report.log.push(format!(
+        "second order: {} {}-node quads, {} 3-node lines; mid-edge nodes: {} kept from the input, {} new on curves, {} new on surfaces; face nodes: {} kept, {} new; {} moved corner(s) placed on the curved geometry; min scaled Jacobian {:.3}, mean {:.3}",
+        so.quads,
+        if so.quad_type == etype::QUAD9 { 9 } else { 8 },
+        so.lines,
+        so.kept_mid_nodes,
+        so.curve_mid_nodes,
+        so.surface_mid_nodes,
+        so.kept_face_nodes,
+        so.face_nodes,
+        so.corners_placed,
+        so.min_scaled_jacobian,
+        so.mean_scaled_jacobian,
+    ));
+    if !so.straight.is_empty() {
+        report.log.push(format!(
+            "second order: {} element(s) got straight-sided nodes because the curved placement made their Jacobian not positive ({} corner(s) put back at the linear position): {}",
+            so.straight.len(),
+            so.corners_reverted,
+            short_list(&so.straight)
+        ));
+    }
+    if !so.invalid.is_empty() {
+        report.warnings.push(Warning::InvalidSecondOrder {
+            count: so.invalid.len(),
+            list: short_list(&so.invalid),
+        });
+    }
+    report.second_order = Some(so);
+    report.times.second_order += t.elapsed();
+    *mesh = out;
+    Ok(report)
+}
+
+fn short_list(tags: &[u64]) -> String {
+    let mut s = tags
+        .iter()
+        .take(20)
+        .map(|t| t.to_string())
+        .collect::<Vec<_>>()
+        .join(", ");
+    if tags.len() > 20 {
+        s.push_str(&format!(", ... ({} in all)", tags.len()));
+    }
+    s
 }
 
 /// [`quadrangulate`] of a linear mesh.

@@ -227,14 +227,14 @@ pub fn split_triangles(
             }
         }
     }
-    let lined = crate::refine::lined_curves(mesh);
+    let lined = crate::mesh::lined_curves(mesh);
     let mut edges: Vec<(u64, u64)> = split.iter().copied().collect();
     edges.sort_unstable();
     for &e in &edges {
         if owner.contains_key(&e) {
             continue;
         }
-        let o = match crate::refine::classified_curve(mesh, &index, &lined, e.0, e.1) {
+        let o = match crate::mesh::classified_curve(mesh, &index, &lined, e.0, e.1) {
             Some(c) => (1, c),
             None => {
                 let first = at_edge.get(&e).and_then(|v| v.first()).copied();
@@ -459,7 +459,7 @@ pub fn split_triangles(
         let np = o.0.max(0) as usize;
         let has_params = node_blocks[bi].params.is_some();
         let uv = if has_params {
-            crate::refine::mean_params(&mesh.node_blocks, &index, bi, np, parents).0
+            crate::mesh::mean_params(&mesh.node_blocks, &index, bi, np, parents).0
         } else {
             Vec::new()
         };
