@@ -1,0 +1,210 @@
+//! Parity repair (paper eq. 5–6 and section 7 step 1): every triangle region must hold an
+//! even number of triangles. Design in the module documentation of [`super`].
+
+use std::collections::HashMap;
+
+use glam::DVec3;
+
+use super::topology::{edge_key, NONE};
+use super::{ParitySplit, RecombineError, SurfaceWork};
+use crate::mesh::{etype, Mesh, NodeBlock, NodeTable};
+
+mod apply;
+mod periodic;
+mod plan;
+mod tjoin;
+
+pub(crate) use apply::{add_node, apply};
+pub(crate) use plan::plan;
+pub(crate) use tjoin::solve_groups;
+
+use periodic::*;
+use tjoin::*;
+
+/// One odd triangle region.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct OddRegion {
+    /// Surface entity tag.
+    pub surface: i32,
+    /// Index of the region inside the surface (regions are the connected parts of the
+    /// surface's triangles separated by curves), and the number of regions.
+    pub region: (usize, usize),
+    /// Number of triangles in the region.
+    pub triangles: usize,
+}
+
+/// A boundary segment chosen for splitting.
+#[derive(Debug, Clone)]
+pub(crate) struct Choice {
+    /// Global ids of the segment's nodes.
+    pub a: u32,
+    /// See `a`.
+    pub b: u32,
+    /// Curve the segment lies on, when known.
+    pub curve: Option<i32>,
+    /// Surfaces whose parity the split flips.
+    pub surfaces: Vec<i32>,
+    /// Segments split together with `a`–`b`: its images on periodic curves, or the other
+    /// edges of a quad chord (see [`quad_chords`]), with their curve when known.
+    pub with: Vec<(u32, u32, Option<i32>)>,
+}
+
+/// Result of the parity analysis.
+pub(crate) struct Plan {
+    /// Odd regions.
+    pub odd: Vec<OddRegion>,
+    /// Segments to split so that every region becomes even.
+    pub choices: Vec<Choice>,
+    /// Odd regions the plan cannot fix (no splittable segment connects them to a fix).
+    pub unsolved: Vec<OddRegion>,
+    /// For each of `unsolved`: true when no split at all flips it (as opposed to splits
+    /// that exist but always flip an even number of odd regions).
+    pub isolated: Vec<bool>,
+}
+
+pub(crate) struct Group {
+    curve: Option<i32>,
+    /// Regions flipped, sorted.
+    sig: Vec<u32>,
+    /// (not avoided, no ear beside it, length, a, b) of the best segment so far.
+    best: (bool, bool, f64, u32, u32),
+    /// Segments split together with the best one (its periodic images, or the rest of a
+    /// quad chord), with their curve when known.
+    with: Vec<(u32, u32, Option<i32>)>,
+}
+
+/// " (region 1 of 3, separated by embedded curves)" when `o`'s surface has several regions,
+/// else nothing.
+pub(crate) fn region_note(o: &OddRegion) -> String {
+    if o.region.1 > 1 {
+        format!(
+            " (region {} of {}, separated by embedded curves)",
+            o.region.0 + 1,
+            o.region.1
+        )
+    } else {
+        String::new()
+    }
+}
+
+/// "surface 2 (region 1 of 3, separated by embedded curves) has 117 triangles (odd)".
+fn describe(o: &OddRegion) -> String {
+    format!(
+        "surface {}{} has {} triangles (odd)",
+        o.surface,
+        region_note(o),
+        o.triangles
+    )
+}
+
+/// Why the odd regions `unsolved` cannot be made even, in plain words.
+pub(crate) fn unsolvable_message(unsolved: &[OddRegion], isolated: &[bool]) -> String {
+    let mut lines = Vec::new();
+    let mut rest = Vec::new();
+    for (o, &iso) in unsolved.iter().zip(isolated) {
+        if iso {
+            lines.push(format!(
+                "{}; no segment around it can be split: every curve around it is closed on itself \
+                 (a seam with the surface on both sides), periodic with images that cancel the \
+                 split, or bordered by quads whose strip cannot be split",
+                describe(o)
+            ));
+        } else {
+            rest.push(describe(o));
+        }
+    }
+    if !rest.is_empty() {
+        lines.push(format!(
+            "{}; every split of the curves around {} changes an even number of odd surfaces, \
+             so an odd one always remains",
+            rest.join(", "),
+            if rest.len() == 1 { "it" } else { "them" }
+        ));
+    }
+    format!(
+        "cannot make every surface even by splitting boundary segments: {}; remesh with a \
+         different size, or with an odd number of nodes on one of its curves",
+        lines.join("; ")
+    )
+}
+
+/// [`RecombineError::ParityUnsolvable`] for a plan with unsolved regions.
+pub(crate) fn unsolvable_error(plan: &Plan) -> RecombineError {
+    RecombineError::ParityUnsolvable {
+        regions: plan.unsolved.clone(),
+        message: unsolvable_message(&plan.unsolved, &plan.isolated),
+    }
+}
+
+/// [`RecombineError::ParityUnsolvable`] when regions are still odd after the splits (a bug:
+/// the plan said they would be even).
+pub(crate) fn still_odd_error(odd: &[OddRegion]) -> RecombineError {
+    let list: Vec<String> = odd.iter().map(describe).collect();
+    RecombineError::ParityUnsolvable {
+        regions: odd.to_vec(),
+        message: format!(
+            "parity repair split boundary segments but {} still odd (an internal error; \
+             please report it with the input mesh)",
+            if list.len() == 1 {
+                format!("{} is", list[0])
+            } else {
+                format!("{} are", list.join(", "))
+            }
+        ),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn unsolvable_message_is_plain_words() {
+        let o = OddRegion {
+            surface: 2,
+            region: (0, 1),
+            triangles: 117,
+        };
+        let p = OddRegion {
+            surface: 5,
+            region: (1, 3),
+            triangles: 9,
+        };
+        let msg = unsolvable_message(&[o.clone(), p], &[true, false]);
+        assert!(msg.contains("surface 2 has 117 triangles (odd)"), "{msg}");
+        assert!(msg.contains("surface 5 (region 2 of 3"), "{msg}");
+        assert!(!msg.contains('{') && !msg.contains("OddRegion"), "{msg}");
+        let e = still_odd_error(&[o]).to_string();
+        assert!(!e.contains('{') && e.contains("surface 2 has 117"), "{e}");
+    }
+
+    #[test]
+    fn gf2_solve_handles_three_way_columns() {
+        // rows: 3 components; columns flip {0,1,2} and {0,1}: only their sum flips {2}
+        let cols = vec![vec![0, 1, 2], vec![0, 1]];
+        let flips = |x: &[bool]| {
+            let mut got = [false; 3];
+            for (j, c) in cols.iter().enumerate() {
+                if x[j] {
+                    for &r in c {
+                        got[r as usize] ^= true;
+                    }
+                }
+            }
+            got
+        };
+        assert_eq!(
+            flips(&gf2_solve(3, &cols, &[false, false, true])),
+            [false, false, true]
+        );
+        assert_eq!(
+            flips(&gf2_solve(3, &cols, &[true, true, false])),
+            [true, true, false]
+        );
+        // {0} alone is out of reach: whatever is returned leaves some row wrong
+        assert_ne!(
+            flips(&gf2_solve(3, &cols, &[true, false, false])),
+            [true, false, false]
+        );
+    }
+}
