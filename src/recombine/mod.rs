@@ -158,15 +158,18 @@
 //! physical groups are identical.
 
 mod cross_field;
+mod error;
 mod fallback;
 mod fan;
 mod geometry;
 mod graph;
 mod input;
 mod invariants;
+mod options;
 mod parity;
 mod periodic;
 mod post;
+mod report;
 mod surface;
 mod topology;
 mod write_back;
@@ -185,6 +188,9 @@ use write_back::write_back;
 
 pub use fallback::{split_triangles, FallbackSplit};
 // the cost model's constants, public for the tests (not the API)
+pub(crate) use error::list_tags;
+use error::odd_parity_error;
+pub use error::RecombineError;
 #[doc(hidden)]
 pub use geometry::FIXED_CORNER_MIN_ETA;
 #[doc(hidden)]
@@ -193,6 +199,9 @@ pub use graph::{
     split_halves_cost, COST_SCALE, HOPELESS_COST, MAX_REAL_COST,
 };
 pub use invariants::{check_invariants, Before, EdgeSet, InvariantViolation};
+pub use options::{ParityMode, RecombineOptions};
+use report::note_folds;
+pub use report::{ParitySplit, RecombineReport, SurfaceReport, WalledFold};
 
 /// A copy of `mesh` without the triangles that repeat another triangle's three nodes on
 /// the same surface (a triangle and its reverse cancel: a zero-area pocket such as Gmsh
@@ -204,354 +213,6 @@ pub fn drop_repeated_triangles(mesh: &Mesh) -> Option<(Mesh, Vec<String>)> {
     input::drop_repeated_triangles(mesh)
 }
 pub use parity::OddRegion;
-
-/// What to do with surfaces that have an odd number of triangles.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ParityMode {
-    /// Split boundary segments so that every surface becomes even (default).
-    #[default]
-    Repair,
-    /// Refuse with [`RecombineError::OddParity`].
-    Error,
-}
-
-/// Options of [`recombine`].
-#[derive(Debug, Clone, PartialEq)]
-pub struct RecombineOptions {
-    /// Parity handling.
-    pub parity: ParityMode,
-    /// Drop volume elements instead of refusing the mesh.
-    pub drop_volumes: bool,
-    /// Check the matching's optimality certificate and [`check_invariants`].
-    pub verify: bool,
-    /// Add the extra edges of section 5.3 (on by default; off only for experiments).
-    pub extra_edges: bool,
-    /// Weight of the cross-field alignment cost (eq. 7) added to the quality cost (eq. 4):
-    /// a graph edge costs `10⁴ · (1 − η_s + w · c₇)`, the cross field following the
-    /// nearest wall in graph steps (a breadth-first search from the wall edges). 0 (default)
-    /// is eq. 4 alone (the CLI's default is 0.05); clamped to [0, 5]. Its measured effect is
-    /// in BENCHMARKS.md, "Cross-field weight".
-    pub cross_field_weight: f64,
-    /// With `cross_field_weight` > 0: use the smooth (harmonic) cross field of
-    /// `cross_field.rs` instead of the nearest-wall one (off by default; see GUIDE.md).
-    pub harmonic_cross_field: bool,
-    /// Nodes with a tag at least this are split nodes like parity repair's (the halves of a
-    /// triangle split there cost [`split_halves_cost`] to merge back): the pipeline's
-    /// fallback sets it to the first tag its edge splits used. `None`: parity splits only.
-    pub split_nodes_from: Option<u64>,
-    /// Quads the matching should avoid, each as its four node tags sorted: a graph edge
-    /// whose two triangles form one of them costs [`priced_out_cost`] (three extra edges).
-    /// The pipeline's fallback sets it to the quads that were not valid after
-    /// optimization; tags that are not nodes, or quads no pair forms, are ignored.
-    pub priced_out: Vec<[u64; 4]>,
-    /// Boundary segments (their two node tags, either order) that parity repair splits only
-    /// when no other segment fixes the same odd regions: the pipeline's fallback sets it to
-    /// the segments whose split node ended in a quad that was not valid (the matching
-    /// merged the split halves back, or paired them badly). Tags that are not nodes, or
-    /// pairs that are no boundary segment, are ignored.
-    pub parity_avoid: Vec<(u64, u64)>,
-    /// Price the two halves of a triangle split on a straight boundary (a flat corner at
-    /// the split node) above every other way out ([`split_halves_cost`]) instead of like
-    /// those of a curved boundary ([`curved_split_halves_cost`]): the pipeline's fallback
-    /// sets it once a quad at a split node was not valid.
-    pub flat_halves_out: bool,
-    /// Where stage times and matching graphs go (see [`crate::profile`]); `None`: nowhere.
-    pub trace: Option<crate::profile::Trace>,
-    /// Where the progress of the stages [`crate::progress::Stage::Topology`], [`crate::progress::Stage::Graph`]
-    /// and [`crate::progress::Stage::Matching`] goes (called from any thread, a few hundred times at
-    /// most; a surface's solver reports from its own thread); `None`: nowhere.
-    pub progress: Option<crate::progress::ProgressFn>,
-    /// The caller already removed repeated triangles ([`drop_repeated_triangles`] returned
-    /// `None` or its mesh is the one given): [`recombine`] does not look for them again.
-    pub repeated_dropped: bool,
-}
-
-impl Default for RecombineOptions {
-    fn default() -> Self {
-        RecombineOptions {
-            parity: ParityMode::Repair,
-            drop_volumes: false,
-            verify: false,
-            extra_edges: true,
-            cross_field_weight: 0.0,
-            harmonic_cross_field: false,
-            split_nodes_from: None,
-            priced_out: Vec::new(),
-            parity_avoid: Vec::new(),
-            flat_halves_out: false,
-            trace: None,
-            progress: None,
-            repeated_dropped: false,
-        }
-    }
-}
-
-/// One parity split.
-#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
-pub struct ParitySplit {
-    /// The curve that was split, when known.
-    pub curve: Option<i32>,
-    /// Surfaces whose triangle count changed parity.
-    pub surfaces: Vec<i32>,
-    /// Node tags of the split segment.
-    pub segment: (u64, u64),
-    /// Tag of the new midpoint node.
-    pub new_node: u64,
-}
-
-/// Figures for one surface.
-#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
-pub struct SurfaceReport {
-    /// Surface entity tag.
-    pub surface: i32,
-    /// Triangles recombined (after parity splits).
-    pub triangles_in: usize,
-    /// Quads produced.
-    pub quads_out: usize,
-    /// Quads that were already present and kept.
-    pub quads_kept: usize,
-    /// Parity splits that touched this surface.
-    pub parity_splits: usize,
-    /// Graph edges (real).
-    pub graph_edges: usize,
-    /// Extra edges added to the graph.
-    pub extra_edges_added: usize,
-    /// Extra edges in the optimal matching.
-    pub extra_edges_used: usize,
-    /// Edge swaps done (5.3.1).
-    pub edge_swaps: usize,
-    /// Vertex duplications done (5.3.2).
-    pub vertex_duplications: usize,
-    /// Matching cost in units of 1/[`COST_SCALE`] (extra edges included).
-    pub matching_cost: i64,
-    /// Graph edges priced out ([`RecombineOptions::priced_out`]).
-    pub pairs_priced_out: usize,
-    /// Of those, the ones the optimal matching still uses.
-    pub priced_out_used: usize,
-    /// Time to build topology and graph.
-    pub time_graph: Duration,
-    /// Time in the matching solver (and certificate check).
-    pub time_matching: Duration,
-    /// Time to build the quads.
-    pub time_post: Duration,
-}
-
-/// What [`recombine`] did.
-#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
-pub struct RecombineReport {
-    /// One entry per surface that had triangles, by surface tag.
-    pub surfaces: Vec<SurfaceReport>,
-    /// Parity splits done.
-    pub parity_splits: Vec<ParitySplit>,
-    /// Mixed surfaces whose triangles were enclosed by quads (could not be made even or
-    /// matched): their quads were split into triangles and the whole surface recombined.
-    pub retriangulated: Vec<i32>,
-    /// Volume elements dropped (with [`RecombineOptions::drop_volumes`]).
-    pub dropped_volume_elements: usize,
-    /// Surfaces whose triangles fold over each other somewhere (opposite normals across an
-    /// edge): the folded edges were walled off (no quad across them), and this is the
-    /// first fold of each, as [`WalledFold::refusal`] reports it when the surface's quads
-    /// are not valid.
-    pub walled_folds: Vec<WalledFold>,
-    /// Human-readable log lines.
-    pub log: Vec<String>,
-    /// What the caller may not expect (triangles dropped).
-    pub warnings: Vec<crate::Warning>,
-    /// Total wall time.
-    pub time_total: Duration,
-}
-
-/// The first fold of a surface's triangles (two triangles with opposite normals across an
-/// edge), walled off by the topology instead of refused.
-#[derive(Debug, Clone, PartialEq, Eq, serde::Serialize)]
-pub struct WalledFold {
-    /// Surface entity tag.
-    pub surface: i32,
-    /// Element tag of the folded triangle.
-    pub element: u64,
-    /// The fold in words (the triangles and their common edge).
-    pub problem: String,
-    /// Tags of the nodes of the surface's folded edges (graph edges made walls): they
-    /// bound the walls, so a result that moved one of them is not kept.
-    pub nodes: Vec<u64>,
-}
-
-impl WalledFold {
-    /// The refusal naming the fold: what a surface whose quads cannot all be made valid
-    /// with its folds walled off fails with.
-    pub fn refusal(&self) -> RecombineError {
-        RecombineError::InvalidElement {
-            surface: self.surface,
-            element: self.element,
-            problem: self.problem.clone(),
-        }
-    }
-}
-
-/// Records the folds of `work` in `report` (each surface once), with a log line each.
-fn note_folds(work: &[SurfaceWork], report: &mut RecombineReport) {
-    for w in work {
-        let Some((
-            RecombineError::InvalidElement {
-                surface,
-                element,
-                problem,
-            },
-            nodes,
-        )) = &w.fold
-        else {
-            continue;
-        };
-        if report.walled_folds.iter().any(|f| f.surface == *surface) {
-            continue;
-        }
-        report.log.push(format!(
-            "surface {surface}, element {element}: {problem}; the folded edges are walled off (no quad across them)"
-        ));
-        report.walled_folds.push(WalledFold {
-            surface: *surface,
-            element: *element,
-            problem: problem.clone(),
-            nodes: nodes.clone(),
-        });
-    }
-}
-
-/// Why [`recombine`] refused or failed.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum RecombineError {
-    /// Volume elements are present (recombining their boundary would break conformity).
-    #[error("the mesh has {count} volume elements (volumes {}); recombining surfaces would make them non-conforming; drop them to recombine the surfaces alone", list_tags(.volumes))]
-    VolumeElements {
-        /// Number of volume elements.
-        count: usize,
-        /// Their volume entity tags.
-        volumes: Vec<i32>,
-    },
-    /// Surface elements that are neither 3-node triangles nor 4-node quads.
-    #[error("surface {surface} has {count} elements of type {element_type} (supported: 3-node triangles and 4-node quads, or 6-node triangles alone; mesh with Mesh.ElementOrder = 1 or 2)")]
-    UnsupportedSurfaceElements {
-        /// Surface entity tag.
-        surface: i32,
-        /// Gmsh element type code.
-        element_type: u32,
-        /// How many.
-        count: usize,
-    },
-    /// A periodic surface whose mesh is not the image of its master's.
-    #[error("surface {surface} is periodic (a copy of surface {master} in the $Periodic section) but {reason}, so its master's quads cannot be copied onto it; remesh it with Gmsh's periodic meshing (`Periodic Surface` or `gmsh.model.mesh.setPeriodic`)")]
-    PeriodicSurface {
-        /// The slave surface.
-        surface: i32,
-        /// Its master surface.
-        master: i32,
-        /// What does not match, in plain words.
-        reason: String,
-    },
-    /// An element block whose node list does not match its element count (a bug in whatever
-    /// built the mesh).
-    #[error("element block of type {element_type} on entity ({dim}, {entity}) has {nodes} node tags for {elements} elements")]
-    MalformedBlock {
-        /// Entity dimension.
-        dim: i32,
-        /// Entity tag.
-        entity: i32,
-        /// Element type.
-        element_type: u32,
-        /// Node tags in the block.
-        nodes: usize,
-        /// Elements in the block.
-        elements: usize,
-    },
-    /// A surface element no recombination can turn into valid quads (a repeated node, a
-    /// non-finite or overflowing coordinate, zero area, a non-manifold edge, an
-    /// inconsistent orientation, a fold).
-    #[error("surface {surface}, element {element}: {problem}; the surface cannot be recombined into valid quads")]
-    InvalidElement {
-        /// Surface entity tag.
-        surface: i32,
-        /// Element tag.
-        element: u64,
-        /// What is wrong, in words.
-        problem: String,
-    },
-    /// A node or element tag so large that the tags recombination gives new nodes and
-    /// elements (above the largest) would overflow.
-    #[error("{what} tag {tag} is too large: recombination numbers its new {what}s above the largest tag, and tags up to {max} are supported")]
-    TagTooLarge {
-        /// "node" or "element".
-        what: &'static str,
-        /// The tag.
-        tag: u64,
-        /// The largest supported tag.
-        max: u64,
-    },
-    /// An element refers to a node that does not exist.
-    #[error(
-        "element {element} on entity ({dim}, {entity}) refers to node {node}, which does not exist"
-    )]
-    UnknownNode {
-        /// Entity dimension.
-        dim: i32,
-        /// Entity tag.
-        entity: i32,
-        /// Element tag.
-        element: u64,
-        /// Missing node tag.
-        node: u64,
-    },
-    /// Odd surfaces with [`ParityMode::Error`].
-    #[error("{message}")]
-    OddParity {
-        /// The odd regions.
-        regions: Vec<OddRegion>,
-        /// Curves whose node counts should change (`None`: a boundary without curve data).
-        curves: Vec<Option<i32>>,
-        /// The full explanation.
-        message: String,
-    },
-    /// Odd regions that no combination of segment splits can fix.
-    #[error("{message}")]
-    ParityUnsolvable {
-        /// The regions.
-        regions: Vec<OddRegion>,
-        /// The explanation, in plain words.
-        message: String,
-    },
-    /// No perfect matching even with extra edges.
-    #[error("surface {surface}: no perfect matching of its {triangles} triangles even with extra edges (Tutte witness: removing {witness} triangles leaves {odd_components} odd components); the triangulation cannot be recombined into quads as is")]
-    NoPerfectMatching {
-        /// Surface tag.
-        surface: i32,
-        /// Triangles in the surface.
-        triangles: usize,
-        /// Size of the Tutte set.
-        witness: usize,
-        /// Number of odd components.
-        odd_components: usize,
-    },
-    /// Edge swap / vertex duplication could not build quads.
-    #[error("surface {surface}: extra-edge post-processing failed: {detail}")]
-    PostProcess {
-        /// Surface tag.
-        surface: i32,
-        /// What went wrong.
-        detail: String,
-    },
-    /// The matching's optimality certificate failed (a solver bug).
-    #[error("surface {surface}: matching certificate check failed: {detail}")]
-    Certificate {
-        /// Surface tag.
-        surface: i32,
-        /// What failed.
-        detail: String,
-    },
-    /// [`check_invariants`] failed after recombination.
-    #[error("invariant check failed: {0}")]
-    Invariant(#[source] InvariantViolation),
-}
 
 /// Turns every surface's tri3 triangles into quad4 quads (see the module documentation).
 ///
@@ -1024,64 +685,4 @@ fn surface_tags(mesh: &Mesh) -> Vec<i32> {
         }
     }
     tags
-}
-
-/// `1, 2, 3`: entity tags for messages.
-pub(crate) fn list_tags(tags: &[i32]) -> String {
-    tags.iter()
-        .map(|t| t.to_string())
-        .collect::<Vec<_>>()
-        .join(", ")
-}
-
-fn odd_parity_error(plan: &parity::Plan) -> RecombineError {
-    // the curves the repair would split (with the periodic images and quad strips it
-    // splits along): the same plan, so the advice and the repair agree
-    let mut curves: Vec<Option<i32>> = plan
-        .choices
-        .iter()
-        .flat_map(|c| std::iter::once(c.curve).chain(c.with.iter().filter_map(|w| w.2.map(Some))))
-        .collect();
-    curves.sort_unstable();
-    curves.dedup();
-    let mut msg = String::from(
-        "surfaces with an odd number of triangles cannot be recombined into quads only:\n",
-    );
-    for o in &plan.odd {
-        msg.push_str(&format!(
-            "  surface {}{}: {} triangles\n",
-            o.surface,
-            parity::region_note(o),
-            o.triangles
-        ));
-    }
-    let named: Vec<String> = curves.iter().flatten().map(|c| c.to_string()).collect();
-    if !plan.unsolved.is_empty() {
-        msg.push_str(&parity::unsolvable_message(&plan.unsolved, &plan.isolated));
-        msg.push('\n');
-    }
-    if !named.is_empty() {
-        msg.push_str(&format!(
-            "changing the number of nodes on curve(s) {} by one fixes {}\n",
-            named.join(", "),
-            if plan.unsolved.is_empty() {
-                "them"
-            } else {
-                "the others"
-            }
-        ));
-    }
-    if curves.contains(&None) {
-        msg.push_str("some odd surfaces have boundaries without curve data (no line elements)\n");
-    }
-    msg.push_str(
-        "fix in the .geo: give every curve an odd number of nodes (e.g. `Transfinite Curve{...} = 11;`), \
-         or mesh with `Mesh.RecombineAll = 1;` and `Mesh.RecombinationAlgorithm = 1;` (Gmsh then meshes curves \
-         with odd node counts), or rerun with parity repair (the default), which splits one boundary segment per curve above",
-    );
-    RecombineError::OddParity {
-        regions: plan.odd.clone(),
-        curves,
-        message: msg,
-    }
 }
