@@ -178,6 +178,7 @@ def speed(cases, reps, workdir, tool):
     """Interleaved timings of Gmsh's recombination step and of our whole run on each
     (label, model, size) of cases; returns one row per case."""
     rows = []
+    load = os.getloadavg()[0]
     for label, model, size in cases:
         base = os.path.join(workdir, f"speed-{label.replace('/', '_')}-{size}")
         row = {"label": label, "model": model, "size": size, "tri": base + ".msh",
@@ -206,6 +207,8 @@ def speed(cases, reps, workdir, tool):
             print(f"speed {rep + 1}/{reps} {row['label']:<28} tris {row['triangles']} "
                   f"ours {fmt(t_ours, 3)} s, Gmsh step {fmt(row['gmsh'][-1] if row['gmsh'] else None, 3)} s",
                   flush=True)
+    for row in rows:
+        row["load"] = (load, os.getloadavg()[0])
     return rows
 
 
@@ -233,6 +236,8 @@ def speed_table(rows, command, markers, per_triangle_vs=None):
         "",
         f"Medians of {max((len(r['ours']) for r in rows), default=0)} interleaved runs "
         "[smallest–largest]; speed-up = Gmsh's step / our whole run, per run. "
+        + (f"Load average (1 min) {rows[0]['load'][0]:.1f} before and {rows[0]['load'][1]:.1f} after, "
+           f"on {os.cpu_count()} cores. " if rows and "load" in rows[0] else "")
         + (f"Median speed-up over the {len(ratios)} models {statistics.median(ratios):.1f}, "
            f"smallest {min(ratios):.1f}." if ratios else ""),
         "",

@@ -527,7 +527,7 @@ fn by_size(l: &Local, small: usize, large: usize) -> usize {
 /// BENCHMARKS.md, "Measurements behind the defaults").
 pub(super) const RESMOOTH_ALL_BELOW: usize = 20_000;
 
-/// Small planar surfaces try the alternative schedules (module docs) only when their mean η
+/// Small planar surfaces choose among the three schedules ([`plan`]) only when their mean η
 /// after the first smoothing is below this: surfaces already above it gain next to nothing
 /// from them, for most of their time (figures in BENCHMARKS.md, "Measurements behind the
 /// defaults").
@@ -578,5 +578,110 @@ fn lap_with_quality(tm: &mut StageTimer<'_>, l: &Local, name: &'static str) {
             d4_percent: s.d4_percent,
         });
         tm.restart();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optimize::cleanup::tests::local_of;
+    use crate::optimize::synth;
+    use crate::optimize::test_util::bits;
+
+    /// A recombined Delaunay square after its first smoothing, with its counts and gate.
+    fn smoothed(seed: u64, opts: &OptimizeOptions) -> Option<Branch> {
+        let quads = synth::pair_optimal(&synth::delaunay_square(14, 1.0, 0.3, seed))?;
+        let (_, mut l) = local_of(&synth::to_mesh(&quads));
+        let mut gate = valid::Gate::new(&l);
+        let sweeps = first_sweeps(&l, opts);
+        let ops = OperationCounts {
+            smoothing_moves: smooth::smooth(&mut l, sweeps, opts.diagonal_weight),
+            ..Default::default()
+        };
+        gate.check(&mut l, true, "smoothing");
+        Some((l, ops, gate))
+    }
+
+    /// A surface that ran one schedule (either) and then the other two keeps what the three
+    /// side by side keep, bit for bit, with the same counts.
+    #[test]
+    fn completing_the_trial_after_one_schedule_gives_the_trials_result() {
+        let opts = OptimizeOptions::default();
+        let mut tm = StageTimer::new(None, "test", 0);
+        let mut runs = 0;
+        for seed in 1u64..40 {
+            let Some(start) = smoothed(seed, &opts) else {
+                continue;
+            };
+            assert!(start.0.planar);
+            let (mut l, mut ops, mut gate) = start.clone();
+            let tick = &|_| {};
+            trial(
+                &mut l,
+                &opts,
+                &mut ops,
+                &mut tm,
+                tick,
+                &mut gate,
+                Some(start.clone()),
+            );
+            for unshear in [false, true] {
+                let (mut m, mut m_ops, mut m_gate) = start.clone();
+                topology_rounds(
+                    &mut m,
+                    &opts,
+                    &mut m_ops,
+                    &mut tm,
+                    tick,
+                    unshear,
+                    &mut m_gate,
+                );
+                let rounds = (!unshear).then(|| (m.clone(), m_ops, m_gate.clone()));
+                let keep = conformal::KEEP_ASPECT;
+                finish(&mut m, &opts, &mut m_ops, &mut tm, keep, &mut m_gate);
+                complete_trial(
+                    &mut m,
+                    &opts,
+                    &mut m_ops,
+                    &mut m_gate,
+                    start.clone(),
+                    rounds,
+                );
+                assert!(
+                    m.quads == l.quads && m.alive == l.alive && bits(&m.pos) == bits(&l.pos),
+                    "seed {seed}, unshear {unshear}: not the trial's result"
+                );
+                assert_eq!(m_ops, ops, "seed {seed}, unshear {unshear}");
+            }
+            runs += 1;
+            if runs == 3 {
+                break;
+            }
+        }
+        assert!(runs >= 2, "{runs} matchable squares");
+    }
+
+    /// The plan of a small planar surface with a low mean η: the trial under
+    /// [`SINGLE_FROM`] quads or as the mesh's main surface, one schedule otherwise.
+    #[test]
+    fn larger_surfaces_that_are_not_the_mesh_run_one_schedule() {
+        let opts = OptimizeOptions::default();
+        let quads = (1u64..20)
+            .find_map(|seed| synth::pair_optimal(&synth::delaunay_square(36, 1.0, 0.3, seed)))
+            .expect("an even, matchable square");
+        let (_, l) = local_of(&synth::to_mesh(&quads));
+        assert!(
+            l.quads.len() >= SINGLE_FROM && l.planar,
+            "{} quads",
+            l.quads.len()
+        );
+        let mean = l.stats().eta_mean;
+        assert!(mean < ALTERNATIVES_BELOW, "mean η {mean}");
+        let single = Plan::Single {
+            unshear: mean < UNSHEAR_BELOW,
+        };
+        assert_eq!(plan(&l, &opts, true, false), single);
+        assert_eq!(plan(&l, &opts, true, true), Plan::Trial);
+        assert_eq!(plan(&l, &opts, false, false), Plan::One);
     }
 }
