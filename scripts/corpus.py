@@ -79,11 +79,14 @@ def read_models(path=os.path.join(CORPUS, "models.tsv")):
 
 
 def model_file(name):
+    """corpus/NAME.geo or corpus/NAME.py; a name with a slash is a path in the repository
+    without its extension (geo/rectangle: geo/rectangle.geo)."""
+    base = os.path.join(REPO, name) if "/" in name else os.path.join(CORPUS, name)
     for ext in (".geo", ".py"):
-        p = os.path.join(CORPUS, name + ext)
+        p = base + ext
         if os.path.isfile(p):
             return p
-    raise FileNotFoundError(f"corpus model {name}: no {name}.geo or {name}.py in {CORPUS}")
+    raise FileNotFoundError(f"model {name}: no {base}.geo or {base}.py")
 
 
 def mesh_command(name, size, options, out):

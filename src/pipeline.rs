@@ -80,9 +80,12 @@ pub const FALLBACK_ROUNDS: usize = 10;
 pub const TRIES_UP_TO: usize = 1 << 18;
 
 /// Elements up to which a job keeps its optimized surfaces for the next job from its first
-/// round on ([`crate::reuse`]); larger meshes from their second round on (a first round that
-/// is valid, the usual case, then pays nothing for it).
-const REUSE_UP_TO: usize = 1 << 15;
+/// round on ([`crate::reuse`]): the meshes whose valid first round may still get the
+/// worst-quad tries ([`TRIES_UP_TO`]), each a whole job in which the surfaces a try leaves
+/// as they were are put back instead of optimized again; larger meshes from their second
+/// round on (a first round that is valid, the usual case for them, then pays nothing for
+/// it).
+const REUSE_UP_TO: usize = TRIES_UP_TO;
 
 /// Where the stages send their progress: forwards to a [`ProgressFn`] only what keeps the
 /// promises of [`Progress`] (stage order, `done` not decreasing, a stage's reports from 0 to

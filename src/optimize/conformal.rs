@@ -597,7 +597,7 @@ mod tests {
             crate::optimize::schedule::finish(&mut plain, &opts, &mut ops, &mut tm, 0.0, &mut gate);
             let base = plain.stats();
             let mut chosen = l;
-            let rep = crate::optimize::run_surface(&mut chosen, &opts, &|_| {});
+            let rep = crate::optimize::run_surface(&mut chosen, &opts, true, &|_| {});
             assert!(
                 rep.after.eta_mean >= base.eta_mean
                     && rep.after.eta_worst >= base.eta_worst - 0.002,
@@ -634,7 +634,7 @@ mod tests {
             .map(|v| (v, l.pos[v]))
             .collect();
         let opts = crate::optimize::OptimizeOptions::default();
-        let after = crate::optimize::run_surface(&mut l, &opts, &|_| {}).after;
+        let after = crate::optimize::run_surface(&mut l, &opts, true, &|_| {}).after;
         assert!(
             after.eta_worst > 0.35 && after.eta_mean > 0.84 && after.d4_percent > 84.0,
             "{after:?}"
@@ -653,7 +653,7 @@ mod tests {
             crate::optimize::test_util::on_threads(threads, || {
                 let mut l = large_square();
                 let opts = crate::optimize::OptimizeOptions::default();
-                let rep = crate::optimize::run_surface(&mut l, &opts, &|_| {});
+                let rep = crate::optimize::run_surface(&mut l, &opts, true, &|_| {});
                 assert!(rep.operations.smoothing_moves > 0);
                 (l.quads, l.alive, crate::optimize::test_util::bits(&l.pos))
             })

@@ -27,10 +27,16 @@
 //! mean-η polish sweeps, whose objective has a small size term for τ ([`polish`](self));
 //! on surfaces of 20k quads or more, half the pattern sweeps and the max-min polish once
 //! more at the end.
-//! Small planar surfaces with a low mean η after the first smoothing run three schedules side
-//! by side (square-target finish, the one above, topology rounds each followed by the
-//! conformal solve) and keep the best by η̄, η_w and estimated τ (`schedule::better`); each
-//! schedule is deterministic, so the result does not depend on the thread count. On large
+//! Small planar surfaces with a low mean η after the first smoothing choose among three
+//! schedules (square-target finish, the one above, topology rounds each followed by the
+//! conformal solve): under 1,000 quads, or when the surface holds half of the reference's
+//! triangles or more, the three run side by side and the best by η̄, η_w and estimated τ
+//! is kept (`schedule::better`); other such surfaces run one of them, chosen by their mean η
+//! after the first smoothing, and the other two as well (keeping the best as above) only
+//! when its worst quad ends below η 0.6 and is not held there by a corner between fixed
+//! nodes. The choice reads the surface and the reference alone, and each schedule is
+//! deterministic, so the result does not depend on the thread count or on the other
+//! surfaces. Surfaces are started largest first, each on the next idle thread. On large
 //! surfaces the topology passes after the first only look near what the previous pass
 //! changed, and the rounds stop after a pass that changed under 1 % of the quads; from 2^15
 //! quads each pass runs on the two halves of the quads side by side, then on a band along
@@ -312,6 +318,9 @@ pub fn optimize_prepared(
         nodes: refnodes,
         surfaces: mut prepared,
     } = prepared;
+    // the reference's triangles (the input's, the same in every job of a run): a surface
+    // holding half of them or more is the mesh's main surface (`schedule::plan`)
+    let triangles: usize = prepared.iter().map(|p| p.1.triangles()).sum();
     // each surface takes its reference (the quad surfaces are sorted by tag, as are these)
     let refs: Vec<Option<SurfaceReference>> = locals
         .iter()
@@ -323,24 +332,38 @@ pub fn optimize_prepared(
         })
         .collect();
     let refnodes = &refnodes;
-    let results: Vec<(Local, SurfaceOptimizeReport)> = locals
-        .into_par_iter()
+    // speed: the largest surfaces first, each taken by the next idle thread, so that a
+    // large surface does not start last and run alone (each surface's result does not
+    // depend on the order; the results are put back in tag order)
+    let mut jobs: Vec<(usize, Local, Option<SurfaceReference>)> = locals
+        .into_iter()
         .zip(refs)
-        .map(|(mut l, sref)| {
+        .enumerate()
+        .map(|(i, (l, r))| (i, l, r))
+        .collect();
+    jobs.sort_by_key(|j| std::cmp::Reverse(j.1.quads.len()));
+    let mut results: Vec<(usize, Local, SurfaceOptimizeReport)> = jobs
+        .into_iter()
+        .par_bridge()
+        .map(|(i, mut l, sref)| {
+            let main = sref
+                .as_ref()
+                .map_or(triangles == 0, |r| 2 * r.triangles() >= triangles);
             let mut tr = StageTimer::new(opts.trace, "attach", l.surface);
             attach_reference(&mut l, sref, refnodes, opts.reference_size_scale);
             tr.lap("attach_reference");
             tr.done();
             let w = weight(&l);
-            let rep = run_surface(&mut l, opts, &|k| tick(k as u64 * w, false));
+            let rep = run_surface(&mut l, opts, main, &|k| tick(k as u64 * w, false));
             tick(0, true);
-            (l, rep)
+            (i, l, rep)
         })
         .collect();
+    results.sort_unstable_by_key(|r| r.0);
     tm.lap("surfaces");
     let mut report = OptimizeReport::default();
     let mut pending = PendingNodes::new(mesh);
-    for (l, rep) in results {
+    for (_, l, rep) in results {
         write_back(mesh, &places, &l, &mut report, &mut pending);
         report.surfaces.push(rep);
     }

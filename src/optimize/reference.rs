@@ -147,6 +147,13 @@ pub(super) fn surface_reference(reference: &Mesh, rnodes: &NodeTable, s: i32) ->
 /// sizes (those from reference triangles times `size_scale`).
 /// Planar surfaces need no projection: their nodes missing from the reference take the mean
 /// size of their matched neighbours and no spatial index is built.
+impl SurfaceReference {
+    /// Number of reference triangles.
+    pub(super) fn triangles(&self) -> usize {
+        self.tris.len()
+    }
+}
+
 pub(super) fn attach_reference(
     l: &mut Local,
     sref: Option<SurfaceReference>,

@@ -6,12 +6,15 @@ use super::local::{grow_rings, Local, Stats};
 use super::{conformal, polish, smooth, topo, valid};
 use super::{OperationCounts, OptimizeOptions, SurfaceOptimizeReport};
 use crate::profile::StageTimer;
+use crate::quality::eta_signed_fast;
 use glam::DVec3;
 
 /// Optimizes one surface (see the module docs for the schedule).
+/// `main`: the surface holds half of the reference's triangles or more (see [`plan`]).
 pub(super) fn run_surface(
     l: &mut Local,
     opts: &OptimizeOptions,
+    main: bool,
     tick: &(dyn Fn(usize) + Sync),
 ) -> SurfaceOptimizeReport {
     let mut tm = StageTimer::new(opts.trace, "optimize", l.surface);
@@ -35,72 +38,27 @@ pub(super) fn run_surface(
     let tick = &tick;
     tick(1);
     let polish = opts.angle_sweeps > 0 && opts.smooth_iterations > 0;
-    // speed: surfaces already good after the first smoothing skip the alternative schedules
-    let small_planar = polish
-        && l.planar
-        && l.quads.len() < RESMOOTH_ALL_BELOW
-        && l.stats().eta_mean < ALTERNATIVES_BELOW;
-    // the state before the topology rounds, for the unsheared schedule
-    let mut unsheared = (small_planar && opts.topology).then(|| (l.clone(), ops, gate.clone()));
-    // quality: small planar surfaces try three schedules and keep the best (see `better` and
-    // the module docs): after the topology rounds, finishing with square targets (β = 0)
-    // beside the aspect-keeping finish, and topology rounds each followed by a conformal
-    // solve. Other surfaces run the aspect-keeping one alone.
-    // speed: the schedules are independent, so they run side by side (each is
-    // deterministic, so the kept one does not depend on the thread count)
-    let mut square: Option<(Local, OperationCounts)> = None;
-    rayon::join(
-        || {
+    match plan(l, opts, polish, main) {
+        Plan::One => {
             if opts.topology {
                 topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
             }
-            // the square finish starts from the state after the topology rounds
-            let fork = small_planar.then(|| (l.clone(), ops, gate.clone()));
-            rayon::join(
-                || {
-                    if let Some((mut plain, mut plain_ops, mut plain_gate)) = fork {
-                        let mut tp =
-                            StageTimer::new(opts.trace, "optimize (square finish)", plain.surface);
-                        finish(
-                            &mut plain,
-                            opts,
-                            &mut plain_ops,
-                            &mut tp,
-                            0.0,
-                            &mut plain_gate,
-                        );
-                        tp.done();
-                        square = Some((plain, plain_ops));
-                    }
-                },
-                || {
-                    let keep = conformal::KEEP_ASPECT;
-                    finish_ticking(l, opts, &mut ops, &mut tm, keep, &mut gate, tick)
-                },
-            );
-        },
-        || {
-            if let Some((u, u_ops, u_gate)) = unsheared.as_mut() {
-                let mut tu = StageTimer::new(opts.trace, "optimize (conformal rounds)", u.surface);
-                topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
-                finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT, u_gate);
-                tu.done();
-            }
-        },
-    );
-    if let Some((mut plain, plain_ops)) = square {
-        let base = (plain.stats(), plain.tau_estimate());
-        let mut best = (l.stats(), l.tau_estimate());
-        if !better(&best, &base) {
-            std::mem::swap(l, &mut plain);
-            ops = plain_ops;
-            best = base;
+            let keep = conformal::KEEP_ASPECT;
+            finish_ticking(l, opts, &mut ops, &mut tm, keep, &mut gate, tick);
         }
-        if let Some((u, u_ops, _)) = unsheared.as_mut() {
-            let cand = (u.stats(), u.tau_estimate());
-            if better(&cand, &best) && better(&cand, &base) {
-                std::mem::swap(l, u);
-                ops = *u_ops;
+        Plan::Trial => {
+            let start = opts.topology.then(|| (l.clone(), ops, gate.clone()));
+            trial(l, opts, &mut ops, &mut tm, tick, &mut gate, start);
+        }
+        Plan::Single { unshear } => {
+            // the start of the other schedules, should this one need them
+            let start = (l.clone(), ops, gate.clone());
+            topology_rounds(l, opts, &mut ops, &mut tm, tick, unshear, &mut gate);
+            let rounds = (!unshear).then(|| (l.clone(), ops, gate.clone()));
+            let keep = conformal::KEEP_ASPECT;
+            finish_ticking(l, opts, &mut ops, &mut tm, keep, &mut gate, tick);
+            if needs_trial(l) {
+                complete_trial(l, opts, &mut ops, &mut gate, start, rounds);
             }
         }
     }
@@ -118,6 +76,227 @@ pub(super) fn run_surface(
         operations: ops,
     }
 }
+
+/// How a surface's optimization goes on after its first smoothing.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Plan {
+    /// One schedule: topology rounds, then the aspect-keeping finish.
+    One,
+    /// The three schedules side by side, the best kept (see [`trial`]).
+    Trial,
+    /// One of the trial's schedules, chosen from the first smoothing: the topology rounds
+    /// each followed by the conformal solve (`unshear`), or the plain one; the other two
+    /// run as well only when its worst quad calls for them ([`needs_trial`]).
+    Single {
+        /// The topology rounds each followed by the conformal solve.
+        unshear: bool,
+    },
+}
+
+/// The plan of `l` after its first smoothing: small planar surfaces with a low mean η
+/// ([`ALTERNATIVES_BELOW`]) choose among three schedules, by trying them all when they have
+/// fewer than [`SINGLE_FROM`] quads, when they are the mesh's `main` surface (half of the
+/// reference's triangles or more: its choice is the mesh's) or without topology rounds,
+/// and otherwise from the mean η ([`UNSHEAR_BELOW`]); other surfaces run one schedule.
+fn plan(l: &Local, opts: &OptimizeOptions, polish: bool, main: bool) -> Plan {
+    if !(polish && l.planar && l.quads.len() < RESMOOTH_ALL_BELOW) {
+        return Plan::One;
+    }
+    let mean = l.stats().eta_mean;
+    if mean >= ALTERNATIVES_BELOW {
+        Plan::One
+    } else if main || !opts.topology || l.quads.len() < SINGLE_FROM {
+        Plan::Trial
+    } else {
+        Plan::Single {
+            unshear: mean < UNSHEAR_BELOW,
+        }
+    }
+}
+
+/// A schedule's state, with its operation counts and validity gate.
+type Branch = (Local, OperationCounts, valid::Gate);
+
+/// The three schedules of a small planar surface, side by side, keeping the best in `l`
+/// (see [`keep_best`]): after the topology rounds, finishing with square targets (β = 0)
+/// beside the aspect-keeping finish, and (from `start`, the state after the first
+/// smoothing, when given) topology rounds each followed by a conformal solve. `l`, `ops`
+/// and `gate` run the aspect-keeping one, with progress ticks.
+fn trial(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    ops: &mut OperationCounts,
+    tm: &mut StageTimer<'_>,
+    tick: &(dyn Fn(usize) + Sync),
+    gate: &mut valid::Gate,
+    mut start: Option<Branch>,
+) {
+    // speed: the schedules are independent, so they run side by side (each is
+    // deterministic, so the kept one does not depend on the thread count)
+    let mut square: Option<Branch> = None;
+    rayon::join(
+        || {
+            if opts.topology {
+                topology_rounds(l, opts, ops, tm, tick, false, gate);
+            }
+            // the square finish starts from the state after the topology rounds
+            let fork = (l.clone(), *ops, gate.clone());
+            rayon::join(
+                || square = Some(square_finish(opts, fork)),
+                || {
+                    let keep = conformal::KEEP_ASPECT;
+                    finish_ticking(l, opts, ops, tm, keep, gate, tick)
+                },
+            );
+        },
+        || {
+            if let Some(u) = start.as_mut() {
+                unsheared_schedule(opts, u);
+            }
+        },
+    );
+    if let Some(sq) = square {
+        keep_best(l, ops, sq, start);
+    }
+}
+
+/// Completes the trial of a surface that ran one schedule ([`Plan::Single`], now in `l`,
+/// `ops`, `gate`): runs the other two from `start` (the state after the first smoothing)
+/// and `rounds` (after the plain topology rounds, when the plain schedule ran), and keeps
+/// the best of the three as [`trial`] does, so the result is the trial's.
+fn complete_trial(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    ops: &mut OperationCounts,
+    gate: &mut valid::Gate,
+    start: Branch,
+    rounds: Option<Branch>,
+) {
+    match rounds {
+        // the plain schedule ran: the square finish and the unsheared schedule
+        Some(fork) => {
+            let mut u = start;
+            let (sq, ()) = rayon::join(
+                || square_finish(opts, fork),
+                || unsheared_schedule(opts, &mut u),
+            );
+            keep_best(l, ops, sq, Some(u));
+        }
+        // the unsheared schedule ran: the plain one and its square finish
+        None => {
+            let unsheared = (std::mem::replace(l, start.0), *ops, gate.clone());
+            (*ops, *gate) = (start.1, start.2);
+            let mut tp = StageTimer::new(opts.trace, "optimize (plain rounds)", l.surface);
+            topology_rounds(l, opts, ops, &mut tp, &|_| {}, false, gate);
+            let fork = (l.clone(), *ops, gate.clone());
+            let (sq, ()) = rayon::join(
+                || square_finish(opts, fork),
+                || finish(l, opts, ops, &mut tp, conformal::KEEP_ASPECT, gate),
+            );
+            tp.done();
+            keep_best(l, ops, sq, Some(unsheared));
+        }
+    }
+}
+
+/// The square finish (β = 0) of the state after the plain topology rounds.
+fn square_finish(opts: &OptimizeOptions, (mut l, mut ops, mut gate): Branch) -> Branch {
+    let mut tp = StageTimer::new(opts.trace, "optimize (square finish)", l.surface);
+    finish(&mut l, opts, &mut ops, &mut tp, 0.0, &mut gate);
+    tp.done();
+    (l, ops, gate)
+}
+
+/// The schedule whose topology rounds are each followed by the conformal solve, run on
+/// `u` (the state after the first smoothing).
+fn unsheared_schedule(opts: &OptimizeOptions, (u, u_ops, u_gate): &mut Branch) {
+    let mut tu = StageTimer::new(opts.trace, "optimize (conformal rounds)", u.surface);
+    topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
+    finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT, u_gate);
+    tu.done();
+}
+
+/// Keeps in `l` (the aspect-keeping schedule's result) the best of it, `square` and
+/// `unsheared` by [`better`]: the square finish unless the aspect-keeping one is better,
+/// then the unsheared schedule if better than both.
+fn keep_best(
+    l: &mut Local,
+    ops: &mut OperationCounts,
+    (mut square, square_ops, _): Branch,
+    unsheared: Option<Branch>,
+) {
+    let base = (square.stats(), square.tau_estimate());
+    let mut best = (l.stats(), l.tau_estimate());
+    if !better(&best, &base) {
+        std::mem::swap(l, &mut square);
+        *ops = square_ops;
+        best = base;
+    }
+    if let Some((mut u, u_ops, _)) = unsheared {
+        let cand = (u.stats(), u.tau_estimate());
+        if better(&cand, &best) && better(&cand, &base) {
+            std::mem::swap(l, &mut u);
+            *ops = u_ops;
+        }
+    }
+}
+
+/// True when a surface that ran one schedule ([`Plan::Single`]) should run the other two:
+/// its worst quad is below the max-min polish's target η ([`WORST_TARGET`]) and not held
+/// there by its corner between two fixed boundary edges, which no schedule moves.
+fn needs_trial(l: &Local) -> bool {
+    let worst = l.stats().eta_worst;
+    worst < WORST_TARGET && !worst_pinned(l, worst)
+}
+
+/// True when a quad of `l` at η `worst` has its worst corner at a fixed node between two
+/// fixed nodes (the corner's angle is the input's, whatever the schedule).
+fn worst_pinned(l: &Local, worst: f64) -> bool {
+    l.quads.iter().zip(&l.alive).any(|(q, &alive)| {
+        if !alive {
+            return false;
+        }
+        let p = q.map(|v| l.pos[v as usize]);
+        let eta = eta_signed_fast(&p, (p[2] - p[0]).cross(p[3] - p[1])).max(0.0);
+        eta <= worst + PIN_TOL
+            && (0..4).any(|k| {
+                let fixed = |j: usize| l.fixed[q[(k + j) & 3] as usize];
+                fixed(0)
+                    && fixed(1)
+                    && fixed(3)
+                    && corner_eta(&p, k, (p[2] - p[0]).cross(p[3] - p[1])) <= eta + PIN_TOL
+            })
+    })
+}
+
+/// η as corner `k` of `p` alone sets it (eq. 3 with that corner's angle), about `normal`.
+fn corner_eta(p: &[DVec3; 4], k: usize, normal: DVec3) -> f64 {
+    let a = p[(k + 1) & 3] - p[k];
+    let b = p[(k + 3) & 3] - p[k];
+    let s = normal.normalize_or_zero().dot(a.cross(b));
+    if s <= 0.0 {
+        return 0.0;
+    }
+    1.0 - (a.dot(b).abs() / s).atan() / std::f64::consts::FRAC_PI_2
+}
+
+/// How close (in η) a quad counts as at the worst, and a corner as setting its η.
+const PIN_TOL: f64 = 1e-6;
+
+/// The η the max-min polish lifts the worst quads to where it can
+/// ([`smooth::polish_worst`]).
+const WORST_TARGET: f64 = 0.6;
+
+/// Small planar surfaces of this many quads or more ([`Plan::Single`]) run one schedule
+/// chosen from their first smoothing instead of the three side by side (figures in
+/// BENCHMARKS.md, "Measurements behind the defaults").
+const SINGLE_FROM: usize = 1000;
+
+/// Small planar surfaces of [`SINGLE_FROM`] quads or more whose mean η after the first
+/// smoothing is below this run the topology rounds each followed by the conformal solve;
+/// above it, the plain schedule (figures in BENCHMARKS.md, "Measurements behind the
+/// defaults").
+const UNSHEAR_BELOW: f64 = 0.81;
 
 /// True when `cand` (stats, τ estimate) should replace `base`: a higher η̄, η_w at most
 /// [`ETA_W_SLACK`] lower and τ at most [`TAU_SLACK`] points lower.
@@ -348,7 +527,7 @@ fn by_size(l: &Local, small: usize, large: usize) -> usize {
 /// BENCHMARKS.md, "Measurements behind the defaults").
 pub(super) const RESMOOTH_ALL_BELOW: usize = 20_000;
 
-/// Small planar surfaces try the alternative schedules (module docs) only when their mean η
+/// Small planar surfaces choose among the three schedules ([`plan`]) only when their mean η
 /// after the first smoothing is below this: surfaces already above it gain next to nothing
 /// from them, for most of their time (figures in BENCHMARKS.md, "Measurements behind the
 /// defaults").
@@ -399,5 +578,110 @@ fn lap_with_quality(tm: &mut StageTimer<'_>, l: &Local, name: &'static str) {
             d4_percent: s.d4_percent,
         });
         tm.restart();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::optimize::cleanup::tests::local_of;
+    use crate::optimize::synth;
+    use crate::optimize::test_util::bits;
+
+    /// A recombined Delaunay square after its first smoothing, with its counts and gate.
+    fn smoothed(seed: u64, opts: &OptimizeOptions) -> Option<Branch> {
+        let quads = synth::pair_optimal(&synth::delaunay_square(14, 1.0, 0.3, seed))?;
+        let (_, mut l) = local_of(&synth::to_mesh(&quads));
+        let mut gate = valid::Gate::new(&l);
+        let sweeps = first_sweeps(&l, opts);
+        let ops = OperationCounts {
+            smoothing_moves: smooth::smooth(&mut l, sweeps, opts.diagonal_weight),
+            ..Default::default()
+        };
+        gate.check(&mut l, true, "smoothing");
+        Some((l, ops, gate))
+    }
+
+    /// A surface that ran one schedule (either) and then the other two keeps what the three
+    /// side by side keep, bit for bit, with the same counts.
+    #[test]
+    fn completing_the_trial_after_one_schedule_gives_the_trials_result() {
+        let opts = OptimizeOptions::default();
+        let mut tm = StageTimer::new(None, "test", 0);
+        let mut runs = 0;
+        for seed in 1u64..40 {
+            let Some(start) = smoothed(seed, &opts) else {
+                continue;
+            };
+            assert!(start.0.planar);
+            let (mut l, mut ops, mut gate) = start.clone();
+            let tick = &|_| {};
+            trial(
+                &mut l,
+                &opts,
+                &mut ops,
+                &mut tm,
+                tick,
+                &mut gate,
+                Some(start.clone()),
+            );
+            for unshear in [false, true] {
+                let (mut m, mut m_ops, mut m_gate) = start.clone();
+                topology_rounds(
+                    &mut m,
+                    &opts,
+                    &mut m_ops,
+                    &mut tm,
+                    tick,
+                    unshear,
+                    &mut m_gate,
+                );
+                let rounds = (!unshear).then(|| (m.clone(), m_ops, m_gate.clone()));
+                let keep = conformal::KEEP_ASPECT;
+                finish(&mut m, &opts, &mut m_ops, &mut tm, keep, &mut m_gate);
+                complete_trial(
+                    &mut m,
+                    &opts,
+                    &mut m_ops,
+                    &mut m_gate,
+                    start.clone(),
+                    rounds,
+                );
+                assert!(
+                    m.quads == l.quads && m.alive == l.alive && bits(&m.pos) == bits(&l.pos),
+                    "seed {seed}, unshear {unshear}: not the trial's result"
+                );
+                assert_eq!(m_ops, ops, "seed {seed}, unshear {unshear}");
+            }
+            runs += 1;
+            if runs == 3 {
+                break;
+            }
+        }
+        assert!(runs >= 2, "{runs} matchable squares");
+    }
+
+    /// The plan of a small planar surface with a low mean η: the trial under
+    /// [`SINGLE_FROM`] quads or as the mesh's main surface, one schedule otherwise.
+    #[test]
+    fn larger_surfaces_that_are_not_the_mesh_run_one_schedule() {
+        let opts = OptimizeOptions::default();
+        let quads = (1u64..20)
+            .find_map(|seed| synth::pair_optimal(&synth::delaunay_square(36, 1.0, 0.3, seed)))
+            .expect("an even, matchable square");
+        let (_, l) = local_of(&synth::to_mesh(&quads));
+        assert!(
+            l.quads.len() >= SINGLE_FROM && l.planar,
+            "{} quads",
+            l.quads.len()
+        );
+        let mean = l.stats().eta_mean;
+        assert!(mean < ALTERNATIVES_BELOW, "mean η {mean}");
+        let single = Plan::Single {
+            unshear: mean < UNSHEAR_BELOW,
+        };
+        assert_eq!(plan(&l, &opts, true, false), single);
+        assert_eq!(plan(&l, &opts, true, true), Plan::Trial);
+        assert_eq!(plan(&l, &opts, false, false), Plan::One);
     }
 }
