@@ -1,0 +1,112 @@
+//! What [`super::quadrangulate`] did, and why it refused.
+
+use super::*;
+
+/// Wall time of each stage, summed over fallback rounds.
+#[derive(Debug, Clone, Default, PartialEq, Serialize)]
+pub struct Times {
+    /// Recombination (parity, graph, matching, quads, fallback splits).
+    pub recombine: Duration,
+    /// Refinement.
+    pub refine: Duration,
+    /// Optimization.
+    pub optimize: Duration,
+    /// Invariant and validity checks.
+    pub check: Duration,
+    /// Second-order nodes and their Jacobian check (second-order input only).
+    pub second_order: Duration,
+}
+
+/// What [`quadrangulate`] did.
+#[derive(Debug, Clone, Default, Serialize)]
+pub struct Report {
+    /// The recombination of the final round.
+    pub recombine: recombine::RecombineReport,
+    /// One entry per refinement level.
+    pub refine: Vec<refine::RefineReport>,
+    /// The optimization of the final round (`None` without optimization).
+    pub optimize: Option<optimize::OptimizeReport>,
+    /// Fallback splits done before the final round's recombination (empty when the first
+    /// run was valid).
+    pub fallback: Option<recombine::FallbackSplit>,
+    /// Quads the fallback priced out of the final round's matching (their triangles were
+    /// paired otherwise where the matching could).
+    pub priced_out: usize,
+    /// Runs done (1 + fallback rounds).
+    pub rounds: usize,
+    /// Quads still invalid (only with [`Options::allow_invalid`]; empty otherwise).
+    pub invalid: Vec<BadQuad>,
+    /// The second-order step (second-order input only, see [`crate::high_order`]).
+    pub second_order: Option<crate::high_order::SecondOrderReport>,
+    /// The renumbering of nodes and elements to 1..N (all zero with
+    /// [`Options::keep_tags`]).
+    pub renumber: crate::renumber::RenumberReport,
+    /// What the job did, in order, as lines in plain words (what `--verbose` prints).
+    pub log: Vec<String>,
+    /// What the caller may not expect (every warning is also worth showing without
+    /// `--verbose`).
+    pub warnings: Vec<Warning>,
+    /// Wall times.
+    pub times: Times,
+}
+
+/// Why [`quadrangulate`] failed.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum Error {
+    /// Reading or writing an MSH file.
+    #[error(transparent)]
+    Msh(#[from] crate::msh::MshError),
+    /// Recombination refused or failed.
+    #[error(transparent)]
+    Recombine(#[from] recombine::RecombineError),
+    /// Refinement refused.
+    #[error(transparent)]
+    Refine(#[from] refine::RefineError),
+    /// Optimization failed.
+    #[error(transparent)]
+    Optimize(#[from] optimize::OptimizeError),
+    /// The result broke an invariant (a bug: please report it with the input).
+    #[error("internal check failed after {stage}: {violation}")]
+    Invariant {
+        /// The stage after which the check failed.
+        stage: &'static str,
+        /// What failed.
+        #[source]
+        violation: recombine::InvariantViolation,
+    },
+    /// The fallback ran out of rounds without a verdict (a bug: please report it with the
+    /// input).
+    #[error("internal error: the fallback ended without a result")]
+    FallbackExhausted,
+    /// Some quads are not valid even after the fallback.
+    #[error("{}", invalid_message(bad))]
+    Invalid {
+        /// The quads still bad after the last round.
+        bad: Vec<BadQuad>,
+        /// The rounds' log up to the refusal (what [`Report::log`] would have held).
+        log: Vec<String>,
+    },
+    /// Second-order input refused, or second-order elements not valid.
+    #[error(transparent)]
+    SecondOrder(crate::high_order::HighOrderError),
+}
+
+/// A refusal of the linear copy is the linear job's refusal ([`Error::Recombine`]).
+impl From<crate::high_order::HighOrderError> for Error {
+    fn from(e: crate::high_order::HighOrderError) -> Self {
+        match e {
+            crate::high_order::HighOrderError::Recombine(e) => Error::Recombine(e),
+            e => Error::SecondOrder(e),
+        }
+    }
+}
+
+fn invalid_message(bad: &[BadQuad]) -> String {
+    format!(
+        "{} quad(s) on surface(s) {} are not valid even after splitting their triangles into quads; first: {}",
+        bad.len(),
+        sorted_list(bad.iter().map(|b| &b.surface)),
+        bad.first().map(|b| b.to_string()).unwrap_or_default()
+    )
+}

@@ -1,0 +1,440 @@
+//! The rounds of one job (the fallback) and the worst-quad tries after it (see the module
+//! doc of [`super`]).
+
+use super::*;
+
+/// True when a node of `tags` is not where `input` has it in `output` (or is gone).
+pub(super) fn moved_any(input: &Mesh, output: &Mesh, tags: &[u64]) -> bool {
+    if tags.is_empty() {
+        return false;
+    }
+    let (a, b) = (TagCoords::new(input), TagCoords::new(output));
+    tags.iter().any(|&t| a.get(t) != b.get(t))
+}
+
+/// The rounds of one job on `input` (see the module doc), starting from `start`'s priced-out
+/// quads and split triangles; returns the result with the fallback's state at its end.
+pub(super) fn run_rounds(
+    input: &Mesh,
+    opts: &Options,
+    start: FallbackStart,
+    cache: &mut SurfaceCache,
+    segments_used: &mut bool,
+) -> Result<(Mesh, Report, FallbackStart), Error> {
+    let mut times = Times::default();
+    let mut log = Vec::new();
+    let mut chosen: HashSet<u64> = start.chosen;
+    let splits_only = start.splits_only;
+    let mut local = LocalFallback {
+        priced: start.priced,
+        avoid: start.avoid,
+        flat_halves_out: start.flat_halves_out,
+        segments: start.segments,
+        pricing_rounds: if splits_only { PRICING_ROUNDS } else { 0 },
+        segment_rounds: if splits_only || start.no_segments {
+            SEGMENT_ROUNDS
+        } else {
+            0
+        },
+        no_segments: start.no_segments,
+        ..Default::default()
+    };
+    let mut fallback = None;
+    // the input's largest tags: a job's own nodes and elements are above them
+    let input_tags = (input.max_node_tag(), input.max_element_tag());
+    let mut folds: Vec<recombine::WalledFold> = Vec::new();
+    // without optimization: surfaces optimized all the same because their matching left
+    // quads that are not valid (vertex duplications fold quads until smoothed)
+    let mut force: HashSet<i32> = HashSet::new();
+    // the input side of the checks, prepared once (during the first round's matching)
+    let mut checks: Option<Checks> = None;
+    // without optimization: the last round's mesh before optimization, when the next round
+    // only optimizes more surfaces of the same recombination
+    let mut carried: Option<Recombined> = None;
+    for round in 0..=FALLBACK_ROUNDS {
+        let optimizing = opts.optimize || !force.is_empty();
+        let recombined = match carried.take() {
+            Some(c) => c,
+            None => {
+                let mut mesh = input.clone();
+                if !chosen.is_empty() || !local.segments.is_empty() {
+                    let t = Instant::now();
+                    let split = recombine::split_triangles(&mut mesh, &chosen, &local.segments);
+                    let mut line = format!("fallback round {round}: ");
+                    if split.segments_split > 0 {
+                        line += &format!(
+                            "{} boundary segment(s) under fans split at their midpoints, ",
+                            split.segments_split
+                        );
+                    }
+                    line += &format!(
+                        "{} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
+                        split.triangles_to_quads,
+                        sorted_list(&split.surfaces),
+                        split.triangles_halved,
+                        split.lines_split
+                    );
+                    log.push(line);
+                    fallback = Some(split);
+                    times.recombine += t.elapsed();
+                }
+                recombine_once(
+                    input,
+                    mesh,
+                    opts,
+                    &local.priced.iter().map(|p| p.1).collect::<Vec<_>>(),
+                    &local.avoid,
+                    local.flat_halves_out,
+                    optimizing,
+                    &mut checks,
+                    &mut times,
+                )?
+            }
+        };
+        let Recombined {
+            mut mesh,
+            report: recombine_report,
+            refined,
+            prepared,
+        } = recombined;
+        // after a first invalid run, keep the mesh before optimization: a surface the
+        // optimizer leaves invalid gets it back (and without optimization, the next round
+        // may start from it)
+        let keep = round > 0 && optimizing;
+        let unoptimized = keep.then(|| mesh.clone());
+        // speed: the surfaces an earlier job optimized from the same recombination get
+        // that job's result back instead of being optimized again (exact: `crate::reuse`)
+        let fingerprints = (opts.optimize
+            && (round > 0 || !cache.is_empty() || mesh.element_count() <= REUSE_UP_TO))
+            .then(|| Fingerprints::of(&mesh, input_tags.0, input_tags.1));
+        let reused = match &fingerprints {
+            Some(fp) => cache.put_back(&mut mesh, fp),
+            None => Vec::new(),
+        };
+        let mut run = recombine_report.clone();
+        if !reused.is_empty() {
+            run.log.push(format!(
+                "{} surface(s) optimized as in an earlier round: {}",
+                reused.len(),
+                sorted_list(&reused)
+            ));
+        }
+        optimize_once(
+            input,
+            &mut mesh,
+            opts,
+            &force,
+            &reused,
+            prepared,
+            &mut checks,
+            &mut times,
+            &mut run,
+        )?;
+        // memory: the optimizer's arrays are freed; the checks allocate next
+        release_memory();
+        let t = Instant::now();
+        progress(opts, Stage::Check, 0, 1);
+        // the input side of the checks, when the first round's matching did not prepare it
+        let checks = checks.get_or_insert_with(|| Checks::new(input, opts.refine == 0));
+        // after a refinement the refined mesh is the baseline of the invariants
+        let refined_before = refined.as_ref().map(recombine::Before::new);
+        let before = refined_before.as_ref().or(checks.invariants.as_ref());
+        let invariants_of = |m: &Mesh, coords: &TagCoords| match before {
+            Some(b) => b.check_at(m, coords),
+            None => recombine::check_invariants(input, m),
+        };
+        // memory: one table of the output's coordinates for both checks
+        let coords = TagCoords::new(&mesh);
+        // speed: the two checks are independent, so they run side by side (an invariant
+        // failure still comes first)
+        let (invariants, mut bad) = rayon::join(
+            || invariants_of(&mesh, &coords),
+            || checks.validity.invalid_quads_at(&mesh, &coords),
+        );
+        drop(coords);
+        invariants.map_err(|violation| Error::Invariant {
+            stage: if opts.optimize {
+                "optimization"
+            } else {
+                "recombination"
+            },
+            violation,
+        })?;
+        if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
+            let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+            let back = revert_surfaces(&mesh, pre, &surfaces);
+            let coords = TagCoords::new(&back);
+            if checks.validity.invalid_quads_at(&back, &coords).is_empty()
+                && invariants_of(&back, &coords).is_ok()
+            {
+                run.log.push(format!(
+                    "surface(s) {}: optimization undone (it left a quad that is not valid)",
+                    sorted_list(&surfaces)
+                ));
+                mesh = back;
+                bad.clear();
+            }
+        }
+        progress(opts, Stage::Check, 1, 1);
+        times.check += t.elapsed();
+        if let Some(fp) = &fingerprints {
+            cache.record(&mesh, fp);
+        }
+        let mut report = run;
+        // the folds walled off in any round (a fallback split can take a fold's triangles
+        // out of later rounds' topology)
+        for f in &report.recombine.walled_folds {
+            if !folds.iter().any(|g| g.surface == f.surface) {
+                folds.push(f.clone());
+            }
+        }
+        report.log.splice(0..0, log.iter().cloned());
+        report.fallback = fallback.clone();
+        report.priced_out = local.priced.len();
+        report.rounds = round + 1;
+        if bad.is_empty() {
+            // the nodes of walled-off folds bound walls: a result that moved one (the
+            // optimizer does not know them as walls) is refused naming the fold
+            if let Some(fold) = folds.iter().find(|f| moved_any(input, &mesh, &f.nodes)) {
+                return Err(Error::Recombine(fold.refusal()));
+            }
+            report.times = times;
+            return Ok((mesh, report, local.finish(chosen, splits_only)));
+        }
+        let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+        log.push(format!(
+            "round {}: {} quad(s) not valid on surface(s) {}: {}",
+            round + 1,
+            bad.len(),
+            sorted_list(&surfaces),
+            bad.iter()
+                .take(3)
+                .map(|b| b.to_string())
+                .collect::<Vec<_>>()
+                .join("; ")
+        ));
+        if !opts.optimize && round < FALLBACK_ROUNDS {
+            let new: Vec<i32> = surfaces.difference(&force).copied().collect();
+            if !new.is_empty() {
+                log.push(format!(
+                    "surface(s) {}: optimized after all, to make the matching's quads valid",
+                    sorted_list(&new)
+                ));
+                force.extend(new);
+                // the recombination would be the same: only the optimizer runs again
+                // (nothing was optimized when no mesh was kept before optimization)
+                carried = Some(Recombined {
+                    mesh: unoptimized.unwrap_or(mesh),
+                    report: recombine_report,
+                    refined,
+                    prepared: None,
+                });
+                continue;
+            }
+        }
+        let next = if round == FALLBACK_ROUNDS {
+            Next::GiveUp
+        } else {
+            local.next(
+                input,
+                &mesh,
+                &bad,
+                &chosen,
+                &recombine_report.recombine.parity_splits,
+            )
+        };
+        let more = match next {
+            Next::Price(quads, segments) => {
+                let mut line = format!(
+                    "fallback round {}: {} quad(s) priced out of the matching",
+                    round + 1,
+                    quads
+                );
+                if segments > 0 {
+                    line += &format!(", {segments} parity split segment(s) avoided");
+                }
+                log.push(line);
+                continue;
+            }
+            Next::Segments(count) => {
+                *segments_used = true;
+                log.push(format!(
+                    "fallback round {}: {count} boundary segment(s) under fan quads to split",
+                    round + 1
+                ));
+                continue;
+            }
+            Next::Split(more) => more,
+            Next::GiveUp => HashSet::new(),
+        };
+        if more.is_empty() {
+            if opts.allow_invalid {
+                report.warnings.push(Warning::InvalidQuads {
+                    count: bad.len(),
+                    list: bad
+                        .iter()
+                        .map(|b| b.to_string())
+                        .collect::<Vec<_>>()
+                        .join("; "),
+                });
+                report.invalid = bad;
+                report.times = times;
+                return Ok((mesh, report, local.finish(chosen, splits_only)));
+            }
+            // a surface whose folds were walled off and whose quads are still not valid
+            // is refused naming its fold
+            if let Some(fold) = folds.iter().find(|f| surfaces.contains(&f.surface)) {
+                return Err(Error::Recombine(fold.refusal()));
+            }
+            let mut lines = std::mem::take(&mut report.log);
+            lines.extend(log.last().cloned());
+            return Err(Error::Invalid { bad, log: lines });
+        }
+        chosen.extend(more);
+    }
+    // every path of the last round returns; this is only a guard
+    Err(Error::FallbackExhausted)
+}
+
+/// `mesh` with the quads and the surface-classified nodes of `surfaces` taken from `pre`
+/// (the same mesh before optimization: the optimizer moves and removes only nodes inside a
+/// surface, and changes only its quads).
+pub(super) fn revert_surfaces(mesh: &Mesh, pre: &Mesh, surfaces: &HashSet<i32>) -> Mesh {
+    let mut out = mesh.clone();
+    let ours = |dim: i32, tag: i32| dim == 2 && surfaces.contains(&tag);
+    out.node_blocks
+        .retain(|b| !ours(b.entity_dim, b.entity_tag));
+    out.node_blocks.extend(
+        pre.node_blocks
+            .iter()
+            .filter(|b| ours(b.entity_dim, b.entity_tag))
+            .cloned(),
+    );
+    out.element_blocks
+        .retain(|b| !(ours(b.entity_dim, b.entity_tag) && b.element_type == etype::QUAD4));
+    out.element_blocks.extend(
+        pre.element_blocks
+            .iter()
+            .filter(|b| ours(b.entity_dim, b.entity_tag) && b.element_type == etype::QUAD4)
+            .cloned(),
+    );
+    out
+}
+
+/// Surface tags in increasing order, without repeats, as "1, 4, 7".
+pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String {
+    let mut v: Vec<i32> = tags.into_iter().copied().collect();
+    v.sort_unstable();
+    v.dedup();
+    v.iter()
+        .map(|x| x.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// After the fallback, with optimization, other results that may have a better worst
+/// quad, each a new job kept only when it is valid, raises the worst quad's η and keeps the
+/// new quads per input triangle at most [`MAX_QUADS_PER_TRIANGLE`] (a result above it
+/// already, or a mesh of fewer than [`COUNT_RULE_FROM`] triangles: at most a quarter more
+/// than the larger of the two):
+/// 1. when the fallback priced quads out, the fallback with splits only (triangles split
+///    into quads around a bad quad may give better quads than the matching's way around
+///    it);
+/// 2. quads with η below [`ETA_FLOOR`] priced out;
+/// 3. one ring of input triangles around the quads still below [`ETA_FLOOR`] split.
+pub(super) fn raise_worst_quad(
+    input: &Mesh,
+    opts: &Options,
+    first: (Mesh, Report, FallbackStart),
+    cache: &mut SurfaceCache,
+) -> Result<(Mesh, Report, FallbackStart), Error> {
+    let mut best = first;
+    // without optimization the quads are the matching's as they are (low by design); a
+    // large mesh that needed no fallback is not run again for its worst quad (a try costs
+    // a whole job)
+    let large = best.1.rounds == 1 && input.element_count() > TRIES_UP_TO;
+    if !opts.optimize || !best.1.invalid.is_empty() || large {
+        return Ok(best);
+    }
+    let skip = if opts.smooth_quads {
+        Vec::new()
+    } else {
+        quad_only_surfaces(input)
+    };
+    let (mut low, mut worst) = low_quads(&best.0, &skip);
+    let triangles = surface_elements(input, etype::TRI3);
+    for step in 0..3 {
+        let mut start = best.2.clone();
+        let what = match step {
+            0 => {
+                if start.priced.is_empty() {
+                    continue;
+                }
+                start = FallbackStart {
+                    splits_only: true,
+                    ..FallbackStart::default()
+                };
+                "the fallback with splits only".to_string()
+            }
+            1 => {
+                let new = pairs_of(input, &low, &start.priced);
+                if new.is_empty() {
+                    continue;
+                }
+                let n = new.len();
+                start.priced.extend(new);
+                format!("{n} quad(s) under eta {ETA_FLOOR} priced out")
+            }
+            _ => {
+                let more = fallback_triangles(input, &best.0, &low, &start.chosen, 1);
+                if low.is_empty() || more.is_empty() {
+                    continue;
+                }
+                let n = more.len();
+                start.chosen.extend(more);
+                format!("{n} triangle(s) around quads under eta {ETA_FLOOR} split")
+            }
+        };
+        let Ok(candidate) = run_rounds(input, opts, start, cache, &mut false) else {
+            continue;
+        };
+        if !candidate.1.invalid.is_empty() {
+            continue;
+        }
+        let (_, new_worst) = low_quads(&candidate.0, &skip);
+        // a result above the element-count rule already, or of a small mesh (where the
+        // rule does not apply), may grow by a quarter
+        let before = quads_per_triangle(input, &best.0);
+        let limit = if before > MAX_QUADS_PER_TRIANGLE || triangles < COUNT_RULE_FROM {
+            1.25 * before.max(MAX_QUADS_PER_TRIANGLE)
+        } else {
+            MAX_QUADS_PER_TRIANGLE
+        };
+        if new_worst > worst + 1e-3 && quads_per_triangle(input, &candidate.0) <= limit {
+            let mut kept = candidate;
+            kept.1.log.splice(
+                0..0,
+                best.1.log.iter().cloned().chain(std::iter::once(format!(
+                    "worst quad: {what}: eta_w {worst:.3} -> {new_worst:.3}"
+                ))),
+            );
+            kept.1.times = add_times(&best.1.times, &kept.1.times);
+            best = kept;
+            (low, worst) = low_quads(&best.0, &skip);
+        } else {
+            best.1.times = add_times(&best.1.times, &candidate.1.times);
+        }
+    }
+    Ok(best)
+}
+
+/// The stage times of two jobs added.
+pub(super) fn add_times(a: &Times, b: &Times) -> Times {
+    Times {
+        recombine: a.recombine + b.recombine,
+        refine: a.refine + b.refine,
+        optimize: a.optimize + b.optimize,
+        check: a.check + b.check,
+        second_order: a.second_order + b.second_order,
+    }
+}
