@@ -292,8 +292,10 @@ def fmt(x, digits=3):
 
 def summary(rows):
     """Summary sentences: fallback, worst eta_w, goals, slowest model."""
-    hit = [r for r in rows if (r.get("rounds") or 0) > 0]
-    split = sum(r.get("split") or 0 for r in rows)
+    # the runs that wrote a mesh (a refused run's rounds are in its row, not in the sums)
+    written = [r for r in rows if r.get("status") in ("pass", "invalid")]
+    hit = [r for r in written if (r.get("rounds") or 0) > 0]
+    split = sum(r.get("split") or 0 for r in written)
     tris = sum(r.get("triangles") or 0 for r in hit)
     worst = [r for r in rows if r.get("eta_w") is not None]
     worst = min(worst, key=lambda r: r["eta_w"]) if worst else None
