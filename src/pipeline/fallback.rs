@@ -227,6 +227,34 @@ pub(super) fn surface_triangles(
         .collect()
 }
 
+/// The triangles of some surfaces of an input, by surface and sorted node tags.
+struct SurfaceTriangles(HashSet<(i32, [u64; 3])>);
+
+impl SurfaceTriangles {
+    /// The triangles of `input` on `surfaces`.
+    fn of(input: &Mesh, surfaces: &HashSet<i32>) -> Self {
+        let mut set = HashSet::new();
+        for b in input.element_blocks.iter().filter(|b| {
+            b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
+        }) {
+            for i in 0..b.len() {
+                let e = b.element(i);
+                let mut t = [e[0], e[1], e[2]];
+                t.sort_unstable();
+                set.insert((b.entity_tag, t));
+            }
+        }
+        SurfaceTriangles(set)
+    }
+
+    /// True when surface `s` has the triangle of nodes `a`, `b`, `c` (any order).
+    fn has(&self, s: i32, a: u64, b: u64, c: u64) -> bool {
+        let mut t = [a, b, c];
+        t.sort_unstable();
+        self.0.contains(&(s, t))
+    }
+}
+
 /// The quads of `spots` (surface, node tags), as (surface, sorted node tags), that two
 /// adjacent triangles of `input` on the same surface form, and that `priced` does not hold
 /// yet.
@@ -236,17 +264,7 @@ pub(super) fn pairs_of(
     priced: &[(i32, [u64; 4])],
 ) -> Vec<(i32, [u64; 4])> {
     let surfaces: HashSet<i32> = spots.iter().map(|s| s.0).collect();
-    let mut triangles: HashSet<(i32, [u64; 3])> = HashSet::new();
-    for b in input.element_blocks.iter().filter(|b| {
-        b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
-    }) {
-        for i in 0..b.len() {
-            let mut t = [0u64; 3];
-            t.copy_from_slice(b.element(i));
-            t.sort_unstable();
-            triangles.insert((b.entity_tag, t));
-        }
-    }
+    let triangles = SurfaceTriangles::of(input, &surfaces);
     let mut out = Vec::new();
     for &(surface, n) in spots {
         let mut sorted = n;
@@ -255,15 +273,10 @@ pub(super) fn pairs_of(
             continue;
         }
         // the two triangles of a diagonal (nodes 0-2 or 1-3 of the quad)
-        let halves = |a: [u64; 3], b: [u64; 3]| {
-            let (mut a, mut b) = (a, b);
-            a.sort_unstable();
-            b.sort_unstable();
-            triangles.contains(&(surface, a)) && triangles.contains(&(surface, b))
+        let halves = |[a, b, c, d]: [u64; 4]| {
+            triangles.has(surface, a, b, c) && triangles.has(surface, a, c, d)
         };
-        if halves([n[0], n[1], n[2]], [n[0], n[2], n[3]])
-            || halves([n[1], n[2], n[3]], [n[1], n[3], n[0]])
-        {
+        if halves(n) || halves([n[1], n[2], n[3], n[0]]) {
             out.push((surface, sorted));
         }
     }
@@ -280,41 +293,24 @@ pub(super) fn pairs_of(
 /// parity repair's split would.
 pub(super) fn fan_segments(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -> Vec<(u64, u64)> {
     let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
-    let index = input.node_index();
-    let at = |t: u64| {
-        index.get(t).map(|r| {
-            glam::DVec3::from_array(input.node_blocks[r.block as usize].coords[r.index as usize])
-        })
-    };
-    // per surface: its triangles (sorted nodes) and how many of them hold each edge
-    let mut triangles: HashSet<(i32, [u64; 3])> = HashSet::new();
+    let coords = TagCoords::new(input);
+    let at = |t: u64| coords.get(t).map(glam::DVec3::from_array);
+    let triangles = SurfaceTriangles::of(input, &surfaces);
+    // per surface: how many of its triangles hold each edge, and its boundary segments at
+    // each node
+    let key = |a: u64, b: u64| (a.min(b), a.max(b));
     let mut edge_count: std::collections::HashMap<(i32, u64, u64), u32> =
         std::collections::HashMap::new();
-    let key = |a: u64, b: u64| (a.min(b), a.max(b));
-    for b in input.element_blocks.iter().filter(|b| {
-        b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
-    }) {
-        for i in 0..b.len() {
-            let e = b.element(i);
-            let mut t = [e[0], e[1], e[2]];
-            t.sort_unstable();
-            triangles.insert((b.entity_tag, t));
-            for j in 0..3 {
-                let (a, c) = key(e[j], e[(j + 1) % 3]);
-                *edge_count.entry((b.entity_tag, a, c)).or_default() += 1;
-            }
+    for &(s, t) in &triangles.0 {
+        for j in 0..3 {
+            let (a, c) = key(t[j], t[(j + 1) % 3]);
+            *edge_count.entry((s, a, c)).or_default() += 1;
         }
     }
-    let is_triangle = |s: i32, a: u64, b: u64, c: u64| {
-        let mut t = [a, b, c];
-        t.sort_unstable();
-        triangles.contains(&(s, t))
-    };
     let on_boundary = |s: i32, a: u64, b: u64| {
         let (a, b) = key(a, b);
         edge_count.get(&(s, a, b)) == Some(&1)
     };
-    // the boundary segments of each surface at each node
     let mut segments_at: std::collections::HashMap<(i32, u64), Vec<u64>> =
         std::collections::HashMap::new();
     for (&(s, a, b), &c) in &edge_count {
@@ -332,10 +328,10 @@ pub(super) fn fan_segments(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -
         };
         // the quad as (u, v, w, x) with the bad corner at v and the diagonal v-x
         let (u, v, w, x) = (n[(k + 3) % 4], n[k], n[(k + 1) % 4], n[(k + 2) % 4]);
-        if !is_triangle(s, u, v, x) || !is_triangle(s, v, w, x) {
+        if !triangles.has(s, u, v, x) || !triangles.has(s, v, w, x) {
             continue;
         }
-        if !segments_at.contains_key(&(s, v)) || !on_boundary(s, u, v) || !on_boundary(s, v, w) {
+        if !on_boundary(s, u, v) || !on_boundary(s, v, w) {
             continue;
         }
         let Some(ys) = segments_at.get(&(s, x)) else {
@@ -345,7 +341,7 @@ pub(super) fn fan_segments(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -
         ys.sort_unstable();
         let mut best: Option<(f64, (u64, u64))> = None;
         for y in ys {
-            if y == u || y == w || !(is_triangle(s, x, y, w) || is_triangle(s, x, y, u)) {
+            if y == u || y == w || !(triangles.has(s, x, y, w) || triangles.has(s, x, y, u)) {
                 continue;
             }
             let seg = key(x, y);
