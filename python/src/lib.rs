@@ -40,22 +40,14 @@ fn parse_options(json: &str, progress: Option<Py<PyAny>>) -> PyResult<blossomqua
     Ok(opts)
 }
 
-/// `e`'s message with, where an option is the way past it, that option as the Python
-/// functions name it.
+/// `e`'s message with, where an option is the way past it
+/// ([`blossomquad::Error::option_past`]), that option as the Python functions name it.
 fn message(e: &blossomquad::Error) -> String {
-    use blossomquad::high_order::HighOrderError;
-    use blossomquad::recombine::RecombineError;
-    let hint = match e {
-        blossomquad::Error::Invalid { .. }
-        | blossomquad::Error::SecondOrder(HighOrderError::Invalid { .. }) => {
-            " (pass allow_invalid=True to write the mesh anyway)"
-        }
-        blossomquad::Error::Recombine(RecombineError::VolumeElements { .. }) => {
-            " (drop_volumes=True)"
-        }
-        _ => "",
-    };
-    format!("{e}{hint}")
+    match e.option_past() {
+        Some("allow_invalid") => format!("{e} (pass allow_invalid=True to write the mesh anyway)"),
+        Some(option) => format!("{e} ({option}=True)"),
+        None => e.to_string(),
+    }
 }
 
 fn report_json(report: &blossomquad::Report) -> PyResult<String> {

@@ -211,17 +211,12 @@ pub(super) fn recombine_main(args: RunArgs) -> Result<(), String> {
     Ok(())
 }
 
-/// The command-line flag that is the way past error `e`, as text to append to its message
-/// (empty when there is none).
+/// The command-line flag that is the way past error `e` ([`crate::Error::option_past`]), as
+/// text to append to its message (empty when there is none).
 pub(super) fn error_hint(e: &crate::Error) -> &'static str {
-    use crate::high_order::HighOrderError;
-    use crate::recombine::RecombineError;
-    match e {
-        crate::Error::Invalid { .. }
-        | crate::Error::SecondOrder(HighOrderError::Invalid { .. }) => {
-            " (rerun with --allow-invalid to write the mesh anyway)"
-        }
-        crate::Error::Recombine(RecombineError::VolumeElements { .. }) => " (--drop-volumes)",
+    match e.option_past() {
+        Some("allow_invalid") => " (rerun with --allow-invalid to write the mesh anyway)",
+        Some("drop_volumes") => " (--drop-volumes)",
         _ => "",
     }
 }

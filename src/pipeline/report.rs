@@ -93,6 +93,24 @@ pub enum Error {
 }
 
 /// A refusal of the linear copy is the linear job's refusal ([`Error::Recombine`]).
+impl Error {
+    /// The [`Options`] field that, set to `true`, gets past this refusal
+    /// (`"allow_invalid"`, `"drop_volumes"`), when one does: the front ends name it their
+    /// own way (the command line as a flag, the Python package as a keyword).
+    pub fn option_past(&self) -> Option<&'static str> {
+        match self {
+            Error::Invalid { .. }
+            | Error::SecondOrder(crate::high_order::HighOrderError::Invalid { .. }) => {
+                Some("allow_invalid")
+            }
+            Error::Recombine(recombine::RecombineError::VolumeElements { .. }) => {
+                Some("drop_volumes")
+            }
+            _ => None,
+        }
+    }
+}
+
 impl From<crate::high_order::HighOrderError> for Error {
     fn from(e: crate::high_order::HighOrderError) -> Self {
         match e {

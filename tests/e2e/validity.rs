@@ -122,8 +122,10 @@ fn a_nearly_flat_input_corner_is_refused_naming_the_surface_or_written_with_allo
     let err = quadrangulate(&mut mesh, &Options::default()).expect_err("refused");
     let msg = err.to_string();
     assert!(msg.contains("surface 1"), "{msg}");
-    // the library names no command-line flag (the command line adds it)
+    // the library names no command-line flag (the command line adds it), only the option
+    // that gets past the refusal
     assert!(!msg.contains("--"), "{msg}");
+    assert_eq!(err.option_past(), Some("allow_invalid"));
     assert!(!msg.contains('{') && !msg.contains("BadQuad"), "{msg}");
     // the rounds' log travels with the refusal, up to the last round's bad quads
     match &err {
