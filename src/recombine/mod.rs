@@ -69,7 +69,16 @@
 //!    retriangulated instead, below). In each chosen group the longest segment is
 //!    split — preferring segments whose triangles are not *ears* nor next to one (an ear has
 //!    two wall edges: a split
-//!    half would have the other half as its only neighbour, forcing a 180° "quad") — at its
+//!    half would have the other half as its only neighbour, forcing a 180° "quad"). On a
+//!    *strip* (a region whose every triangle has a wall edge, like the narrow face between
+//!    the two big faces of a thin plate) the place decides the quads, since the strip's
+//!    triangles form a path or a band with one or two perfect matchings: a strip flipped by
+//!    two chosen groups gets their segments on either side of one interior edge, and that
+//!    edge is flipped after the splits to join the two new nodes, adding a column of
+//!    alternating triangles that pairs into sound quads whichever way the strip is matched
+//!    (`parity::column`); an odd path flipped by one group gets the segment (of any group
+//!    flipping the same regions) whose split gives the path's one matching the best worst
+//!    quad. Each segment is split at its
 //!    chord midpoint (so planar areas are unchanged), parametric coordinates
 //!    interpolated; the new node gets tag `max + 1` and is classified on the curve (appended
 //!    to its node block), or on the first flipped surface when no curve is known. Every
@@ -460,7 +469,7 @@ fn parity_stage(
     if !plan.unsolved.is_empty() {
         return Err(or_fold(parity::unsolvable_error(&plan)));
     }
-    let splits = parity::apply(mesh, &nodes, &plan.choices).map_err(or_fold)?;
+    let splits = parity::apply(mesh, &nodes, &plan.choices, &plan.columns).map_err(or_fold)?;
     for o in &plan.odd {
         report.log.push(format!(
             "surface {}: region {} of {} has {} triangles (odd)",
@@ -492,6 +501,18 @@ fn parity_stage(
                 list_tags(&s.surfaces)
             )
         });
+    }
+    for c in &plan.columns {
+        let tag = |n: u32| nodes.tags[n as usize];
+        report.log.push(format!(
+            "parity repair: the splits of segments {}-{} and {}-{} face each other across strip \
+             surface {}, joined by an edge between their new nodes",
+            tag(c.first.0),
+            tag(c.first.1),
+            tag(c.second.0),
+            tag(c.second.1),
+            c.surface
+        ));
     }
     report.parity_splits.extend(splits);
     mesh.invalidate_element_data();

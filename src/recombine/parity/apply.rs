@@ -6,11 +6,13 @@ use super::*;
 /// Applies the splits: a new node at the midpoint of each chosen segment (classified on the
 /// segment's curve, or on its first surface when no curve is known), each triangle and 2-node
 /// line element holding the segment split in two (the first piece keeps the element's tag,
-/// the second gets a fresh one), orientation kept.
+/// the second gets a fresh one), orientation kept; then the edge of each of `columns` is
+/// flipped to join its two new nodes.
 pub(crate) fn apply(
     mesh: &mut Mesh,
     nodes: &NodeTable,
     choices: &[Choice],
+    columns: &[Column],
 ) -> Result<Vec<ParitySplit>, RecombineError> {
     let first_node = mesh.max_node_tag() + 1;
     let mut next_elem = mesh.max_element_tag() + 1;
@@ -144,6 +146,16 @@ pub(crate) fn apply(
             }
         }
     }
+    let tag_of = |n: u32| nodes.tags[n as usize];
+    let flips: Vec<(u64, u64, u64, u64)> = columns
+        .iter()
+        .filter_map(|c| {
+            let m = mid(tag_of(c.first.0), tag_of(c.first.1))?;
+            let n = mid(tag_of(c.second.0), tag_of(c.second.1))?;
+            Some((m, n, tag_of(c.b), tag_of(c.c)))
+        })
+        .collect();
+    flip_columns(mesh, &flips);
     Ok(report)
 }
 

@@ -10,6 +10,7 @@ use super::{ParitySplit, RecombineError, SurfaceWork};
 use crate::mesh::{etype, Mesh, NodeBlock, NodeTable};
 
 mod apply;
+mod column;
 mod periodic;
 mod plan;
 mod tjoin;
@@ -18,6 +19,7 @@ pub(crate) use apply::{add_node, apply};
 pub(crate) use plan::plan;
 pub(crate) use tjoin::solve_groups;
 
+use column::*;
 use periodic::*;
 use tjoin::*;
 
@@ -55,6 +57,8 @@ pub(crate) struct Plan {
     pub odd: Vec<OddRegion>,
     /// Segments to split so that every region becomes even.
     pub choices: Vec<Choice>,
+    /// Pairs of `choices` split across a strip, with the edge flipped after the splits.
+    pub columns: Vec<Column>,
     /// Odd regions the plan cannot fix (no splittable segment connects them to a fix).
     pub unsolved: Vec<OddRegion>,
     /// For each of `unsolved`: true when no split at all flips it (as opposed to splits

@@ -34,6 +34,7 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork], avoid: 
         return Plan {
             odd,
             choices: Vec::new(),
+            columns: Vec::new(),
             unsolved: Vec::new(),
             isolated: Vec::new(),
         };
@@ -92,6 +93,7 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork], avoid: 
     let periodic_surfaces = PeriodicSurfaces::new(mesh, nodes);
     let mut groups: HashMap<(Option<i32>, Vec<u32>), usize> = HashMap::new();
     let mut list: Vec<Group> = Vec::new();
+    let mut segments: Vec<column::Segment> = Vec::new();
     for run in walls.chunk_by(|x, y| x.0 == y.0) {
         let key = run[0].0;
         if blocked.binary_search(&key).is_ok() {
@@ -150,6 +152,14 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork], avoid: 
             });
             list.len() - 1
         });
+        if with.is_empty() {
+            segments.push(column::Segment {
+                key,
+                group: id,
+                wanted,
+                no_ear,
+            });
+        }
         let best = list[id].best;
         if (wanted, no_ear, len) > (best.0, best.1, best.2) {
             list[id].best = (wanted, no_ear, len, a, b);
@@ -240,6 +250,8 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork], avoid: 
         .filter(|r| r.len() % 2 == 1)
         .map(|r| r[0])
         .collect();
+    let columns = column::columns(work, &offset, nodes, &mut list, &keep, &segments);
+    column::place_single_splits(work, &offset, nodes, &mut list, &keep, &segments, &columns);
     let choices = keep
         .into_iter()
         .map(|g| {
@@ -263,6 +275,7 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork], avoid: 
     Plan {
         odd,
         choices,
+        columns,
         unsolved,
         isolated,
     }
