@@ -8,7 +8,8 @@
 //! **Invariant:** node and element tags are kept exactly as read (sparse and unordered tags
 //! are legal); a stage that creates nodes or elements gives them fresh tags above the current
 //! maximum ([`Mesh::max_node_tag`], [`Mesh::max_element_tag`]). Only the last step of
-//! [`crate::quadrangulate`], [`crate::renumber`], changes tags: it numbers the result 1..N.
+//! [`crate::quadrangulate`], the renumbering, changes tags: it numbers the result 1..N
+//! (unless [`crate::Options::keep_tags`]).
 //!
 //! **Invariant:** this module does no I/O; only `msh` and the CLI touch files.
 

@@ -65,11 +65,13 @@ impl TriSurface {
     }
 
     /// Number of triangles.
+    #[cfg(any(test, feature = "testing"))]
     pub fn len(&self) -> usize {
         self.tris.len()
     }
 
     /// True when there is no triangle.
+    #[cfg(any(test, feature = "testing"))]
     pub fn is_empty(&self) -> bool {
         self.tris.is_empty()
     }
