@@ -114,6 +114,7 @@ pub struct BlossomDual {
 /// Proof that the graph has no perfect matching (Tutte's theorem, paper Section 5): removing
 /// the vertex set `witness` (U) leaves more than `|U|` connected components of odd size.
 #[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct NoPerfectMatching {
     /// The Tutte set U (may be empty, e.g. when a connected component has an odd number of
     /// vertices).
