@@ -24,7 +24,7 @@ pub use nodes::{NodeIndex, NodeRef};
 
 /// Sentinel for "no index" in the crate's `u32` index arrays (no node, no triangle, no
 /// neighbour); `matching` has its own of the same value.
-pub const NONE: u32 = u32::MAX;
+pub(crate) const NONE: u32 = u32::MAX;
 
 /// Which MSH variant a mesh was read from, and which one to write.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

@@ -12,7 +12,7 @@ use glam::DVec3;
 use rayon::slice::ParallelSliceMut;
 
 /// Sentinel for "no neighbour" in [`TriSurface`] adjacency (the crate's one sentinel).
-pub use crate::mesh::NONE;
+pub(crate) use crate::mesh::NONE;
 
 /// Result of a closest-point query.
 #[derive(Debug, Clone, Copy, PartialEq)]
