@@ -2,9 +2,27 @@
 //! with the Blossom-Quad method (Remacle et al. 2012): an exact minimum-cost perfect matching
 //! on each surface's triangle-adjacency graph, then quad-specific optimization.
 //!
-//! Data flows `msh` (bytes → [`mesh::Mesh`]) → `recombine` (triangles → quads, using
-//! `matching`) → optionally `refine` (uniform refinement) → `optimize` → `msh` (Mesh →
-//! bytes). `quality` measures any mesh.
+//! Data flows [`msh`] (bytes → [`Mesh`]) → [`quadrangulate`] (recombination with the
+//! [`matching`] solver, optional refinement, optimization, checks) → [`msh`] (Mesh → bytes).
+//! [`quality`] measures any mesh.
+//!
+//! # The public API
+//! - The crate root: [`read`], [`read_bytes`], [`write()`] (in an [`MshFormat`]),
+//!   [`quadrangulate`] with its [`Options`], [`Report`] and [`Error`]; the progress types
+//!   ([`Progress`], [`ProgressFn`], [`Stage`]), the developer hook [`Trace`]
+//!   ([`TraceEvent`]), [`Warning`], [`set_memory_release`] and [`VERSION`].
+//! - [`mesh`]: the model ([`Mesh`], its blocks and entities, element types); [`msh`]: MSH
+//!   files and bytes ⇄ [`Mesh`], with their errors.
+//! - [`report`]: the stage reports inside a [`Report`] and the stage errors inside an
+//!   [`Error`].
+//! - [`quality`]: quality reports (η, scaled Jacobian, vertex degrees, τ) and views.
+//! - [`matching`]: the minimum-cost perfect matching ([`matching::solve`]) and its
+//!   certificate ([`matching::verify`]).
+//! - [`arrays`]: one surface given as point and triangle arrays; `cli` (feature `cli`, on
+//!   by default): the command line (`main`, `run_args`).
+//!
+//! The stages themselves are private to the crate. The feature `testing` makes them public
+//! for the project's own tests, examples and fuzz targets; it is not a stable API.
 //! See ARCHITECTURE.md for the map and the invariants of each stage.
 //!
 //! ```no_run
@@ -20,26 +38,49 @@
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
+// every type in a public signature is public too (reachable by its path)
+#![warn(unnameable_types)]
+
+/// Declares the crate's internal modules: public with the `testing` feature (for the
+/// project's own integration tests, examples and fuzz targets; not a stable API), private to
+/// the crate otherwise.
+macro_rules! internal {
+    ($($(#[$attr:meta])* mod $name:ident;)*) => {
+        $(
+            $(#[$attr])*
+            #[cfg(feature = "testing")]
+            pub mod $name;
+            $(#[$attr])*
+            #[cfg(not(feature = "testing"))]
+            pub(crate) mod $name;
+        )*
+    };
+}
 
 pub mod arrays;
 #[cfg(feature = "cli")]
 pub mod cli;
-pub mod high_order;
-mod keysort;
 pub mod matching;
-mod memory;
 pub mod mesh;
 pub mod msh;
-pub mod optimize;
-pub mod pipeline;
-pub mod profile;
-mod progress;
 pub mod quality;
-pub mod recombine;
-pub mod refine;
-pub mod renumber;
+pub mod report;
+
+internal! {
+    mod high_order;
+    mod optimize;
+    mod pipeline;
+    mod profile;
+    mod recombine;
+    mod refine;
+    mod renumber;
+    mod validity;
+}
+
+mod keysort;
+mod memory;
+mod progress;
 mod reuse;
-pub mod validity;
 mod warning;
 
 pub use mesh::{Mesh, MshFormat};
@@ -49,6 +90,7 @@ pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 pub use pipeline::{
     quadrangulate, set_memory_release, Error, Options, Progress, ProgressFn, Report, Stage,
 };
+pub use profile::{Trace, TraceEvent};
 pub use warning::Warning;
 
 /// Reads an MSH file (2.x or 4.x, ASCII or binary; `-` reads stdin).

@@ -8,7 +8,8 @@
 //! **Invariant:** node and element tags are kept exactly as read (sparse and unordered tags
 //! are legal); a stage that creates nodes or elements gives them fresh tags above the current
 //! maximum ([`Mesh::max_node_tag`], [`Mesh::max_element_tag`]). Only the last step of
-//! [`crate::quadrangulate`], [`crate::renumber`], changes tags: it numbers the result 1..N.
+//! [`crate::quadrangulate`], the renumbering, changes tags: it numbers the result 1..N
+//! (unless [`crate::Options::keep_tags`]).
 //!
 //! **Invariant:** this module does no I/O; only `msh` and the CLI touch files.
 
@@ -23,7 +24,7 @@ pub use nodes::{NodeIndex, NodeRef};
 
 /// Sentinel for "no index" in the crate's `u32` index arrays (no node, no triangle, no
 /// neighbour); `matching` has its own of the same value.
-pub const NONE: u32 = u32::MAX;
+pub(crate) const NONE: u32 = u32::MAX;
 
 /// Which MSH variant a mesh was read from, and which one to write.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]

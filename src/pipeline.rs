@@ -77,7 +77,9 @@ use fallback::{
     fallback_triangles, low_quads, pairs_of, quads_per_triangle, surface_elements, FallbackStart,
     LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE,
 };
-pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_RINGS};
+pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS};
+#[cfg(feature = "testing")]
+pub use fallback::SPLIT_RINGS;
 
 /// Rounds after the first run at most: the fallback's pricing and split rounds, and (without
 /// optimization) the rounds that optimize the surfaces whose matching left bad quads.
@@ -96,11 +98,26 @@ pub const TRIES_UP_TO: usize = 1 << 18;
 /// it).
 const REUSE_UP_TO: usize = TRIES_UP_TO;
 
-/// Turns every surface's triangles into valid quads (see the module doc): recombination
-/// with parity repair, refinement, optimization, then the invariant and validity checks,
-/// with the fallback when quads are not valid. A mesh with 6-node triangles is recombined
-/// on its corners and written back as 9-node (or, with [`Options::incomplete`], 8-node)
-/// quads on its curved geometry ([`crate::high_order`]). On error `mesh` is unchanged.
+/// Turns every surface's triangles into valid quads: recombination with parity repair,
+/// refinement, optimization, then the invariant and validity checks, with the fallback when
+/// quads are not valid. A mesh with 6-node triangles is recombined on its corners and
+/// written back as 9-node (or, with [`Options::incomplete`], 8-node) quads on its curved
+/// geometry. On error `mesh` is unchanged.
+///
+/// # The validity guarantee
+/// When it returns `Ok`, every 4-node quad of every surface is valid (corners strictly
+/// between 0° and 180° about the input surface's normal, oriented like the input, no
+/// zero-length edge, no repeated node) and the recombination's invariants hold between the
+/// input and the result (conformity, no triangle left, curve nodes unmoved, planar areas,
+/// physical groups), unless [`Options::allow_invalid`] is set: the bad quads are then
+/// listed in [`Report::invalid`] instead.
+///
+/// # The fallback
+/// When quads are not valid after a run, the job runs again from the input, locally: the
+/// bad quads priced out of the matching, boundary segments under fans split, then the input
+/// triangles around the bad quads split into three quads each (one ring, then two), and as
+/// a last resort every triangle of their surface; up to 10 rounds after the first run
+/// ([`Report::rounds`]). Quads still bad then are refused ([`Error::Invalid`]).
 pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
     let input_tags =
         (opts.tag_map && !opts.keep_tags).then(|| crate::renumber::InputTags::of(mesh));

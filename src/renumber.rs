@@ -32,7 +32,7 @@ use serde::Serialize;
 
 use crate::mesh::{DataKind, Mesh};
 
-/// What [`renumber`] changed.
+/// What the renumbering of nodes and elements changed.
 #[derive(Debug, Clone, Default, Serialize)]
 pub struct RenumberReport {
     /// Nodes whose tag changed.

@@ -166,6 +166,7 @@ impl std::fmt::Display for BadQuad {
 /// Every 4-node quad of `output` that is not valid (see the module doc), by surface tag
 /// then block order. `input` is the mesh the quads came from: its faces (triangles and
 /// quads) give the reference normals.
+#[cfg(any(test, feature = "testing"))]
 pub fn invalid_quads(input: &Mesh, output: &Mesh) -> Vec<BadQuad> {
     Reference::new(input).invalid_quads(output)
 }
@@ -190,6 +191,7 @@ struct SurfaceReference {
 
 impl<'a> Reference<'a> {
     /// Prepares the check against `input`.
+    #[cfg(any(test, feature = "testing"))]
     pub fn new(input: &'a Mesh) -> Self {
         Self::with_coords(input, std::sync::Arc::new(TagCoords::new(input)))
     }
@@ -209,6 +211,7 @@ impl<'a> Reference<'a> {
     }
 
     /// [`invalid_quads`] of `output` against this input.
+    #[cfg(any(test, feature = "testing"))]
     pub fn invalid_quads(&self, output: &Mesh) -> Vec<BadQuad> {
         self.invalid_quads_at(output, &TagCoords::new(output))
     }

@@ -92,8 +92,12 @@ mod jacobian;
 mod linearize;
 
 pub use elevate::elevate;
-pub use geometry::{line3_point, tri6_point};
-pub use jacobian::{jacobian_positive, quad_valid};
+pub use geometry::line3_point;
+#[cfg(any(test, feature = "testing"))]
+pub use geometry::tri6_point;
+#[cfg(any(test, feature = "testing"))]
+pub use jacobian::jacobian_positive;
+pub use jacobian::quad_valid;
 pub use linearize::linearize;
 
 use boundary::{chain_between, chain_parameters, take_split_mid_nodes};

@@ -11,7 +11,7 @@
 //! (they can never be in a matching); parallel edges are allowed (the solver treats every edge
 //! on its own, so the cheapest copy wins).
 //!
-//! # Algorithm (see [`blossom`])
+//! # Algorithm (see `src/matching/blossom/`)
 //! Edmonds' primal-dual algorithm with odd-set (blossom) duals (Edmonds 1965), with ideas from
 //! Kolmogorov's Blossom V (Math. Prog. Comp. 2009) and Galil-Micali-Gabow (1986): a greedy
 //! and then fractional-matching jump start (single-tree local searches with a small and then
@@ -31,17 +31,21 @@
 //! returned [`Duals`] (documented there); a matching that passes is optimal whatever solver
 //! produced it. [`verify_witness`] checks a Tutte witness.
 
-// Internals, public only for the integration tests, examples and benchmarks (the solver's
-// phases, statistics and invariant check, the brute-force oracle, the radix heap): not part
-// of the API.
-#[doc(hidden)]
-pub mod blossom;
-#[doc(hidden)]
-pub mod oracle;
-#[doc(hidden)]
-pub mod radix;
+// the solver's phases, statistics and invariant check, the brute-force oracle, the radix
+// heap: public only with the `testing` feature
+internal! {
+    mod blossom;
+    #[cfg(any(test, feature = "testing"))]
+    mod oracle;
+    mod radix;
+}
+mod tuned;
 mod verify;
 
+#[cfg(feature = "testing")]
+pub use tuned::{solve_owned, solve_with_progress, VertexOrder};
+#[cfg(not(feature = "testing"))]
+pub(crate) use tuned::{solve_owned, VertexOrder};
 pub use verify::{verify, verify_witness, CertificateError};
 
 /// Sentinel for "no vertex / no blossom" in the `u32` arrays of this module: the same value
@@ -110,6 +114,7 @@ pub struct BlossomDual {
 /// Proof that the graph has no perfect matching (Tutte's theorem, paper Section 5): removing
 /// the vertex set `witness` (U) leaves more than `|U|` connected components of odd size.
 #[derive(Debug, Clone, PartialEq, Eq)]
+#[non_exhaustive]
 pub struct NoPerfectMatching {
     /// The Tutte set U (may be empty, e.g. when a connected component has an odd number of
     /// vertices).
@@ -143,48 +148,6 @@ impl std::error::Error for NoPerfectMatching {}
 /// the radix heap); on mesh graphs it grows slightly faster than linearly (cache effects).
 pub fn solve(n: usize, edges: &[(u32, u32, i64)]) -> Result<Matching, NoPerfectMatching> {
     prepare(n, edges, None, VertexOrder::BreadthFirst)?.run()
-}
-
-/// [`solve`] reporting its progress to `progress` as `(done, total)`: `total` fixed,
-/// `done` growing, a few dozen calls per solve at most, from the calling thread (see
-/// [`blossom::Solver::set_progress`]).
-pub fn solve_with_progress(
-    n: usize,
-    edges: &[(u32, u32, i64)],
-    progress: blossom::ProgressCallback,
-) -> Result<Matching, NoPerfectMatching> {
-    prepare(n, edges, Some(progress), VertexOrder::BreadthFirst)?.run()
-}
-
-/// [`solve`] with the edge list moved in (and the progress of [`solve_with_progress`] when
-/// given): the list is freed as soon as the solver has built its own arrays from it, so
-/// that it is not live through the solve. `order` is the solver's internal vertex
-/// numbering ([`VertexOrder`]); the result is the same optimum in the caller's numbering
-/// either way (among tied optima, possibly another one).
-pub fn solve_owned(
-    n: usize,
-    edges: Vec<(u32, u32, i64)>,
-    progress: Option<blossom::ProgressCallback>,
-    order: VertexOrder,
-) -> Result<Matching, NoPerfectMatching> {
-    let solver = prepare(n, &edges, progress, order)?;
-    drop(edges);
-    solver.run()
-}
-
-/// The solver's internal numbering of the vertices, for memory locality: its searches
-/// visit a vertex's neighbours, so neighbours with nearby numbers share cache lines.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub enum VertexOrder {
-    /// Breadth-first, component by component from the lowest unvisited vertex: local on
-    /// any connected sparse graph, whatever its numbering (the default).
-    #[default]
-    BreadthFirst,
-    /// The caller's numbering, for graphs numbered along a space-filling curve (mesh
-    /// triangles in the Morton order of their centroids): neighbours are then closer than
-    /// breadth-first layers put them (figures in BENCHMARKS.md, "Measurements behind the
-    /// defaults").
-    Given,
 }
 
 /// The solver state for `edges`, or the witness of an odd component.

@@ -33,11 +33,13 @@ impl<T: Copy> RadixHeap<T> {
     }
 
     /// Number of entries.
+    #[cfg(any(test, feature = "testing"))]
     pub fn len(&self) -> usize {
         self.len
     }
 
     /// True when empty.
+    #[cfg(any(test, feature = "testing"))]
     pub fn is_empty(&self) -> bool {
         self.len == 0
     }

@@ -153,6 +153,7 @@ pub enum ErrorKind {
 ///
 /// `Display` prints one line, e.g. `mesh.msh: $Nodes, line 17: expected 3 coordinates, found 2`.
 #[derive(Debug)]
+#[non_exhaustive]
 pub struct MshError {
     /// The file name (or `<stdin>`, `<stdout>`, or the `source` given to `read_bytes`).
     pub file: String,

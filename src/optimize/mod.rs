@@ -70,11 +70,17 @@ mod polish;
 mod reference;
 mod schedule;
 mod smooth;
-// synthetic test meshes (the only user of spade): for tests and examples, not the API
-#[doc(hidden)]
-pub mod synth;
 mod topo;
 mod valid;
+
+internal! {
+    // synthetic test meshes (the only user of spade), for the tests and examples
+    #[cfg(any(test, feature = "testing"))]
+    mod synth;
+    // an independent quad-mesh checker, for the tests
+    #[cfg(any(test, feature = "testing"))]
+    mod check;
+}
 
 /// Code shared by the optimizer's unit tests.
 #[cfg(test)]
@@ -95,10 +101,6 @@ pub(crate) mod test_util {
         pos.iter().map(|p| p.to_array().map(f64::to_bits)).collect()
     }
 }
-
-// an independent mesh checker for the tests (not the API)
-#[doc(hidden)]
-pub mod check;
 
 pub use local::Stats;
 pub use reference::PreparedReference;
@@ -181,7 +183,7 @@ impl std::fmt::Debug for OptimizeOptions<'_> {
     }
 }
 
-/// Errors of [`optimize`].
+/// Errors of the quad optimization.
 #[derive(Debug, thiserror::Error)]
 #[non_exhaustive]
 pub enum OptimizeError {
@@ -224,7 +226,7 @@ pub struct SurfaceOptimizeReport {
     pub operations: OperationCounts,
 }
 
-/// What [`optimize`] returns: one entry per surface with quads, by increasing tag.
+/// What the quad optimization returns: one entry per surface with quads, by increasing tag.
 #[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct OptimizeReport {
     /// Per surface.
@@ -244,6 +246,7 @@ pub struct OptimizeReport {
 ///
 /// Complexity: O(n) per smoothing sweep and per topological pass (flat arrays, CSR
 /// adjacency). Fails only when an element names a missing node.
+#[cfg(any(test, feature = "testing"))]
 pub fn optimize(
     mesh: &mut Mesh,
     reference: &Mesh,

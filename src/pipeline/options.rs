@@ -32,7 +32,7 @@ pub struct Options {
     /// `Mesh.SecondOrderIncomplete`) instead of 9-node quads.
     pub incomplete: bool,
     /// Append the quality views "eta", "scaled jacobian" (`$ElementData`) and "valence"
-    /// (`$NodeData`) to the result ([`crate::quality::view`]), encoded for
+    /// (`$NodeData`) to the result ([`crate::quality::add_views`]), encoded for
     /// [`crate::msh::default_output_format`] of the mesh (written in another encoding,
     /// they are dropped with a warning; the CLI's `--quality-view` encodes them for the
     /// format it writes).
@@ -45,7 +45,7 @@ pub struct Options {
     /// along it are then split too, to stay conforming).
     pub smooth_quads: bool,
     /// Keep the input's node and element tags exactly, gaps and all; by default the result
-    /// is numbered 1..N without gaps, as Gmsh numbers its files ([`crate::renumber`]).
+    /// is numbered 1..N without gaps, as Gmsh numbers its files ([`Report::renumber`]).
     pub keep_tags: bool,
     /// Give the input tag → output tag map of the kept nodes and elements in
     /// [`Report::renumber`] (`map`); ignored with [`Options::keep_tags`].
@@ -54,7 +54,7 @@ pub struct Options {
     #[serde(skip)]
     pub progress: Option<ProgressFn>,
     /// Developer hooks: stage times, optimizer rollbacks and matching graphs (see
-    /// [`crate::profile`]).
+    /// [`crate::Trace`]).
     #[serde(skip)]
     pub trace: Option<crate::profile::Trace>,
 }

@@ -36,7 +36,7 @@ pub struct Report {
     pub rounds: usize,
     /// Quads still invalid (only with [`Options::allow_invalid`]; empty otherwise).
     pub invalid: Vec<BadQuad>,
-    /// The second-order step (second-order input only, see [`crate::high_order`]).
+    /// The second-order step (second-order input only).
     pub second_order: Option<crate::high_order::SecondOrderReport>,
     /// The renumbering of nodes and elements to 1..N (all zero with
     /// [`Options::keep_tags`]).

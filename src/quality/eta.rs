@@ -35,8 +35,8 @@ pub fn corner_eta(alpha: f64) -> f64 {
     1.0 - (FRAC_PI_2 - alpha).abs() / FRAC_PI_2
 }
 
-/// Signed quad quality: 1 − (2/π)·max_k |π/2 − α_k| with the signed angles of
-/// [`signed_angles`]. Equals η (eq. 3) for valid convex quads, is ≤ 0 for degenerate,
+/// Signed quad quality: 1 − (2/π)·max_k |π/2 − α_k| with the corners' angles signed about
+/// `normal` (`signed_angles`). Equals η (eq. 3) for valid convex quads, is ≤ 0 for degenerate,
 /// non-convex or folded quads (down to −1 for a corner turned the wrong way), so it orders
 /// invalid quads below every valid one. Used for matching costs (eq. 4).
 pub fn eta_signed(p: &[DVec3; 4], normal: DVec3) -> f64 {

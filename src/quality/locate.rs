@@ -12,7 +12,7 @@ use glam::DVec3;
 use rayon::slice::ParallelSliceMut;
 
 /// Sentinel for "no neighbour" in [`TriSurface`] adjacency (the crate's one sentinel).
-pub use crate::mesh::NONE;
+pub(crate) use crate::mesh::NONE;
 
 /// Result of a closest-point query.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -65,11 +65,13 @@ impl TriSurface {
     }
 
     /// Number of triangles.
+    #[cfg(any(test, feature = "testing"))]
     pub fn len(&self) -> usize {
         self.tris.len()
     }
 
     /// True when there is no triangle.
+    #[cfg(any(test, feature = "testing"))]
     pub fn is_empty(&self) -> bool {
         self.tris.is_empty()
     }

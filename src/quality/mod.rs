@@ -9,14 +9,21 @@
 //! **Invariant:** measuring never changes the mesh and never panics on a mesh read from a
 //! file (elements naming missing nodes are skipped and counted).
 
-pub mod eta;
-pub mod jacobian;
-pub mod locate;
-pub mod size;
-pub mod view;
+internal! {
+    mod eta;
+    mod jacobian;
+    mod locate;
+    mod size;
+    mod view;
+}
 
-pub use eta::{eta, eta_signed, eta_signed_fast};
+#[cfg(feature = "testing")]
+pub use eta::eta_signed_fast;
+#[cfg(not(feature = "testing"))]
+pub(crate) use eta::eta_signed_fast;
+pub use eta::{eta, eta_signed};
 pub use size::{ReferenceSize, SizeExpr, SizeField};
+pub use view::{add_views, view_mesh};
 
 use crate::mesh::{etype, Mesh, NodeTable};
 use glam::DVec3;
@@ -62,7 +69,7 @@ pub struct SurfaceQuality {
     pub eta_worst: Option<f64>,
     /// Mean quad quality η̄ (eq. 3); `None` without quads.
     pub eta_mean: Option<f64>,
-    /// Smallest scaled Jacobian over the quads ([`view::scaled_jacobian`]: for a 4-node quad
+    /// Smallest scaled Jacobian over the quads (for a 4-node quad
     /// the minimum over its corners of the normalized cross product of its two edges,
     /// signed about the quad's normal; for 8- and 9-node quads the minimum at its nodes;
     /// Gmsh's `minSIGE`); `None` without quads.
@@ -271,12 +278,12 @@ impl Acc {
 /// Measures `mesh` against the size field `size`: per surface entity and overall.
 ///
 /// Counted: quads (η, eq. 3, with [`eta()`], on the corners; the scaled Jacobian,
-/// [`view::scaled_jacobian`], on all nodes), 3-node and 6-node triangles, other 2D elements.
+/// on all nodes), 3-node and 6-node triangles, other 2D elements.
 /// Vertex degrees (Table I) are taken over *interior* vertices: not in any point or line
 /// element, not classified on a point or curve, not on an edge used by other than two
 /// surface elements, and surrounded by quads only (in a mixed mesh a vertex touching a
 /// triangle has no quad degree). τ (eq. 2) runs over the distinct edges of the surface
-/// elements, each with l^h from eq. (1) (see [`size`] for the integration and the choice of
+/// elements, each with l^h from eq. (1) (see [`SizeField`] for the choice of
 /// field). Fails only when a size expression fails somewhere.
 pub fn report(mesh: &Mesh, size: &SizeField) -> Result<QualityReport, QualityError> {
     let nodes = NodeTable::new(mesh);

@@ -255,6 +255,7 @@ impl ReferenceSize {
     }
 
     /// The reference triangulation the sizes live on.
+    #[cfg(feature = "testing")]
     pub fn surface(&self) -> &TriSurface {
         &self.surface
     }
@@ -387,6 +388,7 @@ pub fn tau_deviation(l: f64) -> f64 {
 }
 
 /// Efficiency index τ in percent, eq. (2), from adimensional edge lengths. `None` when empty.
+#[cfg(any(test, feature = "testing"))]
 pub fn tau_percent(lengths: impl Iterator<Item = f64>) -> Option<f64> {
     let mut n = 0usize;
     let mut sum = 0.0;

@@ -2,7 +2,7 @@
 
 use super::*;
 
-/// Why [`recombine`] refused or failed.
+/// Why the recombination refused or failed.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum RecombineError {
@@ -132,7 +132,7 @@ pub enum RecombineError {
         /// What failed.
         detail: String,
     },
-    /// [`check_invariants`] failed after recombination.
+    /// The invariant check failed after recombination.
     #[error("invariant check failed: {0}")]
     Invariant(#[source] InvariantViolation),
 }

@@ -33,7 +33,7 @@ use glam::DVec3;
 
 use crate::mesh::{etype, ElementBlock, Mesh, NodeBlock};
 
-/// What [`split_triangles`] did.
+/// What the fallback's triangle splits did.
 #[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
 pub struct FallbackSplit {
     /// Triangles split into three quads (the chosen ones and those added to keep every

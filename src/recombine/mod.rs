@@ -196,13 +196,13 @@ use topology::CurveInfo;
 use write_back::write_back;
 
 pub use fallback::{split_triangles, FallbackSplit};
-// the cost model's constants, public for the tests (not the API)
 pub(crate) use error::list_tags;
 use error::odd_parity_error;
 pub use error::RecombineError;
-#[doc(hidden)]
+// the cost model's constants, for the tests
+#[cfg(feature = "testing")]
 pub use geometry::FIXED_CORNER_MIN_ETA;
-#[doc(hidden)]
+#[cfg(feature = "testing")]
 pub use graph::{
     bad_extra_edge_cost, curved_split_halves_cost, extra_edge_cost, priced_out_cost,
     split_halves_cost, COST_SCALE, HOPELESS_COST, MAX_REAL_COST,
@@ -407,6 +407,7 @@ pub fn recombine(
 /// node positions, through the `$Periodic` node pairs and affine transform): run it after
 /// anything that changed the master surfaces (the optimizer). Returns the number of slave
 /// surfaces mapped.
+#[cfg(feature = "testing")]
 pub fn sync_periodic(mesh: &mut Mesh) -> Result<usize, RecombineError> {
     periodic::map_slaves(mesh, None)
 }

@@ -38,9 +38,9 @@ pub struct SurfaceReport {
     pub edge_swaps: usize,
     /// Vertex duplications done (5.3.2).
     pub vertex_duplications: usize,
-    /// Matching cost in units of 1/[`COST_SCALE`] (extra edges included).
+    /// Matching cost in units of 10⁻⁴ (extra edges included).
     pub matching_cost: i64,
-    /// Graph edges priced out ([`RecombineOptions::priced_out`]).
+    /// Graph edges priced out (by the fallback).
     pub pairs_priced_out: usize,
     /// Of those, the ones the optimal matching still uses.
     pub priced_out_used: usize,
@@ -52,7 +52,7 @@ pub struct SurfaceReport {
     pub time_post: Duration,
 }
 
-/// What [`recombine`] did.
+/// What the recombination did.
 #[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
 pub struct RecombineReport {
     /// One entry per surface that had triangles, by surface tag.
@@ -62,7 +62,7 @@ pub struct RecombineReport {
     /// Mixed surfaces whose triangles were enclosed by quads (could not be made even or
     /// matched): their quads were split into triangles and the whole surface recombined.
     pub retriangulated: Vec<i32>,
-    /// Volume elements dropped (with [`RecombineOptions::drop_volumes`]).
+    /// Volume elements dropped (with [`Options::drop_volumes`](crate::Options::drop_volumes)).
     pub dropped_volume_elements: usize,
     /// Surfaces whose triangles fold over each other somewhere (opposite normals across an
     /// edge): the folded edges were walled off (no quad across them), and this is the

@@ -62,6 +62,7 @@
 
 use super::radix::RadixHeap;
 
+#[cfg(any(test, feature = "testing"))]
 mod check;
 mod events;
 mod forest;
@@ -74,6 +75,7 @@ mod tests;
 mod tree;
 
 use super::{BlossomDual, Duals, Matching, NoPerfectMatching, VertexOrder, MAX_ABS_COST, NONE};
+#[cfg(any(test, feature = "testing"))]
 pub use check::InvariantError;
 use std::cell::Cell;
 
@@ -323,6 +325,7 @@ impl Solver {
     /// Builds the solver state (CSR adjacency, doubled costs). Loops and edges with an
     /// endpoint `>= n` are dropped. Panics when `n >= 2^30` or there are `2^31` edges or more
     /// (u32 indices; such graphs would need tens of gigabytes anyway).
+    #[cfg(any(test, feature = "testing"))]
     pub fn new(n: usize, edges: &[(u32, u32, i64)]) -> Solver {
         Solver::new_in_order(n, edges, VertexOrder::BreadthFirst)
     }
@@ -477,18 +480,21 @@ impl Solver {
 
     /// Runs without jump start (all duals start at 0); used by tests to exercise the tree
     /// growth on its own.
+    #[cfg(any(test, feature = "testing"))]
     pub fn run_plain(mut self) -> Result<Matching, NoPerfectMatching> {
         self.init_plain();
         self.solve_rest()
     }
 
     /// Grows a tree from every exposed vertex (after an init) and returns the result.
+    #[cfg(any(test, feature = "testing"))]
     pub fn solve_rest(&mut self) -> Result<Matching, NoPerfectMatching> {
         self.solve_rest_with(MAIN_LOCAL_GROWS)
     }
 
     /// [`Solver::solve_rest`] with a given grow budget for the single-tree searches (0 leaves
     /// nearly everything to the forest grown together); tests use it to exercise both.
+    #[cfg(any(test, feature = "testing"))]
     pub fn solve_rest_with(&mut self, budget: usize) -> Result<Matching, NoPerfectMatching> {
         self.grow_rest(budget)?;
         Ok(self.result())
@@ -529,6 +535,7 @@ impl Solver {
     }
 
     /// Builds the public result: mates, cost, duals in the laminar-forest form.
+    #[cfg(any(test, feature = "testing"))]
     fn result(&self) -> Matching {
         self.result_with(self.matched_cost())
     }

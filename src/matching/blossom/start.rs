@@ -5,6 +5,7 @@ use super::{Solver, NONE};
 impl Solver {
     /// Feasible starting duals without any matching: `y_v` = half the cheapest doubled cost
     /// at `v`.
+    #[cfg(any(test, feature = "testing"))]
     pub fn init_plain(&mut self) {
         for v in 0..self.n {
             self.nd[v].y = self.min_incident_half(v);

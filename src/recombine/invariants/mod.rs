@@ -46,7 +46,7 @@ impl std::fmt::Display for EdgeSet {
     }
 }
 
-/// What [`check_invariants`] found broken, with the entities and nodes involved. Its text
+/// What the invariant check after a stage found broken, with the entities and nodes involved. Its text
 /// (`Display`) is one line in words.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
