@@ -184,6 +184,7 @@ pub(crate) fn extract(
         alive: vec![true; quads.len()],
         pos,
         nrm,
+        gate_nrm: Vec::new(),
         fixed,
         global,
         tags: node_tags,

@@ -268,6 +268,11 @@ impl Part {
             surface: l.surface,
             pos: global.iter().map(|g| taken.pos[at(g)]).collect(),
             nrm: global.iter().map(|g| taken.nrm[at(g)]).collect(),
+            gate_nrm: if l.gate_nrm.is_empty() {
+                Vec::new()
+            } else {
+                global.iter().map(|g| l.gate_nrm[at(g)]).collect()
+            },
             h: global.iter().map(|g| taken.h[at(g)]).collect(),
             fixed: global.iter().map(|g| l.fixed[at(g)]).collect(),
             removed: global.iter().map(|g| l.removed[at(g)]).collect(),

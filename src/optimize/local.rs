@@ -39,6 +39,11 @@ pub(crate) struct Local {
     pub pos: Vec<DVec3>,
     /// Unit reference normal per node (orientation of the input quads).
     pub nrm: Vec<DVec3>,
+    /// On curved surfaces, the unit area-weighted normal of the reference triangles around
+    /// each node the reference has (at an input node, the normal the validity gate,
+    /// `crate::validity`, measures corners about), zero at other nodes; empty on planar
+    /// surfaces and without reference triangles.
+    pub gate_nrm: Vec<DVec3>,
     /// Target size h per node (eq. 1's field at the node).
     pub h: Vec<f64>,
     /// Fixed nodes never move nor disappear.

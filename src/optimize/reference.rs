@@ -205,9 +205,28 @@ pub(super) fn attach_reference(
                     .filter(|&i| incident[i as usize] != NONE)
             })
             .collect();
+        // curved: the input surface's normal at each of its nodes, as the validity gate
+        // measures corners about it (area-weighted normal of the triangles around it)
+        let point_normals = (!l.planar).then(|| {
+            let mut n = vec![DVec3::ZERO; pts.len()];
+            for t in &tris {
+                let p = t.map(|k| pts[k as usize]);
+                let c = (p[1] - p[0]).cross(p[2] - p[0]);
+                for &k in t {
+                    n[k as usize] += c;
+                }
+            }
+            n
+        });
+        if point_normals.is_some() {
+            l.gate_nrm = vec![DVec3::ZERO; l.pos.len()];
+        }
         for (v, hit) in found.into_iter().enumerate() {
             match hit {
                 Some(i) => {
+                    if let Some(n) = &point_normals {
+                        l.gate_nrm[v] = n[i as usize].normalize_or_zero();
+                    }
                     l.tri[v] = incident[i as usize];
                     let h = nodal[i as usize];
                     l.h[v] = if h > 0.0 { h } else { 1.0 };

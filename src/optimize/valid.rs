@@ -7,7 +7,9 @@
 //! within [`VALID_ETA`] of straight or folded (corner angles strictly inside about
 //! (0.06°, 179.94°): the tolerance keeps float-noise-positive straight corners out), no
 //! edge is shorter than [`MIN_EDGE_REL`] times the target size at its ends, and, on curved
-//! surfaces, the quad holds to its own geometry: its scaled Jacobian at every corner about
+//! surfaces, every corner is in that range about the reference triangulation's normal at
+//! each node of the quad it has too (at input nodes, the normals the gate measures corners
+//! about), and the quad holds to its own geometry: its scaled Jacobian at every corner about
 //! its own normal (the cross product of its diagonals) is at least [`MIN_OWN_SJ`] (the
 //! gate's rule of `crate::validity`, with a margin). On a planar surface a quad whose
 //! corners all turn positively about the plane's normal is convex, so its diagonals cross
@@ -79,14 +81,37 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
     for k in 0..4 {
         // corner k between the edge out (a) and the edge back (b)
         let (a, b) = (e[k], -e[(k + 3) & 3]);
+        let c = a.cross(b);
         // n_len times the sine about the unit normal (times |a||b|)
-        let s = normal.dot(a.cross(b));
+        let s = normal.dot(c);
         // NaN fails too
         if !(s > 0.0 && a.dot(b).abs() * n_len <= MAX_COT * s) {
             return false;
         }
+        // the reference triangulation's normals at the quad's nodes (the gate's at input
+        // nodes)
+        if !l.gate_nrm.is_empty() && !turns_about_gate_normals(l, nodes, a, b, c) {
+            return false;
+        }
     }
     l.planar || own_jacobian_ok(&p)
+}
+
+/// True when the corner between edges `a` and `b` (`c` = a × b) is inside the valid range
+/// (sine positive, |cot| at most [`MAX_COT`]) about the reference triangulation's normal at
+/// every node of `nodes` that has one ([`Local::gate_nrm`]): the validity gate measures
+/// each corner about those normals at input nodes, and on a coarse curved face they can
+/// turn away from the quad's reference normal.
+fn turns_about_gate_normals(l: &Local, nodes: &[u32; 4], a: DVec3, b: DVec3, c: DVec3) -> bool {
+    let cos = a.dot(b).abs();
+    nodes.iter().all(|&v| {
+        let n = l.gate_nrm[v as usize];
+        if n == DVec3::ZERO {
+            return true;
+        }
+        let s = n.dot(c);
+        s > 0.0 && cos <= MAX_COT * s
+    })
 }
 
 /// True when the quad `p` has a scaled Jacobian of at least [`MIN_OWN_SJ`] at every corner
@@ -423,6 +448,33 @@ mod tests {
             let [x, y, z] = bent[k];
             l.pos[v as usize] = DVec3::new(x, y, 0.2 * z);
         }
+        assert!(valid(&l, q));
+    }
+
+    #[test]
+    fn a_corner_must_turn_about_the_input_normal_at_each_node_it_has() {
+        // a unit square in z = 0, valid about its reference normal (+z): with the input
+        // surface's normal at one of its nodes tilted past 90° from +z about an axis in
+        // the plane, every corner turns the wrong way about that normal, so the quad is
+        // not valid (the validity gate would refuse it); a normal tilted less, or at a node
+        // the input does not have (zero), leaves it valid
+        let (mut l, _) = grid();
+        l.planar = false;
+        let q = 0u32;
+        let v = l.quads[q as usize][1] as usize;
+        assert!(valid(&l, q));
+        l.gate_nrm = vec![DVec3::ZERO; l.pos.len()];
+        assert!(valid(&l, q), "no input normal: the reference normal alone");
+        let tilted = |deg: f64| {
+            let a = deg.to_radians();
+            DVec3::new(a.sin(), 0.0, a.cos())
+        };
+        l.gate_nrm[v] = tilted(60.0);
+        assert!(valid(&l, q));
+        l.gate_nrm[v] = tilted(100.0);
+        assert!(!valid(&l, q));
+        // on a planar surface the plane's normal is the input's everywhere: not stored
+        l.gate_nrm.clear();
         assert!(valid(&l, q));
     }
 
