@@ -43,7 +43,7 @@
 //!    elimination picks the ones to split. The system is solvable exactly when some set of
 //!    curve node-count changes makes every region even, and `--parity error` reports the
 //!    same plan. The rest is a T-join with T = the odd regions, found with the fewest
-//!    splits: a
+//!    splits (each group costs one split, more on a strip it would spoil, below): a
 //!    minimum-cost perfect matching ([`crate::matching`]) pairs the odd regions with each
 //!    other (cost = shortest-path length in the region graph) or with the ground (each odd
 //!    region has a ground twin at its distance to the nearest outer-boundary group; twins pair
@@ -76,9 +76,12 @@
 //!    two chosen groups gets their segments on either side of one interior edge, and that
 //!    edge is flipped after the splits to join the two new nodes, adding a column of
 //!    alternating triangles that pairs into sound quads whichever way the strip is matched
-//!    (`parity::column`); an odd path flipped by one group gets the segment (of any group
-//!    flipping the same regions) whose split gives the path's one matching the best worst
-//!    quad. Each segment is split at its
+//!    (`parity::column`); an odd path or closed band flipped by one group gets the segment
+//!    (of any group flipping the same regions) whose split gives the strip's forced matching
+//!    (on a band, the one of its two alternations that keeps the split's halves apart) the
+//!    best worst quad, and the T-join counts a group whose best split there still leaves a
+//!    quad that is not valid as 2.5 splits (1.5 when under η 0.2), so it takes another
+//!    curve when one is as near. Each segment is split at its
 //!    chord midpoint (so planar areas are unchanged), parametric coordinates
 //!    interpolated; the new node gets tag `max + 1` and is classified on the curve (appended
 //!    to its node block), or on the first flipped surface when no curve is known. Every

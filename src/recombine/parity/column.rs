@@ -6,7 +6,9 @@
 //! the new node. Instead, the two segments are taken on opposite sides of one interior edge
 //! `b`–`c` of the strip, and after the splits that edge is flipped to join the two new nodes:
 //! the strip gains a column of alternating triangles, which pairs into sound quads whichever
-//! way the rest of the strip is matched.
+//! way the rest of the strip is matched ([`columns`]). An odd strip flipped once gets the
+//! split that its forced matching pairs best ([`place_single_splits`]), and the T-join
+//! prices curves whose every split spoils an odd strip above one split ([`group_costs`]).
 
 use super::*;
 
@@ -130,13 +132,13 @@ pub(super) fn place_single_splits(
     for (r, g) in regions {
         let wi = offset.partition_point(|&o| o <= r) - 1;
         let w = &work[wi];
-        let Some(path) = path_order(w, r - offset[wi]) else {
+        let Some((path, closed)) = strip_order(w, r - offset[wi]) else {
             continue;
         };
         let scores = worst.entry(g).or_default();
         // any plain group flipping the same regions will do as well as `g`
         let same = |h: usize| h == g || (list[h].sig == list[g].sig && plain(list, h));
-        for (key, eta) in split_scores(w, nodes, &path, |key| {
+        for (key, eta) in split_scores(w, nodes, &path, closed, |key| {
             segment(segments, key).is_some_and(|(h, _)| same(h))
         }) {
             let e = scores.entry(key).or_insert(f64::INFINITY);
@@ -169,11 +171,10 @@ pub(super) fn place_single_splits(
     }
 }
 
-/// The triangles of region `local` of `w` in the order of the region's dual path, from
-/// one end. `None` when the region is not a strip whose triangles form one path (a
-/// triangle with three neighbours, or a closed band, whose cycle has two perfect
-/// matchings, so the matching chooses where a split's halves go).
-fn path_order(w: &SurfaceWork, local: u32) -> Option<Vec<usize>> {
+/// The triangles of region `local` of `w` in the order of the region's dual path (from one
+/// end) or cycle (a closed band), and whether it closes. `None` when the region is not a
+/// strip whose triangles form one path or one cycle (a triangle with three neighbours).
+fn strip_order(w: &SurfaceWork, local: u32) -> Option<(Vec<usize>, bool)> {
     let topo = &w.topo;
     let nbrs = |t: usize| {
         topo.nbr[3 * t..3 * t + 3]
@@ -182,45 +183,70 @@ fn path_order(w: &SurfaceWork, local: u32) -> Option<Vec<usize>> {
             .map(|&u| u as usize)
     };
     let mut count = 0;
-    let mut end = None;
+    let (mut end, mut any) = (None, None);
     for t in (0..topo.len()).filter(|&t| w.region[t] == local) {
         count += 1;
+        any = any.or(Some(t));
         match nbrs(t).count() {
             3 => return None,
             0 | 1 if end.is_none() => end = Some(t),
             _ => {}
         }
     }
-    let mut order = vec![end?];
+    let start = end.or(any)?;
+    let mut order = vec![start];
     let mut prev = usize::MAX;
+    let mut closed = false;
     while let Some(next) = nbrs(order[order.len() - 1]).find(|&u| u != prev) {
+        if next == start && end.is_none() && order.len() > 2 {
+            closed = true;
+            break;
+        }
         if order.len() >= count {
             return None;
         }
         prev = order[order.len() - 1];
         order.push(next);
     }
-    (order.len() == count).then_some(order)
+    (order.len() == count && (closed || end.is_some())).then_some((order, closed))
 }
+
+/// Longest closed band whose splits [`split_scores`] weighs (each weighing walks the band).
+const BAND_MAX: usize = 2000;
 
 /// For each wall segment accepted by `wanted` on a triangle of the odd path `path`, the
 /// worst η (eq. 3, signed) of the path's one perfect matching once that segment is split:
 /// the pairs before the split triangle, the two quads its halves make with their
 /// neighbours, the pairs after it. A split triangle with an even number of triangles
-/// before it scores −1 (its halves are paired together, flat at the new node).
+/// before it scores −1 (its halves are paired together, flat at the new node). On a
+/// `closed` band (an odd cycle, at most [`BAND_MAX`] triangles) the split makes an even
+/// cycle, whose two perfect matchings are its two alternations: the one that keeps the
+/// halves apart is weighed.
 fn split_scores(
     w: &SurfaceWork,
     nodes: &NodeTable,
     path: &[usize],
+    closed: bool,
     wanted: impl Fn(u64) -> bool,
 ) -> Vec<(u64, f64)> {
     let n = path.len();
-    if n.is_multiple_of(2) {
+    if n.is_multiple_of(2) || (closed && n > BAND_MAX) {
         return Vec::new();
     }
     let tri = |k: usize| w.topo.tris[path[k]];
     let at = |v: u32| nodes.coords[v as usize];
-    let pair = |k: usize| pair_eta(&tri(k).map(|v| (v, at(v))), &tri(k + 1).map(|v| (v, at(v))));
+    let pair = |k: usize| {
+        pair_eta(
+            &tri(k).map(|v| (v, at(v))),
+            &tri((k + 1) % n).map(|v| (v, at(v))),
+        )
+    };
+    // on a band: the pair of each triangle with the next one round it
+    let round: Vec<f64> = if closed {
+        (0..n).map(pair).collect()
+    } else {
+        Vec::new()
+    };
     // before[j]: worst of the pairs (0,1) … (2j−2, 2j−1); after[j]: worst of the pairs
     // (2j+1, 2j+2) … (n−2, n−1)
     let mut before = vec![f64::INFINITY; n / 2 + 1];
@@ -243,15 +269,15 @@ fn split_scores(
             if !wanted(key) {
                 continue;
             }
-            if i % 2 == 0 {
+            if i % 2 == 0 && !closed {
                 out.push((key, -1.0));
                 continue;
             }
             // the halves (x, m, z) and (m, y, z), m a node of its own
             let m = (u32::MAX, 0.5 * (at(x) + at(y)));
             let halves = [[(x, at(x)), m, (z, at(z))], [m, (y, at(y)), (z, at(z))]];
-            let prev = tri(i - 1).map(|v| (v, at(v)));
-            let next = tri(i + 1).map(|v| (v, at(v)));
+            let prev = tri((i + n - 1) % n).map(|v| (v, at(v)));
+            let next = tri((i + 1) % n).map(|v| (v, at(v)));
             let near = |h: &[(u32, DVec3); 3], o: &[(u32, DVec3); 3]| {
                 h.iter().filter(|a| o.iter().any(|b| b.0 == a.0)).count() == 2
             };
@@ -260,10 +286,15 @@ fn split_scores(
             } else {
                 (halves[1], halves[0])
             };
-            let eta = before[i / 2]
-                .min(after[i / 2 + 1])
-                .min(pair_eta(&prev, &ha))
-                .min(pair_eta(&hb, &next));
+            let rest = if closed {
+                // the pairs (i + 2, i + 3), (i + 4, i + 5), … round the band to i − 1
+                (0..(n - 3) / 2)
+                    .map(|s| round[(i + 2 + 2 * s) % n])
+                    .fold(f64::INFINITY, f64::min)
+            } else {
+                before[i / 2].min(after[i / 2 + 1])
+            };
+            let eta = rest.min(pair_eta(&prev, &ha)).min(pair_eta(&hb, &next));
             out.push((key, eta));
         }
     }
@@ -286,6 +317,69 @@ fn pair_eta(a: &[(u32, DVec3); 3], b: &[(u32, DVec3); 3]) -> f64 {
         }
     }
     -1.0
+}
+
+/// What one split costs in the parity plan's T-join ([`group_costs`]).
+pub(super) const SPLIT_COST: i64 = 2;
+
+/// What a split costs on top of [`SPLIT_COST`] when it lands on an odd strip where every
+/// segment of its group leaves the strip's forced matching a quad that is not valid (η
+/// below 0): the plan then takes a path one split longer to split a better curve.
+const INVALID_STRIP_COST: i64 = 3;
+
+/// What a split costs on top of [`SPLIT_COST`] when the best its group can do on an odd
+/// strip is a worst quad under [`STRIP_ETA`] (but valid).
+const POOR_STRIP_COST: i64 = 1;
+
+/// The worst quad η below which a split on an odd strip counts as poor ([`group_costs`]).
+const STRIP_ETA: f64 = 0.2;
+
+/// The T-join cost of each group of `list`: [`SPLIT_COST`], plus [`INVALID_STRIP_COST`] or
+/// [`POOR_STRIP_COST`] when the group flips an odd strip (a path or a closed band, see
+/// [`place_single_splits`]) on which none of its plain segments gives the strip's forced
+/// matching a valid worst quad, or one of at least [`STRIP_ETA`]. So between two curves of
+/// an odd strip, such as the inner and outer circle of a coarse annulus, the plan splits
+/// the one whose split lets the strip pair into sound quads.
+pub(super) fn group_costs(
+    work: &[SurfaceWork],
+    offset: &[u32],
+    nodes: &NodeTable,
+    list: &[Group],
+    segments: &[Segment],
+    odd_in: &[bool],
+) -> Vec<i64> {
+    let mut cost = vec![SPLIT_COST; list.len()];
+    let mut best: HashMap<usize, f64> = HashMap::new();
+    for (r, _) in odd_in.iter().enumerate().filter(|x| *x.1) {
+        let r = r as u32;
+        let wi = offset.partition_point(|&o| o <= r) - 1;
+        let w = &work[wi];
+        let Some((path, closed)) = strip_order(w, r - offset[wi]) else {
+            continue;
+        };
+        let scores = split_scores(w, nodes, &path, closed, |key| {
+            segment(segments, key).is_some_and(|(g, _)| plain(list, g))
+        });
+        let mut here: HashMap<usize, f64> = HashMap::new();
+        for (key, eta) in scores {
+            if let Some((g, _)) = segment(segments, key) {
+                let e = here.entry(g).or_insert(f64::NEG_INFINITY);
+                *e = e.max(eta);
+            }
+        }
+        for (g, eta) in here {
+            let e = best.entry(g).or_insert(f64::INFINITY);
+            *e = e.min(eta);
+        }
+    }
+    for (g, eta) in best {
+        if eta < 0.0 {
+            cost[g] += INVALID_STRIP_COST;
+        } else if eta < STRIP_ETA {
+            cost[g] += POOR_STRIP_COST;
+        }
+    }
+    cost
 }
 
 /// True when group `g` is a plain segment group: no periodic images, no quad chord.

@@ -183,6 +183,26 @@ mod tests {
     }
 
     #[test]
+    fn the_t_join_takes_the_cheaper_path_and_the_fewest_splits_at_equal_costs() {
+        // odd regions 0 and 1, joined directly by group 0 and through region 2 by groups 1
+        // and 2; region 3 is the ground (no group reaches it)
+        let adj: Vec<Vec<(u32, usize)>> = vec![
+            vec![(1, 0), (2, 1)],
+            vec![(0, 0), (2, 2)],
+            vec![(0, 1), (1, 2)],
+            vec![],
+        ];
+        let sorted = |mut v: Vec<usize>| {
+            v.sort_unstable();
+            v
+        };
+        let equal = min_tjoin(&adj, &[0, 1], 3, &[2, 2, 2]).map(sorted);
+        assert_eq!(equal, Some(vec![0]));
+        let dear = min_tjoin(&adj, &[0, 1], 3, &[5, 2, 2]).map(sorted);
+        assert_eq!(dear, Some(vec![1, 2]));
+    }
+
+    #[test]
     fn gf2_solve_handles_three_way_columns() {
         // rows: 3 components; columns flip {0,1,2} and {0,1}: only their sum flips {2}
         let cols = vec![vec![0, 1, 2], vec![0, 1]];

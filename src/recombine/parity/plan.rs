@@ -168,7 +168,8 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork], avoid: 
         }
     }
     let odd_in: Vec<bool> = size.iter().map(|s| s % 2 == 1).collect();
-    let (mut chosen, mut unsolved_ids) = solve_groups(&list, &odd_in);
+    let mut cost = column::group_costs(work, &offset, nodes, &list, &segments, &odd_in);
+    let (mut chosen, mut unsolved_ids) = solve_groups(&list, &odd_in, &cost);
     // a mixed surface left odd is retriangulated and recombined whole (see `recombine`),
     // which gives better quads than a chord through its own quads; chords are for triangle
     // surfaces bordered by other surfaces' quads (structured `Layers`/`Recombine` faces)
@@ -230,7 +231,8 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork], avoid: 
                 }
             }
         }
-        (chosen, unsolved_ids) = solve_groups(&list, &odd_in);
+        cost.resize(list.len(), column::SPLIT_COST);
+        (chosen, unsolved_ids) = solve_groups(&list, &odd_in, &cost);
     }
     let mut touched = vec![false; nr];
     for g in &list {

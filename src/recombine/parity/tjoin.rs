@@ -77,12 +77,19 @@ pub(super) fn tree_tjoin(
     (chosen, unsolved)
 }
 
-/// Minimum T-join (fewest splits): the odd regions are paired, or paired with the ground, by
-/// a minimum-cost perfect matching on shortest-path distances in the region graph
-/// (each odd region `i` has a ground twin `K + i` joined to it at its distance to the ground;
-/// twins are joined to each other at cost 0), then the groups along each pair's shortest path
-/// are chosen. `None` when there are too many odd regions or no pairing exists.
-pub(super) fn min_tjoin(adj: &[Vec<(u32, usize)>], odd: &[u32], ground: u32) -> Option<Vec<usize>> {
+/// Minimum T-join (cheapest splits): the odd regions are paired, or paired with the
+/// ground, by a minimum-cost perfect matching on shortest-path distances in the region
+/// graph, each group costing `cost[g]` (each odd region `i` has a ground twin `K + i` joined
+/// to it at its distance to the ground; twins are joined to each other at cost 0), then the
+/// groups along each pair's shortest path are chosen. Among paths of equal cost the first
+/// found in breadth-first order is taken (with equal costs, the fewest splits and the
+/// breadth-first tree). `None` when there are too many odd regions or no pairing exists.
+pub(super) fn min_tjoin(
+    adj: &[Vec<(u32, usize)>],
+    odd: &[u32],
+    ground: u32,
+    cost: &[i64],
+) -> Option<Vec<usize>> {
     let k = odd.len();
     let nr = adj.len();
     if k == 0 {
@@ -91,37 +98,59 @@ pub(super) fn min_tjoin(adj: &[Vec<(u32, usize)>], odd: &[u32], ground: u32) -> 
     if k > 1500 {
         return None;
     }
-    // BFS from each odd region over region-region edges (not through the ground)
-    let bfs = |src: u32| -> (Vec<u32>, Vec<(u32, usize)>, Vec<u32>) {
-        let mut dist = vec![NONE; nr];
+    // Dijkstra from each odd region over region-region edges (not through the ground),
+    // ties popped in the order found
+    let search = |src: u32| -> (Vec<i64>, Vec<(u32, usize)>, Vec<u32>) {
+        let mut dist = vec![i64::MAX; nr];
         let mut parent = vec![(NONE, 0usize); nr];
-        let mut order = vec![src];
+        let mut order = Vec::new();
+        let mut heap = std::collections::BinaryHeap::new();
+        let mut seq = 0u64;
         dist[src as usize] = 0;
-        let mut q = 0;
-        while q < order.len() {
-            let u = order[q];
-            q += 1;
+        heap.push(std::cmp::Reverse((0i64, seq, src)));
+        while let Some(std::cmp::Reverse((d, _, u))) = heap.pop() {
+            if d > dist[u as usize] {
+                continue;
+            }
+            order.push(u);
             for &(v, g) in &adj[u as usize] {
-                if v != ground && dist[v as usize] == NONE {
-                    dist[v as usize] = dist[u as usize] + 1;
+                let nd = d + cost[g];
+                if v != ground && nd < dist[v as usize] {
+                    dist[v as usize] = nd;
                     parent[v as usize] = (u, g);
-                    order.push(v);
+                    seq += 1;
+                    heap.push(std::cmp::Reverse((nd, seq, v)));
                 }
             }
         }
         (dist, parent, order)
     };
-    let ground_group = |r: u32| adj[r as usize].iter().find(|e| e.0 == ground).map(|e| e.1);
+    // the cheapest group joining region `r` to the ground (the first of equal ones)
+    let ground_group = |r: u32| {
+        adj[r as usize]
+            .iter()
+            .filter(|e| e.0 == ground)
+            .min_by_key(|e| cost[e.1])
+            .map(|e| e.1)
+    };
+    // the region where the path to the ground leaves the graph: least distance plus
+    // ground group, the first in search order of equal ones
+    let exit = |dist: &[i64], order: &[u32]| {
+        order
+            .iter()
+            .filter_map(|&r| ground_group(r).map(|g| (dist[r as usize] + cost[g], r, g)))
+            .min_by_key(|x| x.0)
+    };
     let mut edges: Vec<(u32, u32, i64)> = Vec::new();
     for (i, &src) in odd.iter().enumerate() {
-        let (dist, _, order) = bfs(src);
+        let (dist, _, order) = search(src);
         for (j, &dst) in odd.iter().enumerate().skip(i + 1) {
-            if dist[dst as usize] != NONE {
-                edges.push((i as u32, j as u32, dist[dst as usize] as i64));
+            if dist[dst as usize] != i64::MAX {
+                edges.push((i as u32, j as u32, dist[dst as usize]));
             }
         }
-        if let Some(r) = order.iter().find(|&&r| ground_group(r).is_some()) {
-            edges.push((i as u32, (k + i) as u32, dist[*r as usize] as i64 + 1));
+        if let Some((d, _, _)) = exit(&dist, &order) {
+            edges.push((i as u32, (k + i) as u32, d));
         }
         for j in i + 1..k {
             edges.push(((k + i) as u32, (k + j) as u32, 0));
@@ -134,12 +163,12 @@ pub(super) fn min_tjoin(adj: &[Vec<(u32, usize)>], odd: &[u32], ground: u32) -> 
         if mate < i {
             continue;
         }
-        let (_, parent, order) = bfs(src);
+        let (dist, parent, order) = search(src);
         let end = if mate < k {
             odd[mate]
         } else {
-            let r = *order.iter().find(|&&r| ground_group(r).is_some())?;
-            chosen.push(ground_group(r)?);
+            let (_, r, g) = exit(&dist, &order)?;
+            chosen.push(g);
             r
         };
         let mut x = end;
@@ -169,7 +198,11 @@ pub(super) fn min_tjoin(adj: &[Vec<(u32, usize)>], odd: &[u32], ground: u32) -> 
 /// a small GF(2) system (rows: ungrounded components, columns: such groups), solved by
 /// Gaussian elimination, picks the ones to split; their flips are applied, and the region
 /// graph's minimum T-join fixes the rest with the fewest splits.
-pub(crate) fn solve_groups(list: &[Group], odd_in: &[bool]) -> (Vec<usize>, Vec<u32>) {
+pub(crate) fn solve_groups(
+    list: &[Group],
+    odd_in: &[bool],
+    cost: &[i64],
+) -> (Vec<usize>, Vec<u32>) {
     let nr = odd_in.len();
     let ground = nr as u32;
     // components of the region graph
@@ -271,7 +304,7 @@ pub(crate) fn solve_groups(list: &[Group], odd_in: &[bool]) -> (Vec<usize>, Vec<
         }
     }
     let odd_ids: Vec<u32> = (0..nr as u32).filter(|&r| odd[r as usize]).collect();
-    match min_tjoin(&adj, &odd_ids, ground) {
+    match min_tjoin(&adj, &odd_ids, ground, cost) {
         Some(c) => chosen.extend(c),
         None => {
             let (c, u) = tree_tjoin(&adj, &odd, ground);
