@@ -429,51 +429,11 @@ fn an_avoided_segment_gives_way_to_another_of_the_same_surface() {
     check_invariants(&fan_mesh, &m).unwrap();
 }
 
-/// A box `[0,1] × [0,1] × [0,h]` as surfaces 1..6 (the faces of [`cube`]'s order), with
-/// n × n cells on the two big faces and one row of cells on the four sides: each side is a
-/// strip, every triangle of it has an edge on the box's edges.
+/// A box `[0,1] × [0,1] × [0,h]` with n × n cells on the two big faces (1 and 2) and one
+/// row of cells on the four sides: each side is a strip, every triangle of it has an edge
+/// on the box's edges.
 fn thin_box(n: usize, h: f64) -> blossomquad::mesh::Mesh {
-    let mut b = Builder::new();
-    for s in 1..=6 {
-        b.entity(2, s, &[], &[s]);
-    }
-    let mut ids: std::collections::HashMap<[i64; 3], u64> = Default::default();
-    let faces: [([f64; 3], [f64; 3], [f64; 3]); 6] = [
-        ([0., 0., 0.], [0., 1., 0.], [1., 0., 0.]),
-        ([0., 0., 1.], [1., 0., 0.], [0., 1., 0.]),
-        ([0., 0., 0.], [1., 0., 0.], [0., 0., 1.]),
-        ([0., 1., 0.], [0., 0., 1.], [1., 0., 0.]),
-        ([0., 0., 0.], [0., 0., 1.], [0., 1., 0.]),
-        ([1., 0., 0.], [0., 1., 0.], [0., 0., 1.]),
-    ];
-    for (f, (o, u, v)) in faces.iter().enumerate() {
-        let s = f as i32 + 1;
-        let cells = |axis: &[f64; 3]| if axis[2] != 0.0 { 1 } else { n };
-        let (nu, nv) = (cells(u), cells(v));
-        let mut grid = vec![vec![0u64; nv + 1]; nu + 1];
-        for (i, row) in grid.iter_mut().enumerate() {
-            for (j, cell) in row.iter_mut().enumerate() {
-                let mut p = [0, 1, 2]
-                    .map(|k| o[k] + u[k] * i as f64 / nu as f64 + v[k] * j as f64 / nv as f64);
-                p[2] *= h;
-                let key = p.map(|x| (x * 1e6).round() as i64);
-                *cell = *ids.entry(key).or_insert_with(|| b.node(2, s, p));
-            }
-        }
-        for i in 0..nu {
-            for j in 0..nv {
-                let (a, bb, c, d) = (
-                    grid[i][j],
-                    grid[i + 1][j],
-                    grid[i + 1][j + 1],
-                    grid[i][j + 1],
-                );
-                b.tri(s, [a, bb, c]);
-                b.tri(s, [a, c, d]);
-            }
-        }
-    }
-    b.mesh
+    cuboid(|axis| if axis[2] != 0.0 { 1 } else { n }, h, false)
 }
 
 /// Largest corner angle (degrees, in 3D) of the quads of surface `s`.

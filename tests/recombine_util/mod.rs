@@ -238,10 +238,19 @@ pub fn fan(b: &mut Builder, ent: i32, centre: [f64; 2], k: usize) -> Vec<u64> {
 }
 
 /// Closed cube surface `[0,1]^3`, 6 surfaces (tags 1..6), each face an n × n grid split
-/// into triangles, outward oriented, nodes shared along the cube edges. No line elements:
-/// curves only exist as node classification when `classify` is set (else every node sits
-/// on its first face, as an MSH 2.2 file without curve data).
+/// into triangles with alternating diagonals, outward oriented, nodes shared along the
+/// cube edges. No line elements and no curve classification: every node sits on its first
+/// face, as in an MSH 2.2 file without curve data.
 pub fn cube(n: usize) -> Mesh {
+    cuboid(|_| n, 1.0, true)
+}
+
+/// A box `[0,1] × [0,1] × [0,h]` as surfaces 1..6 (faces z = 0, z = h, y = 0, y = 1,
+/// x = 0, x = 1, each with its outward normal), nodes classified on the first face that
+/// has them, no line elements. `cells(axis)` gives the number of cells along a face's axis
+/// (`axis` the unit vector of the unit cube); each cell is split by a diagonal, alternating
+/// between the two when `alternate`.
+pub fn cuboid(cells: impl Fn(&[f64; 3]) -> usize, h: f64, alternate: bool) -> Mesh {
     let mut b = Builder::new();
     for s in 1..=6 {
         b.entity(2, s, &[], &[s]);
@@ -258,24 +267,26 @@ pub fn cube(n: usize) -> Mesh {
     ];
     for (f, (o, u, v)) in faces.iter().enumerate() {
         let s = f as i32 + 1;
-        let mut grid = vec![vec![0u64; n + 1]; n + 1];
+        let (nu, nv) = (cells(u), cells(v));
+        let mut grid = vec![vec![0u64; nv + 1]; nu + 1];
         for (i, row) in grid.iter_mut().enumerate() {
             for (j, cell) in row.iter_mut().enumerate() {
-                let p = [0, 1, 2]
-                    .map(|k| o[k] + u[k] * i as f64 / n as f64 + v[k] * j as f64 / n as f64);
+                let mut p = [0, 1, 2]
+                    .map(|k| o[k] + u[k] * i as f64 / nu as f64 + v[k] * j as f64 / nv as f64);
+                p[2] *= h;
                 let key = p.map(|x| (x * 1e6).round() as i64);
                 *cell = *ids.entry(key).or_insert_with(|| b.node(2, s, p));
             }
         }
-        for i in 0..n {
-            for j in 0..n {
+        for i in 0..nu {
+            for j in 0..nv {
                 let (a, bb, c, d) = (
                     grid[i][j],
                     grid[i + 1][j],
                     grid[i + 1][j + 1],
                     grid[i][j + 1],
                 );
-                if (i + j) % 2 == 0 {
+                if !alternate || (i + j) % 2 == 0 {
                     b.tri(s, [a, bb, c]);
                     b.tri(s, [a, c, d]);
                 } else {
