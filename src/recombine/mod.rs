@@ -25,77 +25,10 @@
 //!    curve in a file with neither line elements nor curve node classification cannot be
 //!    seen; the graph then crosses it, which keeps the mesh valid.) The connected components
 //!    of the graph are the surface's *regions*.
-//! 3. **Parity** (eq. 5–6). Every region needs an even number of triangles. Splitting a wall
-//!    segment at its midpoint splits the adjacent triangle on each side, so it flips the
-//!    parity of every region that has an odd number of triangles on that segment: a segment
-//!    on the outer boundary flips its one region, an interface between two surfaces (or two
-//!    regions cut by an embedded curve) flips both, a seam or a dangling embedded curve with
-//!    the same region on both sides flips nothing. Segments are grouped by (curve, flipped
-//!    regions) — the curve from the line element, or from node classification, or none for
-//!    files without curve data — and the choice of groups is a GF(2) system over the
-//!    group–region incidence (`parity::solve_groups`). Groups flipping one or two regions
-//!    are the edges of a region graph (a one-region group joins its region to a "ground"
-//!    node). Inside one connected component of that graph any even set of odd regions can
-//!    be fixed along paths, and any set when the component holds the ground, so the only
-//!    constraint left is one parity bit per ungrounded component; groups flipping three or
-//!    more regions (curves shared by 3+ surfaces) change those bits, and a small GF(2)
-//!    system (rows: ungrounded components, columns: those groups) solved by Gaussian
-//!    elimination picks the ones to split. The system is solvable exactly when some set of
-//!    curve node-count changes makes every region even, and `--parity error` reports the
-//!    same plan. The rest is a T-join with T = the odd regions, found with the fewest
-//!    splits (each group costs one split, more on a strip it would spoil, below): a
-//!    minimum-cost perfect matching ([`crate::matching`]) pairs the odd regions with each
-//!    other (cost = shortest-path length in the region graph) or with the ground (each odd
-//!    region has a ground twin at its distance to the nearest outer-boundary group; twins pair
-//!    with each other at cost 0), and the groups along each pair's shortest path are split
-//!    (a group used twice cancels). Two odd surfaces sharing a curve are fixed by one split
-//!    of that curve. (Beyond 1500 odd regions, or when no pairing exists, a spanning-forest
-//!    T-join is used instead.)
-//!    A segment of a periodic curve is split together with its images on every curve linked
-//!    to it (through chains of `$Periodic` curve links), at their chord midpoints (which
-//!    correspond through an affine transform), and the new node pairs are added to the curve
-//!    links and to the surface links that pair the segments' ends; the group flips the
-//!    regions of all those segments. When the segment's curve is not known (MSH 2.2 without
-//!    line elements, where `$Periodic` has surface links only), a segment that is an edge
-//!    of a periodic slave or master surface is split with its images through the surface
-//!    links (which list the boundary nodes too) the same way; a segment whose image is not
-//!    an edge there is not split. A segment bordered by a quad (of another surface:
-//!    `Layers`/`Recombine` faces) is split through the quad chord that starts there: every
-//!    edge reached by stepping to the opposite edge of each quad is split at its midpoint,
-//!    each quad of the chord becomes two quads, and the triangles at the chord's far end
-//!    are split like any parity split (chords that would cross a quad both ways or touch a
-//!    periodic curve are not used). Chords are tried only when the plain splits cannot fix
-//!    every region and the odd surface has no quads of its own (a mixed surface is
-//!    retriangulated instead, below). In each chosen group the longest segment is
-//!    split — preferring segments whose triangles are not *ears* nor next to one (an ear has
-//!    two wall edges: a split
-//!    half would have the other half as its only neighbour, forcing a 180° "quad"). On a
-//!    *strip* (a region whose every triangle has a wall edge, like the narrow face between
-//!    the two big faces of a thin plate) the place decides the quads, since the strip's
-//!    triangles form a path or a band with one or two perfect matchings: a strip flipped by
-//!    two chosen groups gets their segments on either side of one interior edge, and that
-//!    edge is flipped after the splits to join the two new nodes, adding a column of
-//!    alternating triangles that pairs into sound quads whichever way the strip is matched
-//!    (`parity::column`); an odd path or closed band flipped by one group gets the segment
-//!    (of any group flipping the same regions) whose split gives the strip's forced matching
-//!    (on a band, the one of its two alternations that keeps the split's halves apart) the
-//!    best worst quad, and the T-join counts a group whose best split there still leaves a
-//!    quad that is not valid as 2.5 splits (1.5 when under η 0.2), so it takes another
-//!    curve when one is as near. Each segment is split at its
-//!    chord midpoint (so planar areas are unchanged), parametric coordinates
-//!    interpolated; the new node gets tag `max + 1` and is classified on the curve (appended
-//!    to its node block), or on the first flipped surface when no curve is known. Every
-//!    triangle and 2-node line element holding the segment is split in two: the first piece
-//!    keeps the element tag, the second gets a fresh tag above the maximum. With
-//!    [`ParityMode::Error`] nothing is changed and [`RecombineError::OddParity`] lists the odd
-//!    surfaces, the curves to fix and how to fix them in the .geo.
-//!
-//!    *Mixed surfaces.* Quads already present are kept and only the triangles recombined.
-//!    When a surface's triangles are enclosed by quads so that they cannot be made even (no
-//!    splittable segment) or have no perfect matching — typically the isolated triangles a
-//!    partial recombination leaves — that surface's quads are split into two triangles each
-//!    (shorter diagonal, orientation kept, the first half keeps the quad's tag) and the whole
-//!    surface is recombined; [`RecombineReport::retriangulated`] and the log say so.
+//! 3. **Parity** (eq. 5–6). Every region needs an even number of triangles: odd regions are
+//!    made even by splitting wall segments (a T-join over the groups of segments that flip
+//!    the same regions, splits placed where thin strips still pair soundly, periodic images
+//!    and quad chords split along); the design is in the documentation of `parity`.
 //! 4. **Graph** (section 4.2). Cost of a graph edge = `1 − η_s` of the quad formed by its two
 //!    triangles (eq. 4), η_s the signed quality of [`crate::quality::eta_signed`] with angles
 //!    measured in 3D about the sum of the two triangles' normals, so a non-convex or folded
