@@ -153,10 +153,13 @@ pub(super) fn place_single_splits(
             .get(&edge_key(best.3, best.4))
             .copied()
             .unwrap_or(f64::NEG_INFINITY);
-        let pick = scores
+        // in key order, so that of equal candidates the same one is taken on every run
+        let mut candidates: Vec<(u64, f64)> = scores.into_iter().collect();
+        candidates.sort_unstable_by_key(|c| c.0);
+        let pick = candidates
             .iter()
-            .filter(|&(_, &eta)| eta > now + 1e-9)
-            .filter_map(|(&key, &eta)| {
+            .filter(|&&(_, eta)| eta > now + 1e-9)
+            .filter_map(|&(key, eta)| {
                 let p = segments.binary_search_by_key(&key, |s| s.key).ok()?;
                 let sgm = segments[p];
                 let (a, b) = ((key >> 32) as u32, key as u32);
