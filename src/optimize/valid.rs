@@ -84,26 +84,26 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
         let c = a.cross(b);
         // n_len times the sine about the unit normal (times |a||b|)
         let s = normal.dot(c);
+        let cos = a.dot(b).abs();
         // NaN fails too
-        if !(s > 0.0 && a.dot(b).abs() * n_len <= MAX_COT * s) {
+        if !(s > 0.0 && cos * n_len <= MAX_COT * s) {
             return false;
         }
         // the reference triangulation's normals at the quad's nodes (the gate's at input
         // nodes)
-        if !l.gate_nrm.is_empty() && !turns_about_gate_normals(l, nodes, a, b, c) {
+        if !l.gate_nrm.is_empty() && !turns_about_gate_normals(l, nodes, cos, c) {
             return false;
         }
     }
     l.planar || own_jacobian_ok(&p)
 }
 
-/// True when the corner between edges `a` and `b` (`c` = a × b) is inside the valid range
-/// (sine positive, |cot| at most [`MAX_COT`]) about the reference triangulation's normal at
-/// every node of `nodes` that has one ([`Local::gate_nrm`]): the validity gate measures
+/// True when the corner between edges `a` and `b` (`cos` = |a · b|, `c` = a × b) is inside
+/// the valid range (sine positive, |cot| at most [`MAX_COT`]) about the reference
+/// triangulation's normal at every node of `nodes` that has one ([`Local::gate_nrm`]): the validity gate measures
 /// each corner about those normals at input nodes, and on a coarse curved face they can
 /// turn away from the quad's reference normal.
-fn turns_about_gate_normals(l: &Local, nodes: &[u32; 4], a: DVec3, b: DVec3, c: DVec3) -> bool {
-    let cos = a.dot(b).abs();
+fn turns_about_gate_normals(l: &Local, nodes: &[u32; 4], cos: f64, c: DVec3) -> bool {
     nodes.iter().all(|&v| {
         let n = l.gate_nrm[v as usize];
         if n == DVec3::ZERO {

@@ -71,9 +71,7 @@ pub(super) fn columns(
         if used[g1] || used[g2] {
             continue;
         }
-        let wi = offset.partition_point(|&o| o <= r) - 1;
-        let w = &work[wi];
-        let local = r - offset[wi];
+        let (w, local) = region_of(work, offset, r);
         let Some((col, _)) = best_column(w, local, nodes, segments, g1, g2) else {
             continue;
         };
@@ -130,9 +128,8 @@ pub(super) fn place_single_splits(
     // per group: segment key → worst quad over its strips when that segment is split
     let mut worst: HashMap<usize, HashMap<u64, f64>> = HashMap::new();
     for (r, g) in regions {
-        let wi = offset.partition_point(|&o| o <= r) - 1;
-        let w = &work[wi];
-        let Some((path, closed)) = strip_order(w, r - offset[wi]) else {
+        let (w, local) = region_of(work, offset, r);
+        let Some((path, closed)) = strip_order(w, local) else {
             continue;
         };
         let scores = worst.entry(g).or_default();
@@ -250,15 +247,18 @@ fn split_scores(
     } else {
         Vec::new()
     };
-    // before[j]: worst of the pairs (0,1) … (2j−2, 2j−1); after[j]: worst of the pairs
-    // (2j+1, 2j+2) … (n−2, n−1)
-    let mut before = vec![f64::INFINITY; n / 2 + 1];
-    for j in 0..n / 2 {
-        before[j + 1] = before[j].min(pair(2 * j));
-    }
-    let mut after = vec![f64::INFINITY; n / 2 + 1];
-    for j in (0..n / 2).rev() {
-        after[j] = after[j + 1].min(pair(2 * j + 1));
+    // on a path: before[j], the worst of the pairs (0,1) … (2j−2, 2j−1); after[j], the
+    // worst of the pairs (2j+1, 2j+2) … (n−2, n−1)
+    let (mut before, mut after) = (Vec::new(), Vec::new());
+    if !closed {
+        before = vec![f64::INFINITY; n / 2 + 1];
+        for j in 0..n / 2 {
+            before[j + 1] = before[j].min(pair(2 * j));
+        }
+        after = vec![f64::INFINITY; n / 2 + 1];
+        for j in (0..n / 2).rev() {
+            after[j] = after[j + 1].min(pair(2 * j + 1));
+        }
     }
     let mut out = Vec::new();
     for (i, &t) in path.iter().enumerate() {
@@ -355,9 +355,8 @@ pub(super) fn group_costs(
     let mut best: HashMap<usize, f64> = HashMap::new();
     for (r, _) in odd_in.iter().enumerate().filter(|x| *x.1) {
         let r = r as u32;
-        let wi = offset.partition_point(|&o| o <= r) - 1;
-        let w = &work[wi];
-        let Some((path, closed)) = strip_order(w, r - offset[wi]) else {
+        let (w, local) = region_of(work, offset, r);
+        let Some((path, closed)) = strip_order(w, local) else {
             continue;
         };
         let scores = split_scores(w, nodes, &path, closed, |key| {
@@ -383,6 +382,13 @@ pub(super) fn group_costs(
         }
     }
     cost
+}
+
+/// The surface work holding plan region `r` (numbered across surfaces from `offset`, the
+/// first region of each surface), and the region's index within that surface.
+fn region_of<'a>(work: &'a [SurfaceWork], offset: &[u32], r: u32) -> (&'a SurfaceWork, u32) {
+    let wi = offset.partition_point(|&o| o <= r) - 1;
+    (&work[wi], r - offset[wi])
 }
 
 /// True when group `g` is a plain segment group: no periodic images, no quad chord.
