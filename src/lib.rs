@@ -79,6 +79,7 @@ internal! {
 
 mod keysort;
 mod memory;
+mod par;
 mod progress;
 mod reuse;
 mod warning;

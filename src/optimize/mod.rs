@@ -113,7 +113,6 @@ use local::{Local, NONE};
 use reference::{attach_reference, SurfaceReference};
 use schedule::run_surface;
 
-use rayon::prelude::*;
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
 /// Options of [`optimize`].
@@ -335,20 +334,13 @@ pub fn optimize_prepared(
         })
         .collect();
     let refnodes = &refnodes;
-    // speed: the largest surfaces first, each taken by the next idle thread, so that a
-    // large surface does not start last and run alone (each surface's result does not
-    // depend on the order; the results are put back in tag order)
-    let mut jobs: Vec<(usize, Local, Option<SurfaceReference>)> = locals
-        .into_iter()
-        .zip(refs)
-        .enumerate()
-        .map(|(i, (l, r))| (i, l, r))
-        .collect();
-    jobs.sort_by_key(|j| std::cmp::Reverse(j.1.quads.len()));
-    let mut results: Vec<(usize, Local, SurfaceOptimizeReport)> = jobs
-        .into_iter()
-        .par_bridge()
-        .map(|(i, mut l, sref)| {
+    // speed: the largest surfaces first (each surface's result does not depend on the
+    // order; the results come back in tag order)
+    let jobs: Vec<(Local, Option<SurfaceReference>)> = locals.into_iter().zip(refs).collect();
+    let results: Vec<(Local, SurfaceOptimizeReport)> = crate::par::largest_first(
+        jobs,
+        |j| j.0.quads.len(),
+        |(mut l, sref)| {
             let main = sref
                 .as_ref()
                 .map_or(triangles == 0, |r| 2 * r.triangles() >= triangles);
@@ -359,14 +351,13 @@ pub fn optimize_prepared(
             let w = weight(&l);
             let rep = run_surface(&mut l, opts, main, &|k| tick(k as u64 * w, false));
             tick(0, true);
-            (i, l, rep)
-        })
-        .collect();
-    results.sort_unstable_by_key(|r| r.0);
+            (l, rep)
+        },
+    );
     tm.lap("surfaces");
     let mut report = OptimizeReport::default();
     let mut pending = PendingNodes::new(mesh);
-    for (_, l, rep) in results {
+    for (l, rep) in results {
         write_back(mesh, &places, &l, &mut report, &mut pending);
         report.surfaces.push(rep);
     }

@@ -122,7 +122,6 @@ mod write_back;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
-use rayon::prelude::*;
 
 use crate::mesh::{element_dim, etype, ElementBlock, Mesh, NodeTable};
 use crate::profile::StageTimer;
@@ -256,31 +255,23 @@ pub fn recombine(
                 t.emit();
                 t
             });
-            // speed: the largest surfaces first, each taken by the next idle thread, so
-            // that a large surface does not start last and run alone (each surface's result
-            // does not depend on the order; the results are put back in surface order, and
-            // of several errors the first surface's is returned)
-            let mut order: Vec<usize> = (0..work.len()).collect();
-            order.sort_by_key(|&i| std::cmp::Reverse(work[i].topo.len()));
-            let mut results: Vec<(usize, Result<SurfaceResult, RecombineError>)> = order
-                .into_iter()
-                .par_bridge()
-                .map(|i| {
-                    let r = match_surface(
-                        &work[i],
+            // speed: the largest surfaces first (each surface's result does not depend on
+            // the order; the results come back in surface order, and of several errors the
+            // first surface's is returned)
+            let results: Result<Vec<SurfaceResult>, RecombineError> =
+                crate::par::largest_first(work.iter().collect(), |w| w.topo.len(), |w| {
+                    match_surface(
+                        w,
                         coords,
                         split_nodes,
                         priced,
                         n_global,
                         opts,
                         tracker.as_ref(),
-                    );
-                    (i, r)
+                    )
                 })
+                .into_iter()
                 .collect();
-            results.sort_unstable_by_key(|r| r.0);
-            let results: Result<Vec<SurfaceResult>, RecombineError> =
-                results.into_iter().map(|r| r.1).collect();
             if let Some(t) = &tracker {
                 t.emit();
             }
