@@ -152,13 +152,9 @@ pub(super) struct FallbackStart {
     pub(super) splits_only: bool,
 }
 
-/// New quads per input triangle that the repair of the worst quad may not exceed (unless
-/// the result before it did already): 0.5 when every triangle pairs with a neighbour.
-pub(super) const MAX_QUADS_PER_TRIANGLE: f64 = 0.6;
-
-/// Input triangles from which [`MAX_QUADS_PER_TRIANGLE`] binds the worst-quad tries (a
-/// smaller mesh may take up to a quarter more quads than that for a better worst quad).
-pub(super) const COUNT_RULE_FROM: usize = 500;
+/// The element-count rule that the repair of the worst quad keeps, as the recombination's
+/// strips do.
+pub(super) use crate::recombine::{COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE};
 
 /// The quads of `mesh`'s surfaces with η below [`ETA_FLOOR`], as (surface, node tags), and
 /// the worst η of those quads; surfaces in `skip` (sorted: those the input meshed with quads

@@ -7,7 +7,7 @@
 //!    [`RecombineOptions::drop_volumes`] (then they are dropped with a warning; volume entities
 //!    are kept). Surface elements other than tri3/quad4 (tri6, quad9 …) →
 //!    [`RecombineError::UnsupportedSurfaceElements`]. A periodic slave surface (`$Periodic`
-//!    link of dimension 2) is not recombined: after step 8 it gets the image of its master's
+//!    link of dimension 2) is not recombined: after step 9 it gets the image of its master's
 //!    quads (`periodic.rs`); it is refused ([`RecombineError::PeriodicSurface`]) only when
 //!    its triangles are not the image of its master's.
 //! 2. **Topology** (per surface, in parallel). Nodes get dense global `u32` ids; each
@@ -84,11 +84,27 @@
 //!      of `v`, and `v'` is inserted into the edge `{v, a_1}` of `t1` and `{v, a_(k−1)}` of
 //!      `tk`, which become quads sharing the new edge `v v'`. The boundary and the curves are
 //!      untouched, the mesh stays conforming, orientations are kept.
-//! 8. **Write back.** Each surface's tri3 blocks are replaced by one quad4 block (appended to
+//! 8. **Strips** (`strip.rs`; not in the paper). A region whose triangles lie in one row
+//!    between its walls (a path or a cycle of *units*: a triangle with the triangles that
+//!    touch nothing else, such as the two outer triangles of a fan of three at a strip's
+//!    end) has one or two perfect matchings and no node that optimization may move, so a
+//!    poor pair stays poor: a narrow chamfer or fillet face ending in such a fan pairs two
+//!    of its triangles into a quad with a straight corner at the end's middle node. When the
+//!    worst quad of a strip is under η 0.3, a dynamic programme over the strip cuts it into
+//!    cells of one to four consecutive units, each made one quad or two (a hexagon cut
+//!    between opposite vertices), with a *midline*, a new node on each interior edge,
+//!    between two cells of odd triangle counts; it keeps the best worst η, then the fewest
+//!    quads. A plan at least 0.05 better replaces the matching's quads of the strip; the
+//!    plans of all surfaces are taken worst strip first while the quads stay within
+//!    [`MAX_QUADS_PER_TRIANGLE`] of the triangles (a quarter more under
+//!    [`COUNT_RULE_FROM`]). Midline nodes are surface nodes, which optimization moves;
+//!    walls, curves and the other surfaces are untouched.
+//! 9. **Write back.** Each surface's tri3 blocks are replaced by one quad4 block (appended to
 //!    an existing quad4 block of that surface: quads already present are kept). **A quad
 //!    reuses the element tag of one of its triangles** (the first in input order for a plain
-//!    merge; `t1` and `tk` for the two quads of an edge swap or a vertex duplication), so no
-//!    element tag is invented. New nodes get tags above the maximum. Element data sections
+//!    merge; `t1` and `tk` for the two quads of an edge swap or a vertex duplication; a
+//!    triangle of its cell that no other quad takes for a strip's quad), so no element tag
+//!    is invented. New nodes get tags above the maximum. Element data sections
 //!    are invalidated. Then every periodic slave surface's elements are replaced by the image
 //!    of its master's through the `$Periodic` node pairs (`periodic.rs`; each slave quad
 //!    keeps the tag of the slave image of its master quad's triangle; master nodes without a
@@ -115,6 +131,7 @@ mod parity;
 mod periodic;
 mod post;
 mod report;
+mod strip;
 mod surface;
 mod topology;
 mod write_back;
@@ -202,6 +219,7 @@ pub fn recombine(
             // the solvers allocate: the regions, and the surfaces' triangle blocks when
             // nothing can read them again before the write back replaces them
             for w in &mut work {
+                w.strips = strip::strips(w);
                 w.region = Vec::new();
             }
             if !may_reread_triangles(mesh, &work) {
@@ -310,6 +328,7 @@ pub fn recombine(
     }
     let periodic_corr = periodic::correspondence(mesh)?;
     let nodes = NodeTable::new(mesh);
+    choose_strips(&work, &mut results, nodes.coords.len() as u32, &mut report.log);
     write_back(mesh, &nodes, &work, &results);
     drop(nodes);
     let mapped = periodic::map_slaves(mesh, Some(&periodic_corr))?;
@@ -326,8 +345,12 @@ pub fn recombine(
             0 => String::new(),
             k => format!(" (after {k} parity split(s))"),
         };
+        let strips = match s.strips_remeshed {
+            0 => String::new(),
+            k => format!(", {k} strip(s) meshed again with a midline"),
+        };
         report.log.push(format!(
-            "surface {}: {} triangles{after_splits} -> {} quads (cost {}, {} extra edges used, {} edge swaps, {} vertex duplications)",
+            "surface {}: {} triangles{after_splits} -> {} quads (cost {}, {} extra edges used, {} edge swaps, {} vertex duplications{strips})",
             s.surface, s.triangles_in, s.quads_out, s.matching_cost, s.extra_edges_used, s.edge_swaps, s.vertex_duplications
         ));
     }
@@ -339,6 +362,67 @@ pub fn recombine(
     tm.done();
     report.time_total = start.elapsed();
     Ok(report)
+}
+
+/// New quads per input triangle that the recombination's strips meshed again, and the
+/// fallback's worst-quad repairs, may not take a mesh above (unless it was above already):
+/// 0.5 when every triangle pairs with a neighbour.
+pub(crate) const MAX_QUADS_PER_TRIANGLE: f64 = 0.6;
+
+/// Input triangles from which [`MAX_QUADS_PER_TRIANGLE`] binds: a smaller mesh may take up
+/// to a quarter more quads than that for a better worst quad.
+pub(crate) const COUNT_RULE_FROM: usize = 500;
+
+/// Meshes again the strips planned in `results` (see [`strip`]) whose quads were worst
+/// first, as long as the new quads keep the mesh within [`MAX_QUADS_PER_TRIANGLE`] of its
+/// triangles (a quarter more under [`COUNT_RULE_FROM`] triangles); ties in surface order.
+fn choose_strips(
+    work: &[SurfaceWork],
+    results: &mut [SurfaceResult],
+    n_global: u32,
+    log: &mut Vec<String>,
+) {
+    let triangles: usize = results.iter().map(|r| r.report.triangles_in).sum();
+    let quads: usize = results.iter().map(|r| r.faces.quads.len()).sum();
+    let rate = if triangles < COUNT_RULE_FROM {
+        1.25 * MAX_QUADS_PER_TRIANGLE
+    } else {
+        MAX_QUADS_PER_TRIANGLE
+    };
+    let mut budget = ((rate * triangles as f64).floor() as usize).saturating_sub(quads);
+    let mut all: Vec<(usize, usize)> = results
+        .iter()
+        .enumerate()
+        .flat_map(|(s, r)| (0..r.strip_plans.len()).map(move |p| (s, p)))
+        .collect();
+    all.sort_by(|a, b| {
+        let w = |&(s, p): &(usize, usize)| results[s].strip_plans[p].worst_before;
+        w(a).total_cmp(&w(b)).then(a.cmp(b))
+    });
+    let mut chosen: Vec<Vec<usize>> = vec![Vec::new(); results.len()];
+    for (s, p) in all {
+        let extra = results[s].strip_plans[p].extra_quads;
+        if extra <= budget {
+            budget -= extra;
+            chosen[s].push(p);
+        }
+    }
+    for ((r, w), chosen) in results.iter_mut().zip(work).zip(chosen) {
+        let plans = std::mem::take(&mut r.strip_plans);
+        let picked: Vec<&strip::StripPlan> = chosen.iter().map(|&p| &plans[p]).collect();
+        for p in &picked {
+            log.push(format!(
+                "surface {}: a strip of {} triangles meshed again with a midline (worst quad eta {:.3} -> {:.3})",
+                w.tag,
+                w.strips[p.strip].units.iter().map(Vec::len).sum::<usize>(),
+                p.worst_before.max(0.0),
+                p.worst_after
+            ));
+        }
+        strip::apply(&mut r.faces, w.topo.len(), &w.strips, &picked, n_global);
+        r.report.strips_remeshed = picked.len();
+        r.report.quads_out = r.faces.quads.len();
+    }
 }
 
 /// Makes every periodic slave surface the image of its master again (elements and interior

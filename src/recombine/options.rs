@@ -51,6 +51,10 @@ pub struct RecombineOptions {
     /// those of a curved boundary ([`curved_split_halves_cost`](super::curved_split_halves_cost)): the pipeline's fallback
     /// sets it once a quad at a split node was not valid.
     pub flat_halves_out: bool,
+    /// Mesh again the strips (narrow faces whose triangles lie in one row between walls)
+    /// whose matching's quads are poor, in cells and midlines of new nodes (on by default;
+    /// see the recombination's documentation).
+    pub two_row_strips: bool,
     /// Where stage times and matching graphs go (see [`crate::profile`]); `None`: nowhere.
     pub trace: Option<crate::profile::Trace>,
     /// Where the progress of the stages [`crate::progress::Stage::Topology`], [`crate::progress::Stage::Graph`]
@@ -75,6 +79,7 @@ impl Default for RecombineOptions {
             priced_out: Vec::new(),
             parity_avoid: Vec::new(),
             flat_halves_out: false,
+            two_row_strips: true,
             trace: None,
             progress: None,
             repeated_dropped: false,

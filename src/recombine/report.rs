@@ -38,6 +38,9 @@ pub struct SurfaceReport {
     pub edge_swaps: usize,
     /// Vertex duplications done (5.3.2).
     pub vertex_duplications: usize,
+    /// Strips meshed again in cells and midlines (a narrow face whose matching's quads
+    /// were poor; see the recombination's documentation).
+    pub strips_remeshed: usize,
     /// Matching cost in units of 10⁻⁴ (extra edges included).
     pub matching_cost: i64,
     /// Graph edges priced out (by the fallback).

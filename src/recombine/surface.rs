@@ -24,6 +24,9 @@ pub(crate) struct SurfaceWork {
     pub fold: Option<super::topology::Fold>,
     pub region: Vec<u32>,
     pub n_regions: usize,
+    /// The regions that are strips (filled once the regions are final, before they are
+    /// freed; see [`super::strip`]).
+    pub strips: Vec<super::strip::Strip>,
     /// Element tag of each triangle.
     pub elem_tags: Vec<u64>,
     /// MSH 2 partition tags of each triangle, when its block had some; empty when no
@@ -45,6 +48,9 @@ const MORTON_FROM: usize = 1 << 16;
 pub(super) struct SurfaceResult {
     pub faces: post::Faces,
     pub report: SurfaceReport,
+    /// The surface's strips that may be meshed again ([`super::strip`]), for the
+    /// recombination to choose from within the element count.
+    pub strip_plans: Vec<super::strip::StripPlan>,
 }
 
 /// Step 2: every surface's triangles, topology and regions.
@@ -127,6 +133,7 @@ pub(super) fn surface_work(
                 fold,
                 region,
                 n_regions,
+                strips: Vec::new(),
                 elem_tags,
                 partitions,
                 quads_kept,
@@ -230,6 +237,11 @@ pub(super) fn match_surface(
             detail,
         }
     })?;
+    let strip_plans = if opts.two_row_strips {
+        super::strip::plans(&w.topo, &w.strips, coords, &faces, n_global)
+    } else {
+        Vec::new()
+    };
     if let Some(t) = tracker {
         let before = sent.swap(n as u64, Ordering::Relaxed);
         t.matched((n as u64).saturating_sub(before), true);
@@ -245,6 +257,7 @@ pub(super) fn match_surface(
         extra_edges_used: faces.extra_used,
         edge_swaps: faces.swaps,
         vertex_duplications: faces.duplications,
+        strips_remeshed: 0,
         matching_cost: m.cost,
         pairs_priced_out: priced_edges.len(),
         priced_out_used: priced_edges
@@ -255,7 +268,11 @@ pub(super) fn match_surface(
         time_matching,
         time_post: t2.elapsed(),
     };
-    Ok(SurfaceResult { faces, report })
+    Ok(SurfaceResult {
+        faces,
+        report,
+        strip_plans,
+    })
 }
 
 /// Gives every real graph edge of `g` whose quad (the union of its two triangles, as

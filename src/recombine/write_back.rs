@@ -1,10 +1,10 @@
-//! Step 8: the new nodes, then each surface's triangle blocks replaced by its quads.
+//! Step 9: the new nodes, then each surface's triangle blocks replaced by its quads.
 
 use super::parity;
 use super::surface::{SurfaceResult, SurfaceWork};
 use crate::mesh::{etype, ElementBlock, Mesh, NodeTable};
 
-/// Step 8: new nodes, then each surface's triangle blocks replaced by quads.
+/// Step 9: new nodes, then each surface's triangle blocks replaced by quads.
 pub(super) fn write_back(
     mesh: &mut Mesh,
     nodes: &NodeTable,

@@ -19,3 +19,4 @@ mod parity;
 mod parity_property;
 mod priced;
 mod random;
+mod strips;

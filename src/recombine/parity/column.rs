@@ -11,6 +11,7 @@
 //! prices curves whose every split spoils an odd strip above one split ([`group_costs`]).
 
 use super::*;
+use crate::recombine::strip::strip_order;
 
 /// Two segments split together across a strip, and the edge flipped after the splits.
 #[derive(Debug, Clone)]
@@ -169,46 +170,6 @@ pub(super) fn place_single_splits(
             list[g].curve = list[h].curve;
         }
     }
-}
-
-/// The triangles of region `local` of `w` in the order of the region's dual path (from one
-/// end) or cycle (a closed band), and whether it closes. `None` when the region is not a
-/// strip whose triangles form one path or one cycle (a triangle with three neighbours).
-fn strip_order(w: &SurfaceWork, local: u32) -> Option<(Vec<usize>, bool)> {
-    let topo = &w.topo;
-    let nbrs = |t: usize| {
-        topo.nbr[3 * t..3 * t + 3]
-            .iter()
-            .filter(|&&u| u != NONE)
-            .map(|&u| u as usize)
-    };
-    let mut count = 0;
-    let (mut end, mut any) = (None, None);
-    for t in (0..topo.len()).filter(|&t| w.region[t] == local) {
-        count += 1;
-        any = any.or(Some(t));
-        match nbrs(t).count() {
-            3 => return None,
-            0 | 1 if end.is_none() => end = Some(t),
-            _ => {}
-        }
-    }
-    let start = end.or(any)?;
-    let mut order = vec![start];
-    let mut prev = usize::MAX;
-    let mut closed = false;
-    while let Some(next) = nbrs(order[order.len() - 1]).find(|&u| u != prev) {
-        if next == start && end.is_none() && order.len() > 2 {
-            closed = true;
-            break;
-        }
-        if order.len() >= count {
-            return None;
-        }
-        prev = order[order.len() - 1];
-        order.push(next);
-    }
-    (order.len() == count && (closed || end.is_some())).then_some((order, closed))
 }
 
 /// Longest closed band whose splits [`split_scores`] weighs (each weighing walks the band).
