@@ -32,11 +32,9 @@
 //! conformal solve): under 1,000 quads, or when the surface holds half of the reference's
 //! triangles or more, the three run side by side and the best by η̄, η_w and estimated τ
 //! is kept (`schedule::better`); other such surfaces run one of them, chosen by their mean η
-//! after the first smoothing, and the other two as well (keeping the best as above) only
-//! when its worst quad ends below η 0.6 and is not held there by a corner between fixed
-//! nodes. The choice reads the surface and the reference alone, and each schedule is
-//! deterministic, so the result does not depend on the thread count or on the other
-//! surfaces. Surfaces are started largest first, each on the next idle thread. On large
+//! after the first smoothing. The choice reads the surface and the reference alone, and
+//! each schedule is deterministic, so the result does not depend on the thread count or on
+//! the other surfaces. Surfaces are started largest first, each on the next idle thread. On large
 //! surfaces the topology passes after the first only look near what the previous pass
 //! changed, and the rounds stop after a pass that changed under 1 % of the quads; from 2^15
 //! quads each pass runs on the two halves of the quads side by side, then on a band along

@@ -6,7 +6,6 @@ use super::local::{grow_rings, Local, Stats};
 use super::{conformal, polish, smooth, topo, valid};
 use super::{OperationCounts, OptimizeOptions, SurfaceOptimizeReport};
 use crate::profile::StageTimer;
-use crate::quality::eta_signed_fast;
 use glam::DVec3;
 
 /// Optimizes one surface (see the module docs for the schedule).
@@ -51,15 +50,9 @@ pub(super) fn run_surface(
             trial(l, opts, &mut ops, &mut tm, tick, &mut gate, start);
         }
         Plan::Single { unshear } => {
-            // the start of the other schedules, should this one need them
-            let start = (l.clone(), ops, gate.clone());
             topology_rounds(l, opts, &mut ops, &mut tm, tick, unshear, &mut gate);
-            let rounds = (!unshear).then(|| (l.clone(), ops, gate.clone()));
             let keep = conformal::KEEP_ASPECT;
             finish_ticking(l, opts, &mut ops, &mut tm, keep, &mut gate, tick);
-            if needs_trial(l) {
-                complete_trial(l, opts, &mut ops, &mut gate, start, rounds);
-            }
         }
     }
     // validity: every schedule ends in a state its gate passed; check the kept one against
@@ -85,8 +78,7 @@ enum Plan {
     /// The three schedules side by side, the best kept (see [`trial`]).
     Trial,
     /// One of the trial's schedules, chosen from the first smoothing: the topology rounds
-    /// each followed by the conformal solve (`unshear`), or the plain one; the other two
-    /// run as well only when its worst quad calls for them ([`needs_trial`]).
+    /// each followed by the conformal solve (`unshear`), or the plain one.
     Single {
         /// The topology rounds each followed by the conformal solve.
         unshear: bool,
@@ -160,45 +152,6 @@ fn trial(
     }
 }
 
-/// Completes the trial of a surface that ran one schedule ([`Plan::Single`], now in `l`,
-/// `ops`, `gate`): runs the other two from `start` (the state after the first smoothing)
-/// and `rounds` (after the plain topology rounds, when the plain schedule ran), and keeps
-/// the best of the three as [`trial`] does, so the result is the trial's.
-fn complete_trial(
-    l: &mut Local,
-    opts: &OptimizeOptions,
-    ops: &mut OperationCounts,
-    gate: &mut valid::Gate,
-    start: Branch,
-    rounds: Option<Branch>,
-) {
-    match rounds {
-        // the plain schedule ran: the square finish and the unsheared schedule
-        Some(fork) => {
-            let mut u = start;
-            let (sq, ()) = rayon::join(
-                || square_finish(opts, fork),
-                || unsheared_schedule(opts, &mut u),
-            );
-            keep_best(l, ops, sq, Some(u));
-        }
-        // the unsheared schedule ran: the plain one and its square finish
-        None => {
-            let unsheared = (std::mem::replace(l, start.0), *ops, gate.clone());
-            (*ops, *gate) = (start.1, start.2);
-            let mut tp = StageTimer::new(opts.trace, "optimize (plain rounds)", l.surface);
-            topology_rounds(l, opts, ops, &mut tp, &|_| {}, false, gate);
-            let fork = (l.clone(), *ops, gate.clone());
-            let (sq, ()) = rayon::join(
-                || square_finish(opts, fork),
-                || finish(l, opts, ops, &mut tp, conformal::KEEP_ASPECT, gate),
-            );
-            tp.done();
-            keep_best(l, ops, sq, Some(unsheared));
-        }
-    }
-}
-
 /// The square finish (β = 0) of the state after the plain topology rounds.
 fn square_finish(opts: &OptimizeOptions, (mut l, mut ops, mut gate): Branch) -> Branch {
     let mut tp = StageTimer::new(opts.trace, "optimize (square finish)", l.surface);
@@ -240,52 +193,6 @@ fn keep_best(
         }
     }
 }
-
-/// True when a surface that ran one schedule ([`Plan::Single`]) should run the other two:
-/// its worst quad is below the max-min polish's target η ([`WORST_TARGET`]) and not held
-/// there by its corner between two fixed boundary edges, which no schedule moves.
-fn needs_trial(l: &Local) -> bool {
-    let worst = l.stats().eta_worst;
-    worst < WORST_TARGET && !worst_pinned(l, worst)
-}
-
-/// True when a quad of `l` at η `worst` has its worst corner at a fixed node between two
-/// fixed nodes (the corner's angle is the input's, whatever the schedule).
-fn worst_pinned(l: &Local, worst: f64) -> bool {
-    l.quads.iter().zip(&l.alive).any(|(q, &alive)| {
-        if !alive {
-            return false;
-        }
-        let p = q.map(|v| l.pos[v as usize]);
-        let eta = eta_signed_fast(&p, (p[2] - p[0]).cross(p[3] - p[1])).max(0.0);
-        eta <= worst + PIN_TOL
-            && (0..4).any(|k| {
-                let fixed = |j: usize| l.fixed[q[(k + j) & 3] as usize];
-                fixed(0)
-                    && fixed(1)
-                    && fixed(3)
-                    && corner_eta(&p, k, (p[2] - p[0]).cross(p[3] - p[1])) <= eta + PIN_TOL
-            })
-    })
-}
-
-/// η as corner `k` of `p` alone sets it (eq. 3 with that corner's angle), about `normal`.
-fn corner_eta(p: &[DVec3; 4], k: usize, normal: DVec3) -> f64 {
-    let a = p[(k + 1) & 3] - p[k];
-    let b = p[(k + 3) & 3] - p[k];
-    let s = normal.normalize_or_zero().dot(a.cross(b));
-    if s <= 0.0 {
-        return 0.0;
-    }
-    1.0 - (a.dot(b).abs() / s).atan() / std::f64::consts::FRAC_PI_2
-}
-
-/// How close (in η) a quad counts as at the worst, and a corner as setting its η.
-const PIN_TOL: f64 = 1e-6;
-
-/// The η the max-min polish lifts the worst quads to where it can
-/// ([`smooth::polish_worst`]).
-const WORST_TARGET: f64 = 0.6;
 
 /// Small planar surfaces of this many quads or more ([`Plan::Single`]) run one schedule
 /// chosen from their first smoothing instead of the three side by side (figures in
@@ -586,80 +493,6 @@ mod tests {
     use super::*;
     use crate::optimize::cleanup::tests::local_of;
     use crate::optimize::synth;
-    use crate::optimize::test_util::bits;
-
-    /// A recombined Delaunay square after its first smoothing, with its counts and gate.
-    fn smoothed(seed: u64, opts: &OptimizeOptions) -> Option<Branch> {
-        let quads = synth::pair_optimal(&synth::delaunay_square(14, 1.0, 0.3, seed))?;
-        let (_, mut l) = local_of(&synth::to_mesh(&quads));
-        let mut gate = valid::Gate::new(&l);
-        let sweeps = first_sweeps(&l, opts);
-        let ops = OperationCounts {
-            smoothing_moves: smooth::smooth(&mut l, sweeps, opts.diagonal_weight),
-            ..Default::default()
-        };
-        gate.check(&mut l, true, "smoothing");
-        Some((l, ops, gate))
-    }
-
-    /// A surface that ran one schedule (either) and then the other two keeps what the three
-    /// side by side keep, bit for bit, with the same counts.
-    #[test]
-    fn completing_the_trial_after_one_schedule_gives_the_trials_result() {
-        let opts = OptimizeOptions::default();
-        let mut tm = StageTimer::new(None, "test", 0);
-        let mut runs = 0;
-        for seed in 1u64..40 {
-            let Some(start) = smoothed(seed, &opts) else {
-                continue;
-            };
-            assert!(start.0.planar);
-            let (mut l, mut ops, mut gate) = start.clone();
-            let tick = &|_| {};
-            trial(
-                &mut l,
-                &opts,
-                &mut ops,
-                &mut tm,
-                tick,
-                &mut gate,
-                Some(start.clone()),
-            );
-            for unshear in [false, true] {
-                let (mut m, mut m_ops, mut m_gate) = start.clone();
-                topology_rounds(
-                    &mut m,
-                    &opts,
-                    &mut m_ops,
-                    &mut tm,
-                    tick,
-                    unshear,
-                    &mut m_gate,
-                );
-                let rounds = (!unshear).then(|| (m.clone(), m_ops, m_gate.clone()));
-                let keep = conformal::KEEP_ASPECT;
-                finish(&mut m, &opts, &mut m_ops, &mut tm, keep, &mut m_gate);
-                complete_trial(
-                    &mut m,
-                    &opts,
-                    &mut m_ops,
-                    &mut m_gate,
-                    start.clone(),
-                    rounds,
-                );
-                assert!(
-                    m.quads == l.quads && m.alive == l.alive && bits(&m.pos) == bits(&l.pos),
-                    "seed {seed}, unshear {unshear}: not the trial's result"
-                );
-                assert_eq!(m_ops, ops, "seed {seed}, unshear {unshear}");
-            }
-            runs += 1;
-            if runs == 3 {
-                break;
-            }
-        }
-        assert!(runs >= 2, "{runs} matchable squares");
-    }
 
     /// The plan of a small planar surface with a low mean η: the trial under
     /// [`SINGLE_FROM`] quads or as the mesh's main surface, one schedule otherwise.
