@@ -191,6 +191,7 @@ pub(crate) fn extract(
         quads,
         origin,
         planar,
+        in_large_mesh: false,
         reference: None,
         ref_sizes: Vec::new(),
         start,

@@ -282,6 +282,7 @@ impl Part {
             origin: Vec::new(),
             quads: local_quads,
             planar: l.planar,
+            in_large_mesh: l.in_large_mesh,
             reference: l.reference.as_ref().map(Arc::clone),
             ref_sizes: Vec::new(),
             start: Vec::new(),

@@ -64,6 +64,9 @@ pub(crate) struct Local {
     pub origin: Vec<(u32, u32)>,
     /// True when all nodes lie in one plane: moves stay in it, no projection.
     pub planar: bool,
+    /// The surface belongs to a mesh of [`LARGE_MESH_FROM`](super::schedule::LARGE_MESH_FROM)
+    /// reference triangles or more: it runs the schedule of large surfaces whatever its size.
+    pub in_large_mesh: bool,
     /// The surface nodes are projected on (curved surfaces; on small planar surfaces kept
     /// only for [`Local::tau_estimate`]).
     pub reference: Option<std::sync::Arc<TriSurface>>,

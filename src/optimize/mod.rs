@@ -25,8 +25,9 @@
 //! no node-by-node move can undo, keeping part of each corner's aspect ratio
 //! ([`conformal`](self)); a max-min polish of the quads with η < 0.6; pattern-search sweeps;
 //! mean-η polish sweeps, whose objective has a small size term for τ ([`polish`](self));
-//! on surfaces of 20k quads or more, half the pattern sweeps and the max-min polish once
-//! more at the end.
+//! on surfaces of 20k quads or more (and every surface of a mesh of 2^19 triangles or
+//! more), a share of the sweeps in the first smoothing and near the changes, half the
+//! pattern sweeps, one mean polish and the max-min polish once more at the end.
 //! Small planar surfaces with a low mean η after the first smoothing choose among three
 //! schedules (square-target finish, the one above, topology rounds each followed by the
 //! conformal solve): under 1,000 quads, or when the surface holds half of the reference's
@@ -117,8 +118,8 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 #[derive(Clone, Copy)]
 pub struct OptimizeOptions<'a> {
     /// Smoothing sweeps per smoothing phase (`--smooth N`); 0 disables smoothing. Surfaces
-    /// of 20,000 quads or more run a share of them in the first smoothing and after each
-    /// topology pass (`schedule.rs`).
+    /// of 20,000 quads or more, and every surface of a mesh of 2^19 triangles or more, run
+    /// a share of them in the first smoothing and after each topology pass (`schedule.rs`).
     pub smooth_iterations: usize,
     /// Apply the topological operators (`--no-topology` turns them off).
     pub topology: bool,
@@ -342,6 +343,7 @@ pub fn optimize_prepared(
             let main = sref
                 .as_ref()
                 .map_or(triangles == 0, |r| 2 * r.triangles() >= triangles);
+            l.in_large_mesh = triangles >= schedule::LARGE_MESH_FROM;
             let mut tr = StageTimer::new(opts.trace, "attach", l.surface);
             attach_reference(&mut l, sref, refnodes, opts.reference_size_scale);
             tr.lap("attach_reference");

@@ -259,8 +259,7 @@ fn topology_rounds(
     for _ in 0..opts.max_rounds {
         // the state before the pass, to find what it changed (a pass never adds quads,
         // so the surface size decides before it)
-        let snapshot = (l.quads.len() >= RESMOOTH_ALL_BELOW)
-            .then(|| (l.quads.clone(), l.alive.clone(), l.pos.clone()));
+        let snapshot = large(l).then(|| (l.quads.clone(), l.alive.clone(), l.pos.clone()));
         // speed: on a large surface, the pass in two halves side by side (`halves`)
         let changed = if l.quads.len() >= HALVES_FROM {
             super::halves::pass(l, ops, focus.as_deref())
@@ -419,15 +418,29 @@ fn first_sweeps(l: &Local, opts: &OptimizeOptions) -> usize {
     by_size(l, n, (n * FIRST_SWEEPS_NUM).div_ceil(5))
 }
 
-/// `small` on surfaces under [`RESMOOTH_ALL_BELOW`] quads, `large` on the others: the
-/// schedule's one size switch for sweep counts.
-fn by_size(l: &Local, small: usize, large: usize) -> usize {
-    if l.quads.len() < RESMOOTH_ALL_BELOW {
-        small
+/// `small` on small surfaces, `big` on large ones ([`large`]): the schedule's one size
+/// switch for sweep counts.
+fn by_size(l: &Local, small: usize, big: usize) -> usize {
+    if large(l) {
+        big
     } else {
-        large
+        small
     }
 }
+
+/// True when `l` runs the sweeps of large surfaces: it has [`RESMOOTH_ALL_BELOW`] quads or
+/// more, or its mesh has [`LARGE_MESH_FROM`] reference triangles or more.
+fn large(l: &Local) -> bool {
+    l.quads.len() >= RESMOOTH_ALL_BELOW || l.in_large_mesh
+}
+
+/// Reference triangles from which every surface of a mesh runs the sweeps of large surfaces
+/// (a share of the sweeps in the first smoothing and near the changes, the rounds stopped
+/// after a pass that changed little, half the pattern sweeps, one mean polish, the max-min
+/// polish again at the end); the choice among schedules stays the surface's own. On a mesh
+/// of many smaller surfaces the full sweeps of each cost about twice the time for 0.003 of
+/// η̄ (figures in BENCHMARKS.md, "Measurements behind the defaults").
+pub(crate) const LARGE_MESH_FROM: usize = 1 << 19;
 
 /// Surfaces with fewer quads re-smooth every node after each topological pass: cheap there,
 /// and on small curved surfaces local re-smoothing alone loses mean quality (figures in
