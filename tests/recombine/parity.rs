@@ -611,43 +611,6 @@ fn an_odd_strip_is_split_where_its_one_matching_keeps_the_halves_apart() {
     }
 }
 
-/// A planar annulus as surface 1: `outer` segments on curve 1 (radius 1), `inner` on
-/// curve 2 (radius `r`), with line elements, triangulated by advancing round both circles:
-/// every triangle has an edge on a circle and the triangles form a closed band.
-fn annulus(outer: usize, inner: usize, r: f64) -> blossomquad::mesh::Mesh {
-    let mut b = Builder::new();
-    b.entity(1, 1, &[], &[]);
-    b.entity(1, 2, &[], &[]);
-    b.entity(2, 1, &[1, 2], &[]);
-    let at = |k: usize, n: usize, rad: f64| {
-        let a = std::f64::consts::TAU * k as f64 / n as f64;
-        [rad * a.cos(), rad * a.sin(), 0.0]
-    };
-    let out: Vec<u64> = (0..outer)
-        .map(|k| b.node(1, 1, at(k, outer, 1.0)))
-        .collect();
-    let inn: Vec<u64> = (0..inner).map(|k| b.node(1, 2, at(k, inner, r))).collect();
-    let (mut i, mut j) = (0, 0);
-    while i < outer || j < inner {
-        let next_out = (i + 1) as f64 / outer as f64;
-        let next_in = (j + 1) as f64 / inner as f64;
-        if j == inner || (i < outer && next_out <= next_in) {
-            b.tri(1, [inn[j % inner], out[i], out[(i + 1) % outer]]);
-            i += 1;
-        } else {
-            b.tri(1, [inn[j], out[i % outer], inn[(j + 1) % inner]]);
-            j += 1;
-        }
-    }
-    for k in 0..outer {
-        b.line(1, out[k], out[(k + 1) % outer]);
-    }
-    for k in 0..inner {
-        b.line(2, inn[k], inn[(k + 1) % inner]);
-    }
-    b.mesh
-}
-
 #[test]
 fn an_odd_band_is_split_where_its_matchings_can_keep_every_pair_sound() {
     // a closed band of triangles has two perfect matchings, its two alternations: the split

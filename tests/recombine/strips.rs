@@ -216,3 +216,44 @@ fn strips_gain_quads_only_within_the_element_count_worst_first() {
     assert_eq!(remeshed, 2, "{:?}", r.log);
     assert_eq!(quads, tris / 2 + 2 * (12 - 7));
 }
+
+/// The smallest corner quality (eq. 3, one corner) of the quads of surface 1 of a planar
+/// counter-clockwise mesh, from [`corner_range`].
+fn worst_corner_eta(m: &Mesh) -> f64 {
+    let (lo, hi) = corner_range(m, 1);
+    1.0 - (90.0 - lo).max(hi - 90.0) / 90.0
+}
+
+#[test]
+fn a_band_whose_circles_differ_in_segments_gets_a_midline_where_its_pairs_shear() {
+    // a ring of 9 outer and 7 inner segments (a pipe's end cap meshed coarsely): each of
+    // its two pairings leaves a quad sheared by two segments' offset; cells of the band
+    // with a midline between the two odd ones do better
+    let mut gained = 0;
+    for (outer, inner) in [(9, 7), (11, 9), (12, 8)] {
+        let before = annulus(outer, inner, 0.67);
+        let mut m = before.clone();
+        let r = recombine(&mut m, &verify_opts()).unwrap();
+        check_invariants(&before, &m).unwrap();
+        assert_eq!(count(&m, etype::TRI3), 0);
+        let mut off = before.clone();
+        let opts = RecombineOptions {
+            two_row_strips: false,
+            ..verify_opts()
+        };
+        recombine(&mut off, &opts).unwrap();
+        let (with, without) = (worst_corner_eta(&m), worst_corner_eta(&off));
+        println!("{outer}/{inner}: worst corner eta {without:.3} -> {with:.3}");
+        if r.surfaces[0].strips_remeshed == 1 {
+            assert!(
+                with >= without + 0.05,
+                "{outer}/{inner}: {without:.3} -> {with:.3}"
+            );
+            assert!(with > 0.0);
+            gained += 1;
+        } else {
+            assert!(without >= 0.3 || with == without);
+        }
+    }
+    assert!(gained >= 2, "{gained} bands remeshed");
+}
