@@ -457,6 +457,7 @@ fn optimize_once<'a>(
         .smooth
         .unwrap_or(oopts.smooth_iterations << opts.refine);
     oopts.topology = opts.topology;
+    oopts.conformal_multigrid = opts.conformal_multigrid;
     oopts.reference_size_scale = 0.5f64.powi(i32::from(opts.refine));
     let cb = |p: Progress| {
         if let Some(f) = &opts.progress {

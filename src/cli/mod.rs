@@ -137,6 +137,10 @@ struct RunArgs {
     /// Smoothing iterations of the optimization.
     #[arg(long, value_name = "N")]
     smooth: Option<usize>,
+    /// Solve the optimizer's conformal step with a multigrid preconditioner: a higher mean
+    /// quality on large planar surfaces, for a longer solve.
+    #[arg(long)]
+    conformal_multigrid: bool,
     /// Skip the topological operators (quad-vertex merge, doublet collapse, ...).
     #[arg(long)]
     no_topology: bool,

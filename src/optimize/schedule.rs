@@ -281,7 +281,8 @@ fn topology_rounds(
         };
         lap_with_quality(tm, l, "resmooth");
         if unshear {
-            ops.smoothing_moves += conformal::unshear(l, conformal::KEEP_ASPECT);
+            let mg = opts.conformal_multigrid;
+            ops.smoothing_moves += conformal::unshear(l, conformal::KEEP_ASPECT, mg);
         }
         gate.check(l, true, "topology round");
         tick(1);
@@ -336,7 +337,7 @@ fn finish_ticking(
 ) {
     // quality: undo global shear the node-by-node smoothers cannot (conformal.rs)
     if opts.angle_sweeps > 0 && opts.smooth_iterations > 0 {
-        ops.smoothing_moves += conformal::unshear(l, keep_aspect);
+        ops.smoothing_moves += conformal::unshear(l, keep_aspect, opts.conformal_multigrid);
         gate.check(l, true, "conformal solve");
         lap_with_quality(tm, l, "conformal");
     }

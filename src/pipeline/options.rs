@@ -24,6 +24,10 @@ pub struct Options {
     pub smooth: Option<usize>,
     /// Apply the topological operators.
     pub topology: bool,
+    /// Solve the optimizer's conformal step on surfaces of 4,096 free nodes or more with a
+    /// multigrid preconditioner (off by default): closer to its minimizer, a higher η̄ on
+    /// large planar surfaces (0.880 → 0.889 on the 10^6 rectangle) for a longer solve.
+    pub conformal_multigrid: bool,
     /// Optimize at all (smoothing and topology).
     pub optimize: bool,
     /// Return `Ok` with the invalid quads listed in [`Report::invalid`] instead of failing.
@@ -70,6 +74,7 @@ impl Default for Options {
             refine: 0,
             smooth: None,
             topology: true,
+            conformal_multigrid: false,
             optimize: true,
             allow_invalid: false,
             incomplete: false,
