@@ -41,6 +41,7 @@ _OPTIONS = {
     "refine": "refine",
     "smooth": "smooth",
     "topology": "topology",
+    "conformal_multigrid": "conformal_multigrid",
     "optimize": "optimize",
     "smooth_quads": "smooth_quads",
     "verify": "verify",
@@ -96,7 +97,7 @@ def recombine_file(
     entity; nodes and elements are numbered 1..N without gaps, as Gmsh numbers its files,
     keeping their order). Options as the command line's flags: ``parity`` ('repair' or
     'error'), ``cross_field`` (float), ``harmonic_cross_field``, ``refine`` (0-3), ``smooth``
-    (sweeps), ``topology``, ``optimize``, ``smooth_quads`` (optimize the surfaces that hold
+    (sweeps), ``topology``, ``conformal_multigrid``, ``optimize``, ``smooth_quads`` (optimize the surfaces that hold
     no triangle in the input too; by default they are written as read), ``verify``, ``drop_volumes``, ``allow_invalid``,
     ``incomplete``, ``keep_tags`` (keep the input's node and element tags exactly, gaps and
     all), ``tag_map`` (the report's ``renumber["map"]`` gives ``nodes`` and ``elements``:
