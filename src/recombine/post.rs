@@ -38,7 +38,7 @@ pub(crate) struct Faces {
 
 /// Merges two oriented polygons sharing an edge run in opposite directions. `None` when they
 /// share no such edge.
-fn merge(a: &[u32], b: &[u32]) -> Option<Vec<u32>> {
+pub(super) fn merge<T: Copy + PartialEq>(a: &[T], b: &[T]) -> Option<Vec<T>> {
     let (na, nb) = (a.len(), b.len());
     for i in 0..na {
         let (p, q) = (a[i], a[(i + 1) % na]);

@@ -5,9 +5,10 @@
 //! can move a node to mend a poor quad. Where the path's pairs make a poor quad (a strip
 //! whose end is a fan of three triangles pairs the fan's two outer triangles into a quad
 //! with a straight corner, and every pair after it across the long diagonals of the row),
-//! [`two_rows`] meshes the strip again: cells of two, three or four consecutive triangles,
-//! and between two odd cells a midline of new nodes on the interior edges, so that each
-//! cell on it is cut into two quads.
+//! [`plans`] meshes the strip again: cells of one to four consecutive units (see
+//! [`Strip`]), each one quad or two, and between two cells of odd triangle counts a midline
+//! of new nodes on the interior edges, so that each cell on it is cut into two quads; the
+//! recombination takes the plans within the element count and [`apply`] puts them in.
 //!
 //! **Invariant:** a remeshed strip keeps its walls (no node on a wall edge, no wall edge
 //! split), so the surfaces round it and the curves are unchanged; each quad is a part of
@@ -16,7 +17,7 @@
 
 use glam::DVec3;
 
-use super::post::{Faces, NewNode};
+use super::post::{merge, Faces, NewNode};
 use super::surface::SurfaceWork;
 use super::topology::{SurfaceTopo, NONE};
 
@@ -44,26 +45,34 @@ pub(super) fn strip_order(w: &SurfaceWork, local: u32) -> Option<(Vec<usize>, bo
 
 /// [`strip_order`] of the triangles `members` (one region, in index order).
 fn order(topo: &SurfaceTopo, members: &[usize]) -> Option<(Vec<usize>, bool)> {
-    let nbrs = |t: usize| {
+    let nbrs = |t: usize| -> Vec<usize> {
         topo.nbr[3 * t..3 * t + 3]
             .iter()
             .filter(|&&u| u != NONE)
             .map(|&u| u as usize)
+            .collect()
     };
-    let count = members.len();
-    let mut end = None;
-    for &t in members {
-        match nbrs(t).count() {
-            3 => return None,
-            0 | 1 if end.is_none() => end = Some(t),
-            _ => {}
-        }
+    if members.iter().any(|&t| nbrs(t).len() == 3) {
+        return None;
     }
-    let start = end.or(members.first().copied())?;
+    let end = members.iter().copied().find(|&t| nbrs(t).len() < 2);
+    walk(members.len(), end, members.first().copied()?, nbrs)
+}
+
+/// The path or cycle through `count` items from `start` (an end of the path, `end`, when
+/// there is one), each step to a neighbour (`nbrs`, at most two) other than the one it came
+/// from, and whether it closes; `None` when it does not reach every item.
+fn walk(
+    count: usize,
+    end: Option<usize>,
+    any: usize,
+    nbrs: impl Fn(usize) -> Vec<usize>,
+) -> Option<(Vec<usize>, bool)> {
+    let start = end.unwrap_or(any);
     let mut order = vec![start];
     let mut prev = usize::MAX;
     let mut closed = false;
-    while let Some(next) = nbrs(order[order.len() - 1]).find(|&u| u != prev) {
+    while let Some(next) = nbrs(order[order.len() - 1]).into_iter().find(|&u| u != prev) {
         if next == start && end.is_none() && order.len() > 2 {
             closed = true;
             break;
@@ -158,33 +167,19 @@ fn units(topo: &SurfaceTopo, members: &[usize], degree: &impl Fn(usize) -> usize
     }
     let count = list.len();
     let end = (0..count).find(|&u| next[u].len() < 2);
-    let start = end.unwrap_or(0);
-    let mut order = vec![start];
-    let mut prev = usize::MAX;
-    let mut closed = false;
-    while let Some(&nx) = next[order[order.len() - 1]].iter().find(|&&u| u != prev) {
-        if nx == start && end.is_none() && order.len() > 2 {
-            closed = true;
-            break;
-        }
-        if order.len() >= count {
-            return None;
-        }
-        prev = order[order.len() - 1];
-        order.push(nx);
-    }
-    (order.len() == count && (closed || end.is_some())).then(|| Strip {
+    let (order, closed) = walk(count, end, 0, |u| next[u].clone())?;
+    Some(Strip {
         units: order.iter().map(|&u| list[u].clone()).collect(),
         closed,
     })
 }
 
-/// Smallest strip [`two_rows`] looks at: two cells.
+/// Smallest strip [`plans`] looks at: two cells.
 const MIN_TRIANGLES: usize = 4;
 
 /// A strip whose quads from the matching have a worst η (eq. 3) below this is meshed again
-/// when [`two_rows`] finds a better worst quad.
-pub(crate) const REMESH_BELOW: f64 = 0.3;
+/// when [`plans`] finds a better worst quad.
+const REMESH_BELOW: f64 = 0.3;
 
 /// How much better (in η) the remeshed strip's worst quad must be than the matching's.
 const MIN_GAIN: f64 = 0.05;
@@ -284,26 +279,6 @@ impl StripGeometry<'_> {
             _ => None,
         }
     }
-}
-
-/// Merges two oriented polygons sharing an edge run in opposite directions.
-fn merge(a: &[Vertex], b: &[Vertex]) -> Option<Vec<Vertex>> {
-    let (na, nb) = (a.len(), b.len());
-    for i in 0..na {
-        let (p, q) = (a[i], a[(i + 1) % na]);
-        for j in 0..nb {
-            if b[j] == q && b[(j + 1) % nb] == p {
-                let mut out = Vec::with_capacity(na + nb - 2);
-                out.extend_from_slice(&a[..=i]);
-                for s in 2..nb {
-                    out.push(b[(j + s) % nb]);
-                }
-                out.extend_from_slice(&a[i + 1..]);
-                return Some(out);
-            }
-        }
-    }
-    None
 }
 
 /// Inserts `m` between the two vertices of `poly` that make the edge `e` (either way).
