@@ -296,22 +296,58 @@ fn insert_mid(poly: &mut Vec<Vertex>, e: (u32, u32), m: Vertex) -> Option<()> {
 /// Largest cell, in units.
 const MAX_CELL: usize = 4;
 
-/// One step of the strip's plan: a cell of `size` triangles, and its quads.
+/// One step of the strip's plan: a cell of `size` units, and its quads.
 #[derive(Clone)]
 struct Step {
     size: usize,
     quads: Vec<[Vertex; 4]>,
 }
 
-/// The best plan of `g` from position `start` round (or along) the strip with the rung
-/// before `start` in state `open` (a band comes back to the same state), by worst η first
-/// and then by the fewest quads (the sum of `1 + (1 − η)` over quads at least `floor`).
-/// With `floor` set, cells with a quad under it are not taken. Returns the plan's worst
-/// η and its steps.
-fn plan(g: &StripGeometry, start: usize, open: bool, floor: Option<f64>) -> Option<(f64, Vec<Step>)> {
+/// Every cell of `g` that a plan may take ([`StripGeometry::cell`]), computed once for
+/// the passes of [`best_plan`]: on a band, fewer units than the band; on a path, within it,
+/// with a midline node only on a rung it has. Others are `None`.
+struct Cells(Vec<CellQuads>);
+
+impl Cells {
+    fn new(g: &StripGeometry) -> Self {
+        let mut all = Vec::with_capacity(g.len() * MAX_CELL * 4);
+        for at in 0..g.len() {
+            for size in 1..=MAX_CELL {
+                for (open_in, open_out) in [(false, false), (false, true), (true, false), (true, true)]
+                {
+                    let n = g.len();
+                    let fits = if g.closed {
+                        size < n
+                    } else {
+                        at + size <= n && !(open_in && at == 0) && !(open_out && at + size == n)
+                    };
+                    all.push(fits.then(|| g.cell(at, size, open_in, open_out)).flatten());
+                }
+            }
+        }
+        Cells(all)
+    }
+
+    fn at(&self, at: usize, size: usize, open_in: bool, open_out: bool) -> &CellQuads {
+        &self.0[(at * MAX_CELL + size - 1) * 4 + 2 * usize::from(open_in) + usize::from(open_out)]
+    }
+}
+
+/// The best plan of `g` (its cells `cells`) from position `start` round (or along) the
+/// strip with the rung before `start` in state `open` (a band comes back to the same
+/// state), by worst η first and then by the fewest quads (the sum of `1 + (1 − η)` over
+/// quads at least `floor`). With `floor` set, cells with a quad under it are not taken.
+/// Returns the plan's worst η and its steps.
+fn plan(
+    g: &StripGeometry,
+    cells: &Cells,
+    start: usize,
+    open: bool,
+    floor: Option<f64>,
+) -> Option<(f64, Vec<Step>)> {
     let n = g.len();
-    // best[k][o]: (worst η, cost, step, previous state) of the first k triangles with the
-    // rung after them in state o
+    // best[k][o]: (worst η, cost, step, previous state) of the first k units with the rung
+    // after them in state o
     type Entry = Option<(f64, f64, Step, bool)>;
     let mut best: Vec<[Entry; 2]> = vec![[None, None]; n + 1];
     let value = |k: usize, o: bool, best: &Vec<[Entry; 2]>| -> Option<(f64, f64)> {
@@ -329,8 +365,9 @@ fn plan(g: &StripGeometry, start: usize, open: bool, floor: Option<f64>) -> Opti
             if o && k == 0 && !g.closed {
                 continue;
             }
+            let at = (start + k) % n;
             for size in 1..=MAX_CELL.min(n - k) {
-                let out = o ^ (g.triangles((start + k) % n, size) % 2 == 1);
+                let out = o ^ (g.triangles(at, size) % 2 == 1);
                 let end = k + size == n;
                 if end && !g.closed && out {
                     continue;
@@ -338,10 +375,10 @@ fn plan(g: &StripGeometry, start: usize, open: bool, floor: Option<f64>) -> Opti
                 if end && g.closed && out != open {
                     continue;
                 }
-                let at = (start + k) % n;
-                let Some((quads, eta)) = g.cell(at, size, o, out) else {
+                let Some((quads, eta)) = cells.at(at, size, o, out) else {
                     continue;
                 };
+                let eta = *eta;
                 if floor.is_some_and(|f| eta < f) {
                     continue;
                 }
@@ -357,6 +394,7 @@ fn plan(g: &StripGeometry, start: usize, open: bool, floor: Option<f64>) -> Opti
                     },
                 };
                 if better {
+                    let quads = quads.clone();
                     *slot = Some((w, c, Step { size, quads }, o));
                 }
             }
@@ -387,9 +425,10 @@ fn best_plan(g: &StripGeometry) -> Option<(f64, usize, Vec<Step>)> {
     } else {
         vec![(0, false)]
     };
+    let cells = Cells::new(g);
     let worst = starts
         .iter()
-        .filter_map(|&(s, o)| plan(g, s, o, None).map(|p| p.0))
+        .filter_map(|&(s, o)| plan(g, &cells, s, o, None).map(|p| p.0))
         .fold(f64::NEG_INFINITY, f64::max);
     if !worst.is_finite() {
         return None;
@@ -398,7 +437,7 @@ fn best_plan(g: &StripGeometry) -> Option<(f64, usize, Vec<Step>)> {
     starts
         .iter()
         .filter_map(|&(s, o)| {
-            let (w, steps) = plan(g, s, o, Some(floor))?;
+            let (w, steps) = plan(g, &cells, s, o, Some(floor))?;
             let quads: usize = steps.iter().map(|st| st.quads.len()).sum();
             Some((w, s, steps, quads))
         })
