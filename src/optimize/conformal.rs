@@ -103,6 +103,11 @@ impl<T: Real> C<T> {
     fn scale(self, s: T) -> Self {
         C(self.0 * s, self.1 * s)
     }
+    /// `self · o`
+    #[inline]
+    fn mul(self, o: Self) -> Self {
+        C(self.0 * o.0 - self.1 * o.1, self.0 * o.1 + self.1 * o.0)
+    }
     /// `i · self`
     #[inline]
     fn rot(self) -> Self {
@@ -159,23 +164,21 @@ const MULTIGRID_ITERATIONS: usize = 25;
 /// quad's node `j` is `Σ_m row[m] x_m`): with the corner residuals
 /// `r_k = w (i ρ_k z_{k+1} + (1 − i ρ_k) z_k − z_{k−1})`, node `j` gathers
 /// `(1 + i ρ_j) r_j − i ρ_{j−1} r_{j−1} − r_{j+1}`.
-fn quad_row(w: f64, rho: &[f64; 4], j: usize) -> [[f64; 2]; 4] {
-    let cmul = |a: [f64; 2], b: [f64; 2]| [a[0] * b[0] - a[1] * b[1], a[0] * b[1] + a[1] * b[0]];
+fn quad_row(w: f64, rho: &[f64; 4], j: usize) -> [C; 4] {
     // the coefficients of corner residual r_k, added with factor f into out
-    let mut out = [[0.0f64; 2]; 4];
-    let mut add = |k: usize, f: [f64; 2]| {
+    let mut out = [C::default(); 4];
+    let mut add = |k: usize, f: C| {
         for (m, c) in [
-            ((k + 1) & 3, [0.0, w * rho[k]]),
-            (k, [w, -w * rho[k]]),
-            ((k + 3) & 3, [-w, 0.0]),
+            ((k + 1) & 3, C(0.0, w * rho[k])),
+            (k, C(w, -w * rho[k])),
+            ((k + 3) & 3, C(-w, 0.0)),
         ] {
-            let t = cmul(f, c);
-            out[m] = [out[m][0] + t[0], out[m][1] + t[1]];
+            out[m] = out[m].add(f.mul(c));
         }
     };
-    add(j, [1.0, rho[j]]);
-    add((j + 3) & 3, [0.0, -rho[(j + 3) & 3]]);
-    add((j + 1) & 3, [-1.0, 0.0]);
+    add(j, C(1.0, rho[j]));
+    add((j + 3) & 3, C(0.0, -rho[(j + 3) & 3]));
+    add((j + 1) & 3, C(-1.0, 0.0));
     out
 }
 
@@ -196,7 +199,7 @@ fn assemble(
             let mut len = Vec::with_capacity(rows.len());
             let mut col = Vec::with_capacity(9 * rows.len());
             let mut val = Vec::with_capacity(9 * rows.len());
-            let mut row: Vec<(u32, [f64; 2])> = Vec::with_capacity(32);
+            let mut row: Vec<(u32, C)> = Vec::with_capacity(32);
             for &v in rows {
                 row.clear();
                 for &q in l.star(v) {
@@ -217,13 +220,13 @@ fn assemble(
                 let mut k = 0;
                 while k < row.len() {
                     let c = row[k].0;
-                    let mut acc = [0.0f64; 2];
+                    let mut acc = C::default();
                     while k < row.len() && row[k].0 == c {
-                        acc = [acc[0] + row[k].1[0], acc[1] + row[k].1[1]];
+                        acc = acc.add(row[k].1);
                         k += 1;
                     }
                     col.push(c);
-                    val.push([acc[0] as f32, acc[1] as f32]);
+                    val.push([acc.0 as f32, acc.1 as f32]);
                 }
                 len.push((col.len() - before) as u32);
             }
@@ -851,13 +854,8 @@ mod tests {
     /// solve applies: `Σ_m row_j[m] x_m` is what [`accumulate`] adds at node `j`.
     #[test]
     fn a_quads_matrix_rows_are_its_accumulated_term() {
-        let mut rng = 0x2545_F491_4F6C_DD1Du64;
-        let mut next = || {
-            rng ^= rng << 13;
-            rng ^= rng >> 7;
-            rng ^= rng << 17;
-            (rng >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut rng = synth::Rng::new(7);
+        let mut next = || rng.next_f64();
         for _ in 0..20 {
             let w = 0.5 + next();
             let rho = [0.5 + next(), 0.5 + next(), 0.5 + next(), 0.5 + next()];
@@ -866,11 +864,10 @@ mod tests {
             accumulate(&[0, 1, 2, 3], w, &rho, &x, |v, g| got[v] = got[v].add(g));
             for (j, g) in got.iter().enumerate() {
                 let row = quad_row(w, &rho, j);
-                let mut s = C::default();
-                for (m, c) in row.iter().enumerate() {
-                    let (a, b) = (C(c[0], c[1]), x[m]);
-                    s = s.add(C(a.0 * b.0 - a.1 * b.1, a.0 * b.1 + a.1 * b.0));
-                }
+                let s = row
+                    .iter()
+                    .zip(&x)
+                    .fold(C::default(), |s, (c, &x)| s.add(c.mul(x)));
                 assert!((s.0 - g.0).abs() < 1e-12 && (s.1 - g.1).abs() < 1e-12);
             }
         }
