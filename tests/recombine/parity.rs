@@ -438,28 +438,16 @@ fn thin_box(n: usize, h: f64) -> blossomquad::mesh::Mesh {
 
 /// Largest corner angle (degrees, in 3D) of the quads of surface `s`.
 fn max_quad_angle_on(m: &blossomquad::mesh::Mesh, s: i32) -> f64 {
-    let idx = m.node_index();
-    let at = |t: u64| {
-        let r = idx.get(t).unwrap();
-        m.node_blocks[r.block as usize].coords[r.index as usize]
-    };
     let mut worst: f64 = 0.0;
-    for blk in m
-        .element_blocks
-        .iter()
-        .filter(|b| b.element_type == etype::QUAD4 && b.entity_tag == s)
-    {
-        for i in 0..blk.len() {
-            let p: Vec<[f64; 3]> = blk.element(i).iter().map(|&t| at(t)).collect();
-            for k in 0..4 {
-                let (c, a, d) = (p[k], p[(k + 1) % 4], p[(k + 3) % 4]);
-                let u = [0, 1, 2].map(|x| a[x] - c[x]);
-                let w = [0, 1, 2].map(|x| d[x] - c[x]);
-                let dot: f64 = (0..3).map(|x| u[x] * w[x]).sum();
-                let nu = (0..3).map(|x| u[x] * u[x]).sum::<f64>().sqrt();
-                let nw = (0..3).map(|x| w[x] * w[x]).sum::<f64>().sqrt();
-                worst = worst.max((dot / (nu * nw)).clamp(-1.0, 1.0).acos().to_degrees());
-            }
+    for p in quad_coords_on(m, s) {
+        for k in 0..4 {
+            let (c, a, d) = (p[k], p[(k + 1) % 4], p[(k + 3) % 4]);
+            let u = [0, 1, 2].map(|x| a[x] - c[x]);
+            let w = [0, 1, 2].map(|x| d[x] - c[x]);
+            let dot: f64 = (0..3).map(|x| u[x] * w[x]).sum();
+            let nu = (0..3).map(|x| u[x] * u[x]).sum::<f64>().sqrt();
+            let nw = (0..3).map(|x| w[x] * w[x]).sum::<f64>().sqrt();
+            worst = worst.max((dot / (nu * nw)).clamp(-1.0, 1.0).acos().to_degrees());
         }
     }
     worst

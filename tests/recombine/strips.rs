@@ -113,31 +113,19 @@ fn add_square(b: &mut Builder, s: i32) {
 
 /// Smallest corner angle (degrees) of the quads of surface `s`, and the largest.
 fn corner_range(m: &Mesh, s: i32) -> (f64, f64) {
-    let idx = m.node_index();
-    let at = |t: u64| {
-        let r = idx.get(t).unwrap();
-        m.node_blocks[r.block as usize].coords[r.index as usize]
-    };
     let (mut lo, mut hi) = (180.0f64, 0.0f64);
-    for blk in m
-        .element_blocks
-        .iter()
-        .filter(|b| b.element_type == etype::QUAD4 && b.entity_tag == s)
-    {
-        for i in 0..blk.len() {
-            let p: Vec<[f64; 3]> = blk.element(i).iter().map(|&t| at(t)).collect();
-            for k in 0..4 {
-                let (c, a, d) = (p[k], p[(k + 1) % 4], p[(k + 3) % 4]);
-                let u = [a[0] - c[0], a[1] - c[1]];
-                let w = [d[0] - c[0], d[1] - c[1]];
-                // signed angle from u to w, counter-clockwise (the strips are
-                // counter-clockwise in the xy-plane)
-                let angle = (u[0] * w[1] - u[1] * w[0])
-                    .atan2(u[0] * w[0] + u[1] * w[1])
-                    .to_degrees();
-                lo = lo.min(angle);
-                hi = hi.max(angle);
-            }
+    for p in quad_coords_on(m, s) {
+        for k in 0..4 {
+            let (c, a, d) = (p[k], p[(k + 1) % 4], p[(k + 3) % 4]);
+            let u = [a[0] - c[0], a[1] - c[1]];
+            let w = [d[0] - c[0], d[1] - c[1]];
+            // signed angle from u to w, counter-clockwise (the strips are counter-clockwise
+            // in the xy-plane)
+            let angle = (u[0] * w[1] - u[1] * w[0])
+                .atan2(u[0] * w[0] + u[1] * w[1])
+                .to_degrees();
+            lo = lo.min(angle);
+            hi = hi.max(angle);
         }
     }
     (lo, hi)

@@ -486,6 +486,21 @@ pub fn node_at(m: &Mesh, p: [f64; 3]) -> u64 {
 }
 
 /// Corner coordinates of every quad, with its tag.
+/// The corner coordinates of every quad of surface `s`.
+pub fn quad_coords_on(m: &Mesh, s: i32) -> Vec<Vec<[f64; 3]>> {
+    let idx = m.node_index();
+    let at = |t: u64| {
+        let r = idx.get(t).unwrap();
+        m.node_blocks[r.block as usize].coords[r.index as usize]
+    };
+    m.element_blocks
+        .iter()
+        .filter(|b| b.element_type == etype::QUAD4 && b.entity_tag == s)
+        .flat_map(|b| (0..b.len()).map(move |i| b.element(i)))
+        .map(|e| e.iter().map(|&t| at(t)).collect())
+        .collect()
+}
+
 pub fn quad_coords(m: &Mesh) -> Vec<(u64, Vec<[f64; 3]>)> {
     let idx = m.node_index();
     let mut out = Vec::new();
