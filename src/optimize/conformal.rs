@@ -799,17 +799,17 @@ mod tests {
     }
 
     /// A recombined Delaunay square of 20,291 quads: large enough for the schedule of
-    /// surfaces of 20k quads or more and for several blocks of the conformal product.
+    /// surfaces of 10^4 quads or more and for several blocks of the conformal product.
     fn large_square() -> Local {
         let quads = (1u64..20)
             .find_map(|seed| synth::pair_optimal(&synth::delaunay_square(146, 1.0, 0.3, seed)))
             .expect("an even, matchable square");
         let (_, l) = local_of(&synth::to_mesh(&quads));
-        assert!(l.quads.len() >= crate::optimize::schedule::RESMOOTH_ALL_BELOW);
+        assert!(l.quads.len() >= crate::optimize::schedule::LARGE_SURFACE_FROM);
         l
     }
 
-    /// The schedule of surfaces of 20k quads or more (`schedule`: shorter sweeps, rounds
+    /// The schedule of surfaces of 10^4 quads or more (`schedule`: shorter sweeps, rounds
     /// near the changes, one pattern sweep, the max-min polish again at the end) on a
     /// recombined Delaunay square: the quality it reached when this test was written
     /// (η_w 0.374, η̄ 0.846, d4 85.1 %; its worst quad sits at a corner of fixed nodes),

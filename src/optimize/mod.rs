@@ -25,7 +25,7 @@
 //! no node-by-node move can undo, keeping part of each corner's aspect ratio
 //! ([`conformal`](self)); a max-min polish of the quads with η < 0.6; pattern-search sweeps;
 //! mean-η polish sweeps, whose objective has a small size term for τ ([`polish`](self));
-//! on surfaces of 20k quads or more (and every surface of a mesh of 2^19 triangles or
+//! on surfaces of 10^4 quads or more (and every surface of a mesh of 2^19 triangles or
 //! more), a share of the sweeps in the first smoothing and near the changes, half the
 //! pattern sweeps, one mean polish and the max-min polish once more at the end.
 //! Small planar surfaces with a low mean η after the first smoothing choose among three
@@ -119,7 +119,7 @@ use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 #[derive(Clone, Copy)]
 pub struct OptimizeOptions<'a> {
     /// Smoothing sweeps per smoothing phase (`--smooth N`); 0 disables smoothing. Surfaces
-    /// of 20,000 quads or more, and every surface of a mesh of 2^19 triangles or more, run
+    /// of 10,000 quads or more, and every surface of a mesh of 2^19 triangles or more, run
     /// a share of them in the first smoothing and after each topology pass (`schedule.rs`).
     pub smooth_iterations: usize,
     /// Apply the topological operators (`--no-topology` turns them off).

@@ -10,16 +10,16 @@
 //! is a max over corners), the node goes where the edges fit the size field.
 //!
 //! The worst quads are lifted before this by [`super::smooth::polish_worst`] (max-min
-//! pattern search); only surfaces of 20k quads or more run that again after the mean
+//! pattern search); only surfaces of 10^4 quads or more run that again after the mean
 //! polish (`schedule`).
 //!
-//! Cost: 1 colour-parallel sweep over the free nodes (4 on surfaces under 20k quads).
+//! Cost: 1 colour-parallel sweep over the free nodes (4 on surfaces under 10^4 quads).
 
 use super::local::{Local, StarEval, STAR_MAX};
 use super::smooth::pattern_search8;
 use glam::DVec3;
 
-/// Sweeps of [`polish_mean`] on surfaces of 20k quads or more: the second sweep gains about
+/// Sweeps of [`polish_mean`] on surfaces of 10^4 quads or more: the second sweep gains about
 /// a third as much η̄ as the first at the same cost (figures in BENCHMARKS.md,
 /// "Measurements behind the defaults").
 pub(crate) const MEAN_SWEEPS: usize = 1;
@@ -36,7 +36,7 @@ const SIZE_TERM_MAX_COT: f64 = 0.68;
 /// Stars with more edges than this get no size term (valence above 8 is rare).
 const MAX_SIZE_EDGES: usize = 8;
 
-/// Sweeps of [`polish_mean`] on surfaces under 20k quads, where they are cheap (figures in
+/// Sweeps of [`polish_mean`] on surfaces under 10^4 quads, where they are cheap (figures in
 /// BENCHMARKS.md, "Measurements behind the defaults").
 pub(crate) const MEAN_SWEEPS_SMALL: usize = 4;
 

@@ -3,7 +3,7 @@
 //! located on it, target sizes from its edge lengths.
 
 use super::local::{Local, NONE};
-use super::schedule::RESMOOTH_ALL_BELOW;
+use super::schedule::SCHEDULE_CHOICE_BELOW;
 use super::surface_tags;
 use crate::mesh::{etype, Mesh};
 use crate::mesh::{NodeIds, NodeTable};
@@ -272,7 +272,7 @@ pub(super) fn attach_reference(
             }
             left = rest;
         }
-        if !own && l.quads.len() < RESMOOTH_ALL_BELOW {
+        if !own && l.quads.len() < SCHEDULE_CHOICE_BELOW {
             // small surfaces choose between schedules by τ (`Local::tau_estimate`)
             l.reference = Some(std::sync::Arc::new(TriSurface::new(pts, tris)));
             l.ref_sizes = nodal;

@@ -91,7 +91,7 @@ enum Plan {
 /// reference's triangles or more: its choice is the mesh's) or without topology rounds,
 /// and otherwise from the mean η ([`UNSHEAR_BELOW`]); other surfaces run one schedule.
 fn plan(l: &Local, opts: &OptimizeOptions, polish: bool, main: bool) -> Plan {
-    if !(polish && l.planar && l.quads.len() < RESMOOTH_ALL_BELOW) {
+    if !(polish && l.planar && l.quads.len() < SCHEDULE_CHOICE_BELOW) {
         return Plan::One;
     }
     let mean = l.stats().eta_mean;
@@ -300,7 +300,7 @@ fn topology_rounds(
 /// of the surface (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const HALVES_FROM: usize = 1 << 15;
 
-/// Surfaces of [`RESMOOTH_ALL_BELOW`] quads or more stop their topology rounds after a pass
+/// Surfaces of [`LARGE_SURFACE_FROM`] quads or more stop their topology rounds after a pass
 /// that changed fewer than one quad in this many: each pass changes about a tenth as much as
 /// the one before, and the rounds after such a pass gained under 0.0005 η̄ and 0.1 point of
 /// d4 (figures in BENCHMARKS.md, "Measurements behind the defaults").
@@ -374,7 +374,7 @@ fn finish_ticking(
 }
 
 /// Sweeps of the max-min polish that ends the optimization of surfaces of
-/// [`RESMOOTH_ALL_BELOW`] quads or more, after the mean polish (none on smaller ones). Those
+/// [`LARGE_SURFACE_FROM`] quads or more, after the mean polish (none on smaller ones). Those
 /// surfaces also run half of `angle_sweeps` pattern sweeps (rounded up: 1 of the default 2):
 /// with both changes they end with the same η̄, d4 and τ and an η_w as high or higher, since
 /// the last max-min polish lifts the few quads the mean polish left below η 0.6 and visits
@@ -382,10 +382,10 @@ fn finish_ticking(
 const LAST_WORST_SWEEPS: usize = WORST_SWEEPS_LARGE;
 
 /// Sweeps of the max-min polish ([`smooth::polish_worst`]) on surfaces under
-/// [`RESMOOTH_ALL_BELOW`] quads.
+/// [`LARGE_SURFACE_FROM`] quads.
 const WORST_SWEEPS: usize = 4;
 
-/// Sweeps of the max-min polish on surfaces of [`RESMOOTH_ALL_BELOW`] quads or more: after
+/// Sweeps of the max-min polish on surfaces of [`LARGE_SURFACE_FROM`] quads or more: after
 /// the shorter first smoothing ([`FIRST_SWEEPS_NUM`]) four sweeps left one quad of the 1e5
 /// rectangle fixture at η 0.593, eight lift it to 0.600. The sweeps only visit the nodes
 /// around quads below η 0.6 and the neighbours of moved nodes, and stop when nothing moves,
@@ -398,13 +398,13 @@ const WORST_SWEEPS_LARGE: usize = 8;
 const RESMOOTH_RINGS: usize = 2;
 
 /// Sweeps of the smoothing around a topology pass's changes on surfaces of
-/// [`RESMOOTH_ALL_BELOW`] quads or more, in fifths of `smooth_iterations` (rounded up: 3 of
+/// [`LARGE_SURFACE_FROM`] quads or more, in fifths of `smooth_iterations` (rounded up: 3 of
 /// the default 5): the fewest that keep the quality of full sweeps (figures in
 /// BENCHMARKS.md, "Measurements behind the defaults"; 2 cost η_w with the one-sweep first
 /// smoothing of [`FIRST_SWEEPS_NUM`]).
 const NEAR_SWEEPS_NUM: usize = 3;
 
-/// Sweeps of the first smoothing on surfaces of [`RESMOOTH_ALL_BELOW`] quads or more, in
+/// Sweeps of the first smoothing on surfaces of [`LARGE_SURFACE_FROM`] quads or more, in
 /// fifths of `smooth_iterations` (rounded up: 1 of the default 5). The topology rounds
 /// re-smooth around every change and the conformal solve removes the low-frequency
 /// distortion later, so the further sweeps gain no final quality (figures in
@@ -412,7 +412,7 @@ const NEAR_SWEEPS_NUM: usize = 3;
 const FIRST_SWEEPS_NUM: usize = 1;
 
 /// Sweeps of the first smoothing of `l`: all of `smooth_iterations` on surfaces under
-/// [`RESMOOTH_ALL_BELOW`] quads, [`FIRST_SWEEPS_NUM`] fifths of them (rounded up) on larger
+/// [`LARGE_SURFACE_FROM`] quads, [`FIRST_SWEEPS_NUM`] fifths of them (rounded up) on larger
 /// ones; 0 when smoothing is off.
 fn first_sweeps(l: &Local, opts: &OptimizeOptions) -> usize {
     let n = opts.smooth_iterations;
@@ -429,10 +429,10 @@ fn by_size(l: &Local, small: usize, big: usize) -> usize {
     }
 }
 
-/// True when `l` runs the sweeps of large surfaces: it has [`RESMOOTH_ALL_BELOW`] quads or
+/// True when `l` runs the sweeps of large surfaces: it has [`LARGE_SURFACE_FROM`] quads or
 /// more, or its mesh has [`LARGE_MESH_FROM`] reference triangles or more.
 fn large(l: &Local) -> bool {
-    l.quads.len() >= RESMOOTH_ALL_BELOW || l.in_large_mesh
+    l.quads.len() >= LARGE_SURFACE_FROM || l.in_large_mesh
 }
 
 /// Reference triangles from which every surface of a mesh runs the sweeps of large surfaces
@@ -443,10 +443,16 @@ fn large(l: &Local) -> bool {
 /// η̄ (figures in BENCHMARKS.md, "Measurements behind the defaults").
 pub(crate) const LARGE_MESH_FROM: usize = 1 << 19;
 
-/// Surfaces with fewer quads re-smooth every node after each topological pass: cheap there,
-/// and on small curved surfaces local re-smoothing alone loses mean quality (figures in
+/// Surfaces with fewer quads run the sweeps of small surfaces ([`large`]): every node
+/// re-smoothed after each topological pass, full sweep counts. Cheap there, and on small
+/// curved surfaces local re-smoothing alone loses mean quality; from 10^4 quads on, the
+/// light sweeps end within 0.003 of η̄ at about half the optimizer's time (figures in
 /// BENCHMARKS.md, "Measurements behind the defaults").
-pub(super) const RESMOOTH_ALL_BELOW: usize = 20_000;
+pub(super) const LARGE_SURFACE_FROM: usize = 10_000;
+
+/// Planar surfaces with fewer quads may choose among three schedules ([`plan`]) and keep
+/// their reference triangles for the τ estimates that choice needs.
+pub(super) const SCHEDULE_CHOICE_BELOW: usize = 20_000;
 
 /// Small planar surfaces choose among the three schedules ([`plan`]) only when their mean η
 /// after the first smoothing is below this: surfaces already above it gain next to nothing
