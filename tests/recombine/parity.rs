@@ -623,6 +623,40 @@ fn an_odd_band_is_split_where_its_matchings_can_keep_every_pair_sound() {
 }
 
 #[test]
+fn an_odd_annulus_band_is_split_on_its_shorter_circle() {
+    // a band one triangle wide pairs each segment of one circle with one of the other: the
+    // split on the circle with fewer segments evens them out (the circle of radius `r` is
+    // the outer one when `r` > 1)
+    for (outer, inner, r) in [
+        (8, 7, 0.67),
+        (12, 9, 0.5),
+        (9, 8, 0.6),
+        (16, 13, 0.8),
+        (10, 13, 1.2),
+    ] {
+        let before = annulus(outer, inner, r);
+        let mut m = before.clone();
+        let rep = recombine(&mut m, &verify_opts()).unwrap();
+        assert_eq!(rep.parity_splits.len(), 1, "{outer}/{inner}");
+        let node = rep.parity_splits[0].new_node;
+        let p = m
+            .node_blocks
+            .iter()
+            .find_map(|b| b.tags.iter().position(|&t| t == node).map(|i| b.coords[i]))
+            .unwrap();
+        // the circle of radius 1 has `outer` segments, the one of radius `r` `inner`
+        let radius = (p[0] * p[0] + p[1] * p[1]).sqrt();
+        let on_first = (radius - 1.0).abs() < (radius - r).abs();
+        assert_eq!(
+            on_first,
+            outer < inner,
+            "{outer}/{inner}: split at radius {radius:.3}"
+        );
+        check_invariants(&before, &m).unwrap();
+    }
+}
+
+#[test]
 fn repeated_runs_in_one_process_give_the_same_mesh() {
     // hash maps are seeded anew for every map: a choice that followed their order would
     // differ between runs; the strips' equal segments give the plan many ties

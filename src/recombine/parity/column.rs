@@ -298,12 +298,20 @@ const POOR_STRIP_COST: i64 = 1;
 /// The worst quad η below which a split on an odd strip counts as poor ([`group_costs`]).
 const STRIP_ETA: f64 = 0.2;
 
+/// What a split costs on top of [`SPLIT_COST`] when it lands on the wall of an odd closed
+/// band that has more segments than the band's other wall: a band one triangle wide pairs
+/// into quads that each join a segment of one wall to a segment of the other, so the split
+/// on the shorter wall evens the two out and the one on the longer wall leaves them two
+/// apart (the band's strip plan then needs a midline, see `recombine::strip`).
+const LONGER_WALL_COST: i64 = 1;
+
 /// The T-join cost of each group of `list`: [`SPLIT_COST`], plus [`INVALID_STRIP_COST`] or
 /// [`POOR_STRIP_COST`] when the group flips an odd strip (a path or a closed band, see
 /// [`place_single_splits`]) on which none of its plain segments gives the strip's forced
-/// matching a valid worst quad, or one of at least [`STRIP_ETA`]. So between two curves of
-/// an odd strip, such as the inner and outer circle of a coarse annulus, the plan splits
-/// the one whose split lets the strip pair into sound quads.
+/// matching a valid worst quad, or one of at least [`STRIP_ETA`], plus [`LONGER_WALL_COST`]
+/// when its segments on an odd closed band all lie on the band's longer wall. So between
+/// two curves of an odd strip, such as the inner and outer circle of a coarse annulus, the
+/// plan splits the one whose split lets the strip pair into sound quads.
 pub(super) fn group_costs(
     work: &[SurfaceWork],
     offset: &[u32],
@@ -314,12 +322,25 @@ pub(super) fn group_costs(
 ) -> Vec<i64> {
     let mut cost = vec![SPLIT_COST; list.len()];
     let mut best: HashMap<usize, f64> = HashMap::new();
+    // groups with a segment on the shorter wall of an odd band, and with one on the longer
+    let (mut shorter, mut longer) = (vec![false; list.len()], vec![false; list.len()]);
     for (r, _) in odd_in.iter().enumerate().filter(|x| *x.1) {
         let r = r as u32;
         let (w, local) = region_of(work, offset, r);
         let Some((path, closed)) = strip_order(w, local) else {
             continue;
         };
+        if closed {
+            for (key, on_longer) in band_walls(w, &path) {
+                if let Some((g, _)) = segment(segments, key).filter(|&(g, _)| plain(list, g)) {
+                    if on_longer {
+                        longer[g] = true;
+                    } else {
+                        shorter[g] = true;
+                    }
+                }
+            }
+        }
         let scores = split_scores(w, nodes, &path, closed, |key| {
             segment(segments, key).is_some_and(|(g, _)| plain(list, g))
         });
@@ -342,7 +363,66 @@ pub(super) fn group_costs(
             cost[g] += POOR_STRIP_COST;
         }
     }
+    for g in 0..list.len() {
+        if longer[g] && !shorter[g] {
+            cost[g] += LONGER_WALL_COST;
+        }
+    }
     cost
+}
+
+/// The wall segments (edge keys) of the closed band whose triangles are `path` (one row:
+/// every triangle has a wall edge), each with whether it lies on the band's longer wall:
+/// the band's walls are the two loops its wall segments make, and the longer one has more
+/// segments. Empty when the walls are not two loops of different lengths.
+fn band_walls(w: &SurfaceWork, path: &[usize]) -> Vec<(u64, bool)> {
+    let mut walls: Vec<(u32, u32)> = Vec::new();
+    for &t in path {
+        let tr = w.topo.tris[t];
+        for k in 0..3 {
+            if w.topo.nbr[3 * t + k] == NONE {
+                walls.push((tr[k], tr[(k + 1) % 3]));
+            }
+        }
+    }
+    // the loops: nodes joined by wall segments (union-find over the band's wall nodes)
+    let mut ids: Vec<u32> = walls.iter().flat_map(|&(a, b)| [a, b]).collect();
+    ids.sort_unstable();
+    ids.dedup();
+    let index = |v: u32| ids.binary_search(&v).unwrap_or(0);
+    let mut parent: Vec<usize> = (0..ids.len()).collect();
+    fn root(parent: &mut [usize], mut i: usize) -> usize {
+        while parent[i] != i {
+            parent[i] = parent[parent[i]];
+            i = parent[i];
+        }
+        i
+    }
+    for &(a, b) in &walls {
+        let (ra, rb) = (root(&mut parent, index(a)), root(&mut parent, index(b)));
+        parent[ra] = rb;
+    }
+    let loop_of: Vec<usize> = walls
+        .iter()
+        .map(|&(a, _)| root(&mut parent, index(a)))
+        .collect();
+    let mut loops: Vec<usize> = loop_of.clone();
+    loops.sort_unstable();
+    loops.dedup();
+    if loops.len() != 2 {
+        return Vec::new();
+    }
+    let count = |l: usize| loop_of.iter().filter(|&&x| x == l).count();
+    let (c0, c1) = (count(loops[0]), count(loops[1]));
+    if c0 == c1 {
+        return Vec::new();
+    }
+    let long = if c0 > c1 { loops[0] } else { loops[1] };
+    walls
+        .iter()
+        .zip(&loop_of)
+        .map(|(&(a, b), &l)| (edge_key(a, b), l == long))
+        .collect()
 }
 
 /// The surface work holding plan region `r` (numbered across surfaces from `offset`, the

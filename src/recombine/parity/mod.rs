@@ -15,8 +15,10 @@
 //! be fixed along paths, and any set when the component holds the ground, so the only
 //! constraint left is one parity bit per ungrounded component; groups flipping three or
 //! more regions (curves shared by 3+ surfaces) change those bits, and a small GF(2)
-//! system (rows: ungrounded components, columns: those groups) solved by Gaussian
-//! elimination picks the ones to split. The system is solvable exactly when some set of
+//! system (rows: ungrounded components, columns: those groups, cheapest first) solved by
+//! Gaussian elimination picks the ones to split, so of two such curves that fix the same
+//! components the cheaper is split (the inner circle where a coarse pipe's legs meet,
+//! rather than the outer one, when the inner is the shorter wall of an odd annulus face). The system is solvable exactly when some set of
 //! curve node-count changes makes every region even, and `--parity error` reports the
 //! same plan. The rest is a T-join with T = the odd regions, found with the fewest
 //! splits (each group costs one split, more on a strip it would spoil, below): a
@@ -56,8 +58,9 @@
 //! (of any group flipping the same regions) whose split gives the strip's forced matching
 //! (on a band, the one of its two alternations that keeps the split's halves apart) the
 //! best worst quad, and the T-join counts a group whose best split there still leaves a
-//! quad that is not valid as 2.5 splits (1.5 when under η 0.2), so it takes another
-//! curve when one is as near. Each segment is split at its
+//! quad that is not valid as 2.5 splits (1.5 when under η 0.2), and a group whose
+//! segments on an odd band all lie on the band's longer wall (more segments) as 1.5
+//! splits, so it takes another curve when one is as near. Each segment is split at its
 //! chord midpoint (so planar areas are unchanged), parametric coordinates
 //! interpolated; the new node gets tag `max + 1` and is classified on the curve (appended
 //! to its node block), or on the first flipped surface when no curve is known. Every
@@ -272,6 +275,38 @@ mod tests {
         assert_eq!(equal, Some(vec![0]));
         let dear = min_tjoin(&adj, &[0, 1], 3, &[5, 2, 2]).map(sorted);
         assert_eq!(dear, Some(vec![1, 2]));
+    }
+
+    #[test]
+    fn of_curves_shared_by_three_surfaces_that_fix_the_same_parities_the_cheaper_is_split() {
+        // a pipe's two legs: odd end caps 0 and 3 (annulus bands), the first leg's outer and
+        // inner walls 1 and 2, the second leg's 4 and 5 (reaching the ground, an open end);
+        // each cap's outer circle is its longer wall, which costs one more
+        let group = |sig: &[u32]| Group {
+            curve: None,
+            sig: sig.to_vec(),
+            best: (true, true, 1.0, 0, 1),
+            with: Vec::new(),
+        };
+        let list = vec![
+            group(&[0, 1]),    // cap 0's outer circle
+            group(&[0, 2]),    // cap 0's inner circle
+            group(&[1, 3, 4]), // the outer circle where the legs meet cap 3
+            group(&[2, 3, 5]), // the inner one
+            group(&[4]),
+            group(&[5]),
+        ];
+        let odd = [true, false, false, true, false, false];
+        let sorted = |mut v: Vec<usize>| {
+            v.sort_unstable();
+            v
+        };
+        let (chosen, unsolved) = solve_groups(&list, &odd, &[3, 2, 3, 2, 2, 2]);
+        assert!(unsolved.is_empty());
+        assert_eq!(sorted(chosen), vec![1, 3, 5]);
+        // at equal costs the first in the list
+        let (chosen, _) = solve_groups(&list, &odd, &[2; 6]);
+        assert_eq!(sorted(chosen), vec![0, 2, 4]);
     }
 
     #[test]

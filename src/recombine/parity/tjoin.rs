@@ -195,9 +195,9 @@ pub(super) fn min_tjoin(
 /// even set of odd regions can be fixed along paths, and any set at all when the component
 /// holds the ground; so the only constraint is one parity bit per ungrounded component.
 /// Groups flipping three or more regions (curves shared by 3+ surfaces) change those bits:
-/// a small GF(2) system (rows: ungrounded components, columns: such groups), solved by
-/// Gaussian elimination, picks the ones to split; their flips are applied, and the region
-/// graph's minimum T-join fixes the rest with the fewest splits.
+/// a small GF(2) system (rows: ungrounded components, columns: such groups, cheapest
+/// first), solved by Gaussian elimination, picks the ones to split; their flips are
+/// applied, and the region graph's minimum T-join fixes the rest with the fewest splits.
 pub(crate) fn solve_groups(
     list: &[Group],
     odd_in: &[bool],
@@ -272,6 +272,10 @@ pub(crate) fn solve_groups(
                 cols.push((g, rows));
             }
         }
+        // the cheapest groups first: the elimination takes a column as a pivot in order, so
+        // of groups that fix the same components the cheapest is taken (the inner circle of
+        // an odd annulus band rather than its longer outer one, see `group_costs`)
+        cols.sort_by_key(|c| (cost[c.0], c.0));
         let x = gf2_solve(
             n_rows,
             &cols.iter().map(|c| c.1.clone()).collect::<Vec<_>>(),
