@@ -85,8 +85,8 @@ pub enum InvariantViolation {
         /// The node's entity (dimension, tag).
         entity: (i32, i32),
     },
-    /// An edge of `after` is neither an edge of `before` nor half of one split at a new
-    /// node.
+    /// An edge of `after` is neither an edge of `before` nor a piece of one split at new
+    /// nodes (it joins two nodes of `before`).
     #[error("{set}: the edge {}-{} is new", .edge.0, .edge.1)]
     NewEdge {
         /// The edges compared.
@@ -183,8 +183,9 @@ pub enum InvariantViolation {
 /// - no 3-node triangle is left on any surface; no face repeats a node;
 /// - every edge of a surface is shared by at most two of its faces, and each surface's
 ///   boundary edges (one face) are those of `before`, where a boundary edge of `before` may
-///   have been split in two at a new node (parity repair); every 2-node line element of
-///   `after` is a line element of `before` or one half of such a split;
+///   have been split at new nodes (parity repair, the fallback: in two, or further where a
+///   half was split again); every 2-node line element of `after` is a line element of
+///   `before` or a piece of such a split;
 /// - edges of line elements that were edges of a surface stay edges of it (curves are not
 ///   crossed);
 /// - nodes classified on curves and points are still there, unmoved;
@@ -355,6 +356,30 @@ mod tests {
             node_block(dim, tags, at)
         });
         one_surface(blocks.into(), etype_, elems)
+    }
+
+    #[test]
+    fn an_edge_may_be_split_once_or_along_a_chain_of_new_nodes() {
+        // nodes from 100 on are new
+        let new_node = |t: u64| t >= 100;
+        let check = |after: &[Edge]| {
+            let mut after = after.to_vec();
+            after.sort_unstable();
+            surface::check_split_sets(&[(1, 2), (2, 3)], &after, &new_node, EdgeSet::LineElements)
+        };
+        // one split, and a split of a split's half
+        assert!(check(&[(1, 100), (2, 100), (2, 3)]).is_ok());
+        assert!(check(&[(1, 100), (100, 101), (2, 101), (2, 3)]).is_ok());
+        assert!(check(&[(1, 100), (100, 101), (2, 102), (101, 102), (3, 103), (2, 103)]).is_ok());
+        // a chain that stops at a new node, or comes back to where it started
+        assert!(check(&[(1, 100), (100, 101), (2, 3)]).is_err());
+        assert!(check(&[(1, 100), (100, 101), (1, 101), (2, 3)]).is_err());
+        // new nodes in a cycle of their own, an edge between two old nodes, a lost edge
+        assert!(check(&[(1, 2), (2, 3), (100, 101), (101, 102), (100, 102)]).is_err());
+        assert!(check(&[(1, 2), (1, 3), (2, 3)]).is_err());
+        assert!(check(&[(2, 3)]).is_err());
+        // a chain rebuilding an edge that was not there
+        assert!(check(&[(1, 2), (2, 3), (1, 100), (3, 100)]).is_err());
     }
 
     /// The edge table answers as a count over the faces, with compact tags (runs) and

@@ -21,6 +21,10 @@ impl SurfaceBefore {
     }
 }
 
+/// New nodes along one curve segment of `before` that the checks follow at most (each a
+/// split of a split's half).
+const MAX_CHAIN: usize = 8;
+
 /// The edges of `counts` used by one face.
 pub(super) fn boundary(counts: &[(Edge, u32)]) -> Vec<Edge> {
     counts
@@ -81,12 +85,48 @@ pub(super) fn check_surface(
             nbr.push((*y, *x));
         }
         sort_pairs(&mut nbr);
+        let next_to = |v: u64| {
+            let from = nbr.partition_point(|x| x.0 < v);
+            nbr[from..].iter().take_while(move |x| x.0 == v).map(|x| x.1)
+        };
+        // a new node on the segment `e` (within a millionth of its length of the chord)
+        let on_segment = |m: u64, e: &Edge| -> bool {
+            let (Some(p), Some(q), Some(x)) = (ib.get(e.0), ib.get(e.1), ia.get(m)) else {
+                return false;
+            };
+            let (p, q, x) = (
+                glam::DVec3::from_array(p),
+                glam::DVec3::from_array(q),
+                glam::DVec3::from_array(x),
+            );
+            let d = q - p;
+            let t = (x - p).dot(d) / d.length_squared().max(f64::MIN_POSITIVE);
+            (0.0..=1.0).contains(&t) && (p + t * d).distance(x) <= 1e-6 * d.length()
+        };
+        // split in two at a new node, or into more along the segment (a split of a split's
+        // half)
         let split_present = |e: &Edge| -> bool {
-            let from = nbr.partition_point(|x| x.0 < e.0);
-            nbr[from..]
-                .iter()
-                .take_while(|x| x.0 == e.0)
-                .any(|&(_, m)| new_node(m) && count_of(&ea, &undirected(m, e.1)) > 0)
+            if next_to(e.0).any(|m| new_node(m) && count_of(&ea, &undirected(m, e.1)) > 0) {
+                return true;
+            }
+            let mut frontier = vec![e.0];
+            let mut seen: Vec<u64> = Vec::new();
+            for _ in 0..MAX_CHAIN {
+                let mut next = Vec::new();
+                for v in frontier {
+                    for m in next_to(v) {
+                        if m == e.1 && v != e.0 {
+                            return true;
+                        }
+                        if new_node(m) && !seen.contains(&m) && on_segment(m, e) {
+                            seen.push(m);
+                            next.push(m);
+                        }
+                    }
+                }
+                frontier = next;
+            }
+            false
         };
         if let Some(e) = missing.into_iter().find(|e| !split_present(e)) {
             return Err(InvariantViolation::CurveSegmentLost {
@@ -129,25 +169,36 @@ pub(super) fn check_surface(
     Ok(())
 }
 
-/// `after` equals `before` where some edges `{a, b}` are replaced by `{a, m}`, `{m, b}` with
-/// `m` a new node. Both lists sorted and deduplicated.
+/// `after` equals `before` where some edges `{a, b}` are replaced by a chain `{a, m₁}`,
+/// `{m₁, m₂}`, …, `{mₖ, b}` through new nodes (one split, or a split of a split's half:
+/// a fallback's split of a line, then a parity split of one of its halves). Both lists
+/// sorted and deduplicated.
 pub(super) fn check_split_sets(
     before: &[Edge],
     after: &[Edge],
     new_node: &dyn Fn(u64) -> bool,
     set: EdgeSet,
 ) -> Result<(), InvariantViolation> {
-    // the halves, as (new node, far end), sorted: pairs of them rebuild a split edge
+    // the new edges at each new node, as (new node, other end), sorted, and the chains'
+    // ends, as (old node, new node)
     let mut halves: Vec<(u64, u64)> = Vec::new();
+    let mut ends: Vec<(u64, u64)> = Vec::new();
     for &(x, y) in after.iter().filter(|e| !has(before, e)) {
-        match (new_node(x), new_node(y)) {
-            (true, false) => halves.push((x, y)),
-            (false, true) => halves.push((y, x)),
-            _ => return Err(InvariantViolation::NewEdge { set, edge: (x, y) }),
+        let (nx, ny) = (new_node(x), new_node(y));
+        if !nx && !ny {
+            return Err(InvariantViolation::NewEdge { set, edge: (x, y) });
+        }
+        for (p, q, new) in [(x, y, nx), (y, x, ny)] {
+            if new {
+                halves.push((p, q));
+            } else {
+                ends.push((p, q));
+            }
         }
     }
     halves.sort_unstable();
-    let mut rebuilt: Vec<Edge> = Vec::with_capacity(halves.len() / 2);
+    ends.sort_unstable();
+    // every new node is inside a chain: two new edges
     let mut i = 0;
     while i < halves.len() {
         let m = halves[i].0;
@@ -159,8 +210,45 @@ pub(super) fn check_split_sets(
                 halves: j - i,
             });
         }
-        rebuilt.push(undirected(halves[i].1, halves[i + 1].1));
         i = j;
+    }
+    let beside = |m: u64, from: u64| -> u64 {
+        let k = halves.partition_point(|h| h.0 < m);
+        if halves[k].1 == from {
+            halves[k + 1].1
+        } else {
+            halves[k].1
+        }
+    };
+    // each chain from its smaller old end to the other; the new nodes it passes
+    let mut rebuilt: Vec<Edge> = Vec::with_capacity(ends.len() / 2);
+    let mut passed = 0;
+    for &(a, first) in &ends {
+        let (mut prev, mut m, mut count) = (a, first, 1);
+        let b = loop {
+            let next = beside(m, prev);
+            if !new_node(next) {
+                break next;
+            }
+            (prev, m, count) = (m, next, count + 1);
+            if count > halves.len() {
+                break a;
+            }
+        };
+        if a < b {
+            rebuilt.push(undirected(a, b));
+            passed += count;
+        }
+    }
+    // new nodes no chain reached (a cycle of new nodes), or a chain back to its start
+    if 2 * passed != halves.len() {
+        let reached = |m: u64| ends.iter().any(|e| e.1 == m);
+        let m = halves.iter().map(|h| h.0).find(|&m| !reached(m)).unwrap_or(halves[0].0);
+        return Err(InvariantViolation::SplitNode {
+            set,
+            node: m,
+            halves: 2,
+        });
     }
     rebuilt.sort_unstable();
     let mut used = vec![false; rebuilt.len()];
