@@ -185,6 +185,7 @@ pub(crate) fn extract(
         pos,
         nrm,
         gate_nrm: Vec::new(),
+        tie: 0.0,
         fixed,
         global,
         tags: node_tags,

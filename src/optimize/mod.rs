@@ -268,6 +268,22 @@ pub fn optimize(
 pub(super) fn surface_tags(mesh: &Mesh, element_type: u32) -> Vec<i32> {
     mesh.sorted_surfaces(|b| b.element_type == element_type && !b.is_empty())
 }
+/// The diagonal of the bounding box of `coords` (1 when empty or flat to a point), as the
+/// validity gate measures a mesh's extent.
+fn extent(coords: &[glam::DVec3]) -> f64 {
+    use glam::DVec3;
+    let (lo, hi) = coords.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &c| (lo.min(c), hi.max(c)),
+    );
+    let d = (hi - lo).length();
+    if d.is_finite() && d > 0.0 {
+        d
+    } else {
+        1.0
+    }
+}
+
 /// [`optimize`] with the reference triangulation already prepared (from the triangle mesh
 /// before recombination).
 pub fn optimize_prepared(
@@ -283,12 +299,14 @@ pub fn optimize_prepared(
     tm.lap("owners");
     let mut locals = Vec::with_capacity(surfaces.len());
     let mut scratch = vec![NONE; flat.coords.len()];
+    let tie = 1e-8 * extent(&flat.coords);
     for (si, &s) in surfaces.iter().enumerate() {
         if opts.skip.contains(&s) {
             continue;
         }
         let mut l = extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?;
         l.trace = opts.trace.cloned();
+        l.tie = tie;
         locals.push(l);
     }
     // memory: through the surfaces' optimization, only where each node lives
