@@ -32,7 +32,11 @@
 //!    quad (those holding one of its input nodes, or the nearest one to a quad of new
 //!    nodes) are split into three quads each before the matching
 //!    ([`crate::recombine::split_triangles`]); a second split round adds one more ring (the
-//!    triangles touching those), up to [`SPLIT_RINGS`] rings.
+//!    triangles touching those), up to [`SPLIT_RINGS`] rings. A bad quad after a split
+//!    round whose bad corner is at a node the input does not have (the matching merged the
+//!    two halves of a triangle halved beside split ones: a flat corner at the split edge's
+//!    midpoint) first gets the same splits again with such halves priced out
+//!    ([`crate::recombine::RecombineOptions::flat_halves_out`]), once, before another ring.
 //! 4. **Last resort.** Quads still bad after that get every triangle of their surface split
 //!    (the splits' halved neighbours along shared curves may bring another surface there in
 //!    the next round; segment splits are dropped then), up to [`FALLBACK_ROUNDS`] rounds in

@@ -30,6 +30,10 @@ pub(super) enum Next {
     Price(usize, usize),
     /// Solve again with this many more boundary segments split under fans.
     Segments(usize),
+    /// Solve again with the merged halves of split triangles priced out
+    /// ([`LocalFallback::flat_halves_out`]): this many bad quads had their bad corner at a
+    /// node the input does not have.
+    HalvesOut(usize),
     /// Split these input triangles too (empty: nothing more to split).
     Split(HashSet<u64>),
     /// Nothing more to try.
@@ -112,6 +116,17 @@ impl LocalFallback {
                 self.segments.extend(new);
                 return Next::Segments(count);
             }
+        }
+        // a bad corner at a node of a split (the matching merged the two halves of a
+        // triangle halved next to split ones, a flat corner at the split edge's midpoint):
+        // the same splits again with such halves priced out before another ring
+        let at_split = bad
+            .iter()
+            .filter(|b| b.node() > input.max_node_tag())
+            .count();
+        if self.split_rounds > 0 && !self.flat_halves_out && at_split > 0 {
+            self.flat_halves_out = true;
+            return Next::HalvesOut(at_split);
         }
         self.split_rounds += 1;
         if self.split_rounds > SPLIT_RINGS {

@@ -264,6 +264,13 @@ pub(super) fn run_rounds(
                 ));
                 continue;
             }
+            Next::HalvesOut(count) => {
+                log.push(format!(
+                    "fallback round {}: {count} quad(s) with a bad corner at a split node: the merged halves of split triangles priced out",
+                    round + 1
+                ));
+                continue;
+            }
             Next::Split(more) => more,
             Next::GiveUp => HashSet::new(),
         };
