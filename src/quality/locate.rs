@@ -123,8 +123,8 @@ impl TriSurface {
                 push(out, self.nbr[t as usize][k]);
             }
         }
-        for k in 0..3 {
-            if c[k].distance(p) > tol {
+        for (k, corner) in c.iter().enumerate() {
+            if corner.distance(p) > tol {
                 continue;
             }
             let x = self.tris[t as usize][k];
