@@ -186,6 +186,7 @@ pub(crate) fn extract(
         nrm,
         gate_nrm: Vec::new(),
         tie: 0.0,
+        located_turns: false,
         fixed,
         global,
         tags: node_tags,

@@ -49,6 +49,9 @@ pub(crate) struct Local {
     /// input faces nearest to the node, ties within 1e-9 of the mesh's extent; this is
     /// 1e-8 of it, so every face the gate counts is one the optimizer measures about.
     pub tie: f64,
+    /// Corners at nodes `gate_nrm` is zero at are held to the reference triangles they
+    /// touch ([`OptimizeOptions::located_turns`](super::OptimizeOptions)).
+    pub located_turns: bool,
     /// Target size h per node (eq. 1's field at the node).
     pub h: Vec<f64>,
     /// Fixed nodes never move nor disappear.

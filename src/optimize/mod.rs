@@ -149,6 +149,12 @@ pub struct OptimizeOptions<'a> {
     /// aggregation multigrid instead of the diagonal (off by default): closer to the
     /// solve's minimizer, for a higher η̄ on large planar surfaces at some time.
     pub conformal_multigrid: bool,
+    /// On curved surfaces, hold the corner at a node the reference does not have (split,
+    /// duplicated and refined nodes) to turn positively about the reference triangles that
+    /// node touches where it is, as the validity gate measures it (off by default; the
+    /// pipeline's fallback sets it once the optimizer turned a quad that the validity gate
+    /// refuses: see `valid`).
+    pub located_turns: bool,
 }
 
 impl Default for OptimizeOptions<'_> {
@@ -168,6 +174,7 @@ impl Default for OptimizeOptions<'_> {
             skip: &[],
             trace: None,
             conformal_multigrid: false,
+            located_turns: false,
         }
     }
 }
@@ -307,6 +314,7 @@ pub fn optimize_prepared(
         let mut l = extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?;
         l.trace = opts.trace.cloned();
         l.tie = tie;
+        l.located_turns = opts.located_turns;
         locals.push(l);
     }
     // memory: through the surfaces' optimization, only where each node lives

@@ -9,13 +9,14 @@
 //! edge is shorter than [`MIN_EDGE_REL`] times the target size at its ends, and, on curved
 //! surfaces, every corner is in that range about the reference triangulation's normal at
 //! each node of the quad it has too (at input nodes, the normals the gate measures corners
-//! about), the corner at a node the reference does not have (split, duplicated and refined
-//! nodes) is in that range about the normal of every reference triangle the node touches
-//! where it now is (the faces the gate measures that corner about: on a coarse curved face
-//! such a node can cross onto a face that turns far from the quad's reference normal), and
-//! the quad holds to its own geometry: its scaled Jacobian at every corner about
-//! its own normal (the cross product of its diagonals) is at least [`MIN_OWN_SJ`] (the
-//! gate's rule of `crate::validity`, with a margin). On a planar surface a quad whose
+//! about), with [`OptimizeOptions::located_turns`](super::OptimizeOptions) the corner at a
+//! node the reference does not have (split, duplicated and refined nodes) is in that range
+//! about the normal of every reference triangle the node touches where it now is (the faces
+//! the gate measures that corner about: on a coarse curved face such a node can cross onto
+//! a face that turns far from the quad's reference normal), and the quad holds to its own
+//! geometry: its scaled Jacobian at every corner about its own normal (the cross product of
+//! its diagonals) is at least [`MIN_OWN_SJ`] (the gate's rule of `crate::validity`, with a
+//! margin). On a planar surface a quad whose
 //! corners all turn positively about the plane's normal is convex, so its diagonals cross
 //! and its own normal is the plane's: the rule holds there by itself.
 //!
@@ -107,12 +108,13 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
     l.planar || own_jacobian_ok(&p)
 }
 
-/// True when the validity gate measures the corner at node `v` about the input faces
-/// nearest to it ([`located_normals`]): a curved surface with reference triangles, and a
+/// True when the optimizer holds the corner at node `v` to the reference triangles it
+/// touches ([`Local::located_turns`]): the validity gate measures it about the input faces
+/// nearest to it ([`located_normals`]); a curved surface with reference triangles, and a
 /// node the reference does not have (a split node, a duplicated vertex, a node of a
 /// fallback split or of a refinement), whose [`Local::gate_nrm`] is zero.
 pub(crate) fn located(l: &Local, v: u32) -> bool {
-    l.reference.is_some() && l.gate_nrm.get(v as usize) == Some(&DVec3::ZERO)
+    l.located_turns && l.reference.is_some() && l.gate_nrm.get(v as usize) == Some(&DVec3::ZERO)
 }
 
 /// The unit normals of the reference triangles that point `p` of node `v` touches
@@ -591,6 +593,9 @@ mod tests {
             std::sync::Arc::new(crate::quality::locate::TriSurface::new(pts, vec![[0, 1, 2]]))
         };
         l.tri[v as usize] = 0;
+        l.reference = Some(face(100.0));
+        assert!(!located(&l, v) && valid(&l, q), "the rule is off by default");
+        l.located_turns = true;
         l.reference = Some(face(60.0));
         assert!(located(&l, v));
         assert!(valid(&l, q));
