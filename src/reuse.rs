@@ -38,6 +38,20 @@ struct Made {
 pub(crate) struct Fingerprints(HashMap<i32, (u64, Made)>);
 
 impl Fingerprints {
+    /// These fingerprints for a job that optimizes with `variant` (0: the default
+    /// optimizer options): a surface an earlier job optimized with other options is not
+    /// put back, whatever its recombined state.
+    pub(crate) fn with_variant(mut self, variant: u64) -> Fingerprints {
+        if variant != 0 {
+            for (f, _) in self.0.values_mut() {
+                let mut h = DefaultHasher::new();
+                (*f, variant).hash(&mut h);
+                *f = h.finish();
+            }
+        }
+        self
+    }
+
     /// The fingerprints of `mesh`'s surfaces; node and element tags above `input_nodes`
     /// and `input_elements` are the job's own.
     pub(crate) fn of(mesh: &Mesh, input_nodes: u64, input_elements: u64) -> Fingerprints {
