@@ -32,7 +32,20 @@
 //!    quad (those holding one of its input nodes, or the nearest one to a quad of new
 //!    nodes) are split into three quads each before the matching
 //!    ([`crate::recombine::split_triangles`]); a second split round adds one more ring (the
-//!    triangles touching those), up to [`SPLIT_RINGS`] rings.
+//!    triangles touching those), up to [`SPLIT_RINGS`] rings. When that first ring would
+//!    break the element-count rule (0.6 new quads per input triangle, a quarter more under
+//!    500 triangles), the splits are **tight**: the first ring of a bad pair is its own two
+//!    triangles, and a bad quad after a split round whose bad corner is at a node the input
+//!    does not have (the matching merged the two halves of a triangle halved beside split
+//!    ones: a flat corner at the split edge's midpoint) first gets the same splits again
+//!    with such halves priced out
+//!    ([`crate::recombine::RecombineOptions::flat_halves_out`]), once, before another ring.
+//!    When a round's bad quad has its bad corner at a node of the job that the optimizer
+//!    moved (or the optimizer turned bad a quad holding such a node), the optimizer holds
+//!    the corners at those nodes to the faces the validity gate measures them about from
+//!    the next round on ([`crate::optimize::OptimizeOptions::located_turns`]): on a coarse
+//!    curved face it otherwise moves a split triangle's centroid or midpoint onto a face
+//!    turned far from the quad.
 //! 4. **Last resort.** Quads still bad after that get every triangle of their surface split
 //!    (the splits' halved neighbours along shared curves may bring another surface there in
 //!    the next round; segment splits are dropped then), up to [`FALLBACK_ROUNDS`] rounds in
@@ -441,6 +454,7 @@ fn optimize_once<'a>(
     opts: &Options,
     force: &HashSet<i32>,
     reused: &[i32],
+    located_turns: bool,
     prepared: Option<optimize::PreparedReference>,
     checks: &mut Option<Checks<'a>>,
     times: &mut Times,
@@ -458,6 +472,7 @@ fn optimize_once<'a>(
         .unwrap_or(oopts.smooth_iterations << opts.refine);
     oopts.topology = opts.topology;
     oopts.conformal_multigrid = opts.conformal_multigrid;
+    oopts.located_turns = located_turns;
     oopts.reference_size_scale = 0.5f64.powi(i32::from(opts.refine));
     let cb = |p: Progress| {
         if let Some(f) = &opts.progress {

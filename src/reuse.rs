@@ -7,12 +7,15 @@
 //! coordinates, where the nodes and elements the job made (tags above the input's largest)
 //! may carry other tags (a split elsewhere shifts the tags given after it). Those are
 //! matched by their place in the surface's blocks, and the optimized state put back
-//! carries the tags of the current job.
+//! carries the tags of the current job. A job whose optimizer runs with other options
+//! (`OptimizeOptions::located_turns`, which the fallback sets in later rounds) salts its
+//! fingerprints ([`Fingerprints::with_variant`]): it is never given a surface optimized
+//! with the others.
 //!
 //! This is exact, not an approximation: the optimizer of a surface reads only that
-//! surface's quads, the nodes they use and the input (its reference), in block order, and
-//! moves only the nodes that no other element uses; so the same recombined surface gives
-//! the same optimized surface. A surface is kept only when its node blocks hold no node that
+//! surface's quads, the nodes they use, the input (its reference) and its options, in block
+//! order, and moves only the nodes that no other element uses; so the same recombined
+//! surface gives the same optimized surface. A surface is kept only when its node blocks hold no node that
 //! another entity's elements use and its quads use no node of another surface's node block,
 //! so that putting back its node blocks and quad blocks changes nothing else.
 
@@ -38,6 +41,20 @@ struct Made {
 pub(crate) struct Fingerprints(HashMap<i32, (u64, Made)>);
 
 impl Fingerprints {
+    /// These fingerprints for a job that optimizes with `variant` (0: the default
+    /// optimizer options): a surface an earlier job optimized with other options is not
+    /// put back, whatever its recombined state.
+    pub(crate) fn with_variant(mut self, variant: u64) -> Fingerprints {
+        if variant != 0 {
+            for (f, _) in self.0.values_mut() {
+                let mut h = DefaultHasher::new();
+                (*f, variant).hash(&mut h);
+                *f = h.finish();
+            }
+        }
+        self
+    }
+
     /// The fingerprints of `mesh`'s surfaces; node and element tags above `input_nodes`
     /// and `input_elements` are the job's own.
     pub(crate) fn of(mesh: &Mesh, input_nodes: u64, input_elements: u64) -> Fingerprints {
@@ -308,6 +325,16 @@ mod tests {
         optimize(&mut again, &input, &opts).expect("optimizes");
         assert_eq!(put.node_blocks, again.node_blocks);
         assert_eq!(put.element_blocks, again.element_blocks);
+        // the same recombination optimized with other options: nothing put back
+        let salted = Fingerprints::of(&other, nodes, elements).with_variant(1);
+        let mut put = other.clone();
+        assert!(cache.put_back(&mut put, &salted).is_empty());
+        assert_eq!(put, other);
+        let unsalted = Fingerprints::of(&other, nodes, elements).with_variant(0);
+        assert_eq!(
+            cache.put_back(&mut other.clone(), &unsalted).len(),
+            fp.0.len()
+        );
         // a moved node changes its surface's fingerprint: that surface is not put back
         let mut moved = other.clone();
         let b = moved

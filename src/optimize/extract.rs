@@ -185,6 +185,8 @@ pub(crate) fn extract(
         pos,
         nrm,
         gate_nrm: Vec::new(),
+        tie: 0.0,
+        located_turns: false,
         fixed,
         global,
         tags: node_tags,

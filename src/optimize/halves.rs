@@ -273,6 +273,8 @@ impl Part {
             } else {
                 global.iter().map(|g| l.gate_nrm[at(g)]).collect()
             },
+            tie: l.tie,
+            located_turns: l.located_turns,
             h: global.iter().map(|g| taken.h[at(g)]).collect(),
             fixed: global.iter().map(|g| l.fixed[at(g)]).collect(),
             removed: global.iter().map(|g| l.removed[at(g)]).collect(),

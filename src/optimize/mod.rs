@@ -149,6 +149,12 @@ pub struct OptimizeOptions<'a> {
     /// aggregation multigrid instead of the diagonal (off by default): closer to the
     /// solve's minimizer, for a higher η̄ on large planar surfaces at some time.
     pub conformal_multigrid: bool,
+    /// On curved surfaces, hold the corner at a node the reference does not have (split,
+    /// duplicated and refined nodes) to turn positively about the reference triangles that
+    /// node touches where it is, as the validity gate measures it (off by default; the
+    /// pipeline's fallback sets it once the optimizer turned a quad that the validity gate
+    /// refuses: see `valid`).
+    pub located_turns: bool,
 }
 
 impl Default for OptimizeOptions<'_> {
@@ -168,6 +174,7 @@ impl Default for OptimizeOptions<'_> {
             skip: &[],
             trace: None,
             conformal_multigrid: false,
+            located_turns: false,
         }
     }
 }
@@ -268,6 +275,22 @@ pub fn optimize(
 pub(super) fn surface_tags(mesh: &Mesh, element_type: u32) -> Vec<i32> {
     mesh.sorted_surfaces(|b| b.element_type == element_type && !b.is_empty())
 }
+/// The diagonal of the bounding box of `coords` (1 when empty or flat to a point), as the
+/// validity gate measures a mesh's extent.
+fn extent(coords: &[glam::DVec3]) -> f64 {
+    use glam::DVec3;
+    let (lo, hi) = coords.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &c| (lo.min(c), hi.max(c)),
+    );
+    let d = (hi - lo).length();
+    if d.is_finite() && d > 0.0 {
+        d
+    } else {
+        1.0
+    }
+}
+
 /// [`optimize`] with the reference triangulation already prepared (from the triangle mesh
 /// before recombination).
 pub fn optimize_prepared(
@@ -283,12 +306,15 @@ pub fn optimize_prepared(
     tm.lap("owners");
     let mut locals = Vec::with_capacity(surfaces.len());
     let mut scratch = vec![NONE; flat.coords.len()];
+    let tie = 1e-8 * extent(&flat.coords);
     for (si, &s) in surfaces.iter().enumerate() {
         if opts.skip.contains(&s) {
             continue;
         }
         let mut l = extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?;
         l.trace = opts.trace.cloned();
+        l.tie = tie;
+        l.located_turns = opts.located_turns;
         locals.push(l);
     }
     // memory: through the surfaces' optimization, only where each node lives

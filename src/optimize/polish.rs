@@ -133,7 +133,10 @@ fn mean_node(l: &Local, v: u32, size_weight: f64) -> Option<(DVec3, u32)> {
     };
     let sum0 = sum0 + size_term(x0);
     let eval = |p: DVec3| eval(p).map(|(m, s)| (m, s + size_term(p)));
-    let score = |p: DVec3| eval(p).and_then(|(mx, sum)| (mx <= max0).then_some(sum));
+    // a trial must also keep the corners at located nodes turning about the faces there
+    let keeps = |p: DVec3| super::valid::keeps_located_turns(l, v, x0, p);
+    let score =
+        |p: DVec3| eval(p).and_then(|(mx, sum)| (mx <= max0 && keeps(p)).then_some(sum));
     if star.fast() {
         // the eight compass trials of a step scored together (same sums as `eval`)
         // speed: the η sums (an atan each) only for the trials that keep the worst
@@ -149,7 +152,7 @@ fn mean_node(l: &Local, v: u32, size_weight: f64) -> Option<(DVec3, u32)> {
                 }
             }
             std::array::from_fn(|j| {
-                (ok[j] && max[j] <= max0).then(|| {
+                (ok[j] && max[j] <= max0 && keeps(ps[j])).then(|| {
                     cots[..star.len()]
                         .iter()
                         .fold(0.0, |sum, cot| sum + eta_of_cot(cot[j].max(0.0)))

@@ -12,7 +12,9 @@
 //! below zero) does not drop. On curved surfaces every candidate is projected back onto the
 //! reference triangulation by a local walk from the node's current triangle, and a move
 //! is refused when it would fold a quad of the star about its own normal (the cross product
-//! of its diagonals, `valid::keeps_own_jacobian`), which the keys do not see.
+//! of its diagonals, `valid::keeps_own_jacobian`) or (with `OptimizeOptions::located_turns`)
+//! turn a corner at a node the reference does not have away from the reference triangles
+//! that node touches (`valid::keeps_located_turns`), which the keys do not see.
 //!
 //! Sweeps are Gauss-Seidel by colour: nodes are greedily coloured so that two nodes of one
 //! colour never share a quad, the moves of one colour are computed in parallel (rayon) from
@@ -29,7 +31,7 @@
 //! BENCHMARKS.md, "Measurements behind the defaults").
 
 use super::local::{rotate_to, Local, StarEval};
-use super::valid::keeps_own_jacobian;
+use super::valid::{keeps_located_turns, keeps_own_jacobian};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -133,6 +135,7 @@ fn propose_centroid(l: &Local, v: u32, diag: f64) -> Option<(DVec3, u32)> {
         if star.all_at_least(cand, old)
             && (!guard || star.keeps_valid(x0, cand))
             && keeps_own_jacobian(l, v, x0, cand)
+            && keeps_located_turns(l, v, x0, cand)
         {
             return Some((cand, tri));
         }
@@ -175,7 +178,8 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
             let (min, sum) = r[j];
             (min >= min0
                 && (!guard || star.keeps_valid(x0, ps[j]))
-                && keeps_own_jacobian(l, v, x0, ps[j]))
+                && keeps_own_jacobian(l, v, x0, ps[j])
+                && keeps_located_turns(l, v, x0, ps[j]))
             .then_some(sum)
         })
     })
@@ -262,7 +266,8 @@ fn propose_worst(l: &Local, v: u32) -> Option<(DVec3, u32)> {
     pattern_search8(l, v, &[0.1, 0.03, 0.01, 0.003], min0, |ps| {
         let r = star.min_sum8(ps);
         std::array::from_fn(|j| {
-            ((!guard || star.keeps_valid(x0, ps[j])) && keeps_own_jacobian(l, v, x0, ps[j]))
+            ((!guard || star.keeps_valid(x0, ps[j])) && keeps_own_jacobian(l, v, x0, ps[j])
+                && keeps_located_turns(l, v, x0, ps[j]))
                 .then_some(r[j].0)
         })
     })

@@ -9,9 +9,14 @@
 //! edge is shorter than [`MIN_EDGE_REL`] times the target size at its ends, and, on curved
 //! surfaces, every corner is in that range about the reference triangulation's normal at
 //! each node of the quad it has too (at input nodes, the normals the gate measures corners
-//! about), and the quad holds to its own geometry: its scaled Jacobian at every corner about
-//! its own normal (the cross product of its diagonals) is at least [`MIN_OWN_SJ`] (the
-//! gate's rule of `crate::validity`, with a margin). On a planar surface a quad whose
+//! about), with [`OptimizeOptions::located_turns`](super::OptimizeOptions) the corner at a
+//! node the reference does not have (split, duplicated and refined nodes) is in that range
+//! about the normal of every reference triangle the node touches where it now is (the faces
+//! the gate measures that corner about: on a coarse curved face such a node can cross onto
+//! a face that turns far from the quad's reference normal), and the quad holds to its own
+//! geometry: its scaled Jacobian at every corner about its own normal (the cross product of
+//! its diagonals) is at least [`MIN_OWN_SJ`] (the gate's rule of `crate::validity`, with a
+//! margin). On a planar surface a quad whose
 //! corners all turn positively about the plane's normal is convex, so its diagonals cross
 //! and its own normal is the plane's: the rule holds there by itself.
 //!
@@ -94,8 +99,96 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
         if !l.gate_nrm.is_empty() && !turns_about_gate_normals(l, nodes, cos, c) {
             return false;
         }
+        // at a node the reference does not have, the normals of the reference triangles
+        // it touches (the gate's nearest faces there)
+        if located(l, nodes[k]) && !turns_about(&located_normals(l, nodes[k], p[k]), cos, c) {
+            return false;
+        }
     }
     l.planar || own_jacobian_ok(&p)
+}
+
+/// True when the optimizer holds the corner at node `v` to the reference triangles it
+/// touches ([`Local::located_turns`]): the validity gate measures it about the input faces
+/// nearest to it ([`located_normals`]); a curved surface with reference triangles, and a
+/// node the reference does not have (a split node, a duplicated vertex, a node of a
+/// fallback split or of a refinement), whose [`Local::gate_nrm`] is zero.
+pub(crate) fn located(l: &Local, v: u32) -> bool {
+    l.located_turns && l.reference.is_some() && l.gate_nrm.get(v as usize) == Some(&DVec3::ZERO)
+}
+
+/// The unit normals of the reference triangles that point `p` of node `v` touches
+/// ([`TriSurface::touching`](crate::quality::locate::TriSurface::touching) within
+/// [`Local::tie`], from the triangle a walk from `v`'s finds): the faces the validity gate
+/// sums the normal of a node it has no input normal at from. A corner that turns positively
+/// about each of them turns positively about any positive sum of them. Empty without a
+/// reference.
+pub(crate) fn located_normals(l: &Local, v: u32, p: DVec3) -> Vec<DVec3> {
+    let Some(r) = l.reference.as_deref() else {
+        return Vec::new();
+    };
+    let Some(hit) = r.walk(l.tri[v as usize], p) else {
+        return Vec::new();
+    };
+    let mut tris = Vec::with_capacity(8);
+    r.touching(hit.tri, hit.point, l.tie, &mut tris);
+    tris.into_iter()
+        .map(|t| r.normal(t))
+        .filter(|n| *n != DVec3::ZERO)
+        .collect()
+}
+
+/// True when the corner `c` = a × b (`cos` = |a · b|) is inside the valid range (sine
+/// positive, |cot| at most [`MAX_COT`]) about every normal of `normals`.
+fn turns_about(normals: &[DVec3], cos: f64, c: DVec3) -> bool {
+    normals.iter().all(|n| {
+        let s = n.dot(c);
+        s > 0.0 && cos <= MAX_COT * s
+    })
+}
+
+/// True when moving node `v` from `x0` to `p` keeps every quad around it whose corners at
+/// located nodes ([`located`]) turn positively about the normals there ([`turns_about`]) so
+/// at `p` (always without located nodes in its star). The smoothing sweeps' keys measure
+/// corners about the quads' reference normals only; on a coarse curved face a node the
+/// input does not have can cross onto a face whose normal turns away from those.
+pub(crate) fn keeps_located_turns(l: &Local, v: u32, x0: DVec3, p: DVec3) -> bool {
+    let star = l.star(v);
+    let any = star
+        .iter()
+        .any(|&q| l.quads[q as usize].iter().any(|&w| located(l, w)));
+    if !any {
+        return true;
+    }
+    let at_v = |x: DVec3| located(l, v).then(|| located_normals(l, v, x));
+    let (n0, n1) = (at_v(x0), at_v(p));
+    star.iter().all(|&q| {
+        let quad = l.quads[q as usize];
+        let normals: [Option<Vec<DVec3>>; 4] = std::array::from_fn(|k| {
+            let w = quad[k];
+            if w == v {
+                None
+            } else {
+                located(l, w).then(|| located_normals(l, w, l.pos[w as usize]))
+            }
+        });
+        let ok = |x: DVec3, nv: &Option<Vec<DVec3>>| {
+            let pts = quad.map(|w| if w == v { x } else { l.pos[w as usize] });
+            (0..4).all(|k| {
+                let list = if quad[k] == v {
+                    nv.as_deref()
+                } else {
+                    normals[k].as_deref()
+                };
+                let Some(list) = list else {
+                    return true;
+                };
+                let (a, b) = (pts[(k + 1) & 3] - pts[k], pts[(k + 3) & 3] - pts[k]);
+                turns_about(list, a.dot(b).abs(), a.cross(b))
+            })
+        };
+        !ok(x0, &n0) || ok(p, &n1)
+    })
 }
 
 /// True when the corner between edges `a` and `b` (`cos` = |a · b|, `c` = a × b) is inside
@@ -475,6 +568,48 @@ mod tests {
         assert!(!valid(&l, q));
         // on a planar surface the plane's normal is the input's everywhere: not stored
         l.gate_nrm.clear();
+        assert!(valid(&l, q));
+    }
+
+    #[test]
+    fn a_corner_at_a_node_the_input_lacks_must_turn_about_the_faces_it_touches() {
+        // a unit square in z = 0, valid about its reference normal (+z) and the input
+        // normals (+z) at three of its nodes; its fourth node is one the input does not
+        // have, lying on a reference face tilted from +z about an axis in the plane: the
+        // validity gate measures the corner there about that face's normal, so the quad is
+        // valid while the face turns less than 90°, and not past it
+        let (mut l, _) = grid();
+        l.planar = false;
+        let q = 0u32;
+        let v = l.quads[q as usize][1];
+        let up = DVec3::Z;
+        l.gate_nrm = vec![up; l.pos.len()];
+        l.gate_nrm[v as usize] = DVec3::ZERO;
+        let c = l.pos[v as usize];
+        let face = |deg: f64| {
+            let a = deg.to_radians();
+            let (t1, t2) = (DVec3::new(a.cos(), 0.0, -a.sin()), DVec3::Y);
+            let pts = vec![c - 100.0 * (t1 + t2), c + 100.0 * (t1 - t2), c + 100.0 * t2];
+            std::sync::Arc::new(crate::quality::locate::TriSurface::new(pts, vec![[0, 1, 2]]))
+        };
+        l.tri[v as usize] = 0;
+        l.reference = Some(face(100.0));
+        assert!(!located(&l, v) && valid(&l, q), "the rule is off by default");
+        l.located_turns = true;
+        l.reference = Some(face(60.0));
+        assert!(located(&l, v));
+        assert!(valid(&l, q));
+        l.reference = Some(face(100.0));
+        assert!(!valid(&l, q));
+        // a move of a neighbouring node keeps a quad that was valid so
+        let w = l.quads[q as usize][0];
+        let x0 = l.pos[w as usize];
+        l.reference = Some(face(60.0));
+        assert!(keeps_located_turns(&l, w, x0, x0 + DVec3::new(0.05, 0.05, 0.0)));
+        // the same node with an input normal: measured about that one alone
+        l.reference = Some(face(100.0));
+        l.gate_nrm[v as usize] = up;
+        assert!(!located(&l, v));
         assert!(valid(&l, q));
     }
 

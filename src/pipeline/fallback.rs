@@ -30,6 +30,10 @@ pub(super) enum Next {
     Price(usize, usize),
     /// Solve again with this many more boundary segments split under fans.
     Segments(usize),
+    /// Solve again with the merged halves of split triangles priced out
+    /// ([`LocalFallback::flat_halves_out`]): this many bad quads had their bad corner at a
+    /// node the input does not have.
+    HalvesOut(usize),
     /// Split these input triangles too (empty: nothing more to split).
     Split(HashSet<u64>),
     /// Nothing more to try.
@@ -54,6 +58,14 @@ pub(super) struct LocalFallback {
     pub(super) pricing_rounds: usize,
     pub(super) segment_rounds: usize,
     pub(super) split_rounds: usize,
+    /// The splits keep to the element-count rule: the first ring around the bad quads
+    /// would break it, so it holds only the triangles of the bad pairs, and a bad corner
+    /// at a split node gets merged halves priced out before another ring.
+    pub(super) tight: bool,
+    /// The optimizer holds the corners at the job's new nodes to the faces the validity
+    /// gate measures them about ([`crate::optimize::OptimizeOptions::located_turns`]): it
+    /// turned a quad bad at such a node in an earlier round.
+    pub(super) located_turns: bool,
 }
 
 impl LocalFallback {
@@ -66,6 +78,7 @@ impl LocalFallback {
             flat_halves_out: self.flat_halves_out,
             segments: self.segments,
             no_segments: self.no_segments,
+            located_turns: self.located_turns,
             chosen,
             splits_only,
         }
@@ -113,6 +126,17 @@ impl LocalFallback {
                 return Next::Segments(count);
             }
         }
+        // tight splits with a bad corner at a node of a split (the matching merged the two
+        // halves of a triangle halved next to split ones, a flat corner at the split edge's
+        // midpoint): the same splits again with such halves priced out before another ring
+        let at_split = bad
+            .iter()
+            .filter(|b| b.node() > input.max_node_tag())
+            .count();
+        if self.tight && !self.flat_halves_out && at_split > 0 {
+            self.flat_halves_out = true;
+            return Next::HalvesOut(at_split);
+        }
         self.split_rounds += 1;
         if self.split_rounds > SPLIT_RINGS {
             // the last resort, after the local rounds: every triangle of the surfaces that
@@ -123,14 +147,29 @@ impl LocalFallback {
             self.segments.clear();
             return Next::Split(surface_triangles(input, &spots, chosen));
         }
-        Next::Split(fallback_triangles(
-            input,
-            mesh,
-            &spots,
-            chosen,
-            self.split_rounds,
-        ))
+        let ring = fallback_triangles(input, mesh, &spots, chosen, self.split_rounds, self.tight);
+        if self.split_rounds == 1 && !self.tight && breaks_count_rule(input, mesh, ring.len()) {
+            self.tight = true;
+            return Next::Split(fallback_triangles(input, mesh, &spots, chosen, 1, true));
+        }
+        Next::Split(ring)
     }
+}
+
+/// True when splitting `more` input triangles of `input` into three quads each, on top of
+/// `mesh` (a round's result), would take the new quads per input triangle above the
+/// element-count rule: [`MAX_QUADS_PER_TRIANGLE`] from [`COUNT_RULE_FROM`] triangles, a
+/// quarter more below (a split triangle makes three quads where a pair made one between
+/// two triangles: 2.5 more quads each, its halved neighbours not counted).
+pub(super) fn breaks_count_rule(input: &Mesh, mesh: &Mesh, more: usize) -> bool {
+    let triangles = surface_elements(input, etype::TRI3);
+    let limit = if triangles >= COUNT_RULE_FROM {
+        MAX_QUADS_PER_TRIANGLE
+    } else {
+        1.25 * MAX_QUADS_PER_TRIANGLE
+    };
+    let quads = quads_per_triangle(input, mesh) * triangles as f64;
+    quads + 2.5 * more as f64 > limit * triangles as f64
 }
 
 /// The fallback's state at the start (and the end) of a job's rounds: the quads priced out
@@ -146,6 +185,8 @@ pub(super) struct FallbackStart {
     pub(super) segments: Vec<(u64, u64)>,
     /// No segment splits (after a job with them failed).
     pub(super) no_segments: bool,
+    /// The optimizer's corners at new nodes held to the faces they lie on.
+    pub(super) located_turns: bool,
     pub(super) chosen: HashSet<u64>,
     /// Split only, never price (the fallback of the other result that
     /// [`super::raise_worst_quad`] tries).
@@ -361,17 +402,18 @@ pub(super) fn fan_segments(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -
 }
 
 /// The input triangles to split after a round with bad quads `spots` (surface, node tags;
-/// `mesh` the round's result):
-/// on each bad quad's surface, the triangles holding one of its nodes (or, for a quad none
-/// of whose nodes an input triangle holds, the input triangle nearest to its centre), and
-/// from the second ring on also those touching a triangle split before; without those
-/// already `chosen`.
+/// `mesh` the round's result): on each bad quad's surface, the triangles holding one of
+/// its nodes (or, for a quad none of whose nodes an input triangle holds, the input
+/// triangle nearest to its centre), and from the second ring on also those touching a
+/// triangle split before; without those already `chosen`. With `tight`, the first ring of
+/// a bad quad that two input triangles form is those two.
 pub(super) fn fallback_triangles(
     input: &Mesh,
     mesh: &Mesh,
     spots: &[(i32, [u64; 4])],
     chosen: &HashSet<u64>,
     ring: usize,
+    tight: bool,
 ) -> HashSet<u64> {
     let surfaces: HashSet<i32> = spots.iter().map(|s| s.0).collect();
     let tri_blocks = || {
@@ -379,6 +421,37 @@ pub(super) fn fallback_triangles(
             b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
         })
     };
+    let mut out = HashSet::new();
+    // the first ring of a bad quad that two input triangles form is those two
+    let mut spots = spots.to_vec();
+    if ring == 1 && tight {
+        let mut tag_of: std::collections::HashMap<(i32, [u64; 3]), u64> = Default::default();
+        for b in tri_blocks() {
+            for i in 0..b.len() {
+                let e = b.element(i);
+                let mut t = [e[0], e[1], e[2]];
+                t.sort_unstable();
+                tag_of.insert((b.entity_tag, t), b.tags[i]);
+            }
+        }
+        let tag = |s: i32, mut t: [u64; 3]| {
+            t.sort_unstable();
+            tag_of.get(&(s, t)).copied()
+        };
+        spots.retain(|&(s, [a, b, c, d])| {
+            let pair = [([a, b, c], [a, c, d]), ([b, c, d], [b, d, a])]
+                .into_iter()
+                .find_map(|(x, y)| Some((tag(s, x)?, tag(s, y)?)));
+            match pair {
+                Some((x, y)) => {
+                    out.extend([x, y].into_iter().filter(|t| !chosen.contains(t)));
+                    false
+                }
+                None => true,
+            }
+        });
+    }
+    let spots = &spots[..];
     let mut near: HashSet<(i32, u64)> = spots
         .iter()
         .flat_map(|&(s, q)| q.into_iter().map(move |n| (s, n)))
@@ -441,7 +514,6 @@ pub(super) fn fallback_triangles(
             }
         }
     }
-    let mut out = HashSet::new();
     for b in tri_blocks() {
         for i in 0..b.len() {
             let t = b.tags[i];
@@ -529,6 +601,27 @@ mod tests {
             fan_segments(&m, &[bad([5, 6, 7, 2], 1)], &[(2, 3)]),
             vec![(1, 2)]
         );
+    }
+
+    #[test]
+    fn tight_splits_take_a_bad_pairs_own_triangles_first() {
+        let m = strip();
+        // the quad 5-6-7-2 is the pair of triangles 3 (2, 6, 5) and 4 (2, 7, 6)
+        let spots = [(1, [5, 6, 7, 2])];
+        let none = HashSet::new();
+        let tight = fallback_triangles(&m, &m, &spots, &none, 1, true);
+        assert_eq!(tight, HashSet::from([3, 4]));
+        // the usual first ring: every triangle holding one of its nodes
+        let ring = fallback_triangles(&m, &m, &spots, &none, 1, false);
+        assert_eq!(ring, (1..=6).collect::<HashSet<u64>>());
+        // the second ring is the usual one either way
+        let chosen = HashSet::from([3, 4]);
+        let second = fallback_triangles(&m, &m, &spots, &chosen, 2, true);
+        assert_eq!(second, HashSet::from([1, 2, 5, 6]));
+        // 6 triangles, no quad yet: under 500 triangles the rule allows 0.75 new quads
+        // per triangle (4.5 here), and a split triangle adds 2.5
+        assert!(!breaks_count_rule(&m, &m, 1));
+        assert!(breaks_count_rule(&m, &m, 2));
     }
 
     #[test]

@@ -37,6 +37,7 @@ pub(super) fn run_rounds(
             0
         },
         no_segments: start.no_segments,
+        located_turns: start.located_turns,
         ..Default::default()
     };
     let mut fallback = None;
@@ -106,7 +107,10 @@ pub(super) fn run_rounds(
         // that job's result back instead of being optimized again (exact: `crate::reuse`)
         let fingerprints = (opts.optimize
             && (round > 0 || !cache.is_empty() || mesh.element_count() <= REUSE_UP_TO))
-            .then(|| Fingerprints::of(&mesh, input_tags.0, input_tags.1));
+            .then(|| {
+                Fingerprints::of(&mesh, input_tags.0, input_tags.1)
+                    .with_variant(u64::from(local.located_turns))
+            });
         let reused = match &fingerprints {
             Some(fp) => cache.put_back(&mut mesh, fp),
             None => Vec::new(),
@@ -125,6 +129,7 @@ pub(super) fn run_rounds(
             opts,
             &force,
             &reused,
+            local.located_turns,
             prepared,
             &mut checks,
             &mut times,
@@ -160,6 +165,32 @@ pub(super) fn run_rounds(
             },
             violation,
         })?;
+        // quads the optimizer left bad at a new node it moved, or turned bad (not bad before
+        // it): from the next round on it holds the corners at the job's new nodes to the
+        // faces the gate measures them about
+        let mut turned_bad = 0;
+        if let (false, false, Some(pre)) = (
+            bad.is_empty(),
+            local.located_turns,
+            unoptimized.as_ref(),
+        ) {
+            let before: HashSet<[u64; 4]> = checks
+                .validity
+                .invalid_quads_at(pre, &TagCoords::new(pre))
+                .into_iter()
+                .map(|b| sorted4(b.nodes))
+                .collect();
+            let (was, is) = (TagCoords::new(pre), TagCoords::new(&mesh));
+            turned_bad = bad
+                .iter()
+                .filter(|b| {
+                    let n = b.node();
+                    (n > input_tags.0 && was.get(n) != is.get(n))
+                        || (b.nodes.iter().any(|&n| n > input_tags.0)
+                            && !before.contains(&sorted4(b.nodes)))
+                })
+                .count();
+        }
         if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
             let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
             let back = revert_surfaces(&mesh, pre, &surfaces);
@@ -213,6 +244,13 @@ pub(super) fn run_rounds(
                 .collect::<Vec<_>>()
                 .join("; ")
         ));
+        if turned_bad > 0 {
+            local.located_turns = true;
+            log.push(format!(
+                "fallback round {}: the optimizer turned {turned_bad} quad(s) at new nodes bad: it now holds their corners to the faces they lie on",
+                round + 1
+            ));
+        }
         if !opts.optimize && round < FALLBACK_ROUNDS {
             let new: Vec<i32> = surfaces.difference(&force).copied().collect();
             if !new.is_empty() {
@@ -260,6 +298,13 @@ pub(super) fn run_rounds(
                 *segments_used = true;
                 log.push(format!(
                     "fallback round {}: {count} boundary segment(s) under fan quads to split",
+                    round + 1
+                ));
+                continue;
+            }
+            Next::HalvesOut(count) => {
+                log.push(format!(
+                    "fallback round {}: {count} quad(s) with a bad corner at a split node: the merged halves of split triangles priced out",
                     round + 1
                 ));
                 continue;
@@ -319,6 +364,12 @@ pub(super) fn revert_surfaces(mesh: &Mesh, pre: &Mesh, surfaces: &HashSet<i32>) 
             .cloned(),
     );
     out
+}
+
+/// The node tags of a quad, sorted.
+fn sorted4(mut q: [u64; 4]) -> [u64; 4] {
+    q.sort_unstable();
+    q
 }
 
 /// Surface tags in increasing order, without repeats, as "1, 4, 7".
@@ -386,7 +437,7 @@ pub(super) fn raise_worst_quad(
                 format!("{n} quad(s) under eta {ETA_FLOOR} priced out")
             }
             _ => {
-                let more = fallback_triangles(input, &best.0, &low, &start.chosen, 1);
+                let more = fallback_triangles(input, &best.0, &low, &start.chosen, 1, false);
                 if low.is_empty() || more.is_empty() {
                     continue;
                 }

@@ -97,6 +97,63 @@ impl TriSurface {
         ]
     }
 
+    /// Adds to `out` the triangles that point `p` of triangle `t` touches within `tol`:
+    /// `t`, the neighbour across each edge of `t` within `tol` of `p`, and every triangle
+    /// around each corner of `t` within `tol` of `p` (as far as edge neighbours reach from
+    /// `t` both ways around it). Each triangle once; `out` is not cleared.
+    pub fn touching(&self, t: u32, p: DVec3, tol: f64, out: &mut Vec<u32>) {
+        let push = |out: &mut Vec<u32>, x: u32| {
+            if x != NONE && !out.contains(&x) {
+                out.push(x);
+            }
+        };
+        push(out, t);
+        let c = self.corners(t);
+        for k in 0..3 {
+            // the edge opposite corner k
+            let (a, b) = (c[(k + 1) % 3], c[(k + 2) % 3]);
+            let e = b - a;
+            let len2 = e.length_squared();
+            let s = if len2 > 0.0 {
+                ((p - a).dot(e) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            if (a + e * s).distance(p) <= tol {
+                push(out, self.nbr[t as usize][k]);
+            }
+        }
+        for (k, corner) in c.iter().enumerate() {
+            if corner.distance(p) > tol {
+                continue;
+            }
+            let x = self.tris[t as usize][k];
+            // around corner x: cross the edges at x, one way then the other
+            for first in [(k + 1) % 3, (k + 2) % 3] {
+                let (mut cur, mut across) = (t, first);
+                for _ in 0..64 {
+                    let next = self.nbr[cur as usize][across];
+                    if next == NONE || next == t {
+                        break;
+                    }
+                    push(out, next);
+                    let tri = self.tris[next as usize];
+                    let Some(at) = tri.iter().position(|&v| v == x) else {
+                        break;
+                    };
+                    // the other edge at x of `next`: opposite the corner that is neither x
+                    // nor on the edge crossed
+                    let Some(back) = (0..3).find(|&j| j != at && self.nbr[next as usize][j] == cur)
+                    else {
+                        break;
+                    };
+                    across = 3 - at - back;
+                    cur = next;
+                }
+            }
+        }
+    }
+
     /// Closest point on the whole surface, or `None` when there is no triangle.
     pub fn closest(&self, p: DVec3) -> Option<Hit> {
         if self.tris.is_empty() {
@@ -427,6 +484,38 @@ mod tests {
             }
         }
         TriSurface::new(pts, tris)
+    }
+
+    #[test]
+    fn a_point_touches_its_triangle_the_neighbours_across_its_edge_and_around_its_corner() {
+        let s = grid_surface(4);
+        let touching = |p: DVec3, tol: f64| {
+            let hit = s.closest(p).expect("a triangle");
+            let mut out = Vec::new();
+            s.touching(hit.tri, hit.point, tol, &mut out);
+            out.sort_unstable();
+            out
+        };
+        // inside a triangle: that one
+        assert_eq!(touching(DVec3::new(1.7, 1.2, 0.0), 1e-9).len(), 1);
+        // on an edge between two triangles (a diagonal, then a grid line): both
+        assert_eq!(touching(DVec3::new(1.5, 1.5, 0.0), 1e-9).len(), 2);
+        assert_eq!(touching(DVec3::new(1.5, 2.0, 0.0), 1e-9).len(), 2);
+        // within the tolerance of the edge, not on it: both; farther: one
+        assert_eq!(touching(DVec3::new(1.5, 2.0 - 1e-7, 0.0), 1e-6).len(), 2);
+        assert_eq!(touching(DVec3::new(1.5, 2.0 - 1e-3, 0.0), 1e-6).len(), 1);
+        // on an inner corner: the six triangles around it, whichever one is hit
+        for p in [DVec3::new(2.0, 2.0, 0.0), DVec3::new(2.0 + 1e-12, 2.0, 0.0)] {
+            let got = touching(p, 1e-9);
+            assert_eq!(got.len(), 6, "{p}: {got:?}");
+            for t in got {
+                assert!(s.triangle(t).contains(&(2 * 5 + 2)), "{t}");
+            }
+        }
+        // on a boundary corner: the two triangles there
+        assert_eq!(touching(DVec3::new(0.0, 0.0, 0.0), 1e-9).len(), 2);
+        assert_eq!(touching(DVec3::new(4.0, 0.0, 0.0), 1e-9).len(), 1);
+        assert_eq!(touching(DVec3::new(2.0, 0.0, 0.0), 1e-9).len(), 3);
     }
 
     #[test]

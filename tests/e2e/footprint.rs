@@ -35,10 +35,6 @@ const ETA_GOAL: f64 = 0.2;
 /// it; a model missing them that is not listed fails the test.
 const EXCEEDING: &[(&str, &str)] = &[
     (
-        "cylinders_coarse",
-        "670 triangles, 0.80 quads/triangle, eta_w 0.266, bound 0.75",
-    ),
-    (
         "pipe_coarse",
         "712 triangles, 0.50 quads/triangle, eta_w 0.159, bound 1.00",
     ),
