@@ -339,6 +339,7 @@ impl<'a> Before<'a> {
 mod tests {
     use super::*;
     use crate::mesh::testing::{node_block, one_surface};
+    use crate::mesh::ElementBlock;
 
     /// A 3×3-node unit square: corner nodes on points, the rest on the surface; `elems` of
     /// `etype_` on surface 1.
@@ -380,6 +381,49 @@ mod tests {
         assert!(check(&[(2, 3)]).is_err());
         // a chain rebuilding an edge that was not there
         assert!(check(&[(1, 2), (2, 3), (1, 100), (3, 100)]).is_err());
+    }
+
+    #[test]
+    fn a_curve_segment_split_twice_along_its_chord_is_kept() {
+        // a unit square of two triangles with line elements round it; after: the bottom
+        // segment 1-2 split at thirds (nodes 100, 101 on the curve) and two quads
+        let corners = vec![[0.0, 0.0, 0.0], [1.0, 0.0, 0.0], [1.0, 1.0, 0.0], [0.0, 1.0, 0.0]];
+        let lines = |nodes: Vec<u64>| ElementBlock {
+            entity_dim: 1,
+            entity_tag: 1,
+            element_type: etype::LINE2,
+            tags: (100..100 + nodes.len() as u64 / 2).collect(),
+            nodes,
+            partitions: None,
+        };
+        let mut before = one_surface(
+            vec![node_block(0, vec![1, 2, 3, 4], corners.clone())],
+            etype::TRI3,
+            &[&[1, 2, 3], &[1, 3, 4]],
+        );
+        before
+            .element_blocks
+            .push(lines(vec![1, 2, 2, 3, 3, 4, 4, 1]));
+        let after_with = |mid: [f64; 3], bottom: Vec<u64>| {
+            let mut m = one_surface(
+                vec![
+                    node_block(0, vec![1, 2, 3, 4], corners.clone()),
+                    node_block(1, vec![100, 101], vec![[1.0 / 3.0, 0.0, 0.0], mid]),
+                ],
+                etype::QUAD4,
+                &[&[100, 101, 2, 3], &[1, 100, 3, 4]],
+            );
+            let mut l = bottom;
+            l.extend([2, 3, 3, 4, 4, 1]);
+            m.element_blocks.push(lines(l));
+            m
+        };
+        let split = after_with([2.0 / 3.0, 0.0, 0.0], vec![1, 100, 100, 101, 101, 2]);
+        assert_eq!(check_invariants(&before, &split), Ok(()));
+        assert_eq!(Before::new(&before).check(&split), Ok(()));
+        // the bottom line elements not rebuilt: the old segment is lost
+        let lost = after_with([2.0 / 3.0, 0.0, 0.0], vec![1, 100, 100, 101]);
+        assert!(check_invariants(&before, &lost).is_err());
     }
 
     /// The edge table answers as a count over the faces, with compact tags (runs) and
