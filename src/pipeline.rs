@@ -42,10 +42,12 @@
 //!    ([`crate::recombine::RecombineOptions::flat_halves_out`]), once, before another ring.
 //!    When a round's bad quad has its bad corner at a node of the job that the optimizer
 //!    moved (or the optimizer turned bad a quad holding such a node), the optimizer holds
-//!    the corners at those nodes to the faces the validity gate measures them about from
-//!    the next round on ([`crate::optimize::OptimizeOptions::located_turns`]): on a coarse
-//!    curved face it otherwise moves a split triangle's centroid or midpoint onto a face
-//!    turned far from the quad.
+//!    the corners at those nodes on that quad's surface to the faces the validity gate
+//!    measures them about from the next round on
+//!    ([`crate::optimize::OptimizeOptions::located_surfaces`]; the other surfaces keep the
+//!    optimization, and the reuse, of the rounds before): on a coarse curved face it
+//!    otherwise moves a split triangle's centroid or midpoint onto a face turned far from
+//!    the quad.
 //! 4. **Last resort.** Quads still bad after that get every triangle of their surface split
 //!    (the splits' halved neighbours along shared curves may bring another surface there in
 //!    the next round; segment splits are dropped then), up to [`FALLBACK_ROUNDS`] rounds in
@@ -454,7 +456,7 @@ fn optimize_once<'a>(
     opts: &Options,
     force: &HashSet<i32>,
     reused: &[i32],
-    located_turns: bool,
+    located: &[i32],
     prepared: Option<optimize::PreparedReference>,
     checks: &mut Option<Checks<'a>>,
     times: &mut Times,
@@ -472,7 +474,7 @@ fn optimize_once<'a>(
         .unwrap_or(oopts.smooth_iterations << opts.refine);
     oopts.topology = opts.topology;
     oopts.conformal_multigrid = opts.conformal_multigrid;
-    oopts.located_turns = located_turns;
+    oopts.located_surfaces = located;
     oopts.reference_size_scale = 0.5f64.powi(i32::from(opts.refine));
     let cb = |p: Progress| {
         if let Some(f) = &opts.progress {

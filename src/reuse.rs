@@ -7,10 +7,10 @@
 //! coordinates, where the nodes and elements the job made (tags above the input's largest)
 //! may carry other tags (a split elsewhere shifts the tags given after it). Those are
 //! matched by their place in the surface's blocks, and the optimized state put back
-//! carries the tags of the current job. A job whose optimizer runs with other options
-//! (`OptimizeOptions::located_turns`, which the fallback sets in later rounds) salts its
-//! fingerprints ([`Fingerprints::with_variant`]): it is never given a surface optimized
-//! with the others.
+//! carries the tags of the current job. A surface that a job optimizes with other options
+//! (`OptimizeOptions::located_surfaces`, which the fallback sets in later rounds) gets a
+//! salted fingerprint ([`Fingerprints::with_variant`]): it is never given that surface
+//! optimized with the others.
 //!
 //! This is exact, not an approximation: the optimizer of a surface reads only that
 //! surface's quads, the nodes they use, the input (its reference) and its options, in block
@@ -41,12 +41,12 @@ struct Made {
 pub(crate) struct Fingerprints(HashMap<i32, (u64, Made)>);
 
 impl Fingerprints {
-    /// These fingerprints for a job that optimizes with `variant` (0: the default
-    /// optimizer options): a surface an earlier job optimized with other options is not
-    /// put back, whatever its recombined state.
-    pub(crate) fn with_variant(mut self, variant: u64) -> Fingerprints {
+    /// These fingerprints for a job that optimizes the surfaces `on` accepts with
+    /// `variant` (0: the default optimizer options): such a surface an earlier job
+    /// optimized with other options is not put back, whatever its recombined state.
+    pub(crate) fn with_variant(mut self, variant: u64, on: impl Fn(i32) -> bool) -> Fingerprints {
         if variant != 0 {
-            for (f, _) in self.0.values_mut() {
+            for (_, (f, _)) in self.0.iter_mut().filter(|(s, _)| on(**s)) {
                 let mut h = DefaultHasher::new();
                 (*f, variant).hash(&mut h);
                 *f = h.finish();
@@ -326,11 +326,11 @@ mod tests {
         assert_eq!(put.node_blocks, again.node_blocks);
         assert_eq!(put.element_blocks, again.element_blocks);
         // the same recombination optimized with other options: nothing put back
-        let salted = Fingerprints::of(&other, nodes, elements).with_variant(1);
+        let salted = Fingerprints::of(&other, nodes, elements).with_variant(1, |_| true);
         let mut put = other.clone();
         assert!(cache.put_back(&mut put, &salted).is_empty());
         assert_eq!(put, other);
-        let unsalted = Fingerprints::of(&other, nodes, elements).with_variant(0);
+        let unsalted = Fingerprints::of(&other, nodes, elements).with_variant(0, |_| true);
         assert_eq!(
             cache.put_back(&mut other.clone(), &unsalted).len(),
             fp.0.len()

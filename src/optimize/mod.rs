@@ -155,6 +155,8 @@ pub struct OptimizeOptions<'a> {
     /// pipeline's fallback sets it once the optimizer turned a quad that the validity gate
     /// refuses: see `valid`).
     pub located_turns: bool,
+    /// [`Self::located_turns`] on these surfaces only (sorted tags), when it is off.
+    pub located_surfaces: &'a [i32],
 }
 
 impl Default for OptimizeOptions<'_> {
@@ -175,6 +177,7 @@ impl Default for OptimizeOptions<'_> {
             trace: None,
             conformal_multigrid: false,
             located_turns: false,
+            located_surfaces: &[],
         }
     }
 }
@@ -314,7 +317,7 @@ pub fn optimize_prepared(
         let mut l = extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?;
         l.trace = opts.trace.cloned();
         l.tie = tie;
-        l.located_turns = opts.located_turns;
+        l.located_turns = opts.located_turns || opts.located_surfaces.binary_search(&s).is_ok();
         locals.push(l);
     }
     // memory: through the surfaces' optimization, only where each node lives

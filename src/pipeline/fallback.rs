@@ -62,10 +62,11 @@ pub(super) struct LocalFallback {
     /// would break it, so it holds only the triangles of the bad pairs, and a bad corner
     /// at a split node gets merged halves priced out before another ring.
     pub(super) tight: bool,
-    /// The optimizer holds the corners at the job's new nodes to the faces the validity
-    /// gate measures them about ([`crate::optimize::OptimizeOptions::located_turns`]): it
-    /// turned a quad bad at such a node in an earlier round.
-    pub(super) located_turns: bool,
+    /// Surfaces (sorted tags) where the optimizer holds the corners at the job's new nodes
+    /// to the faces the validity gate measures them about
+    /// ([`crate::optimize::OptimizeOptions::located_surfaces`]): it turned a quad bad at
+    /// such a node there in an earlier round.
+    pub(super) located: Vec<i32>,
 }
 
 impl LocalFallback {
@@ -78,7 +79,7 @@ impl LocalFallback {
             flat_halves_out: self.flat_halves_out,
             segments: self.segments,
             no_segments: self.no_segments,
-            located_turns: self.located_turns,
+            located: self.located,
             chosen,
             splits_only,
         }
@@ -185,8 +186,9 @@ pub(super) struct FallbackStart {
     pub(super) segments: Vec<(u64, u64)>,
     /// No segment splits (after a job with them failed).
     pub(super) no_segments: bool,
-    /// The optimizer's corners at new nodes held to the faces they lie on.
-    pub(super) located_turns: bool,
+    /// Surfaces where the optimizer's corners at new nodes are held to the faces they lie
+    /// on.
+    pub(super) located: Vec<i32>,
     pub(super) chosen: HashSet<u64>,
     /// Split only, never price (the fallback of the other result that
     /// [`super::raise_worst_quad`] tries).

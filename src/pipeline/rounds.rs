@@ -37,7 +37,7 @@ pub(super) fn run_rounds(
             0
         },
         no_segments: start.no_segments,
-        located_turns: start.located_turns,
+        located: start.located,
         ..Default::default()
     };
     let mut fallback = None;
@@ -109,7 +109,7 @@ pub(super) fn run_rounds(
             && (round > 0 || !cache.is_empty() || mesh.element_count() <= REUSE_UP_TO))
             .then(|| {
                 Fingerprints::of(&mesh, input_tags.0, input_tags.1)
-                    .with_variant(u64::from(local.located_turns))
+                    .with_variant(1, |s| local.located.binary_search(&s).is_ok())
             });
         let reused = match &fingerprints {
             Some(fp) => cache.put_back(&mut mesh, fp),
@@ -129,7 +129,7 @@ pub(super) fn run_rounds(
             opts,
             &force,
             &reused,
-            local.located_turns,
+            &local.located,
             prepared,
             &mut checks,
             &mut times,
@@ -166,14 +166,10 @@ pub(super) fn run_rounds(
             violation,
         })?;
         // quads the optimizer left bad at a new node it moved, or turned bad (not bad before
-        // it): from the next round on it holds the corners at the job's new nodes to the
-        // faces the gate measures them about
-        let mut turned_bad = 0;
-        if let (false, false, Some(pre)) = (
-            bad.is_empty(),
-            local.located_turns,
-            unoptimized.as_ref(),
-        ) {
+        // it), on surfaces where it does not hold them yet: from the next round on it holds
+        // the corners at the job's new nodes there to the faces the gate measures them about
+        let mut turned_bad: Vec<i32> = Vec::new();
+        if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
             let before: HashSet<[u64; 4]> = checks
                 .validity
                 .invalid_quads_at(pre, &TagCoords::new(pre))
@@ -183,13 +179,15 @@ pub(super) fn run_rounds(
             let (was, is) = (TagCoords::new(pre), TagCoords::new(&mesh));
             turned_bad = bad
                 .iter()
+                .filter(|b| local.located.binary_search(&b.surface).is_err())
                 .filter(|b| {
                     let n = b.node();
                     (n > input_tags.0 && was.get(n) != is.get(n))
                         || (b.nodes.iter().any(|&n| n > input_tags.0)
                             && !before.contains(&sorted4(b.nodes)))
                 })
-                .count();
+                .map(|b| b.surface)
+                .collect();
         }
         if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
             let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
@@ -244,11 +242,15 @@ pub(super) fn run_rounds(
                 .collect::<Vec<_>>()
                 .join("; ")
         ));
-        if turned_bad > 0 {
-            local.located_turns = true;
+        if !turned_bad.is_empty() {
+            let count = turned_bad.len();
+            local.located.extend(turned_bad);
+            local.located.sort_unstable();
+            local.located.dedup();
             log.push(format!(
-                "fallback round {}: the optimizer turned {turned_bad} quad(s) at new nodes bad: it now holds their corners to the faces they lie on",
-                round + 1
+                "fallback round {}: the optimizer turned {count} quad(s) at new nodes bad: it now holds their corners to the faces they lie on (surface(s) {})",
+                round + 1,
+                sorted_list(&local.located)
             ));
         }
         if !opts.optimize && round < FALLBACK_ROUNDS {
