@@ -9,8 +9,8 @@
 //! edge is shorter than [`MIN_EDGE_REL`] times the target size at its ends, and, on curved
 //! surfaces, every corner is in that range about the reference triangulation's normal at
 //! each node of the quad it has too (at input nodes, the normals the gate measures corners
-//! about), with [`OptimizeOptions::located_turns`](super::OptimizeOptions) the corner at a
-//! node the reference does not have (split, duplicated and refined nodes) is in that range
+//! about), with [`Local::located_turns`] (from `OptimizeOptions::located_turns`, or
+//! `located_surfaces` naming the surface) the corner at a node the reference does not have (split, duplicated and refined nodes) is in that range
 //! about the normal of every reference triangle the node touches where it now is (the faces
 //! the gate measures that corner about: on a coarse curved face such a node can cross onto
 //! a face that turns far from the quad's reference normal), and the quad holds to its own
