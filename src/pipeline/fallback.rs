@@ -266,13 +266,14 @@ pub(super) fn surface_triangles(
         .collect()
 }
 
-/// The triangles of some surfaces of an input, by surface and sorted node tags.
-struct SurfaceTriangles(HashSet<(i32, [u64; 3])>);
+/// The triangles of some surfaces of an input, by surface and sorted node tags, with their
+/// element tags.
+struct SurfaceTriangles(std::collections::HashMap<(i32, [u64; 3]), u64>);
 
 impl SurfaceTriangles {
     /// The triangles of `input` on `surfaces`.
     fn of(input: &Mesh, surfaces: &HashSet<i32>) -> Self {
-        let mut set = HashSet::new();
+        let mut map = std::collections::HashMap::new();
         for b in input.element_blocks.iter().filter(|b| {
             b.element_type == etype::TRI3 && b.entity_dim == 2 && surfaces.contains(&b.entity_tag)
         }) {
@@ -280,17 +281,29 @@ impl SurfaceTriangles {
                 let e = b.element(i);
                 let mut t = [e[0], e[1], e[2]];
                 t.sort_unstable();
-                set.insert((b.entity_tag, t));
+                map.insert((b.entity_tag, t), b.tags[i]);
             }
         }
-        SurfaceTriangles(set)
+        SurfaceTriangles(map)
+    }
+
+    /// The element tag of surface `s`'s triangle of nodes `t` (any order).
+    fn tag(&self, s: i32, mut t: [u64; 3]) -> Option<u64> {
+        t.sort_unstable();
+        self.0.get(&(s, t)).copied()
     }
 
     /// True when surface `s` has the triangle of nodes `a`, `b`, `c` (any order).
     fn has(&self, s: i32, a: u64, b: u64, c: u64) -> bool {
-        let mut t = [a, b, c];
-        t.sort_unstable();
-        self.0.contains(&(s, t))
+        self.tag(s, [a, b, c]).is_some()
+    }
+
+    /// The element tags of the two triangles of surface `s` that form the quad `q` (split
+    /// along either diagonal), when there are such.
+    fn pair(&self, s: i32, [a, b, c, d]: [u64; 4]) -> Option<(u64, u64)> {
+        [([a, b, c], [a, c, d]), ([b, c, d], [b, d, a])]
+            .into_iter()
+            .find_map(|(x, y)| Some((self.tag(s, x)?, self.tag(s, y)?)))
     }
 }
 
@@ -311,11 +324,7 @@ pub(super) fn pairs_of(
         if priced.contains(&(surface, sorted)) || out.contains(&(surface, sorted)) {
             continue;
         }
-        // the two triangles of a diagonal (nodes 0-2 or 1-3 of the quad)
-        let halves = |[a, b, c, d]: [u64; 4]| {
-            triangles.has(surface, a, b, c) && triangles.has(surface, a, c, d)
-        };
-        if halves(n) || halves([n[1], n[2], n[3], n[0]]) {
+        if triangles.pair(surface, n).is_some() {
             out.push((surface, sorted));
         }
     }
@@ -340,7 +349,7 @@ pub(super) fn fan_segments(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -
     let key = |a: u64, b: u64| (a.min(b), a.max(b));
     let mut edge_count: std::collections::HashMap<(i32, u64, u64), u32> =
         std::collections::HashMap::new();
-    for &(s, t) in &triangles.0 {
+    for &(s, t) in triangles.0.keys() {
         for j in 0..3 {
             let (a, c) = key(t[j], t[(j + 1) % 3]);
             *edge_count.entry((s, a, c)).or_default() += 1;
@@ -427,24 +436,9 @@ pub(super) fn fallback_triangles(
     // the first ring of a bad quad that two input triangles form is those two
     let mut spots = spots.to_vec();
     if ring == 1 && tight {
-        let mut tag_of: std::collections::HashMap<(i32, [u64; 3]), u64> = Default::default();
-        for b in tri_blocks() {
-            for i in 0..b.len() {
-                let e = b.element(i);
-                let mut t = [e[0], e[1], e[2]];
-                t.sort_unstable();
-                tag_of.insert((b.entity_tag, t), b.tags[i]);
-            }
-        }
-        let tag = |s: i32, mut t: [u64; 3]| {
-            t.sort_unstable();
-            tag_of.get(&(s, t)).copied()
-        };
-        spots.retain(|&(s, [a, b, c, d])| {
-            let pair = [([a, b, c], [a, c, d]), ([b, c, d], [b, d, a])]
-                .into_iter()
-                .find_map(|(x, y)| Some((tag(s, x)?, tag(s, y)?)));
-            match pair {
+        let triangles = SurfaceTriangles::of(input, &surfaces);
+        spots.retain(|&(s, q)| {
+            match triangles.pair(s, q) {
                 Some((x, y)) => {
                     out.extend([x, y].into_iter().filter(|t| !chosen.contains(t)));
                     false

@@ -429,23 +429,9 @@ fn coarse_cylinders_get_valid_quads_from_a_local_fallback() {
         per_triangle <= 0.6,
         "{per_triangle:.3} quads per triangle:\n{log}"
     );
-    let coords: std::collections::HashMap<u64, [f64; 3]> = mesh
-        .node_blocks
+    let worst = blossomquad::quality::quad_etas(&mesh)
         .iter()
-        .flat_map(|b| b.tags.iter().copied().zip(b.coords.iter().copied()))
-        .collect();
-    let mut worst = f64::INFINITY;
-    for b in mesh
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4)
-    {
-        for i in 0..b.len() {
-            let e = b.element(i);
-            let p: [glam::DVec3; 4] =
-                std::array::from_fn(|k| glam::DVec3::from_array(coords[&e[k]]));
-            worst = worst.min(blossomquad::quality::eta(&p));
-        }
-    }
+        .map(|e| e.1)
+        .fold(f64::INFINITY, f64::min);
     assert!(worst >= 0.2, "eta_w {worst:.3}:\n{log}");
 }

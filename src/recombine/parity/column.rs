@@ -389,30 +389,23 @@ fn band_walls(w: &SurfaceWork, path: &[usize]) -> Vec<(u64, bool)> {
     let mut ids: Vec<u32> = walls.iter().flat_map(|&(a, b)| [a, b]).collect();
     ids.sort_unstable();
     ids.dedup();
-    let index = |v: u32| ids.binary_search(&v).unwrap_or(0);
-    let mut parent: Vec<usize> = (0..ids.len()).collect();
-    fn root(parent: &mut [usize], mut i: usize) -> usize {
-        while parent[i] != i {
-            parent[i] = parent[parent[i]];
-            i = parent[i];
-        }
-        i
-    }
+    let index = |v: u32| ids.binary_search(&v).unwrap_or(0) as u32;
+    let mut parent: Vec<u32> = (0..ids.len() as u32).collect();
     for &(a, b) in &walls {
-        let (ra, rb) = (root(&mut parent, index(a)), root(&mut parent, index(b)));
-        parent[ra] = rb;
+        let (ra, rb) = (find(&mut parent, index(a)), find(&mut parent, index(b)));
+        parent[ra as usize] = rb;
     }
-    let loop_of: Vec<usize> = walls
+    let loop_of: Vec<u32> = walls
         .iter()
-        .map(|&(a, _)| root(&mut parent, index(a)))
+        .map(|&(a, _)| find(&mut parent, index(a)))
         .collect();
-    let mut loops: Vec<usize> = loop_of.clone();
+    let mut loops: Vec<u32> = loop_of.clone();
     loops.sort_unstable();
     loops.dedup();
     if loops.len() != 2 {
         return Vec::new();
     }
-    let count = |l: usize| loop_of.iter().filter(|&&x| x == l).count();
+    let count = |l: u32| loop_of.iter().filter(|&&x| x == l).count();
     let (c0, c1) = (count(loops[0]), count(loops[1]));
     if c0 == c1 {
         return Vec::new();

@@ -184,6 +184,17 @@ pub(super) fn min_tjoin(
     Some(chosen)
 }
 
+/// The root of `x` in the union-find forest `uf` (each entry its parent, a root its own),
+/// halving the path on the way.
+pub(super) fn find(uf: &mut [u32], mut x: u32) -> u32 {
+    while uf[x as usize] != x {
+        let p = uf[uf[x as usize] as usize];
+        uf[x as usize] = p;
+        x = p;
+    }
+    x
+}
+
 /// Chooses groups (with repeats, which cancel) whose splits make every region even, given
 /// each group's flipped regions (`sig`) and the odd regions. Returns the choice and the odd
 /// regions left that no choice can fix (empty exactly when the GF(2) system "the chosen
@@ -207,14 +218,6 @@ pub(crate) fn solve_groups(
     let ground = nr as u32;
     // components of the region graph
     let mut uf: Vec<u32> = (0..=nr as u32).collect();
-    pub(super) fn find(uf: &mut [u32], mut x: u32) -> u32 {
-        while uf[x as usize] != x {
-            let p = uf[uf[x as usize] as usize];
-            uf[x as usize] = p;
-            x = p;
-        }
-        x
-    }
     let mut adj: Vec<Vec<(u32, usize)>> = vec![Vec::new(); nr + 1];
     for (g, grp) in list.iter().enumerate() {
         let (u, v) = match grp.sig.len() {
