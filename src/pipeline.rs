@@ -51,7 +51,13 @@
 //! 4. **Last resort.** Quads still bad after that get every triangle of their surface split
 //!    (the splits' halved neighbours along shared curves may bring another surface there in
 //!    the next round; segment splits are dropped then), up to [`FALLBACK_ROUNDS`] rounds in
-//!    all.
+//!    all. Each surface counts its own split rounds, so a surface that first has a bad quad
+//!    after splits elsewhere starts from its first ring. Where that differs from counting
+//!    the rounds over the job (the n-th split round splits the n-th ring around every bad
+//!    quad, then whole surfaces), the job runs again that way too and the better result is
+//!    kept: a valid one, then one within the element-count rule, then the higher worst
+//!    quad, then fewer quads (the local rings can end valid where the cascade of whole
+//!    surfaces does not, or the other way round).
 //! 5. **The worst quad.** A valid optimized result gets up to three more tries: where the
 //!    fallback priced quads out, the fallback with splits only; quads under η
 //!    [`ETA_FLOOR`] priced out; one ring around those still under it split. Each is kept
@@ -90,7 +96,7 @@ use rounds::*;
 
 use fallback::{
     fallback_triangles, low_quads, pairs_of, quads_per_triangle, surface_elements, FallbackStart,
-    LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE,
+    JobNotes, LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE,
 };
 pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS};
 #[cfg(feature = "testing")]
@@ -256,28 +262,28 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         None => (&input, Vec::new()),
     };
     let mut cache = SurfaceCache::default();
-    let mut segments_used = false;
-    let result = run_rounds(
-        base,
-        opts,
-        FallbackStart::default(),
-        &mut cache,
-        &mut segments_used,
-    )
-    .or_else(|e| match e {
-        // a fallback that split boundary segments under fans and still failed runs again
-        // without them (on strips that share curves, a segment split moves one strip's
-        // imbalance to the next)
-        Error::Invalid { .. } | Error::FallbackExhausted if segments_used => {
-            let start = FallbackStart {
-                no_segments: true,
-                ..FallbackStart::default()
-            };
-            run_rounds(base, opts, start, &mut cache, &mut false)
+    // the rings counted per surface first; where that made a difference, the rings
+    // counted over the job too, and the better of the two
+    let (local, diverged) = run_job(base, opts, FallbackStart::default(), &mut cache);
+    let result = if diverged {
+        let start = FallbackStart {
+            global_rings: true,
+            ..FallbackStart::default()
+        };
+        let (global, _) = run_job(base, opts, start, &mut cache);
+        match (local, global) {
+            (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
+            (Ok(a), Err(_)) => Ok(a),
+            (Err(_), global) => global,
         }
-        e => Err(e),
-    })
-    .and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
+    } else {
+        // the same job either way: the worst-quad tries count their rings over the job
+        local.map(|mut r| {
+            r.2.global_rings = true;
+            r
+        })
+    };
+    let result = result    .and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
     match result {
         Ok((out, mut report, _)) => {
             *mesh = out;
@@ -294,6 +300,88 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
             Err(e)
         }
     }
+}
+
+/// One job's rounds from `start`; a job that split boundary segments under fans and still
+/// failed runs again without them (on strips that share curves, a segment split moves one
+/// strip's imbalance to the next). Returns the result and whether per-surface rings made a
+/// difference in either run ([`FallbackStart::global_rings`]).
+fn run_job(
+    base: &Mesh,
+    opts: &Options,
+    start: FallbackStart,
+    cache: &mut SurfaceCache,
+) -> (Result<(Mesh, Report, FallbackStart), Error>, bool) {
+    let mut notes = JobNotes::default();
+    let again = FallbackStart {
+        no_segments: true,
+        global_rings: start.global_rings,
+        ..FallbackStart::default()
+    };
+    let result = run_rounds(base, opts, start, cache, &mut notes).or_else(|e| match e {
+        Error::Invalid { .. } | Error::FallbackExhausted if notes.segments_used => {
+            run_rounds(base, opts, again, cache, &mut notes)
+        }
+        e => Err(e),
+    });
+    (result, notes.rings_diverged)
+}
+
+/// The better of two valid results of the same input: one with no quad listed as invalid
+/// ([`Options::allow_invalid`]), then one within the element-count rule
+/// ([`MAX_QUADS_PER_TRIANGLE`] new quads per input triangle, a quarter more under
+/// [`COUNT_RULE_FROM`] triangles), then the higher worst quad η (by more than 0.001), then
+/// fewer quads; `a` on a tie.
+fn better_job(
+    input: &Mesh,
+    opts: &Options,
+    a: (Mesh, Report, FallbackStart),
+    b: (Mesh, Report, FallbackStart),
+) -> (Mesh, Report, FallbackStart) {
+    let triangles = surface_elements(input, etype::TRI3);
+    let limit = if triangles >= COUNT_RULE_FROM {
+        MAX_QUADS_PER_TRIANGLE
+    } else {
+        1.25 * MAX_QUADS_PER_TRIANGLE
+    };
+    let skip = if opts.smooth_quads {
+        Vec::new()
+    } else {
+        quad_only_surfaces(input)
+    };
+    let measure = |r: &(Mesh, Report, FallbackStart)| {
+        let per_triangle = quads_per_triangle(input, &r.0);
+        (
+            r.1.invalid.is_empty(),
+            per_triangle <= limit,
+            low_quads(&r.0, &skip).1,
+            per_triangle,
+        )
+    };
+    let (x, y) = (measure(&a), measure(&b));
+    let b_better = if (x.0, x.1) != (y.0, y.1) {
+        (y.0, y.1) > (x.0, x.1)
+    } else if (x.2 - y.2).abs() > 1e-3 {
+        y.2 > x.2
+    } else {
+        y.3 < x.3
+    };
+    let (mut kept, other) = if b_better { (b, a) } else { (a, b) };
+    let rings = |r: &(Mesh, Report, FallbackStart)| match r.2.global_rings {
+        true => "over the job",
+        false => "per surface",
+    };
+    kept.1.log.push(format!(
+        "fallback: split rings counted {} kept (quads per triangle {:.3}, eta_w {:.3}), not {} ({:.3}, {:.3})",
+        rings(&kept),
+        if b_better { y.3 } else { x.3 },
+        if b_better { y.2 } else { x.2 },
+        rings(&other),
+        if b_better { x.3 } else { y.3 },
+        if b_better { x.2 } else { y.2 },
+    ));
+    kept.1.times = add_times(&other.1.times, &kept.1.times);
+    kept
 }
 
 fn progress(opts: &Options, stage: Stage, done: usize, total: usize) {
@@ -760,5 +848,71 @@ mod tests {
                 (Stage::Optimize, 0),
             ]
         );
+    }
+
+    /// A unit square of four triangles around its centre (node 5) as the input, and a
+    /// result of `quads` (node tags, with nodes 6-9 at the edge midpoints and 10 at the
+    /// centre's place when used).
+    fn square_with(quads: &[[u64; 4]]) -> (Mesh, Mesh) {
+        use crate::mesh::testing::{node_block, one_surface};
+        let coords = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [1.0, 1.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.5, 0.5, 0.0],
+        ];
+        let input = one_surface(
+            vec![node_block(2, (1..=5).collect(), coords.clone())],
+            etype::TRI3,
+            &[&[1, 2, 5], &[2, 3, 5], &[3, 4, 5], &[4, 1, 5]],
+        );
+        let mut all = coords;
+        all.extend([[0.5, 0.0, 0.0], [1.0, 0.5, 0.0], [0.5, 1.0, 0.0], [0.0, 0.5, 0.0]]);
+        let elems: Vec<&[u64]> = quads.iter().map(|q| &q[..]).collect();
+        let out = one_surface(vec![node_block(2, (1..=9).collect(), all)], etype::QUAD4, &elems);
+        (input, out)
+    }
+
+    #[test]
+    fn the_better_job_keeps_the_count_rule_then_the_worst_quad_then_fewer_quads() {
+        let job = |m: &Mesh| (m.clone(), Report::default(), FallbackStart::default());
+        let opts = Options::default();
+        // under 500 triangles the rule allows 0.75 new quads per triangle: 3 quads here
+        // two quads flat at node 5 (eta 0)
+        let (input, flat) = square_with(&[[1, 2, 3, 5], [3, 4, 1, 5]]);
+        // four squares around the centre: a better worst quad, but above the rule
+        let (_, four) = square_with(&[[1, 6, 5, 9], [6, 2, 7, 5], [5, 7, 3, 8], [9, 5, 8, 4]]);
+        // two half-square rectangles, and the same left one with the right one as two
+        // squares: the same worst quad
+        let (_, two) = square_with(&[[1, 6, 8, 4], [6, 2, 3, 8]]);
+        let (_, three) = square_with(&[[1, 6, 8, 4], [6, 2, 7, 5], [5, 7, 3, 8]]);
+        let kept = |a: &Mesh, b: &Mesh| {
+            better_job(&input, &opts, job(a), job(b))
+                .0
+                .element_count()
+        };
+        // within the rule first
+        assert_eq!(kept(&flat, &four), 2);
+        assert_eq!(kept(&four, &flat), 2);
+        // then the higher worst quad
+        assert_eq!(kept(&flat, &three), 3);
+        assert_eq!(kept(&three, &flat), 3);
+        // then fewer quads
+        assert_eq!(kept(&three, &two), 2);
+        assert_eq!(kept(&two, &three), 2);
+        // a result with quads listed as invalid loses to one without
+        let mut listed = job(&flat);
+        listed.1.invalid.push(crate::validity::BadQuad {
+            surface: 1,
+            element: 1,
+            nodes: [1, 2, 3, 5],
+            defect: crate::validity::Defect::Corner {
+                corner: 3,
+                degrees: 180.0,
+            },
+        });
+        let r = better_job(&input, &opts, listed, job(&four));
+        assert_eq!(r.0.element_count(), 4);
     }
 }

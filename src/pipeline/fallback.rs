@@ -4,7 +4,7 @@
 //! are judged by. The rounds themselves (the jobs) run in the pipeline; nothing here runs
 //! one.
 
-use std::collections::HashSet;
+use std::collections::{BTreeMap, HashSet};
 
 use crate::mesh::{etype, Mesh, TagCoords};
 use crate::recombine;
@@ -58,6 +58,13 @@ pub(super) struct LocalFallback {
     pub(super) pricing_rounds: usize,
     pub(super) segment_rounds: usize,
     pub(super) split_rounds: usize,
+    /// Rings split so far around the bad quads of each surface.
+    pub(super) rings: BTreeMap<i32, usize>,
+    /// The rings are counted over the job, not per surface (see [`FallbackStart`]).
+    pub(super) global_rings: bool,
+    /// A split round's rings differed from the job's count on some surface (per-surface
+    /// rings only).
+    pub(super) diverged: bool,
     /// The splits keep to the element-count rule: the first ring around the bad quads
     /// would break it, so it holds only the triangles of the bad pairs, and a bad corner
     /// at a split node gets merged halves priced out before another ring.
@@ -82,6 +89,7 @@ impl LocalFallback {
             located: self.located,
             chosen,
             splits_only,
+            global_rings: self.global_rings,
         }
     }
 
@@ -139,21 +147,60 @@ impl LocalFallback {
             return Next::HalvesOut(at_split);
         }
         self.split_rounds += 1;
-        if self.split_rounds > SPLIT_RINGS {
-            // the last resort, after the local rounds: every triangle of the surfaces that
-            // still have a bad quad (the splits' halved neighbours along shared curves may
-            // bring another surface here in the next round), without the segment splits (a
-            // split on a curve between two strips moves the strips' imbalance to the other
-            // strip)
+        // each surface's ring: one more than it had
+        let mut surfaces: Vec<i32> = spots.iter().map(|s| s.0).collect();
+        surfaces.sort_unstable();
+        surfaces.dedup();
+        for &s in &surfaces {
+            *self.rings.entry(s).or_default() += 1;
+        }
+        let rounds = self.split_rounds;
+        if !self.global_rings && surfaces.iter().any(|s| self.rings.get(s) != Some(&rounds)) {
+            self.diverged = true;
+        }
+        let ring_of = |s: i32| match self.global_rings {
+            true => rounds,
+            false => self.rings.get(&s).copied().unwrap_or(1),
+        };
+        let at_ring = |r: usize| -> Vec<(i32, [u64; 4])> {
+            spots.iter().filter(|s| ring_of(s.0) == r).copied().collect()
+        };
+        // the last resort, after the local rounds: every triangle of the surfaces that still
+        // have a bad quad (the splits' halved neighbours along shared curves may bring
+        // another surface here in the next round), without the segment splits (a split on a curve between two strips moves the
+        // strips' imbalance to the other strip)
+        let last: Vec<(i32, [u64; 4])> = spots
+            .iter()
+            .filter(|s| ring_of(s.0) > SPLIT_RINGS)
+            .copied()
+            .collect();
+        let mut out = HashSet::new();
+        if !last.is_empty() {
             self.segments.clear();
-            return Next::Split(surface_triangles(input, &spots, chosen));
+            out.extend(surface_triangles(input, &last, chosen));
         }
-        let ring = fallback_triangles(input, mesh, &spots, chosen, self.split_rounds, self.tight);
-        if self.split_rounds == 1 && !self.tight && breaks_count_rule(input, mesh, ring.len()) {
-            self.tight = true;
-            return Next::Split(fallback_triangles(input, mesh, &spots, chosen, 1, true));
+        let first = at_ring(1);
+        if !first.is_empty() {
+            let ring = fallback_triangles(input, mesh, &first, chosen, 1, self.tight);
+            if !self.tight && breaks_count_rule(input, mesh, ring.len()) {
+                self.tight = true;
+                out.extend(fallback_triangles(input, mesh, &first, chosen, 1, true));
+            } else {
+                out.extend(ring);
+            }
         }
-        Next::Split(ring)
+        for r in 2..=SPLIT_RINGS {
+            let spots = at_ring(r);
+            if !spots.is_empty() {
+                out.extend(fallback_triangles(input, mesh, &spots, chosen, r, self.tight));
+            }
+        }
+        if out.is_empty() && last.len() < spots.len() {
+            // nothing new within the rings: the last resort at once
+            self.segments.clear();
+            out = surface_triangles(input, &spots, chosen);
+        }
+        Next::Split(out)
     }
 }
 
@@ -193,6 +240,22 @@ pub(super) struct FallbackStart {
     /// Split only, never price (the fallback of the other result that
     /// [`super::raise_worst_quad`] tries).
     pub(super) splits_only: bool,
+    /// Split rings counted over the job: the n-th split round splits the n-th ring around
+    /// every bad quad, and the last resort takes every surface with a bad quad after
+    /// [`SPLIT_RINGS`] rounds. Otherwise each surface counts its own rings, so a surface
+    /// that first has a bad quad after splits elsewhere (their halved neighbours on a
+    /// shared curve) starts from its first ring.
+    pub(super) global_rings: bool,
+}
+
+/// What a job's rounds did that decides whether another job runs (see the module doc of
+/// [`super`]).
+#[derive(Debug, Default)]
+pub(super) struct JobNotes {
+    /// Boundary segments under fans were split.
+    pub(super) segments_used: bool,
+    /// Per-surface rings differed from the job's count (see [`FallbackStart::global_rings`]).
+    pub(super) rings_diverged: bool,
 }
 
 /// The element-count rule that the repair of the worst quad keeps, as the recombination's
@@ -618,6 +681,72 @@ mod tests {
         // per triangle (4.5 here), and a split triangle adds 2.5
         assert!(!breaks_count_rule(&m, &m, 1));
         assert!(breaks_count_rule(&m, &m, 2));
+    }
+
+    /// The strip as surface 1 and its mirror image above the top curve (nodes 4-8) as
+    /// surface 2: bottom nodes 9-11, triangles 7-12 in the same order.
+    fn two_strips() -> Mesh {
+        let mut m = strip();
+        let b = &mut m.node_blocks[0];
+        for (t, x) in [(9, 0.0), (10, 2.0), (11, 5.0)] {
+            b.tags.push(t);
+            b.coords.push([x, 2.0, 0.0]);
+        }
+        let mirror = |n: u64| match n {
+            1 => 9,
+            2 => 10,
+            3 => 11,
+            n => n,
+        };
+        let mut upper = m.element_blocks[0].clone();
+        upper.entity_tag = 2;
+        upper.tags = (7..=12).collect();
+        upper.nodes = upper.nodes.iter().map(|&n| mirror(n)).collect();
+        m.element_blocks.push(upper);
+        m
+    }
+
+    #[test]
+    fn a_surface_first_bad_after_splits_elsewhere_starts_from_its_first_ring() {
+        let m = two_strips();
+        // two split rounds on surface 1 (triangles 3 and 4, then their neighbours), pricing
+        // and segment rounds spent, tight splits; then a bad pair on surface 2: 10-6-5
+        // (triangle 9) and 10-7-6 (triangle 10), flat at node 6
+        let chosen: HashSet<u64> = (1..=6).collect();
+        let state = |global_rings| LocalFallback {
+            pricing_rounds: PRICING_ROUNDS,
+            segment_rounds: SEGMENT_ROUNDS,
+            split_rounds: SPLIT_RINGS,
+            rings: BTreeMap::from([(1, SPLIT_RINGS)]),
+            tight: true,
+            flat_halves_out: true,
+            global_rings,
+            ..Default::default()
+        };
+        let mut quad = bad([5, 6, 7, 10], 1);
+        quad.surface = 2;
+        let split = |f: &mut LocalFallback, chosen: &HashSet<u64>| {
+            match f.next(&m, &m, std::slice::from_ref(&quad), chosen, &[]) {
+                Next::Split(t) => t,
+                _ => panic!("a split round expected"),
+            }
+        };
+        // per surface: the first (tight) ring of surface 2, the pair's own triangles
+        let mut local = state(false);
+        assert_eq!(split(&mut local, &chosen), HashSet::from([9, 10]));
+        assert!(local.diverged);
+        assert_eq!(local.rings, BTreeMap::from([(1, SPLIT_RINGS), (2, 1)]));
+        // over the job: the third split round is the last resort, all of surface 2
+        let mut global = state(true);
+        assert_eq!(split(&mut global, &chosen), (7..=12).collect::<HashSet<u64>>());
+        assert!(!global.diverged);
+        // per surface, surface 2's own rings run out too: its second ring (the triangles
+        // touching 9 and 10), then the rest of the surface
+        let mut chosen = chosen.clone();
+        chosen.extend([9, 10]);
+        assert_eq!(split(&mut local, &chosen), HashSet::from([7, 8, 11, 12]));
+        chosen.extend([7, 8]);
+        assert_eq!(split(&mut local, &chosen), HashSet::from([11, 12]));
     }
 
     #[test]

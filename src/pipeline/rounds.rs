@@ -19,7 +19,7 @@ pub(super) fn run_rounds(
     opts: &Options,
     start: FallbackStart,
     cache: &mut SurfaceCache,
-    segments_used: &mut bool,
+    notes: &mut JobNotes,
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut times = Times::default();
     let mut log = Vec::new();
@@ -38,6 +38,7 @@ pub(super) fn run_rounds(
         },
         no_segments: start.no_segments,
         located: start.located,
+        global_rings: start.global_rings,
         ..Default::default()
     };
     let mut fallback = None;
@@ -297,7 +298,7 @@ pub(super) fn run_rounds(
                 continue;
             }
             Next::Segments(count) => {
-                *segments_used = true;
+                notes.segments_used = true;
                 log.push(format!(
                     "fallback round {}: {count} boundary segment(s) under fan quads to split",
                     round + 1
@@ -311,7 +312,10 @@ pub(super) fn run_rounds(
                 ));
                 continue;
             }
-            Next::Split(more) => more,
+            Next::Split(more) => {
+                notes.rings_diverged |= local.diverged;
+                more
+            }
             Next::GiveUp => HashSet::new(),
         };
         if more.is_empty() {
@@ -425,6 +429,7 @@ pub(super) fn raise_worst_quad(
                 }
                 start = FallbackStart {
                     splits_only: true,
+                    global_rings: start.global_rings,
                     ..FallbackStart::default()
                 };
                 "the fallback with splits only".to_string()
@@ -448,7 +453,7 @@ pub(super) fn raise_worst_quad(
                 format!("{n} triangle(s) around quads under eta {ETA_FLOOR} split")
             }
         };
-        let Ok(candidate) = run_rounds(input, opts, start, cache, &mut false) else {
+        let Ok(candidate) = run_rounds(input, opts, start, cache, &mut JobNotes::default()) else {
             continue;
         };
         if !candidate.1.invalid.is_empty() {
