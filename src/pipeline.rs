@@ -57,7 +57,13 @@
 //!    quad, then whole surfaces), the job runs again that way too and the better result is
 //!    kept: a valid one, then one within the element-count rule, then the higher worst
 //!    quad, then fewer quads (the local rings can end valid where the cascade of whole
-//!    surfaces does not, or the other way round).
+//!    surfaces does not, or the other way round). Where the kept job split triangles (or
+//!    no job was valid), the job runs once more with **flat pairs**: at a surface's first
+//!    ring, a bad pair flat or reflex at an end of its diagonal is split into three quads
+//!    that leave the edges at that node whole ([`crate::recombine::FlatPair`]; the two
+//!    triangles are split as chosen ones from the surface's second ring on), so a boundary
+//!    fan's split does not halve the triangles of the face beyond the curve; the better of
+//!    the two results is kept, by the same order.
 //! 5. **The worst quad.** A valid optimized result gets up to three more tries: where the
 //!    fallback priced quads out, the fallback with splits only; quads under η
 //!    [`ETA_FLOOR`] priced out; one ring around those still under it split. Each is kept
@@ -283,7 +289,29 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
             r
         })
     };
-    let result = result    .and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
+    // where the fallback split triangles (or nothing was valid), the same with flat pairs,
+    // each with its worst-quad tries, and the better of the two
+    let split = match &result {
+        Ok(r) => !r.2.chosen.is_empty(),
+        Err(e) => matches!(e, Error::Invalid { .. } | Error::FallbackExhausted),
+    };
+    let result = result.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
+    let result = if split {
+        let start = FallbackStart {
+            global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
+            flat_pairs: true,
+            ..FallbackStart::default()
+        };
+        let (pairs, _) = run_job(base, opts, start, &mut cache);
+        let pairs = pairs.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
+        match (result, pairs) {
+            (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
+            (Ok(a), Err(_)) => Ok(a),
+            (Err(_), pairs) => pairs,
+        }
+    } else {
+        result
+    };
     match result {
         Ok((out, mut report, _)) => {
             *mesh = out;
@@ -367,18 +395,25 @@ fn better_job(
         y.3 < x.3
     };
     let (mut kept, other) = if b_better { (b, a) } else { (a, b) };
-    let rings = |r: &(Mesh, Report, FallbackStart)| match r.2.global_rings {
-        true => "over the job",
-        false => "per surface",
+    let variant = |r: &(Mesh, Report, FallbackStart)| {
+        let rings = match r.2.global_rings {
+            true => "split rings counted over the job",
+            false => "split rings counted per surface",
+        };
+        match r.2.flat_pairs {
+            true => format!("{rings}, flat pairs"),
+            false => rings.to_string(),
+        }
     };
+    let (k, o) = if b_better { (y, x) } else { (x, y) };
     kept.1.log.push(format!(
-        "fallback: split rings counted {} kept (quads per triangle {:.3}, eta_w {:.3}), not {} ({:.3}, {:.3})",
-        rings(&kept),
-        if b_better { y.3 } else { x.3 },
-        if b_better { y.2 } else { x.2 },
-        rings(&other),
-        if b_better { x.3 } else { y.3 },
-        if b_better { x.2 } else { y.2 },
+        "fallback: {} kept (quads per triangle {:.3}, eta_w {:.3}), not {} ({:.3}, {:.3})",
+        variant(&kept),
+        k.3,
+        k.2,
+        variant(&other),
+        o.3,
+        o.2,
     ));
     kept.1.times = add_times(&other.1.times, &kept.1.times);
     kept

@@ -69,6 +69,11 @@ pub(super) struct LocalFallback {
     /// would break it, so it holds only the triangles of the bad pairs, and a bad corner
     /// at a split node gets merged halves priced out before another ring.
     pub(super) tight: bool,
+    /// Flat pairs split into three quads ([`recombine::FlatPair`]): at the first ring, a bad
+    /// pair whose bad corner is at an end of its diagonal, with [`LocalFallback::flat_pairs`].
+    pub(super) pairs: Vec<recombine::FlatPair>,
+    /// Split bad pairs as flat pairs at the first ring.
+    pub(super) flat_pairs: bool,
     /// Surfaces (sorted tags) where the optimizer holds the corners at the job's new nodes
     /// to the faces the validity gate measures them about
     /// ([`crate::optimize::OptimizeOptions::located_surfaces`]): it turned a quad bad at
@@ -90,6 +95,8 @@ impl LocalFallback {
             chosen,
             splits_only,
             global_rings: self.global_rings,
+            pairs: self.pairs,
+            flat_pairs: self.flat_pairs,
         }
     }
 
@@ -147,6 +154,7 @@ impl LocalFallback {
             return Next::HalvesOut(at_split);
         }
         self.split_rounds += 1;
+        let pairs_before = self.pairs.len();
         // each surface's ring: one more than it had
         let mut surfaces: Vec<i32> = spots.iter().map(|s| s.0).collect();
         surfaces.sort_unstable();
@@ -179,7 +187,49 @@ impl LocalFallback {
             self.segments.clear();
             out.extend(surface_triangles(input, &last, chosen));
         }
-        let first = at_ring(1);
+        let mut first = at_ring(1);
+        // a bad pair flat or reflex at an end of its diagonal: split as a flat pair, which
+        // leaves the edges at that node whole
+        if self.flat_pairs && !first.is_empty() {
+            let on: HashSet<i32> = first.iter().map(|s| s.0).collect();
+            let triangles = SurfaceTriangles::of(input, &on);
+            for b in bad.iter().filter(|b| {
+                on.contains(&b.surface) && matches!(b.defect, crate::validity::Defect::Corner { .. })
+            }) {
+                let Some((t, u)) = triangles.pair_at(b.surface, b.nodes, b.node()) else {
+                    continue;
+                };
+                if chosen.contains(&t) || chosen.contains(&u) {
+                    continue;
+                }
+                if self.pairs.iter().any(|p| p.triangles.contains(&t) || p.triangles.contains(&u)) {
+                    continue;
+                }
+                self.pairs.push(recombine::FlatPair {
+                    triangles: [t, u],
+                    node: b.node(),
+                });
+                first.retain(|s| s != &(b.surface, b.nodes));
+            }
+        }
+        // from the second ring on, a surface's flat pairs are split as chosen triangles
+        let later: HashSet<i32> = spots
+            .iter()
+            .filter(|s| ring_of(s.0) >= 2)
+            .map(|s| s.0)
+            .collect();
+        if !later.is_empty() && !self.pairs.is_empty() {
+            let on: HashSet<i32> = later.iter().copied().collect();
+            let triangles = SurfaceTriangles::of(input, &on);
+            let tags: HashSet<u64> = triangles.0.values().copied().collect();
+            self.pairs.retain(|p| {
+                let ours = p.triangles.iter().any(|t| tags.contains(t));
+                if ours {
+                    out.extend(p.triangles);
+                }
+                !ours
+            });
+        }
         if !first.is_empty() {
             let ring = fallback_triangles(input, mesh, &first, chosen, 1, self.tight);
             if !self.tight && breaks_count_rule(input, mesh, ring.len()) {
@@ -195,7 +245,7 @@ impl LocalFallback {
                 out.extend(fallback_triangles(input, mesh, &spots, chosen, r, self.tight));
             }
         }
-        if out.is_empty() && last.len() < spots.len() {
+        if out.is_empty() && self.pairs.len() == pairs_before && last.len() < spots.len() {
             // nothing new within the rings: the last resort at once
             self.segments.clear();
             out = surface_triangles(input, &spots, chosen);
@@ -246,6 +296,11 @@ pub(super) struct FallbackStart {
     /// that first has a bad quad after splits elsewhere (their halved neighbours on a
     /// shared curve) starts from its first ring.
     pub(super) global_rings: bool,
+    /// Flat pairs split into three quads.
+    pub(super) pairs: Vec<recombine::FlatPair>,
+    /// At the first ring, a bad pair whose bad corner is at an end of its diagonal is split
+    /// as a flat pair ([`recombine::FlatPair`]) instead of as two chosen triangles.
+    pub(super) flat_pairs: bool,
 }
 
 /// What a job's rounds did that decides whether another job runs (see the module doc of
@@ -359,6 +414,20 @@ impl SurfaceTriangles {
     /// True when surface `s` has the triangle of nodes `a`, `b`, `c` (any order).
     fn has(&self, s: i32, a: u64, b: u64, c: u64) -> bool {
         self.tag(s, [a, b, c]).is_some()
+    }
+
+    /// The element tags of the two triangles of surface `s` that form the quad `q` split
+    /// along a diagonal with an end at `node`, when there are such.
+    fn pair_at(&self, s: i32, [a, b, c, d]: [u64; 4], node: u64) -> Option<(u64, u64)> {
+        let diagonal_ac = node == a || node == c;
+        let diagonal_bd = node == b || node == d;
+        [
+            (diagonal_ac, [a, b, c], [a, c, d]),
+            (diagonal_bd, [b, c, d], [b, d, a]),
+        ]
+        .into_iter()
+        .filter(|x| x.0)
+        .find_map(|(_, x, y)| Some((self.tag(s, x)?, self.tag(s, y)?)))
     }
 
     /// The element tags of the two triangles of surface `s` that form the quad `q` (split
@@ -747,6 +816,52 @@ mod tests {
         assert_eq!(split(&mut local, &chosen), HashSet::from([7, 8, 11, 12]));
         chosen.extend([7, 8]);
         assert_eq!(split(&mut local, &chosen), HashSet::from([11, 12]));
+    }
+
+    #[test]
+    fn a_pair_flat_at_its_diagonal_is_split_as_a_flat_pair_then_as_chosen_triangles() {
+        let m = strip();
+        let state = LocalFallback {
+            pricing_rounds: PRICING_ROUNDS,
+            segment_rounds: SEGMENT_ROUNDS,
+            flat_pairs: true,
+            ..Default::default()
+        };
+        let mut f = state;
+        let none = HashSet::new();
+        // the quad 5-6-7-2 (triangles 3 and 4, diagonal 2-6) is flat at node 6: a flat pair
+        let quad = bad([5, 6, 7, 2], 1);
+        match f.next(&m, &m, std::slice::from_ref(&quad), &none, &[]) {
+            Next::Split(t) => assert!(t.is_empty(), "{t:?}"),
+            _ => panic!("a split round expected"),
+        }
+        assert_eq!(
+            f.pairs,
+            vec![recombine::FlatPair {
+                triangles: [4, 3],
+                node: 6
+            }]
+        );
+        // bad again there: the second ring splits the pair's triangles as chosen ones and
+        // the ring around the quad
+        match f.next(&m, &m, std::slice::from_ref(&quad), &none, &[]) {
+            Next::Split(t) => assert_eq!(t, (1..=6).collect::<HashSet<u64>>()),
+            _ => panic!("a split round expected"),
+        }
+        assert!(f.pairs.is_empty());
+        // flat at node 5, not an end of the diagonal 2-6: the pair's own triangles (tight)
+        let mut f = LocalFallback {
+            pricing_rounds: PRICING_ROUNDS,
+            segment_rounds: SEGMENT_ROUNDS,
+            flat_pairs: true,
+            tight: true,
+            ..Default::default()
+        };
+        match f.next(&m, &m, &[bad([5, 6, 7, 2], 0)], &none, &[]) {
+            Next::Split(t) => assert_eq!(t, HashSet::from([3, 4])),
+            _ => panic!("a split round expected"),
+        }
+        assert!(f.pairs.is_empty());
     }
 
     #[test]

@@ -39,6 +39,8 @@ pub(super) fn run_rounds(
         no_segments: start.no_segments,
         located: start.located,
         global_rings: start.global_rings,
+        pairs: start.pairs,
+        flat_pairs: start.flat_pairs,
         ..Default::default()
     };
     let mut fallback = None;
@@ -59,14 +61,25 @@ pub(super) fn run_rounds(
             Some(c) => c,
             None => {
                 let mut mesh = input.clone();
-                if !chosen.is_empty() || !local.segments.is_empty() {
+                if !chosen.is_empty() || !local.segments.is_empty() || !local.pairs.is_empty() {
                     let t = Instant::now();
-                    let split = recombine::split_triangles(&mut mesh, &chosen, &local.segments);
+                    let split = recombine::split_triangles(
+                        &mut mesh,
+                        &chosen,
+                        &local.pairs,
+                        &local.segments,
+                    );
                     let mut line = format!("fallback round {round}: ");
                     if split.segments_split > 0 {
                         line += &format!(
                             "{} boundary segment(s) under fans split at their midpoints, ",
                             split.segments_split
+                        );
+                    }
+                    if split.pairs_split > 0 {
+                        line += &format!(
+                            "{} flat pair(s) of triangles split into three quads each, ",
+                            split.pairs_split
                         );
                     }
                     line += &format!(
@@ -273,6 +286,7 @@ pub(super) fn run_rounds(
                 continue;
             }
         }
+        let pairs_before = local.pairs.len();
         let next = if round == FALLBACK_ROUNDS {
             Next::GiveUp
         } else {
@@ -314,6 +328,9 @@ pub(super) fn run_rounds(
             }
             Next::Split(more) => {
                 notes.rings_diverged |= local.diverged;
+                if more.is_empty() && local.pairs.len() > pairs_before {
+                    continue;
+                }
                 more
             }
             Next::GiveUp => HashSet::new(),
@@ -430,6 +447,7 @@ pub(super) fn raise_worst_quad(
                 start = FallbackStart {
                     splits_only: true,
                     global_rings: start.global_rings,
+                    flat_pairs: start.flat_pairs,
                     ..FallbackStart::default()
                 };
                 "the fallback with splits only".to_string()

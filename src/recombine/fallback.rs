@@ -1,8 +1,11 @@
 //! The fallback that always gives valid quads where pairing triangles cannot: chosen
 //! triangles are split into three quads each (centroid and edge midpoints, the refinement
-//! rule of Figure 2 applied locally), before the matching runs on what is left. Chosen
-//! boundary segments are split at their midpoints too, as a parity repair's split is: the
-//! triangles on them become two each.
+//! rule of Figure 2 applied locally), before the matching runs on what is left. A chosen
+//! flat pair ([`FlatPair`]: two triangles whose quad is flat or reflex at an end of their
+//! shared edge) becomes three quads with its two edges away from that node split, so the
+//! edges at the node (on a boundary, its curve's segments and what lies beyond them) stay
+//! whole. Chosen boundary segments are split at their midpoints too, as a parity repair's
+//! split is: the triangles on them become two each.
 //!
 //! Splitting a triangle's edge at its midpoint also splits the element on the other side of
 //! that edge, whatever surface it belongs to, so the mesh stays conforming:
@@ -20,7 +23,8 @@
 //! the new nodes are paired in the link, so a slave stays the image of its master.
 //!
 //! Every child of a split triangle is a convex quad (a corner of the triangle, two edge
-//! midpoints and the centroid), oriented like its parent; edge midpoints are chord
+//! midpoints and the centroid), oriented like its parent; a flat pair's children hold the
+//! mean of its four corners and are oriented like its triangles; edge midpoints are chord
 //! midpoints, so planar areas and straight curves are unchanged. New edge nodes are
 //! classified like parity-split nodes: on the edge's curve (line element or node
 //! classification), else on the surface of the first triangle holding the edge; centroids on
@@ -39,6 +43,8 @@ pub struct FallbackSplit {
     /// Triangles split into three quads (the chosen ones and those added to keep every
     /// other triangle at one split edge at most).
     pub triangles_to_quads: usize,
+    /// Flat pairs split into three quads ([`FlatPair`]).
+    pub pairs_split: usize,
     /// Neighbouring triangles split in two.
     pub triangles_halved: usize,
     /// Quads already in the file that were split (into two quads across a strip, or four).
@@ -61,13 +67,69 @@ fn key(a: u64, b: u64) -> (u64, u64) {
     (a.min(b), a.max(b))
 }
 
+/// The polygon `[a, b, c, x]` of two triangles `t` and `u` (node tags, same orientation)
+/// sharing the edge `b-x` at `b` = `node`, oriented like them, and whether `t` is the one
+/// holding `a` (the one where `x` follows `b`); None when they share no such edge.
+fn pair_corners(t: &[u64], u: &[u64], node: u64) -> Option<(bool, [u64; 4])> {
+    let after = |tri: &[u64], n: u64| tri.iter().position(|&v| v == n).map(|i| tri[(i + 1) % 3]);
+    let other = |tri: &[u64], n: u64, m: u64| tri.iter().copied().find(|&v| v != n && v != m);
+    // the triangle where x follows b is (a, b, x); in the other, b follows x: (b, c, x)
+    let (first, second, t_first) = match (after(t, node), after(u, node)) {
+        (Some(x), Some(y)) if after(u, x) == Some(node) && y != x => (t, u, true),
+        (Some(y), Some(x)) if after(t, x) == Some(node) && y != x => (u, t, false),
+        _ => return None,
+    };
+    let x = after(first, node)?;
+    let a = other(first, node, x)?;
+    let c = other(second, node, x)?;
+    (a != c).then_some((t_first, [a, node, c, x]))
+}
+
+/// Two adjacent triangles of one surface (element tags) whose quad is flat or reflex at
+/// `node`, an end of their shared edge, split by [`split_triangles`] into three quads:
+/// with the pair as the polygon `a, b, c, x` (`b` = `node`, `b-x` the shared edge), the
+/// two edges away from `b` (`c-x`, `x-a`) are split at their midpoints `m2`, `m1` and a
+/// centre `p` (the mean of the four corners) joins them: `a, b, p, m1`, `b, c, m2, p` and
+/// `p, m2, x, m1`. The corner at `b` is shared by two quads, and the edges at `b` (on a
+/// boundary, the curve's segments) stay whole, so the elements beyond them are not
+/// touched.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, serde::Serialize)]
+pub struct FlatPair {
+    /// The element tags of the two triangles.
+    pub triangles: [u64; 2],
+    /// The node of their shared edge where their quad is flat or reflex.
+    pub node: u64,
+}
+
+/// One [`FlatPair`] being split: its two faces (`t1` holds `a`, `t2` holds `c`), its
+/// polygon `[a, b, c, x]`, and whether it still splits as a pair (a split edge other than
+/// its two far edges, or one of its triangles chosen, makes both triangles chosen).
+struct PairSplit {
+    faces: [u32; 2],
+    corners: [u64; 4],
+    live: bool,
+}
+
+impl PairSplit {
+    /// The two edges away from `b`: `x-a` and `c-x`.
+    fn far_edges(&self) -> [(u64, u64); 2] {
+        let [a, _, c, x] = self.corners;
+        [key(x, a), key(c, x)]
+    }
+}
+
 /// Splits the 3-node triangles whose element tags are in `chosen` (and the ones the rule of
-/// the module doc adds) into three quads each, and the edges `segments` (node tags, either
-/// order) at their midpoints. Tags that are not triangles are ignored, and so are segments
-/// that no element has. Triangles naming a missing node are left alone.
+/// the module doc adds) into three quads each, the [`FlatPair`]s `pairs` into three quads
+/// each, and the edges `segments` (node tags, either order) at their midpoints. Tags that
+/// are not triangles are ignored, and so are segments that no element has. Triangles naming
+/// a missing node are left alone. A pair whose tags are not two triangles of one surface
+/// sharing an edge at its node, one of whose triangles is chosen or gets another split edge
+/// (from the splits around it), or on a mesh with `$Periodic` links, has its two triangles
+/// split into three quads each instead.
 pub fn split_triangles(
     mesh: &mut Mesh,
     chosen: &HashSet<u64>,
+    pairs: &[FlatPair],
     segments: &[(u64, u64)],
 ) -> FallbackSplit {
     let mut report = FallbackSplit::default();
@@ -106,6 +168,57 @@ pub fn split_triangles(
         let (bi, i) = faces[id as usize];
         mesh.element_blocks[bi].element(i)
     };
+    // the flat pairs: their faces and polygons, or their triangles chosen
+    let periodic = mesh.periodic.iter().any(|l| l.dim == 1 || l.dim == 2);
+    let mut pair_splits: Vec<PairSplit> = Vec::new();
+    let mut pair_of: HashMap<u32, usize> = HashMap::new();
+    if !pairs.is_empty() {
+        let wanted: HashSet<u64> = pairs.iter().flat_map(|p| p.triangles).collect();
+        let face_of: HashMap<u64, u32> = (0..faces.len() as u32)
+            .filter(|&id| {
+                let (bi, i) = faces[id as usize];
+                let b = &mesh.element_blocks[bi];
+                b.nodes_per_element() == 3 && wanted.contains(&b.tags[i])
+            })
+            .map(|id| {
+                let (bi, i) = faces[id as usize];
+                (mesh.element_blocks[bi].tags[i], id)
+            })
+            .collect();
+        for p in pairs {
+            let (Some(&f1), Some(&f2)) = (face_of.get(&p.triangles[0]), face_of.get(&p.triangles[1]))
+            else {
+                continue;
+            };
+            let corners = pair_corners(face_nodes(f1), face_nodes(f2), p.node);
+            let surface = |f: u32| {
+                let b = &mesh.element_blocks[faces[f as usize].0];
+                (b.entity_dim, b.entity_tag)
+            };
+            let taken = |f: u32| marked[f as usize] || pair_of.contains_key(&f);
+            match corners {
+                Some((first, corners))
+                    if !periodic && f1 != f2 && surface(f1) == surface(f2) && !taken(f1) && !taken(f2) =>
+                {
+                    let faces = if first { [f1, f2] } else { [f2, f1] };
+                    pair_of.insert(f1, pair_splits.len());
+                    pair_of.insert(f2, pair_splits.len());
+                    pair_splits.push(PairSplit {
+                        faces,
+                        corners,
+                        live: true,
+                    });
+                }
+                _ => {
+                    for f in [f1, f2] {
+                        if !pair_of.contains_key(&f) {
+                            marked[f as usize] = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
     // `$Periodic` links of curves and surfaces, both ways (slave -> master, master ->
     // slave): a split on one side is mirrored on the other, so the slave stays the image
     // of its master
@@ -173,6 +286,9 @@ pub fn split_triangles(
             report.segments_split += 1;
         }
     }
+    for p in &pair_splits {
+        work.extend(p.far_edges());
+    }
     loop {
         while let Some(t) = tris.pop() {
             let n = face_nodes(t);
@@ -200,6 +316,20 @@ pub fn split_triangles(
             }
             if marked[o as usize] {
                 continue;
+            }
+            if let Some(&k) = pair_of.get(&o) {
+                let p = &mut pair_splits[k];
+                if p.live && !p.far_edges().contains(&e) {
+                    // another split edge: the pair's triangles are split as chosen ones
+                    p.live = false;
+                    for f in p.faces {
+                        marked[f as usize] = true;
+                        tris.push(f);
+                    }
+                }
+                if p.live || marked[o as usize] {
+                    continue;
+                }
             }
             let edges = [0, 1, 2].map(|k| key(on[k], on[(k + 1) % 3]));
             if edges.iter().filter(|x| split.contains(x)).count() >= 2 {
@@ -257,6 +387,22 @@ pub fn split_triangles(
         next_node += 1;
     }
     let midpoint = |a: u64, b: u64| mid.get(&key(a, b)).copied();
+    // each live pair's centre, and its faces by (block, element) with their role
+    let mut pair_at: HashMap<(usize, usize), (usize, usize)> = HashMap::new();
+    let mut centres: Vec<u64> = vec![0; pair_splits.len()];
+    for (k, p) in pair_splits.iter().enumerate().filter(|(_, p)| p.live) {
+        let Some(sum) = p.corners.iter().map(|&t| pos(t)).sum::<Option<DVec3>>() else {
+            continue;
+        };
+        let (bi, _) = faces[p.faces[0] as usize];
+        let surface = mesh.element_blocks[bi].entity_tag;
+        new_nodes.push((next_node, (2, surface), sum / 4.0, p.corners.to_vec()));
+        centres[k] = next_node;
+        next_node += 1;
+        for (role, &f) in p.faces.iter().enumerate() {
+            pair_at.insert(faces[f as usize], (k, role));
+        }
+    }
 
     // rewrite the element blocks
     let mut next_elem = mesh.max_element_tag() + 1;
@@ -310,6 +456,46 @@ pub fn split_triangles(
                 }
             };
             match b.element_type {
+                etype::TRI3 if pair_at.contains_key(&(bi, i)) => {
+                    let Some(&(k, role)) = pair_at.get(&(bi, i)) else {
+                        continue;
+                    };
+                    let [a, b_, c, x] = pair_splits[k].corners;
+                    let p = centres[k];
+                    let (Some(m1), Some(m2)) = (midpoint(x, a), midpoint(c, x)) else {
+                        push(&mut out, b.tags[i], e);
+                        continue;
+                    };
+                    let q = quads_of
+                        .entry(b.entity_tag)
+                        .or_insert_with(|| ElementBlock {
+                            entity_dim: 2,
+                            entity_tag: b.entity_tag,
+                            element_type: etype::QUAD4,
+                            tags: Vec::new(),
+                            nodes: Vec::new(),
+                            partitions: b.partitions.as_ref().map(|_| Vec::new()),
+                        });
+                    let children: &[[u64; 4]] = if role == 0 {
+                        &[[a, b_, p, m1], [p, m2, x, m1]]
+                    } else {
+                        &[[b_, c, m2, p]]
+                    };
+                    for (j, child) in children.iter().enumerate() {
+                        let tag = if j == 0 { b.tags[i] } else { fresh() };
+                        q.tags.push(tag);
+                        q.nodes.extend_from_slice(child);
+                        if let Some(pt) = q.partitions.as_mut() {
+                            pt.push(part.clone().unwrap_or_default());
+                        }
+                    }
+                    if role == 0 {
+                        report.pairs_split += 1;
+                    }
+                    if !report.surfaces.contains(&b.entity_tag) {
+                        report.surfaces.push(b.entity_tag);
+                    }
+                }
                 etype::TRI3 if tri_marked[bi].get(i).copied().unwrap_or(false) => {
                     let (Some(m), Some(c)) = (
                         (0..3)
@@ -564,7 +750,7 @@ mod tests {
     fn a_chosen_segment_halves_the_triangles_on_both_sides_and_its_line() {
         let mut m = two_surfaces();
         // the curve segment 2-3 (either order); 1-5 is no edge and is ignored
-        let r = split_triangles(&mut m, &HashSet::new(), &[(3, 2), (1, 5)]);
+        let r = split_triangles(&mut m, &HashSet::new(), &[], &[(3, 2), (1, 5)]);
         assert_eq!(r.segments_split, 1);
         assert_eq!(r.triangles_to_quads, 0);
         assert_eq!(r.triangles_halved, 2);
@@ -596,7 +782,7 @@ mod tests {
     #[test]
     fn a_chosen_triangle_becomes_three_quads_and_its_neighbours_stay_conforming() {
         let mut m = two_surfaces();
-        let r = split_triangles(&mut m, &HashSet::from([1]), &[]);
+        let r = split_triangles(&mut m, &HashSet::from([1]), &[], &[]);
         // triangle 1 has split edges 1-2, 2-3, 3-1; triangle 2 (1 3 4) gets one (1-3) and
         // is halved; triangle 3 (2 5 3) gets one (2-3) and is halved; the line is split
         assert_eq!(r.triangles_to_quads, 1);
@@ -643,13 +829,75 @@ mod tests {
         let mut m = two_surfaces();
         // choosing both triangles of surface 1 splits all of their edges; the triangle of
         // surface 2 has one split edge (2-3) only
-        let r = split_triangles(&mut m, &HashSet::from([1, 2]), &[]);
+        let r = split_triangles(&mut m, &HashSet::from([1, 2]), &[], &[]);
         assert_eq!(r.triangles_to_quads, 2);
         assert_eq!(r.triangles_halved, 1);
         let mut m = two_surfaces();
         // a square split on its diagonal: choosing (2 5 3) splits 2-3, which triangle 1 shares
-        let r = split_triangles(&mut m, &HashSet::from([3]), &[]);
+        let r = split_triangles(&mut m, &HashSet::from([3]), &[], &[]);
         assert_eq!((r.triangles_to_quads, r.triangles_halved), (1, 1));
         assert_eq!(r.surfaces, vec![2]);
+    }
+
+    #[test]
+    fn a_flat_pair_becomes_three_quads_and_leaves_the_edges_at_its_node_whole() {
+        let mut m = two_surfaces();
+        // triangles 1 (1 2 3) and 2 (1 3 4) share 1-3; their quad is taken as flat at node
+        // 3: the polygon 2, 3, 4, 1, split on 1-2 and 4-1 (no element beyond them)
+        let pair = FlatPair {
+            triangles: [2, 1],
+            node: 3,
+        };
+        let r = split_triangles(&mut m, &HashSet::new(), &[pair], &[]);
+        assert_eq!(r.pairs_split, 1);
+        assert_eq!(
+            (r.triangles_to_quads, r.triangles_halved, r.lines_split),
+            (0, 0, 0)
+        );
+        // two midpoints and the centre
+        assert_eq!(r.nodes_added, 3);
+        let quads: Vec<Vec<u64>> = m
+            .element_blocks
+            .iter()
+            .filter(|b| b.element_type == etype::QUAD4)
+            .flat_map(|b| (0..b.len()).map(move |i| b.element(i).to_vec()))
+            .collect();
+        assert_eq!(quads.len(), 3);
+        // node 3 is a corner of two quads; the curve 2-3 and the edge 3-4 are edges of them
+        assert_eq!(quads.iter().filter(|q| q.contains(&3)).count(), 2);
+        let has_edge = |a: u64, b: u64| {
+            quads
+                .iter()
+                .any(|q| (0..4).any(|j| key(q[j], q[(j + 1) % 4]) == key(a, b)))
+        };
+        assert!(has_edge(2, 3) && has_edge(3, 4));
+        // surface 2 and the line are as they were; every quad is valid
+        let before = two_surfaces();
+        assert_eq!(m.element_blocks[0], before.element_blocks[0]);
+        assert!(m
+            .element_blocks
+            .iter()
+            .any(|b| b.entity_tag == 2 && b.element_type == etype::TRI3 && b.nodes == [2, 5, 3]));
+        assert!(crate::validity::invalid_quads(&before, &m).is_empty());
+    }
+
+    #[test]
+    fn a_flat_pair_with_another_split_edge_is_split_as_chosen_triangles() {
+        // triangle 3 (2 5 3) chosen splits the curve 2-3, an edge at the pair's node
+        let mut m = two_surfaces();
+        let pair = FlatPair {
+            triangles: [1, 2],
+            node: 3,
+        };
+        let r = split_triangles(&mut m, &HashSet::from([3]), &[pair], &[]);
+        assert_eq!((r.pairs_split, r.triangles_to_quads), (0, 3));
+        // a pair that is no pair at that node (node 2 is not on the shared edge 1-3)
+        let mut m = two_surfaces();
+        let pair = FlatPair {
+            triangles: [1, 2],
+            node: 2,
+        };
+        let r = split_triangles(&mut m, &HashSet::new(), &[pair], &[]);
+        assert_eq!((r.pairs_split, r.triangles_to_quads), (0, 2));
     }
 }

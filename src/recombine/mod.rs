@@ -147,7 +147,7 @@ use surface::{match_surface, surface_work, SurfaceResult};
 use topology::CurveInfo;
 use write_back::write_back;
 
-pub use fallback::{split_triangles, FallbackSplit};
+pub use fallback::{split_triangles, FallbackSplit, FlatPair};
 pub(crate) use error::list_tags;
 use error::odd_parity_error;
 pub use error::RecombineError;
