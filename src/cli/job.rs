@@ -131,6 +131,7 @@ pub(super) fn recombine_main(args: RunArgs) -> Result<(), String> {
 
     // the summary counts the input's triangles, as `info` does (parity repair adds some)
     let triangles = input_triangles(&mesh);
+    let surfaces = input_surfaces(&mesh);
     let mut opts = crate::Options {
         parity: match args.parity {
             ParityArg::Repair => recombine::ParityMode::Repair,
@@ -207,7 +208,13 @@ pub(super) fn recombine_main(args: RunArgs) -> Result<(), String> {
     }
     if !quiet {
         let seconds = t0.elapsed().as_secs_f64();
-        log.say(summary_line(&report, triangles, &mesh, &output, seconds));
+        log.say(summary_line(
+            &report,
+            (surfaces, triangles),
+            &mesh,
+            &output,
+            seconds,
+        ));
     }
     Ok(())
 }
@@ -257,17 +264,22 @@ pub(super) fn input_triangles(mesh: &Mesh) -> usize {
         .sum()
 }
 
-/// The line a run ends with: surfaces, the input's `triangles` -> quads, the quads' worst
-/// and mean η (eq. 3), what changed besides the pairing (parity repair, fallback,
-/// refinement), where the mesh went and the whole run's time.
+/// The surfaces of `mesh` that hold triangles (3- or 6-node): those a run recombines.
+pub(super) fn input_surfaces(mesh: &Mesh) -> usize {
+    mesh.sorted_surfaces(|b| matches!(b.element_type, etype::TRI3 | etype::TRI6) && !b.is_empty())
+        .len()
+}
+
+/// The line a run ends with: the input's surfaces with triangles and its triangles ->
+/// quads, the quads' worst and mean η (eq. 3), what changed besides the pairing (parity
+/// repair, fallback, refinement), where the mesh went and the whole run's time.
 pub(super) fn summary_line(
     report: &crate::Report,
-    triangles: usize,
+    (surfaces, triangles): (usize, usize),
     mesh: &Mesh,
     output: &Path,
     seconds: f64,
 ) -> String {
-    let surfaces = report.recombine.surfaces.len();
     let etas = quality::quad_etas(mesh);
     let quads = etas.len();
     let quality = if quads > 0 {

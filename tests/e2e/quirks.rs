@@ -740,6 +740,16 @@ fn thin_spikes_each_its_own_surface_and_named_group() {
     let by = faces_by_surface(&run.output);
     assert_eq!(by.len(), 9, "every surface still has its quads");
     assert_eq!(names(&run.output).len(), 17);
+    // the summary counts the eight surfaces with triangles, though the fallback split
+    // every one of their triangles (no surface is matched in the last round)
+    let out = dir.path().join("summary.msh");
+    let (code, _, stderr) =
+        blossomquad_run([quirk(name).as_os_str(), "-o".as_ref(), out.as_os_str()]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(
+        stderr.starts_with("8 surfaces, 8 triangles -> "),
+        "{stderr}"
+    );
 }
 
 /// Gmsh's mesh of a very sharp OpenCASCADE cone (apex half-angle 2.9 degrees, meshed by
