@@ -43,7 +43,8 @@ pub struct FallbackSplit {
     /// Triangles split into three quads (the chosen ones and those added to keep every
     /// other triangle at one split edge at most).
     pub triangles_to_quads: usize,
-    /// Flat pairs split into three quads ([`FlatPair`]).
+    /// Flat pairs split into three quads: two adjacent triangles whose quad is flat or
+    /// reflex at an end of their shared edge.
     pub pairs_split: usize,
     /// Neighbouring triangles split in two.
     pub triangles_halved: usize,
