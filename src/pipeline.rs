@@ -57,13 +57,16 @@
 //!    quad, then whole surfaces), the job runs again that way too and the better result is
 //!    kept: a valid one, then one within the element-count rule, then the higher worst
 //!    quad, then fewer quads (the local rings can end valid where the cascade of whole
-//!    surfaces does not, or the other way round). Where the kept job split triangles (or
-//!    no job was valid), the job runs once more with **flat pairs**: at a surface's first
+//!    surfaces does not, or the other way round). Where the kept job split triangles and
+//!    its result (after the worst-quad tries of step 5) breaks the element-count rule or
+//!    has a quad under η [`ETA_FLOOR`], or where no job was valid, the job runs once more
+//!    with **flat pairs**: at a surface's first
 //!    ring, a bad pair flat or reflex at an end of its diagonal is split into three quads
 //!    that leave the edges at that node whole ([`crate::recombine::FlatPair`]; the two
 //!    triangles are split as chosen ones from the surface's second ring on), so a boundary
-//!    fan's split does not halve the triangles of the face beyond the curve; the better of
-//!    the two results is kept, by the same order.
+//!    fan's split does not halve the triangles of the face beyond the curve; with its own
+//!    worst-quad tries, the better of the two results is kept, by the same order (where
+//!    neither is valid, the refusal is the first job's).
 //! 5. **The worst quad.** A valid optimized result gets up to three more tries: where the
 //!    fallback priced quads out, the fallback with splits only; quads under η
 //!    [`ETA_FLOOR`] priced out; one ring around those still under it split. Each is kept
@@ -289,14 +292,18 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
             r
         })
     };
-    // where the fallback split triangles (or nothing was valid), the same with flat pairs,
-    // each with its worst-quad tries, and the better of the two
+    // where the fallback split triangles and its result misses a goal (above the
+    // element-count rule, or a quad under η ETA_FLOOR), or where nothing was valid: the
+    // same with flat pairs, each with its worst-quad tries, and the better of the two
     let split = match &result {
         Ok(r) => !r.2.chosen.is_empty(),
         Err(e) => matches!(e, Error::Invalid { .. } | Error::FallbackExhausted),
     };
     let result = result.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
-    let result = if split {
+    let missed = result
+        .as_ref()
+        .map_or(true, |r| !meets_goals(base, opts, r));
+    let result = if split && missed {
         let start = FallbackStart {
             global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
             flat_pairs: true,
@@ -307,7 +314,9 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         match (result, pairs) {
             (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
             (Ok(a), Err(_)) => Ok(a),
-            (Err(_), pairs) => pairs,
+            (Err(_), Ok(b)) => Ok(b),
+            // the refusal of the job without flat pairs, as it was
+            (Err(e), Err(_)) => Err(e),
         }
     } else {
         result
@@ -355,17 +364,22 @@ fn run_job(
     (result, notes.rings_diverged)
 }
 
-/// The better of two valid results of the same input: one with no quad listed as invalid
-/// ([`Options::allow_invalid`]), then one within the element-count rule
-/// ([`MAX_QUADS_PER_TRIANGLE`] new quads per input triangle, a quarter more under
-/// [`COUNT_RULE_FROM`] triangles), then the higher worst quad η (by more than 0.001), then
-/// fewer quads; `a` on a tie.
-fn better_job(
+/// True when `r` keeps the element-count rule ([`MAX_QUADS_PER_TRIANGLE`] new quads per
+/// input triangle, a quarter more under [`COUNT_RULE_FROM`] triangles), lists no invalid
+/// quad and has no quad under η [`ETA_FLOOR`] (quad-only input surfaces left aside unless
+/// they are smoothed).
+fn meets_goals(input: &Mesh, opts: &Options, r: &(Mesh, Report, FallbackStart)) -> bool {
+    let (invalid, within, worst, _) = job_measures(input, opts, r);
+    !invalid && within && worst >= ETA_FLOOR
+}
+
+/// A result's measures for [`better_job`]: quads listed as invalid, within the
+/// element-count rule, worst quad η, new quads per input triangle.
+fn job_measures(
     input: &Mesh,
     opts: &Options,
-    a: (Mesh, Report, FallbackStart),
-    b: (Mesh, Report, FallbackStart),
-) -> (Mesh, Report, FallbackStart) {
+    r: &(Mesh, Report, FallbackStart),
+) -> (bool, bool, f64, f64) {
     let triangles = surface_elements(input, etype::TRI3);
     let limit = if triangles >= COUNT_RULE_FROM {
         MAX_QUADS_PER_TRIANGLE
@@ -377,14 +391,29 @@ fn better_job(
     } else {
         quad_only_surfaces(input)
     };
+    let per_triangle = quads_per_triangle(input, &r.0);
+    (
+        !r.1.invalid.is_empty(),
+        per_triangle <= limit,
+        low_quads(&r.0, &skip).1,
+        per_triangle,
+    )
+}
+
+/// The better of two valid results of the same input: one with no quad listed as invalid
+/// ([`Options::allow_invalid`]), then one within the element-count rule
+/// ([`MAX_QUADS_PER_TRIANGLE`] new quads per input triangle, a quarter more under
+/// [`COUNT_RULE_FROM`] triangles), then the higher worst quad η (by more than 0.001), then
+/// fewer quads; `a` on a tie.
+fn better_job(
+    input: &Mesh,
+    opts: &Options,
+    a: (Mesh, Report, FallbackStart),
+    b: (Mesh, Report, FallbackStart),
+) -> (Mesh, Report, FallbackStart) {
     let measure = |r: &(Mesh, Report, FallbackStart)| {
-        let per_triangle = quads_per_triangle(input, &r.0);
-        (
-            r.1.invalid.is_empty(),
-            per_triangle <= limit,
-            low_quads(&r.0, &skip).1,
-            per_triangle,
-        )
+        let (invalid, within, worst, per_triangle) = job_measures(input, opts, r);
+        (!invalid, within, worst, per_triangle)
     };
     let (x, y) = (measure(&a), measure(&b));
     let b_better = if (x.0, x.1) != (y.0, y.1) {
