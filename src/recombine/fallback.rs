@@ -23,8 +23,9 @@
 //! the new nodes are paired in the link, so a slave stays the image of its master.
 //!
 //! Every child of a split triangle is a convex quad (a corner of the triangle, two edge
-//! midpoints and the centroid), oriented like its parent; a flat pair's children hold the
-//! mean of its four corners and are oriented like its triangles; edge midpoints are chord
+//! midpoints and the centroid), oriented like its parent; a flat pair's children meet at
+//! the midpoint of its shared edge (on the input surface, on both of its triangles) and are
+//! oriented like its triangles; edge midpoints are chord
 //! midpoints, so planar areas and straight curves are unchanged. New edge nodes are
 //! classified like parity-split nodes: on the edge's curve (line element or node
 //! classification), else on the surface of the first triangle holding the edge; centroids on
@@ -90,7 +91,7 @@ fn pair_corners(t: &[u64], u: &[u64], node: u64) -> Option<(bool, [u64; 4])> {
 /// `node`, an end of their shared edge, split by [`split_triangles`] into three quads:
 /// with the pair as the polygon `a, b, c, x` (`b` = `node`, `b-x` the shared edge), the
 /// two edges away from `b` (`c-x`, `x-a`) are split at their midpoints `m2`, `m1` and a
-/// centre `p` (the mean of the four corners) joins them: `a, b, p, m1`, `b, c, m2, p` and
+/// centre `p` (the midpoint of `b-x`) joins them: `a, b, p, m1`, `b, c, m2, p` and
 /// `p, m2, x, m1`. The corner at `b` is shared by two quads, and the edges at `b` (on a
 /// boundary, the curve's segments) stay whole, so the elements beyond them are not
 /// touched.
@@ -125,8 +126,9 @@ impl PairSplit {
 /// are not triangles are ignored, and so are segments that no element has. Triangles naming
 /// a missing node are left alone. A pair whose tags are not two triangles of one surface
 /// sharing an edge at its node, one of whose triangles is chosen or gets another split edge
-/// (from the splits around it), or on a mesh with `$Periodic` links, has its two triangles
-/// split into three quads each instead.
+/// (from the splits around it), or with an image through a `$Periodic` link (of either
+/// triangle or of an edge it splits), has its two triangles split into three quads each
+/// instead.
 pub fn split_triangles(
     mesh: &mut Mesh,
     chosen: &HashSet<u64>,
@@ -170,7 +172,6 @@ pub fn split_triangles(
         mesh.element_blocks[bi].element(i)
     };
     // the flat pairs: their faces and polygons, or their triangles chosen
-    let periodic = mesh.periodic.iter().any(|l| l.dim == 1 || l.dim == 2);
     let mut pair_splits: Vec<PairSplit> = Vec::new();
     let mut pair_of: HashMap<u32, usize> = HashMap::new();
     if !pairs.is_empty() {
@@ -199,7 +200,7 @@ pub fn split_triangles(
             let taken = |f: u32| marked[f as usize] || pair_of.contains_key(&f);
             match corners {
                 Some((first, corners))
-                    if !periodic && f1 != f2 && surface(f1) == surface(f2) && !taken(f1) && !taken(f2) =>
+                    if f1 != f2 && surface(f1) == surface(f2) && !taken(f1) && !taken(f2) =>
                 {
                     let faces = if first { [f1, f2] } else { [f2, f1] };
                     pair_of.insert(f1, pair_splits.len());
@@ -287,8 +288,20 @@ pub fn split_triangles(
             report.segments_split += 1;
         }
     }
-    for p in &pair_splits {
-        work.extend(p.far_edges());
+    // a pair with an image through a periodic link (of a triangle or of a far edge) is
+    // split as chosen triangles, which are mirrored
+    for p in pair_splits.iter_mut() {
+        let mirrored = p.faces.iter().any(|&f| !tri_images(face_nodes(f)).is_empty())
+            || p.far_edges().iter().any(|&e| !edge_images(e).is_empty());
+        if mirrored {
+            p.live = false;
+            for f in p.faces {
+                marked[f as usize] = true;
+                tris.push(f);
+            }
+        } else {
+            work.extend(p.far_edges());
+        }
     }
     loop {
         while let Some(t) = tris.pop() {
@@ -392,12 +405,13 @@ pub fn split_triangles(
     let mut pair_at: HashMap<(usize, usize), (usize, usize)> = HashMap::new();
     let mut centres: Vec<u64> = vec![0; pair_splits.len()];
     for (k, p) in pair_splits.iter().enumerate().filter(|(_, p)| p.live) {
-        let Some(sum) = p.corners.iter().map(|&t| pos(t)).sum::<Option<DVec3>>() else {
+        let [_, b, _, x] = p.corners;
+        let (Some(pb), Some(px)) = (pos(b), pos(x)) else {
             continue;
         };
         let (bi, _) = faces[p.faces[0] as usize];
         let surface = mesh.element_blocks[bi].entity_tag;
-        new_nodes.push((next_node, (2, surface), sum / 4.0, p.corners.to_vec()));
+        new_nodes.push((next_node, (2, surface), 0.5 * (pb + px), vec![b, x]));
         centres[k] = next_node;
         next_node += 1;
         for (role, &f) in p.faces.iter().enumerate() {
