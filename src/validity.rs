@@ -219,10 +219,23 @@ impl<'a> Reference<'a> {
     /// [`Reference::invalid_quads`] with `out_coords`, the coordinates of `output`'s nodes
     /// by tag.
     pub(crate) fn invalid_quads_at(&self, output: &Mesh, out_coords: &TagCoords) -> Vec<BadQuad> {
+        self.invalid_quads_on(output, out_coords, None)
+    }
+
+    /// [`Reference::invalid_quads_at`] on the surfaces `only` (sorted tags) when given.
+    pub(crate) fn invalid_quads_on(
+        &self,
+        output: &Mesh,
+        out_coords: &TagCoords,
+        only: Option<&[i32]>,
+    ) -> Vec<BadQuad> {
         let extent = extent(output);
         let min_edge = MIN_EDGE * extent;
-        output
-            .sorted_surfaces(|b| b.element_type == etype::QUAD4 && !b.is_empty())
+        let mut surfaces = output.sorted_surfaces(|b| b.element_type == etype::QUAD4 && !b.is_empty());
+        if let Some(only) = only {
+            surfaces.retain(|s| only.binary_search(s).is_ok());
+        }
+        surfaces
             .par_iter()
             .flat_map_iter(|&s| {
                 // a surface the input has no face of: no normal, no nearest face

@@ -183,10 +183,14 @@ pub(super) fn run_rounds(
         // it), on surfaces where it does not hold them yet: from the next round on it holds
         // the corners at the job's new nodes there to the faces the gate measures them about
         let mut turned_bad: Vec<i32> = Vec::new();
+        // speed: only the surfaces with bad quads are checked again (the others are valid)
+        let mut bad_surfaces: Vec<i32> = bad.iter().map(|b| b.surface).collect();
+        bad_surfaces.sort_unstable();
+        bad_surfaces.dedup();
         if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
             let before: HashSet<[u64; 4]> = checks
                 .validity
-                .invalid_quads_at(pre, &TagCoords::new(pre))
+                .invalid_quads_on(pre, &TagCoords::new(pre), Some(&bad_surfaces))
                 .into_iter()
                 .map(|b| sorted4(b.nodes))
                 .collect();
@@ -207,7 +211,10 @@ pub(super) fn run_rounds(
             let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
             let back = revert_surfaces(&mesh, pre, &surfaces);
             let coords = TagCoords::new(&back);
-            if checks.validity.invalid_quads_at(&back, &coords).is_empty()
+            if checks
+                .validity
+                .invalid_quads_on(&back, &coords, Some(&bad_surfaces))
+                .is_empty()
                 && invariants_of(&back, &coords).is_ok()
             {
                 run.log.push(format!(
