@@ -216,7 +216,7 @@ pub(super) fn match_surface(
     } else {
         crate::matching::VertexOrder::BreadthFirst
     };
-    let solved = crate::matching::solve_owned(n, edges, progress, order);
+    let solved = crate::matching::solve_owned(n, edges, progress, order, opts.split_matching);
     let m = solved.map_err(|e| RecombineError::NoPerfectMatching {
         surface: w.tag,
         triangles: n,
