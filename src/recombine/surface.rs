@@ -216,7 +216,10 @@ pub(super) fn match_surface(
     } else {
         crate::matching::VertexOrder::BreadthFirst
     };
-    let solved = crate::matching::solve_owned(n, edges, progress, order, opts.split_matching);
+    let split = opts
+        .split_matching
+        .then_some(crate::memory::release_memory as fn());
+    let solved = crate::matching::solve_owned(n, edges, progress, order, split);
     let m = solved.map_err(|e| RecombineError::NoPerfectMatching {
         surface: w.tag,
         triangles: n,

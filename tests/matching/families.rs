@@ -599,7 +599,7 @@ fn certificate_on_mesh_graph_1e6() {
     // same cost, certified
     let split = |n: usize, e: &Edges| {
         let mut s = Solver::new(n, e);
-        s.set_split(true);
+        s.set_split(true, None);
         let m = s.run().expect("perfect matching");
         assert!(matching::verify(n, e, &m).is_ok());
         m.cost
@@ -685,12 +685,12 @@ fn second_local_pass_and_progress_on_mesh_graphs() {
         .expect("perfect matching");
         assert_eq!(p.cost, m.cost, "{kind}");
         // the edge list moved in (freed once the solver has its arrays): the same result
-        let owned = matching::solve_owned(n, e.clone(), None, VertexOrder::BreadthFirst, false)
+        let owned = matching::solve_owned(n, e.clone(), None, VertexOrder::BreadthFirst, None)
             .expect("perfect matching");
         assert_eq!(owned, p, "{kind}");
         // the caller's numbering kept inside the solver (the generator's face order): an
         // optimum too, with its certificate
-        let given = matching::solve_owned(n, e.clone(), None, VertexOrder::Given, false)
+        let given = matching::solve_owned(n, e.clone(), None, VertexOrder::Given, None)
             .expect("perfect matching");
         assert_eq!(given.cost, p.cost, "{kind}");
         assert!(matching::verify(n, &e, &given).is_ok(), "{kind}");

@@ -15,6 +15,11 @@
 //!   odd-set constraints solved by the same tree machinery (single-tree searches with a small
 //!   and then a larger budget, then a forest), leaving one exposed vertex per odd cycle of
 //!   half-edges;
+//! - `split`: the fractional start in blocks side by side
+//!   ([`Solver::init_fractional_blocks`], off by default, [`Solver::set_split`]): each
+//!   block (a contiguous range of the internal numbering) solved alone on its induced
+//!   subgraph, the blocks joined by lowering a dual at each infeasible edge between them,
+//!   then the passes of `fractional` on the whole graph;
 //! - `tree`: alternating trees: single-tree searches ([`Solver::solve_rest_with`]: from each
 //!   exposed vertex in locality order one tree grows alone with its own dual change until it
 //!   augments, abandoned past a budget of grow steps), growing, dissolving a tree (its lazy
@@ -244,6 +249,8 @@ pub struct Solver {
     progress: Option<Ticker>,
     /// Whether [`Solver::run`] may split its fractional start (see [`Solver::set_split`]).
     split: bool,
+    /// What hands freed memory back to the system (see [`Solver::set_split`]).
+    release: Option<fn()>,
 }
 
 /// A progress callback `(done, total)` of the solver (see [`Solver::set_progress`]).
@@ -445,6 +452,7 @@ impl Solver {
             stats: Stats::default(),
             progress: None,
             split: false,
+            release: None,
         };
         s.new_node_arrays();
         s
@@ -529,9 +537,13 @@ impl Solver {
     /// Has [`Solver::run`] run its fractional start in blocks side by side
     /// ([`Solver::init_fractional_blocks`], two blocks) when the graph has 200,000 vertices
     /// or more: the same optimum cost with its certificate (among tied optima maybe another
-    /// one), a deterministic result, more memory. Off by default.
-    pub fn set_split(&mut self, split: bool) {
+    /// one), a deterministic result, more memory. Off by default. `release`, called when
+    /// the solver has freed its per-node arrays before the blocks allocate theirs, hands
+    /// freed heap memory back to the system (the blocks allocate on other threads, whose
+    /// allocator arenas would not reuse it).
+    pub fn set_split(&mut self, split: bool, release: Option<fn()>) {
         self.split = split;
+        self.release = release;
     }
 
     /// [`Solver::run`] with the fractional start split into `blocks` blocks

@@ -128,7 +128,9 @@ impl Solver {
         // (handed back to the system: the blocks allocate on other threads' arenas) and
         // built again after them
         self.free_node_arrays();
-        crate::memory::release_memory();
+        if let Some(release) = self.release {
+            release();
+        }
         let mut y = vec![0i64; n];
         let mut pieces = Vec::with_capacity(blocks);
         let (mut y_rest, mut mate_rest) = (&mut y[..], &mut self.mate[..]);

@@ -279,7 +279,7 @@ fn a_start_in_blocks_reaches_the_single_start_optimum_on_mid_size_sparse_graphs(
         let reference = Solver::new(n, &edges).run();
         assert_eq!(single, reference, "one block: the single start");
         let mut asked = Solver::new(n, &edges);
-        asked.set_split(true);
+        asked.set_split(true, None);
         assert_eq!(asked.run(), reference, "below the size threshold: the single start");
         let single = single.expect("a ring of even length has a perfect matching");
         for blocks in [2, 3, 7] {
