@@ -64,8 +64,9 @@ pub struct Options {
     /// Run the fractional start of the matching of each surface of 200,000 triangles or
     /// more in two blocks side by side (the matching's module docs): the same optimum cost
     /// with its certificate (among tied optima maybe another one, so another output), the
-    /// same output on every run, about 35 MB more at 10^6 triangles. Off by default: faster
-    /// only when a core is idle during the matching (figures in BENCHMARKS.md).
+    /// same output on every run, a peak about 33 MB higher at 10^6 triangles. Off by
+    /// default: faster only when a core is idle during the matching (figures in
+    /// BENCHMARKS.md).
     pub split_matching: bool,
 }
 
