@@ -407,6 +407,32 @@ mod tests {
         assert_eq!(tris, 0);
     }
 
+    /// With the matching's fractional start in blocks asked for, a surface above the
+    /// solver's threshold for it (200,000 vertices) gets the default run's matching cost,
+    /// its certificate checked, and passes the checks of `quadrangulate`.
+    #[test]
+    #[cfg_attr(
+        debug_assertions,
+        ignore = "2·10^5 triangles: run with cargo test --release"
+    )]
+    fn a_split_matching_reaches_the_default_cost() {
+        let mesh = synth::to_mesh(&synth::delaunay_square(330, 1.0, 0.3, 5));
+        assert!(mesh.count_elements(etype::TRI3) > 200_000);
+        let costs = |split_matching| {
+            let mut m = mesh.clone();
+            let opts = crate::Options {
+                verify: true,
+                optimize: false,
+                split_matching,
+                ..crate::Options::default()
+            };
+            let report = crate::quadrangulate(&mut m, &opts).expect("quadrangulate");
+            let s = &report.recombine.surfaces;
+            s.iter().map(|s| s.matching_cost).collect::<Vec<_>>()
+        };
+        assert_eq!(costs(true), costs(false));
+    }
+
     /// A surface of [`MORTON_FROM`] triangles or more is taken in Morton order: each
     /// triangle keeps its own element tag, every triangle is there once, and consecutive
     /// triangles are close (their centroids a few cells apart on average, against a
