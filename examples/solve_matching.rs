@@ -2,8 +2,10 @@
 //! 0-based), solves the minimum-cost perfect matching, checks the optimality certificate and
 //! prints one line `n=… m=… cost=… time_s=… verified=true`.
 //!
-//! Usage: `solve_matching <file> [--stats] [--given-order]` (`--given-order`: the solver
-//! keeps the file's vertex numbering, [`matching::VertexOrder::Given`]). `time_s` covers the solver only (not parsing
+//! Usage: `solve_matching <file> [--stats] [--given-order] [--blocks K]` (`--given-order`:
+//! the solver keeps the file's vertex numbering, [`matching::VertexOrder::Given`];
+//! `--blocks K`: the fractional start in `K` blocks side by side, whatever the size, 1 for
+//! the single start). `time_s` covers the solver only (not parsing
 //! nor verification, reported separately as `parse_s` and `verify_s`); `solve_peak_mb` is the
 //! peak resident memory during the solve (the parsed edge list included; Linux only, `?`
 //! elsewhere).
@@ -53,13 +55,23 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let args: Vec<String> = std::env::args().collect();
     let path = args
         .get(1)
-        .ok_or("usage: solve_matching <file> [--stats] [--given-order]")?;
+        .ok_or("usage: solve_matching <file> [--stats] [--given-order] [--blocks K]")?;
     let stats = args.iter().any(|a| a == "--stats");
     let order = if args.iter().any(|a| a == "--given-order") {
         matching::VertexOrder::Given
     } else {
         matching::VertexOrder::BreadthFirst
     };
+    // `--blocks K`: the fractional start in K blocks side by side, whatever the size
+    let blocks = args
+        .iter()
+        .position(|a| a == "--blocks")
+        .map(|i| {
+            args.get(i + 1)
+                .and_then(|k| k.parse::<usize>().ok())
+                .ok_or("--blocks needs a block count")
+        })
+        .transpose()?;
     let t0 = Instant::now();
     let text = std::fs::read_to_string(path).map_err(|e| format!("{path}: {e}"))?;
     let (n, edges) = parse(&text).map_err(|e| format!("{path}: {e}"))?;
@@ -74,6 +86,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let mut solver = matching::blossom::Solver::new_in_order(n, &edges, order);
         if std::env::var("GREEDY").is_ok() {
             solver.init_greedy();
+        } else if let Some(k) = blocks {
+            solver.init_fractional_blocks(k);
         } else {
             solver.init_fractional();
         }
@@ -82,6 +96,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         let r = solver.solve_rest();
         eprintln!("init {init_s:.3}s {init_stats:?}\ntotal {:?}", solver.stats);
         r
+    } else if let Some(k) = blocks {
+        matching::blossom::Solver::new_in_order(n, &edges, order).run_in_blocks(k)
     } else if order == matching::VertexOrder::Given {
         matching::blossom::Solver::new_in_order(n, &edges, order).run()
     } else {

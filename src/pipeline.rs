@@ -523,6 +523,7 @@ fn recombine_once<'a>(
         progress: opts.progress.clone(),
         // `quadrangulate` removed them from `input` (the fallback's splits add none)
         repeated_dropped: true,
+        split_matching: opts.split_matching,
         ..Default::default()
     };
     let t = Instant::now();

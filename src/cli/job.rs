@@ -152,6 +152,8 @@ pub(super) fn recombine_main(args: RunArgs) -> Result<(), String> {
         keep_tags: args.keep_tags,
         tag_map: args.tag_map.is_some(),
         trace: trace_from_env(),
+        // developer hook: the matching's fractional start in blocks side by side (GUIDE.md)
+        split_matching: std::env::var_os("BLOSSOMQUAD_SPLIT_MATCHING").is_some(),
         ..Default::default()
     };
     if let Some(b) = bar.clone() {

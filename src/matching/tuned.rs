@@ -19,15 +19,19 @@ pub fn solve_with_progress(
 /// `solve_with_progress` when given): the list is freed as soon as the solver has built its own arrays from it, so
 /// that it is not live through the solve. `order` is the solver's internal vertex
 /// numbering ([`VertexOrder`]); the result is the same optimum in the caller's numbering
-/// either way (among tied optima, possibly another one).
+/// either way (among tied optima, possibly another one). `split`: `Some(release)` runs the
+/// fractional start of a large graph in blocks side by side, `release` handing the memory
+/// freed before them back to the system ([`blossom::Solver::set_split`]).
 pub fn solve_owned(
     n: usize,
     edges: Vec<(u32, u32, i64)>,
     progress: Option<blossom::ProgressCallback>,
     order: VertexOrder,
+    split: Option<fn()>,
 ) -> Result<Matching, NoPerfectMatching> {
-    let solver = prepare(n, &edges, progress, order)?;
+    let mut solver = prepare(n, &edges, progress, order)?;
     drop(edges);
+    solver.set_split(split.is_some(), split);
     solver.run()
 }
 

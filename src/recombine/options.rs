@@ -64,6 +64,9 @@ pub struct RecombineOptions {
     /// The caller already removed repeated triangles ([`drop_repeated_triangles`](super::drop_repeated_triangles) returned
     /// `None` or its mesh is the one given): [`recombine`](super::recombine) does not look for them again.
     pub repeated_dropped: bool,
+    /// Run the fractional start of the matching of a surface of 200,000 triangles or more
+    /// in blocks side by side ([`crate::Options::split_matching`]); off by default.
+    pub split_matching: bool,
 }
 
 impl Default for RecombineOptions {
@@ -83,6 +86,7 @@ impl Default for RecombineOptions {
             trace: None,
             progress: None,
             repeated_dropped: false,
+            split_matching: false,
         }
     }
 }

@@ -216,7 +216,10 @@ pub(super) fn match_surface(
     } else {
         crate::matching::VertexOrder::BreadthFirst
     };
-    let solved = crate::matching::solve_owned(n, edges, progress, order);
+    let split = opts
+        .split_matching
+        .then_some(crate::memory::release_memory as fn());
+    let solved = crate::matching::solve_owned(n, edges, progress, order, split);
     let m = solved.map_err(|e| RecombineError::NoPerfectMatching {
         surface: w.tag,
         triangles: n,
@@ -402,6 +405,32 @@ mod tests {
             .all(|s| s.quads_out > 30_000));
         let tris: usize = mesh.count_elements(etype::TRI3);
         assert_eq!(tris, 0);
+    }
+
+    /// With the matching's fractional start in blocks asked for, a surface above the
+    /// solver's threshold for it (200,000 vertices) gets the default run's matching cost,
+    /// its certificate checked, and passes the checks of `quadrangulate`.
+    #[test]
+    #[cfg_attr(
+        debug_assertions,
+        ignore = "2·10^5 triangles: run with cargo test --release"
+    )]
+    fn a_split_matching_reaches_the_default_cost() {
+        let mesh = synth::to_mesh(&synth::delaunay_square(330, 1.0, 0.3, 5));
+        assert!(mesh.count_elements(etype::TRI3) > 200_000);
+        let costs = |split_matching| {
+            let mut m = mesh.clone();
+            let opts = crate::Options {
+                verify: true,
+                optimize: false,
+                split_matching,
+                ..crate::Options::default()
+            };
+            let report = crate::quadrangulate(&mut m, &opts).expect("quadrangulate");
+            let s = &report.recombine.surfaces;
+            s.iter().map(|s| s.matching_cost).collect::<Vec<_>>()
+        };
+        assert_eq!(costs(true), costs(false));
     }
 
     /// A surface of [`MORTON_FROM`] triangles or more is taken in Morton order: each

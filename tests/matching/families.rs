@@ -595,11 +595,64 @@ fn certificate_on_mesh_graph_1e6() {
     let mut rng = Rng(2025);
     let (n, e) = mesh_graph(1000, 500, &mut rng);
     assert_eq!(n, 1_000_000);
-    solve_verified(n, &e);
+    // with the split asked for, from this size the fractional start runs in blocks: the
+    // same cost, certified
+    let split = |n: usize, e: &Edges| {
+        let mut s = Solver::new(n, e);
+        s.set_split(true, None);
+        let m = s.run().expect("perfect matching");
+        assert!(matching::verify(n, e, &m).is_ok());
+        m.cost
+    };
+    assert_eq!(solve_verified(n, &e), split(n, &e));
     for kind in ["lattice", "random"] {
         let (n, e) = gen_matching_graph::delaunay_graph(kind, 1_000_000, 8).expect("mesh");
         assert!(n > 900_000 && n % 2 == 0);
-        solve_verified(n, &e);
+        assert_eq!(solve_verified(n, &e), split(n, &e), "{kind}");
+    }
+}
+
+/// The fractional start in blocks side by side ([`Solver::run_in_blocks`]) on mesh graphs
+/// (seams across the mesh, half-matched cycles cut by them, odd blocks) reaches the single
+/// start's cost with a certificate and gives the same result on every run; on graphs
+/// without a perfect matching it gives a Tutte witness.
+#[test]
+fn a_start_in_blocks_agrees_with_the_single_start() {
+    let mut rng = Rng(2026);
+    let mut graphs = vec![mesh_graph(120, 75, &mut rng), mesh_graph(301, 7, &mut rng)];
+    for kind in ["lattice", "random"] {
+        graphs.push(gen_matching_graph::delaunay_graph(kind, 100_000, 11).expect("mesh"));
+    }
+    for (n, e) in &graphs {
+        let n = *n;
+        let single = Solver::new(n, e)
+            .run_in_blocks(1)
+            .expect("perfect matching");
+        for blocks in [2, 3, 5] {
+            let m = Solver::new(n, e)
+                .run_in_blocks(blocks)
+                .expect("perfect matching");
+            assert_eq!(m.cost, single.cost, "n={n}, {blocks} blocks");
+            assert!(matching::verify(n, e, &m).is_ok(), "n={n}, {blocks} blocks");
+            let again = Solver::new(n, e).run_in_blocks(blocks);
+            assert_eq!(
+                again.as_ref(),
+                Ok(&m),
+                "n={n}, {blocks} blocks: another result"
+            );
+        }
+    }
+    let star: Edges = (1..6).map(|i| (0, i, i as i64)).collect();
+    for (n, e) in [fig6_triangle(4), fig6_triangle(30), (6, star)] {
+        for blocks in [2, 3, 4] {
+            let w = match Solver::new(n, &e).run_in_blocks(blocks) {
+                Ok(m) => panic!("unexpected matching of cost {} ({blocks} blocks)", m.cost),
+                Err(w) => w,
+            };
+            if let Err(err) = matching::verify_witness(n, &e, &w) {
+                panic!("bad witness {w:?} ({blocks} blocks): {err}");
+            }
+        }
     }
 }
 
@@ -632,12 +685,12 @@ fn second_local_pass_and_progress_on_mesh_graphs() {
         .expect("perfect matching");
         assert_eq!(p.cost, m.cost, "{kind}");
         // the edge list moved in (freed once the solver has its arrays): the same result
-        let owned = matching::solve_owned(n, e.clone(), None, VertexOrder::BreadthFirst)
+        let owned = matching::solve_owned(n, e.clone(), None, VertexOrder::BreadthFirst, None)
             .expect("perfect matching");
         assert_eq!(owned, p, "{kind}");
         // the caller's numbering kept inside the solver (the generator's face order): an
         // optimum too, with its certificate
-        let given = matching::solve_owned(n, e.clone(), None, VertexOrder::Given)
+        let given = matching::solve_owned(n, e.clone(), None, VertexOrder::Given, None)
             .expect("perfect matching");
         assert_eq!(given.cost, p.cost, "{kind}");
         assert!(matching::verify(n, &e, &given).is_ok(), "{kind}");

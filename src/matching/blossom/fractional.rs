@@ -24,13 +24,13 @@
 use super::{Solver, MINUS, NONE, PLUS, PROGRESS_EVERY};
 
 /// Grow steps a local search may take before it is left to the global pass.
-const LOCAL_GROWS: usize = 64;
+pub(super) const LOCAL_GROWS: usize = 64;
 
 /// Grow budget of the second local pass ([`Solver::fractional_local_wide`]): on mesh
 /// graphs most of the searches the first pass abandons end within it, and each one ended
 /// there is a tree fewer in the global pass, whose dual updates visit every live tree
 /// (figures in BENCHMARKS.md, "Measurements behind the defaults").
-const WIDE_GROWS: usize = 4096;
+pub(super) const WIDE_GROWS: usize = 4096;
 
 /// Searches per window of the second local pass.
 const WIDE_WINDOW: usize = 64;
@@ -77,6 +77,16 @@ pub(super) struct Cycles {
     pub(super) list: Vec<Vec<u32>>,
 }
 
+impl Cycles {
+    /// No cycle among `n` vertices.
+    pub(super) fn none(n: usize) -> Cycles {
+        Cycles {
+            id: vec![NONE; n],
+            list: Vec::new(),
+        }
+    }
+}
+
 impl Solver {
     /// Greedy start followed by the fractional phase (the default start of [`Solver::run`]).
     pub fn init_fractional(&mut self) {
@@ -91,21 +101,34 @@ impl Solver {
         self.init_greedy();
         self.stats.phase_s[0] = t.elapsed().as_secs_f64();
         self.stats.phase_counts[0] = (self.stats.grows, self.stats.evals, self.stats.pops);
-        let mut cy = Cycles {
-            id: vec![NONE; self.n],
-            list: Vec::new(),
-        };
+        let mut cy = Cycles::none(self.n);
+        self.fractional_passes(&mut cy, budget, wide);
+        self.finish_fractional(&cy);
+    }
+
+    /// The passes of the fractional start after a start with feasible duals, every matched
+    /// edge and every edge of a cycle of `cy` tight (the greedy start, or the blocks joined
+    /// by [`Solver::init_fractional_blocks`]): the local pass (grow budget `budget`), the
+    /// second local pass (`wide`; 0 skips it) and the global pass. The duals stay feasible,
+    /// matched and cycle edges tight; the time and counts go to phases 1 and 2 of the stats.
+    pub(super) fn fractional_passes(&mut self, cy: &mut Cycles, budget: usize, wide: usize) {
         let t = std::time::Instant::now();
-        self.fractional_local(&mut cy, budget);
+        self.fractional_local(cy, budget);
         if wide > 0 {
-            self.fractional_local_wide(&mut cy, wide);
+            self.fractional_local_wide(cy, wide);
         }
-        self.stats.phase_s[1] = t.elapsed().as_secs_f64();
+        self.stats.phase_s[1] += t.elapsed().as_secs_f64();
         self.stats.phase_counts[1] = (self.stats.grows, self.stats.evals, self.stats.pops);
         let t = std::time::Instant::now();
-        self.fractional_global_var(&mut cy);
-        self.stats.phase_s[2] = t.elapsed().as_secs_f64();
+        self.fractional_global_var(cy);
+        self.stats.phase_s[2] += t.elapsed().as_secs_f64();
         self.stats.phase_counts[2] = (self.stats.grows, self.stats.evals, self.stats.pops);
+    }
+
+    /// Ends the fractional start: each cycle left is matched along its edges but for its
+    /// first vertex, which stays exposed, so the main phase starts from a matching on tight
+    /// edges with feasible duals and no blossom.
+    pub(super) fn finish_fractional(&mut self, cy: &Cycles) {
         for cycle in &cy.list {
             if let Some(&first) = cycle.first() {
                 Self::match_cycle_except(&mut self.mate, cycle, first);
@@ -229,7 +252,7 @@ impl Solver {
 
     /// Matches the odd cycle `cycle` (consecutive vertices joined by tight edges) minus vertex
     /// `skip` along the cycle; `skip`'s mate is left untouched.
-    fn match_cycle_except(mate: &mut [u32], cycle: &[u32], skip: u32) {
+    pub(super) fn match_cycle_except(mate: &mut [u32], cycle: &[u32], skip: u32) {
         let k = cycle.len();
         let j = cycle.iter().position(|&x| x == skip).unwrap_or(0);
         let mut i = 1;

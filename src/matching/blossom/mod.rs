@@ -15,6 +15,11 @@
 //!   odd-set constraints solved by the same tree machinery (single-tree searches with a small
 //!   and then a larger budget, then a forest), leaving one exposed vertex per odd cycle of
 //!   half-edges;
+//! - `split`: the fractional start in blocks side by side
+//!   ([`Solver::init_fractional_blocks`], off by default, [`Solver::set_split`]): each
+//!   block (a contiguous range of the internal numbering) solved alone on its induced
+//!   subgraph, the blocks joined by lowering a dual at each infeasible edge between them,
+//!   then the passes of `fractional` on the whole graph;
 //! - `tree`: alternating trees: single-tree searches ([`Solver::solve_rest_with`]: from each
 //!   exposed vertex in locality order one tree grows alone with its own dual change until it
 //!   augments, abandoned past a budget of grow steps), growing, dissolving a tree (its lazy
@@ -69,6 +74,7 @@ mod forest;
 mod fractional;
 mod primal;
 mod shortcut;
+mod split;
 mod start;
 #[cfg(test)]
 mod tests;
@@ -241,6 +247,10 @@ pub struct Solver {
     pub stats: Stats,
     /// Where progress goes (see [`Solver::set_progress`]).
     progress: Option<Ticker>,
+    /// Whether [`Solver::run`] may split its fractional start (see [`Solver::set_split`]).
+    split: bool,
+    /// What hands freed memory back to the system (see [`Solver::set_split`]).
+    release: Option<fn()>,
 }
 
 /// A progress callback `(done, total)` of the solver (see [`Solver::set_progress`]).
@@ -319,6 +329,14 @@ pub struct Stats {
     /// Variable-δ forest: components of trees found free to move without bound (a Tutte
     /// witness in the main phase, trees left to the main phase in the fractional one).
     pub var_stuck: usize,
+    /// A fractional start in blocks ([`Solver::init_fractional_blocks`]): the wall time
+    /// (s) of the blocks side by side and of their join (the passes on the whole graph
+    /// after it count in `phase_s`; the blocks' counters are added to the others), and the
+    /// vertices the join released (their duals lowered to make the edges between blocks
+    /// feasible).
+    pub blocks_s: f64,
+    /// See [`Stats::blocks_s`].
+    pub released: usize,
 }
 
 impl Solver {
@@ -389,23 +407,22 @@ impl Solver {
             }
         }
         drop(fill);
-        // Per-node arrays: room for the vertices and for every blossom that can be alive at
-        // once (a laminar family of odd sets of at least 3 vertices has at most `n / 2`
-        // members; ids are recycled), so that forming blossoms never reallocates them (a
-        // reallocation copies the array while the old one still holds its memory); the room
-        // stays untouched, hence not resident, until blossoms use it.
-        let cap = n + n / 2;
-        let mut nd = Vec::with_capacity(cap);
-        nd.extend((0..n as u32).map(Node::new));
-        let mut tedge = Vec::with_capacity(cap);
-        tedge.resize(n, TreeEdge::NO);
-        let mut sc = Vec::with_capacity(cap);
-        sc.resize(n, Cell::new(Shortcut::NO));
-        let mut gen = Vec::with_capacity(cap);
-        gen.resize(n, 0);
-        let mut mark = Vec::with_capacity(cap);
-        mark.resize(n, 0);
-        Solver {
+        Solver::from_csr(n, order, perm, adj_start, ed, wide_costs)
+    }
+
+    /// The solver state over the given internal numbering (`order[new] = old`, `perm` its
+    /// inverse; both empty for a solver that never builds a result) and half-edges
+    /// (`adj_start`, `ed`, `wide_costs` as in [`Solver`]'s fields): all duals 0, nothing
+    /// matched, no blossom.
+    fn from_csr(
+        n: usize,
+        order: Vec<u32>,
+        perm: Vec<u32>,
+        adj_start: Vec<u32>,
+        ed: Vec<Edge>,
+        wide_costs: Vec<i64>,
+    ) -> Solver {
+        let mut s = Solver {
             n,
             order,
             perm,
@@ -413,13 +430,13 @@ impl Solver {
             wide_costs,
             adj_start,
             mate: vec![NONE; n],
-            nd,
-            tedge,
+            nd: Vec::new(),
+            tedge: Vec::new(),
             children: Vec::new(),
             cyc: Vec::new(),
             free_blossoms: Vec::new(),
-            sc,
-            gen,
+            sc: Vec::new(),
+            gen: Vec::new(),
             heap: RadixHeap::new(),
             eps: 0,
             teps: Vec::new(),
@@ -427,14 +444,49 @@ impl Solver {
             var: forest::VarQueues::default(),
             tree_lists: Vec::new(),
             freed: Vec::new(),
-            mark,
+            mark: Vec::new(),
             mark_stamp: 0,
             scale: 2,
             mult: 1,
             stack: Vec::new(),
             stats: Stats::default(),
             progress: None,
-        }
+            split: false,
+            release: None,
+        };
+        s.new_node_arrays();
+        s
+    }
+
+    /// Fresh per-node arrays (`nd`, `tedge`, `sc`, `gen`, `mark`) for the vertices alone:
+    /// duals 0, no blossom, no tree.
+    fn new_node_arrays(&mut self) {
+        let n = self.n;
+        // Room for the vertices and for every blossom that can be alive at once (a laminar
+        // family of odd sets of at least 3 vertices has at most `n / 2` members; ids are
+        // recycled), so that forming blossoms never reallocates them (a reallocation copies
+        // the array while the old one still holds its memory); the room stays untouched,
+        // hence not resident, until blossoms use it.
+        let cap = n + n / 2;
+        self.nd = Vec::with_capacity(cap);
+        self.nd.extend((0..n as u32).map(Node::new));
+        self.tedge = Vec::with_capacity(cap);
+        self.tedge.resize(n, TreeEdge::NO);
+        self.sc = Vec::with_capacity(cap);
+        self.sc.resize(n, Cell::new(Shortcut::NO));
+        self.gen = Vec::with_capacity(cap);
+        self.gen.resize(n, 0);
+        self.mark = Vec::with_capacity(cap);
+        self.mark.resize(n, 0);
+    }
+
+    /// Frees the per-node arrays (until [`Solver::new_node_arrays`]).
+    fn free_node_arrays(&mut self) {
+        self.nd = Vec::new();
+        self.tedge = Vec::new();
+        self.sc = Vec::new();
+        self.gen = Vec::new();
+        self.mark = Vec::new();
     }
 
     /// Doubled cost of half-edge `i` (units of 1/2, as stored: times `mult` for current units).
@@ -473,7 +525,33 @@ impl Solver {
 
     /// Runs the jump start and then the tree growth from every exposed vertex.
     pub fn run(mut self) -> Result<Matching, NoPerfectMatching> {
-        self.init_fractional();
+        if self.split && self.n >= split::SPLIT_FROM {
+            self.init_fractional_blocks(split::BLOCKS);
+        } else {
+            self.init_fractional();
+        }
+        self.grow_rest(MAIN_LOCAL_GROWS)?;
+        Ok(self.into_result())
+    }
+
+    /// Has [`Solver::run`] run its fractional start in blocks side by side
+    /// ([`Solver::init_fractional_blocks`], two blocks) when the graph has 200,000 vertices
+    /// or more: the same optimum cost with its certificate (among tied optima maybe another
+    /// one), a deterministic result, more memory. Off by default. `release`, called when
+    /// the solver has freed its per-node arrays before the blocks allocate theirs, hands
+    /// freed heap memory back to the system (the blocks allocate on other threads, whose
+    /// allocator arenas would not reuse it).
+    pub fn set_split(&mut self, split: bool, release: Option<fn()>) {
+        self.split = split;
+        self.release = release;
+    }
+
+    /// [`Solver::run`] with the fractional start split into `blocks` blocks
+    /// ([`Solver::init_fractional_blocks`]) whatever the size (1: the single start); tests
+    /// use it to exercise the split on small graphs.
+    #[cfg(any(test, feature = "testing"))]
+    pub fn run_in_blocks(mut self, blocks: usize) -> Result<Matching, NoPerfectMatching> {
+        self.init_fractional_blocks(blocks);
         self.grow_rest(MAIN_LOCAL_GROWS)?;
         Ok(self.into_result())
     }
