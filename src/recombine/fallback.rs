@@ -69,6 +69,36 @@ fn key(a: u64, b: u64) -> (u64, u64) {
     (a.min(b), a.max(b))
 }
 
+/// Appends the quads `children` of element `i` of block `b` (a triangle) to the quad block
+/// of its surface in `quads_of`, the first with the element's tag and the others with
+/// `fresh` ones, each with the element's partitions.
+fn push_children(
+    quads_of: &mut BTreeMap<i32, ElementBlock>,
+    b: &ElementBlock,
+    i: usize,
+    children: &[[u64; 4]],
+    fresh: &mut impl FnMut() -> u64,
+) {
+    let part = b.partitions.as_ref().and_then(|p| p.get(i).cloned());
+    let q = quads_of
+        .entry(b.entity_tag)
+        .or_insert_with(|| ElementBlock {
+            entity_dim: 2,
+            entity_tag: b.entity_tag,
+            element_type: etype::QUAD4,
+            tags: Vec::new(),
+            nodes: Vec::new(),
+            partitions: b.partitions.as_ref().map(|_| Vec::new()),
+        });
+    for (j, child) in children.iter().enumerate() {
+        q.tags.push(if j == 0 { b.tags[i] } else { fresh() });
+        q.nodes.extend_from_slice(child);
+        if let Some(p) = q.partitions.as_mut() {
+            p.push(part.clone().unwrap_or_default());
+        }
+    }
+}
+
 /// The polygon `[a, b, c, x]` of two triangles `t` and `u` (node tags, same orientation)
 /// sharing the edge `b-x` at `b` = `node`, oriented like them, and whether `t` is the one
 /// holding `a` (the one where `x` follows `b`); None when they share no such edge.
@@ -481,29 +511,12 @@ pub fn split_triangles(
                         push(&mut out, b.tags[i], e);
                         continue;
                     };
-                    let q = quads_of
-                        .entry(b.entity_tag)
-                        .or_insert_with(|| ElementBlock {
-                            entity_dim: 2,
-                            entity_tag: b.entity_tag,
-                            element_type: etype::QUAD4,
-                            tags: Vec::new(),
-                            nodes: Vec::new(),
-                            partitions: b.partitions.as_ref().map(|_| Vec::new()),
-                        });
                     let children: &[[u64; 4]] = if role == 0 {
                         &[[a, b_, p, m1], [p, m2, x, m1]]
                     } else {
                         &[[b_, c, m2, p]]
                     };
-                    for (j, child) in children.iter().enumerate() {
-                        let tag = if j == 0 { b.tags[i] } else { fresh() };
-                        q.tags.push(tag);
-                        q.nodes.extend_from_slice(child);
-                        if let Some(pt) = q.partitions.as_mut() {
-                            pt.push(part.clone().unwrap_or_default());
-                        }
-                    }
+                    push_children(&mut quads_of, b, i, children, &mut fresh);
                     if role == 0 {
                         report.pairs_split += 1;
                     }
@@ -524,25 +537,8 @@ pub fn split_triangles(
                     let centre = next_node;
                     next_node += 1;
                     new_nodes.push((centre, (2, b.entity_tag), c / 3.0, e.to_vec()));
-                    let q = quads_of
-                        .entry(b.entity_tag)
-                        .or_insert_with(|| ElementBlock {
-                            entity_dim: 2,
-                            entity_tag: b.entity_tag,
-                            element_type: etype::QUAD4,
-                            tags: Vec::new(),
-                            nodes: Vec::new(),
-                            partitions: b.partitions.as_ref().map(|_| Vec::new()),
-                        });
-                    for j in 0..3 {
-                        let tag = if j == 0 { b.tags[i] } else { fresh() };
-                        q.tags.push(tag);
-                        q.nodes
-                            .extend_from_slice(&[e[j], m[j], centre, m[(j + 2) % 3]]);
-                        if let Some(p) = q.partitions.as_mut() {
-                            p.push(part.clone().unwrap_or_default());
-                        }
-                    }
+                    let children = [0, 1, 2].map(|j| [e[j], m[j], centre, m[(j + 2) % 3]]);
+                    push_children(&mut quads_of, b, i, &children, &mut fresh);
                     report.triangles_to_quads += 1;
                     if !report.surfaces.contains(&b.entity_tag) {
                         report.surfaces.push(b.entity_tag);
