@@ -60,13 +60,13 @@
 //!    surfaces does not, or the other way round). Where the kept job split triangles and
 //!    its result (after the worst-quad tries of step 5) breaks the element-count rule or
 //!    has a quad under η [`ETA_FLOOR`], or where no job was valid, the job runs once more
-//!    with **flat pairs**: at a surface's first
-//!    ring, a bad pair flat or reflex at an end of its diagonal is split into three quads
-//!    that leave the edges at that node whole ([`crate::recombine::FlatPair`]; the two
-//!    triangles are split as chosen ones from the surface's second ring on), so a boundary
-//!    fan's split does not halve the triangles of the face beyond the curve; with its own
-//!    worst-quad tries, the better of the two results is kept, by the same order (where
-//!    neither is valid, the refusal is the first job's).
+//!    with **flat pairs**: at a surface's first ring, a bad pair flat or reflex at an end
+//!    of its diagonal is split into three quads that leave the edges at that node whole
+//!    ([`crate::recombine::FlatPair`]; the two triangles are split as chosen ones from the
+//!    surface's second ring on), so a boundary fan's split does not halve the triangles of
+//!    the face beyond the curve; with its own worst-quad tries, the better of the two
+//!    results is kept, by the same order (where neither is valid, the refusal is the first
+//!    job's).
 //! 5. **The worst quad.** A valid optimized result gets up to three more tries: where the
 //!    fallback priced quads out, the fallback with splits only; quads under η
 //!    [`ETA_FLOOR`] priced out; one ring around those still under it split. Each is kept
@@ -916,8 +916,7 @@ mod tests {
     }
 
     /// A unit square of four triangles around its centre (node 5) as the input, and a
-    /// result of `quads` (node tags, with nodes 6-9 at the edge midpoints and 10 at the
-    /// centre's place when used).
+    /// result of `quads` (node tags, with nodes 6-9 at the edge midpoints).
     fn square_with(quads: &[[u64; 4]]) -> (Mesh, Mesh) {
         use crate::mesh::testing::{node_block, one_surface};
         let coords = vec![

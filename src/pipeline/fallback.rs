@@ -175,8 +175,8 @@ impl LocalFallback {
         };
         // the last resort, after the local rounds: every triangle of the surfaces that still
         // have a bad quad (the splits' halved neighbours along shared curves may bring
-        // another surface here in the next round), without the segment splits (a split on a curve between two strips moves the
-        // strips' imbalance to the other strip)
+        // another surface here in the next round), without the segment splits (a split on
+        // a curve between two strips moves the strips' imbalance to the other strip)
         let last: Vec<(i32, [u64; 4])> = spots
             .iter()
             .filter(|s| ring_of(s.0) > SPLIT_RINGS)
