@@ -104,8 +104,9 @@ use reporter::Reporter;
 use rounds::*;
 
 use fallback::{
-    fallback_triangles, low_quads, pairs_of, quads_per_triangle, surface_elements, FallbackStart,
-    JobNotes, LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE,
+    count_rule_limit, fallback_triangles, low_quads, pairs_of, quads_per_triangle,
+    surface_elements, FallbackStart, JobNotes, LocalFallback, Next, COUNT_RULE_FROM,
+    MAX_QUADS_PER_TRIANGLE,
 };
 pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS};
 #[cfg(feature = "testing")]
@@ -364,28 +365,23 @@ fn run_job(
     (result, notes.rings_diverged)
 }
 
-/// True when `r` keeps the element-count rule ([`MAX_QUADS_PER_TRIANGLE`] new quads per
-/// input triangle, a quarter more under [`COUNT_RULE_FROM`] triangles), lists no invalid
+/// True when `r` keeps the element-count rule ([`count_rule_limit`]), lists no invalid
 /// quad and has no quad under η [`ETA_FLOOR`] (quad-only input surfaces left aside unless
 /// they are smoothed).
 fn meets_goals(input: &Mesh, opts: &Options, r: &(Mesh, Report, FallbackStart)) -> bool {
-    let (invalid, within, worst, _) = job_measures(input, opts, r);
-    !invalid && within && worst >= ETA_FLOOR
+    let (valid, within, worst, _) = job_measures(input, opts, r);
+    valid && within && worst >= ETA_FLOOR
 }
 
-/// A result's measures for [`better_job`]: quads listed as invalid, within the
-/// element-count rule, worst quad η, new quads per input triangle.
+/// A result's measures for [`better_job`], each better when larger except the last: no
+/// quad listed as invalid, within the element-count rule, worst quad η, new quads per
+/// input triangle.
 fn job_measures(
     input: &Mesh,
     opts: &Options,
     r: &(Mesh, Report, FallbackStart),
 ) -> (bool, bool, f64, f64) {
-    let triangles = surface_elements(input, etype::TRI3);
-    let limit = if triangles >= COUNT_RULE_FROM {
-        MAX_QUADS_PER_TRIANGLE
-    } else {
-        1.25 * MAX_QUADS_PER_TRIANGLE
-    };
+    let limit = count_rule_limit(surface_elements(input, etype::TRI3));
     let skip = if opts.smooth_quads {
         Vec::new()
     } else {
@@ -393,7 +389,7 @@ fn job_measures(
     };
     let per_triangle = quads_per_triangle(input, &r.0);
     (
-        !r.1.invalid.is_empty(),
+        r.1.invalid.is_empty(),
         per_triangle <= limit,
         low_quads(&r.0, &skip).1,
         per_triangle,
@@ -402,19 +398,15 @@ fn job_measures(
 
 /// The better of two valid results of the same input: one with no quad listed as invalid
 /// ([`Options::allow_invalid`]), then one within the element-count rule
-/// ([`MAX_QUADS_PER_TRIANGLE`] new quads per input triangle, a quarter more under
-/// [`COUNT_RULE_FROM`] triangles), then the higher worst quad η (by more than 0.001), then
-/// fewer quads; `a` on a tie.
+/// ([`count_rule_limit`]), then the higher worst quad η (by more than 0.001), then fewer
+/// quads; `a` on a tie.
 fn better_job(
     input: &Mesh,
     opts: &Options,
     a: (Mesh, Report, FallbackStart),
     b: (Mesh, Report, FallbackStart),
 ) -> (Mesh, Report, FallbackStart) {
-    let measure = |r: &(Mesh, Report, FallbackStart)| {
-        let (invalid, within, worst, per_triangle) = job_measures(input, opts, r);
-        (!invalid, within, worst, per_triangle)
-    };
+    let measure = |r: &(Mesh, Report, FallbackStart)| job_measures(input, opts, r);
     let (x, y) = (measure(&a), measure(&b));
     let b_better = if (x.0, x.1) != (y.0, y.1) {
         (y.0, y.1) > (x.0, x.1)

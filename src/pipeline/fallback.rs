@@ -261,11 +261,7 @@ impl LocalFallback {
 /// two triangles: 2.5 more quads each, its halved neighbours not counted).
 pub(super) fn breaks_count_rule(input: &Mesh, mesh: &Mesh, more: usize) -> bool {
     let triangles = surface_elements(input, etype::TRI3);
-    let limit = if triangles >= COUNT_RULE_FROM {
-        MAX_QUADS_PER_TRIANGLE
-    } else {
-        1.25 * MAX_QUADS_PER_TRIANGLE
-    };
+    let limit = count_rule_limit(triangles);
     let quads = quads_per_triangle(input, mesh) * triangles as f64;
     quads + 2.5 * more as f64 > limit * triangles as f64
 }
@@ -315,7 +311,7 @@ pub(super) struct JobNotes {
 
 /// The element-count rule that the repair of the worst quad keeps, as the recombination's
 /// strips do.
-pub(super) use crate::recombine::{COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE};
+pub(super) use crate::recombine::{count_rule_limit, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE};
 
 /// The quads of `mesh`'s surfaces with η below [`ETA_FLOOR`], as (surface, node tags), and
 /// the worst η of those quads; surfaces in `skip` (sorted: those the input meshed with quads

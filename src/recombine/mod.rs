@@ -373,6 +373,17 @@ pub(crate) const MAX_QUADS_PER_TRIANGLE: f64 = 0.6;
 /// to a quarter more quads than that for a better worst quad.
 pub(crate) const COUNT_RULE_FROM: usize = 500;
 
+/// The most new quads per input triangle the element-count rule allows a mesh of
+/// `triangles` input triangles: [`MAX_QUADS_PER_TRIANGLE`], a quarter more under
+/// [`COUNT_RULE_FROM`] triangles.
+pub(crate) fn count_rule_limit(triangles: usize) -> f64 {
+    if triangles < COUNT_RULE_FROM {
+        1.25 * MAX_QUADS_PER_TRIANGLE
+    } else {
+        MAX_QUADS_PER_TRIANGLE
+    }
+}
+
 /// Meshes again the strips planned in `results` (see [`strip`]) whose quads were worst
 /// first, as long as the new quads keep the mesh within [`MAX_QUADS_PER_TRIANGLE`] of its
 /// triangles (a quarter more under [`COUNT_RULE_FROM`] triangles); ties in surface order.
@@ -384,11 +395,7 @@ fn choose_strips(
 ) {
     let triangles: usize = results.iter().map(|r| r.report.triangles_in).sum();
     let quads: usize = results.iter().map(|r| r.faces.quads.len()).sum();
-    let rate = if triangles < COUNT_RULE_FROM {
-        1.25 * MAX_QUADS_PER_TRIANGLE
-    } else {
-        MAX_QUADS_PER_TRIANGLE
-    };
+    let rate = count_rule_limit(triangles);
     let mut budget = ((rate * triangles as f64).floor() as usize).saturating_sub(quads);
     let mut all: Vec<(usize, usize)> = results
         .iter()
