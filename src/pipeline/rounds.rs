@@ -183,18 +183,20 @@ pub(super) fn run_rounds(
         // it), on surfaces where it does not hold them yet: from the next round on it holds
         // the corners at the job's new nodes there to the faces the gate measures them about
         let mut turned_bad: Vec<i32> = Vec::new();
-        // speed: only the surfaces with bad quads are checked again (the others are valid)
-        let mut bad_surfaces: Vec<i32> = bad.iter().map(|b| b.surface).collect();
-        bad_surfaces.sort_unstable();
-        bad_surfaces.dedup();
         if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
+            // speed: only the surfaces with bad quads are checked again (the others are
+            // valid)
+            let mut bad_surfaces: Vec<i32> = bad.iter().map(|b| b.surface).collect();
+            bad_surfaces.sort_unstable();
+            bad_surfaces.dedup();
+            let was = TagCoords::new(pre);
             let before: HashSet<[u64; 4]> = checks
                 .validity
-                .invalid_quads_on(pre, &TagCoords::new(pre), Some(&bad_surfaces))
+                .invalid_quads_on(pre, &was, Some(&bad_surfaces))
                 .into_iter()
                 .map(|b| sorted4(b.nodes))
                 .collect();
-            let (was, is) = (TagCoords::new(pre), TagCoords::new(&mesh));
+            let is = TagCoords::new(&mesh);
             turned_bad = bad
                 .iter()
                 .filter(|b| local.located.binary_search(&b.surface).is_err())
@@ -206,9 +208,10 @@ pub(super) fn run_rounds(
                 })
                 .map(|b| b.surface)
                 .collect();
-        }
-        if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
-            let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+            drop((was, is));
+            // the surfaces with bad quads as they were before optimization, when that is
+            // valid
+            let surfaces: HashSet<i32> = bad_surfaces.iter().copied().collect();
             let back = revert_surfaces(&mesh, pre, &surfaces);
             let coords = TagCoords::new(&back);
             if checks
