@@ -69,9 +69,10 @@ pub(super) struct LocalFallback {
     /// would break it, so it holds only the triangles of the bad pairs, and a bad corner
     /// at a split node gets merged halves priced out before another ring.
     pub(super) tight: bool,
-    /// Flat pairs split into three quads ([`recombine::FlatPair`]): at the first ring, a bad
-    /// pair whose bad corner is at an end of its diagonal, with [`LocalFallback::flat_pairs`].
-    pub(super) pairs: Vec<recombine::FlatPair>,
+    /// Flat pairs split into three quads ([`recombine::FlatPair`]), with their surfaces: at
+    /// the first ring, a bad pair whose bad corner is at an end of its diagonal, with
+    /// [`LocalFallback::flat_pairs`].
+    pub(super) pairs: Vec<(i32, recombine::FlatPair)>,
     /// Split bad pairs as flat pairs at the first ring.
     pub(super) flat_pairs: bool,
     /// Surfaces (sorted tags) where the optimizer holds the corners at the job's new nodes
@@ -202,13 +203,14 @@ impl LocalFallback {
                 if chosen.contains(&t) || chosen.contains(&u) {
                     continue;
                 }
-                if self.pairs.iter().any(|p| p.triangles.contains(&t) || p.triangles.contains(&u)) {
+                if self.pairs.iter().any(|(_, p)| p.triangles.contains(&t) || p.triangles.contains(&u)) {
                     continue;
                 }
-                self.pairs.push(recombine::FlatPair {
+                let pair = recombine::FlatPair {
                     triangles: [t, u],
                     node: b.node(),
-                });
+                };
+                self.pairs.push((b.surface, pair));
                 first.retain(|s| s != &(b.surface, b.nodes));
             }
         }
@@ -218,18 +220,13 @@ impl LocalFallback {
             .filter(|s| ring_of(s.0) >= 2)
             .map(|s| s.0)
             .collect();
-        if !later.is_empty() && !self.pairs.is_empty() {
-            let on: HashSet<i32> = later.iter().copied().collect();
-            let triangles = SurfaceTriangles::of(input, &on);
-            let tags: HashSet<u64> = triangles.0.values().copied().collect();
-            self.pairs.retain(|p| {
-                let ours = p.triangles.iter().any(|t| tags.contains(t));
-                if ours {
-                    out.extend(p.triangles);
-                }
-                !ours
-            });
-        }
+        self.pairs.retain(|(s, p)| {
+            let ours = later.contains(s);
+            if ours {
+                out.extend(p.triangles);
+            }
+            !ours
+        });
         if !first.is_empty() {
             let ring = fallback_triangles(input, mesh, &first, chosen, 1, self.tight);
             if !self.tight && breaks_count_rule(input, mesh, ring.len()) {
@@ -292,8 +289,8 @@ pub(super) struct FallbackStart {
     /// that first has a bad quad after splits elsewhere (their halved neighbours on a
     /// shared curve) starts from its first ring.
     pub(super) global_rings: bool,
-    /// Flat pairs split into three quads.
-    pub(super) pairs: Vec<recombine::FlatPair>,
+    /// Flat pairs split into three quads, with their surfaces.
+    pub(super) pairs: Vec<(i32, recombine::FlatPair)>,
     /// At the first ring, a bad pair whose bad corner is at an end of its diagonal is split
     /// as a flat pair ([`recombine::FlatPair`]) instead of as two chosen triangles.
     pub(super) flat_pairs: bool,
@@ -833,10 +830,13 @@ mod tests {
         }
         assert_eq!(
             f.pairs,
-            vec![recombine::FlatPair {
-                triangles: [4, 3],
-                node: 6
-            }]
+            vec![(
+                1,
+                recombine::FlatPair {
+                    triangles: [4, 3],
+                    node: 6
+                }
+            )]
         );
         // bad again there: the second ring splits the pair's triangles as chosen ones and
         // the ring around the quad

@@ -63,12 +63,9 @@ pub(super) fn run_rounds(
                 let mut mesh = input.clone();
                 if !chosen.is_empty() || !local.segments.is_empty() || !local.pairs.is_empty() {
                     let t = Instant::now();
-                    let split = recombine::split_triangles(
-                        &mut mesh,
-                        &chosen,
-                        &local.pairs,
-                        &local.segments,
-                    );
+                    let pairs: Vec<recombine::FlatPair> = local.pairs.iter().map(|p| p.1).collect();
+                    let split =
+                        recombine::split_triangles(&mut mesh, &chosen, &pairs, &local.segments);
                     let mut line = format!("fallback round {round}: ");
                     if split.segments_split > 0 {
                         line += &format!(
