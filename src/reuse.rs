@@ -15,9 +15,10 @@
 //! This is exact, not an approximation: the optimizer of a surface reads only that
 //! surface's quads, the nodes they use, the input (its reference) and its options, in block
 //! order, and moves only the nodes that no other element uses; so the same recombined
-//! surface gives the same optimized surface. A surface is kept only when its node blocks hold no node that
-//! another entity's elements use and its quads use no node of another surface's node block,
-//! so that putting back its node blocks and quad blocks changes nothing else.
+//! surface gives the same optimized surface. A surface is kept only when its node blocks
+//! hold no node that another entity's elements use and its quads use no node of another
+//! surface's node block, so that putting back its node blocks and quad blocks changes
+//! nothing else.
 
 use std::collections::{HashMap, HashSet};
 use std::hash::{DefaultHasher, Hash, Hasher};

@@ -50,7 +50,7 @@ pub(crate) struct Local {
     /// 1e-8 of it, so every face the gate counts is one the optimizer measures about.
     pub tie: f64,
     /// Corners at nodes `gate_nrm` is zero at are held to the reference triangles they
-    /// touch ([`OptimizeOptions::located_turns`](super::OptimizeOptions)).
+    /// touch (the surface is in [`OptimizeOptions::located_surfaces`](super::OptimizeOptions)).
     pub located_turns: bool,
     /// Target size h per node (eq. 1's field at the node).
     pub h: Vec<f64>,

@@ -149,13 +149,11 @@ pub struct OptimizeOptions<'a> {
     /// aggregation multigrid instead of the diagonal (off by default): closer to the
     /// solve's minimizer, for a higher η̄ on large planar surfaces at some time.
     pub conformal_multigrid: bool,
-    /// On curved surfaces, hold the corner at a node the reference does not have (split,
-    /// duplicated and refined nodes) to turn positively about the reference triangles that
-    /// node touches where it is, as the validity gate measures it (off by default; the
-    /// pipeline's fallback sets it once the optimizer turned a quad that the validity gate
-    /// refuses: see `valid`).
-    pub located_turns: bool,
-    /// [`Self::located_turns`] on these surfaces only (sorted tags), when it is off.
+    /// The surfaces (sorted tags) where, if curved, the corner at a node the reference does
+    /// not have (split, duplicated and refined nodes) is held to turn positively about the
+    /// reference triangles that node touches where it is, as the validity gate measures it
+    /// (none by default; the pipeline's fallback names a surface once the optimizer turned
+    /// a quad there that the validity gate refuses: see `valid`).
     pub located_surfaces: &'a [i32],
 }
 
@@ -176,7 +174,6 @@ impl Default for OptimizeOptions<'_> {
             skip: &[],
             trace: None,
             conformal_multigrid: false,
-            located_turns: false,
             located_surfaces: &[],
         }
     }
@@ -317,7 +314,7 @@ pub fn optimize_prepared(
         let mut l = extract(mesh, &flat, &owner, (si as u32, s), &mut scratch)?;
         l.trace = opts.trace.cloned();
         l.tie = tie;
-        l.located_turns = opts.located_turns || opts.located_surfaces.binary_search(&s).is_ok();
+        l.located_turns = opts.located_surfaces.binary_search(&s).is_ok();
         locals.push(l);
     }
     // memory: through the surfaces' optimization, only where each node lives

@@ -12,7 +12,7 @@
 //! below zero) does not drop. On curved surfaces every candidate is projected back onto the
 //! reference triangulation by a local walk from the node's current triangle, and a move
 //! is refused when it would fold a quad of the star about its own normal (the cross product
-//! of its diagonals, `valid::keeps_own_jacobian`) or (with `OptimizeOptions::located_turns`)
+//! of its diagonals, `valid::keeps_own_jacobian`) or (on `OptimizeOptions::located_surfaces`)
 //! turn a corner at a node the reference does not have away from the reference triangles
 //! that node touches (`valid::keeps_located_turns`), which the keys do not see.
 //!

@@ -9,16 +9,16 @@
 //! edge is shorter than [`MIN_EDGE_REL`] times the target size at its ends, and, on curved
 //! surfaces, every corner is in that range about the reference triangulation's normal at
 //! each node of the quad it has too (at input nodes, the normals the gate measures corners
-//! about), with [`Local::located_turns`] (from `OptimizeOptions::located_turns`, or
-//! `located_surfaces` naming the surface) the corner at a node the reference does not have (split, duplicated and refined nodes) is in that range
-//! about the normal of every reference triangle the node touches where it now is (the faces
-//! the gate measures that corner about: on a coarse curved face such a node can cross onto
-//! a face that turns far from the quad's reference normal), and the quad holds to its own
-//! geometry: its scaled Jacobian at every corner about its own normal (the cross product of
-//! its diagonals) is at least [`MIN_OWN_SJ`] (the gate's rule of `crate::validity`, with a
-//! margin). On a planar surface a quad whose
-//! corners all turn positively about the plane's normal is convex, so its diagonals cross
-//! and its own normal is the plane's: the rule holds there by itself.
+//! about), with [`Local::located_turns`] (the surface named in
+//! `OptimizeOptions::located_surfaces`) the corner at a node the reference does not have
+//! (split, duplicated and refined nodes) is in that range about the normal of every
+//! reference triangle the node touches where it now is (the faces the gate measures that
+//! corner about: on a coarse curved face such a node can cross onto a face that turns far
+//! from the quad's reference normal), and the quad holds to its own geometry: its scaled
+//! Jacobian at every corner about its own normal (the cross product of its diagonals) is at
+//! least [`MIN_OWN_SJ`] (the gate's rule of `crate::validity`, with a margin). On a planar
+//! surface a quad whose corners all turn positively about the plane's normal is convex, so
+//! its diagonals cross and its own normal is the plane's: the rule holds there by itself.
 //!
 //! Every operator accepts a change only if each quad it touches is valid afterwards, or was
 //! already invalid before and is not made worse (quads the matching left invalid, e.g. a
