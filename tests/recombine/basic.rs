@@ -531,3 +531,71 @@ fn edge_checks_agree_on_recombined_and_periodic_slave_surfaces() {
         assert_eq!(own, as_slave, "{what}");
     }
 }
+
+/// A surface with a fold (walled off, not a refusal on its own) and a non-manifold edge
+/// further on in edge order is refused naming the non-manifold edge, the reason of the
+/// refusal, not the fold on its smaller edge.
+#[test]
+fn a_non_manifold_edge_is_named_even_after_a_fold_on_a_smaller_edge() {
+    let mut m = grid(&Grid::default());
+    let v = node_at(&m, [0.5, 0.5, 0.0]);
+    for nb in &mut m.node_blocks {
+        if let Some(i) = nb.tags.iter().position(|&t| t == v) {
+            nb.coords[i] = [1.9, 1.3, 0.0];
+        }
+    }
+    // the fold alone: walled off, its edge named by the report
+    let fold = match recombine(&mut m.clone(), &RecombineOptions::default()) {
+        Ok(r) => r.walled_folds[0].refusal().to_string(),
+        Err(e) => e.to_string(),
+    };
+    let edge = |s: &str, after: &str| -> (u64, u64) {
+        let rest = &s[s.find(after).unwrap() + after.len()..];
+        let word = rest.split_whitespace().next().unwrap();
+        let (a, b) = word.split_once('-').unwrap();
+        (a.parse().unwrap(), b.parse().unwrap())
+    };
+    let fold_edge = edge(&fold, "common edge ");
+    // an edge of two triangles after the fold's, away from the moved node, gets a third
+    // triangle (to a node above the plate)
+    let tris = m
+        .element_blocks
+        .iter()
+        .find(|b| b.element_type == etype::TRI3)
+        .unwrap();
+    let mut count = std::collections::HashMap::new();
+    for i in 0..tris.len() {
+        let e = tris.element(i);
+        for k in 0..3 {
+            let (a, b) = (e[k], e[(k + 1) % 3]);
+            *count.entry((a.min(b), a.max(b))).or_insert(0) += 1;
+        }
+    }
+    let (a, b) = count
+        .iter()
+        .filter(|&(&(a, b), &n)| n == 2 && a != v && b != v && (a, b) > fold_edge)
+        .map(|(&e, _)| e)
+        .max()
+        .expect("an interior edge after the fold's");
+    let top = m.max_node_tag() + 1;
+    let block = m
+        .node_blocks
+        .iter_mut()
+        .find(|b| b.entity_dim == 2)
+        .unwrap();
+    block.tags.push(top);
+    block.coords.push([0.5, 0.5, 0.3]);
+    let tag = m.max_element_tag() + 1;
+    let tris = m
+        .element_blocks
+        .iter_mut()
+        .find(|b| b.element_type == etype::TRI3)
+        .unwrap();
+    tris.tags.push(tag);
+    tris.nodes.extend([a, b, top]);
+    let e = recombine(&mut m, &RecombineOptions::default()).expect_err("refused");
+    let msg = e.to_string();
+    assert!(msg.contains("shared by 3 triangles"), "{msg}");
+    assert_eq!(edge(&msg, "its edge "), (a, b), "{msg}");
+    assert!(!msg.contains("folded"), "{msg}");
+}

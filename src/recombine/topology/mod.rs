@@ -165,13 +165,12 @@ impl SurfaceTopo {
     /// - an edge shared by three or more triangles (non-manifold: a parity split of it
     ///   gives edges that no conforming recombination has);
     /// - two triangles running their common edge in the same direction (inconsistent
-    ///   orientation: a flipped or overlapping triangle);
-    /// - a fold: two consistently oriented triangles sharing an edge whose unit normals
-    ///   have a dot product below [`FOLDED`] (one is flipped over the other).
+    ///   orientation: a flipped or overlapping triangle).
     ///
     /// When a surface has several, the one on the edge with the smallest node tags is
     /// reported, naming its triangles as if the half-edges were sorted by (edge tags, first
-    /// node tag, file order).
+    /// node tag, file order); a fold is not among them, even on a smaller edge (it is not
+    /// the reason of the refusal).
     ///
     /// A fold (two consistently oriented triangles sharing an edge whose unit normals have
     /// a dot product below [`FOLDED`]: Gmsh's mesh of a thin cylinder meshed coarser than
@@ -268,15 +267,12 @@ impl SurfaceTopo {
             walled.extend(w);
         }
         let tag = |t: usize| elem_tags.get(t).copied().unwrap_or(0);
-        let fold = first_fold(&tris, normals, &nbr, &walled, nodes);
-        if let Some(structural) = refused {
-            // refused whole: the problem on the smallest edge, the fold included
-            let (key, problem) = match fold {
-                Some(f) if f.0 < structural.0 => f,
-                _ => structural,
-            };
+        if let Some((key, problem)) = refused {
+            // refused whole, naming the problem on the smallest such edge: a fold alone is
+            // walled off, not refused, so a fold elsewhere is not the reason
             return Err(edge_refusal(surface, key, problem, tag));
         }
+        let fold = first_fold(&tris, normals, &nbr, &walled, nodes);
         // folds are walled off: no pair across them (a fold across a curve is a wall
         // already); the first one is kept to be reported if the result is not valid
         let mut nbr = nbr;
