@@ -67,11 +67,13 @@
 //!    the face beyond the curve; with its own worst-quad tries, the better of the two
 //!    results is kept, by the same order (where neither is valid, the refusal is the first
 //!    job's).
-//! 5. **The worst quad.** A valid optimized result gets up to three more tries: where the
-//!    fallback priced quads out, the fallback with splits only; quads under η
-//!    [`ETA_FLOOR`] priced out; one ring around those still under it split. Each is kept
-//!    only when it raises the worst quad without breaking the element-count rule. (A mesh
-//!    of more than [`TRIES_UP_TO`] elements gets them only after a fallback.)
+//! 5. **The worst quad.** A valid optimized result gets more tries: where the fallback
+//!    priced quads out, the fallback with splits only; quads under η [`ETA_FLOOR`] priced
+//!    out; then up to [`SPLIT_TRIES`] times, the input triangles around those still under
+//!    it split (one ring, or two where the first is split already), each split try after
+//!    the first only when the one before was kept. Each is kept only when it raises the
+//!    worst quad without breaking the element-count rule. (A mesh of more than
+//!    [`TRIES_UP_TO`] elements gets them only after a fallback.)
 //!
 //! Quads still bad after the fallback are refused (or listed with
 //! [`Options::allow_invalid`]). A run whose quads are all valid the first time, with no
@@ -108,7 +110,7 @@ use fallback::{
     surface_elements, FallbackStart, JobNotes, LocalFallback, Next, COUNT_RULE_FROM,
     MAX_QUADS_PER_TRIANGLE,
 };
-pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS};
+pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_TRIES};
 #[cfg(feature = "testing")]
 pub use fallback::SPLIT_RINGS;
 

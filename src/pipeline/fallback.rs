@@ -11,8 +11,12 @@ use crate::recombine;
 use crate::validity::BadQuad;
 
 /// Quads whose η (eq. 3) is below this are repaired after the fallback when that raises the
-/// worst quad (up to three more jobs after the fallback, see the module doc).
+/// worst quad (up to 2 + [`SPLIT_TRIES`] more jobs after the fallback, see the module doc).
 pub const ETA_FLOOR: f64 = 0.2;
+
+/// Tries at most that split the input triangles around the quads under [`ETA_FLOOR`] after
+/// the fallback, each after the one before it raised the worst quad.
+pub const SPLIT_TRIES: usize = 3;
 
 /// Fallback rounds that price out new bad quads at most (see the module doc).
 pub const PRICING_ROUNDS: usize = 2;

@@ -422,7 +422,9 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 ///    into quads around a bad quad may give better quads than the matching's way around
 ///    it);
 /// 2. quads with η below [`ETA_FLOOR`] priced out;
-/// 3. one ring of input triangles around the quads still below [`ETA_FLOOR`] split.
+/// 3. up to [`SPLIT_TRIES`] times, the input triangles around the quads still below
+///    [`ETA_FLOOR`] split: one ring, or two where the first is all split already; a split
+///    try after the first runs only when the one before it was kept.
 pub(super) fn raise_worst_quad(
     input: &Mesh,
     opts: &Options,
@@ -444,7 +446,9 @@ pub(super) fn raise_worst_quad(
     };
     let (mut low, mut worst) = low_quads(&best.0, &skip);
     let triangles = surface_elements(input, etype::TRI3);
-    for step in 0..3 {
+    // whether the last split try was kept
+    let mut split_kept = false;
+    for step in 0..2 + SPLIT_TRIES {
         let mut start = best.2.clone();
         let what = match step {
             0 => {
@@ -469,15 +473,23 @@ pub(super) fn raise_worst_quad(
                 format!("{n} quad(s) under eta {ETA_FLOOR} priced out")
             }
             _ => {
-                let more = fallback_triangles(input, &best.0, &low, &start.chosen, 1, false);
-                if low.is_empty() || more.is_empty() {
-                    continue;
+                if low.is_empty() || (step > 2 && !split_kept) {
+                    break;
+                }
+                let around = |ring| fallback_triangles(input, &best.0, &low, &start.chosen, ring, false);
+                let (mut ring, mut more) = (1, around(1));
+                if more.is_empty() {
+                    (ring, more) = (2, around(2));
+                }
+                if more.is_empty() {
+                    break;
                 }
                 let n = more.len();
                 start.chosen.extend(more);
-                format!("{n} triangle(s) around quads under eta {ETA_FLOOR} split")
+                format!("{n} triangle(s) in {ring} ring(s) around quads under eta {ETA_FLOOR} split")
             }
         };
+        split_kept = false;
         let Ok(candidate) = run_rounds(input, opts, start, cache, &mut JobNotes::default()) else {
             continue;
         };
@@ -504,6 +516,7 @@ pub(super) fn raise_worst_quad(
             kept.1.times = add_times(&best.1.times, &kept.1.times);
             best = kept;
             (low, worst) = low_quads(&best.0, &skip);
+            split_kept = step >= 2;
         } else {
             best.1.times = add_times(&best.1.times, &candidate.1.times);
         }
