@@ -69,9 +69,11 @@
 //!    job's).
 //! 5. **The worst quad.** A valid optimized result gets more tries: where the fallback
 //!    priced quads out, the fallback with splits only; quads under η [`ETA_FLOOR`] priced
-//!    out; then up to [`SPLIT_TRIES`] times, the input triangles around those still under
-//!    it split (one ring, or two where the first is split already), each split try after
-//!    the first only when the one before was kept. Each is kept only when it raises the
+//!    out; up to [`SPLIT_TRIES`] times, the input triangles around those still under it
+//!    split (one ring, or two where the first is split already), each ring try after the
+//!    first only when the one before was kept; last, where a ring try raised the worst quad
+//!    but broke the element-count rule, only the input triangles inside those still under it
+//!    split (a parity split's node standing for its segment's ends). Each is kept only when it raises the
 //!    worst quad without breaking the element-count rule. (A mesh of more than
 //!    [`TRIES_UP_TO`] elements gets them only after a fallback.)
 //!
@@ -107,8 +109,8 @@ use rounds::*;
 
 use fallback::{
     count_rule_limit, fallback_triangles, low_quads, pairs_of, quads_per_triangle,
-    surface_elements, FallbackStart, JobNotes, LocalFallback, Next, COUNT_RULE_FROM,
-    MAX_QUADS_PER_TRIANGLE,
+    surface_elements, triangles_inside, FallbackStart, JobNotes, LocalFallback, Next,
+    COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE,
 };
 pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_TRIES};
 #[cfg(feature = "testing")]

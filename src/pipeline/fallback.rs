@@ -11,7 +11,7 @@ use crate::recombine;
 use crate::validity::BadQuad;
 
 /// Quads whose η (eq. 3) is below this are repaired after the fallback when that raises the
-/// worst quad (up to 2 + [`SPLIT_TRIES`] more jobs after the fallback, see the module doc).
+/// worst quad (up to 3 + [`SPLIT_TRIES`] more jobs after the fallback, see the module doc).
 pub const ETA_FLOOR: f64 = 0.2;
 
 /// Tries at most that split the input triangles around the quads under [`ETA_FLOOR`] after
@@ -541,6 +541,48 @@ pub(super) fn fan_segments(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -
     out
 }
 
+/// The input triangles of `input` that lie inside the quads `spots` (surface, node tags),
+/// without those already `chosen`: on a quad's surface, those whose three nodes are among
+/// the quad's, the node of a parity split (`splits`) standing for both ends of its segment
+/// (so the triangle it halved counts, as well as a pair's two triangles). Splitting these
+/// alone, rather than the ring around the quad, leaves the faces beyond the quad's curves
+/// as they are where the quad is on a wall.
+pub(super) fn triangles_inside(
+    input: &Mesh,
+    spots: &[(i32, [u64; 4])],
+    splits: &[recombine::ParitySplit],
+    chosen: &HashSet<u64>,
+) -> HashSet<u64> {
+    let surfaces: HashSet<i32> = spots.iter().map(|s| s.0).collect();
+    let triangles = SurfaceTriangles::of(input, &surfaces);
+    let ends: std::collections::HashMap<u64, (u64, u64)> =
+        splits.iter().map(|s| (s.new_node, s.segment)).collect();
+    let mut out = HashSet::new();
+    for &(surface, quad) in spots {
+        let mut nodes: Vec<u64> = Vec::with_capacity(8);
+        for n in quad {
+            match ends.get(&n) {
+                Some(&(a, b)) => nodes.extend([a, b]),
+                None => nodes.push(n),
+            }
+        }
+        nodes.sort_unstable();
+        nodes.dedup();
+        for i in 0..nodes.len() {
+            for j in i + 1..nodes.len() {
+                for k in j + 1..nodes.len() {
+                    if let Some(t) = triangles.tag(surface, [nodes[i], nodes[j], nodes[k]]) {
+                        if !chosen.contains(&t) {
+                            out.insert(t);
+                        }
+                    }
+                }
+            }
+        }
+    }
+    out
+}
+
 /// The input triangles to split after a round with bad quads `spots` (surface, node tags;
 /// `mesh` the round's result): on each bad quad's surface, the triangles holding one of
 /// its nodes (or, for a quad none of whose nodes an input triangle holds, the input
@@ -747,6 +789,36 @@ mod tests {
         // per triangle (4.5 here), and a split triangle adds 2.5
         assert!(!breaks_count_rule(&m, &m, 1));
         assert!(breaks_count_rule(&m, &m, 2));
+    }
+
+    #[test]
+    fn the_triangles_inside_a_quad_count_the_one_a_parity_split_halved() {
+        let m = strip();
+        let none = HashSet::new();
+        // a pair's two triangles
+        let pair = [(1, [5, 6, 7, 2])];
+        assert_eq!(triangles_inside(&m, &pair, &[], &none), HashSet::from([3, 4]));
+        // segment 2-3 split at node 9: the quad 9-3-8-7 is the half (9, 3, 7) of triangle 5
+        // (2, 3, 7) and triangle 6 (3, 8, 7); the split's node stands for 2 and 3
+        let split = recombine::ParitySplit {
+            curve: None,
+            surfaces: vec![1],
+            segment: (2, 3),
+            new_node: 9,
+        };
+        let half = [(1, [9, 3, 8, 7])];
+        assert_eq!(
+            triangles_inside(&m, &half, std::slice::from_ref(&split), &none),
+            HashSet::from([5, 6])
+        );
+        // without the split known, only the whole triangle
+        assert_eq!(triangles_inside(&m, &half, &[], &none), HashSet::from([6]));
+        // nor those chosen already, nor a triangle of another surface
+        assert_eq!(
+            triangles_inside(&m, &half, &[split], &HashSet::from([6])),
+            HashSet::from([5])
+        );
+        assert!(triangles_inside(&m, &[(2, [5, 6, 7, 2])], &[], &none).is_empty());
     }
 
     /// The strip as surface 1 and its mirror image above the top curve (nodes 4-8) as

@@ -423,8 +423,13 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 ///    it);
 /// 2. quads with η below [`ETA_FLOOR`] priced out;
 /// 3. up to [`SPLIT_TRIES`] times, the input triangles around the quads still below
-///    [`ETA_FLOOR`] split: one ring, or two where the first is all split already; a split
-///    try after the first runs only when the one before it was kept.
+///    [`ETA_FLOOR`] split: one ring, or two where the first is all split already; a ring
+///    try after the first runs only when the one before it was kept;
+/// 4. where a ring try raised the worst quad but broke the element-count rule, the input
+///    triangles inside the quads still below [`ETA_FLOOR`] split ([`triangles_inside`]: a
+///    parity split's node stands for its segment's ends, so the triangle it halved
+///    counts), fewer new quads than a ring. It comes last: a result it raises just above
+///    the floor would end the ring tries, which may raise the worst quad further.
 pub(super) fn raise_worst_quad(
     input: &Mesh,
     opts: &Options,
@@ -446,9 +451,11 @@ pub(super) fn raise_worst_quad(
     };
     let (mut low, mut worst) = low_quads(&best.0, &skip);
     let triangles = surface_elements(input, etype::TRI3);
-    // whether the last split try was kept
+    // whether the last ring try was kept, and whether one raised the worst quad but broke
+    // the element-count rule
     let mut split_kept = false;
-    for step in 0..2 + SPLIT_TRIES {
+    let mut ring_over_count = false;
+    for step in 0..3 + SPLIT_TRIES {
         let mut start = best.2.clone();
         let what = match step {
             0 => {
@@ -472,9 +479,24 @@ pub(super) fn raise_worst_quad(
                 start.priced.extend(new);
                 format!("{n} quad(s) under eta {ETA_FLOOR} priced out")
             }
+            // the last try: the triangles inside the quads still low
+            _ if step == 2 + SPLIT_TRIES => {
+                if !ring_over_count {
+                    continue;
+                }
+                let splits = &best.1.recombine.parity_splits;
+                let more = triangles_inside(input, &low, splits, &start.chosen);
+                if more.is_empty() {
+                    continue;
+                }
+                let n = more.len();
+                start.chosen.extend(more);
+                format!("{n} triangle(s) inside quads under eta {ETA_FLOOR} split")
+            }
             _ => {
+                // a ring try after the first only when the one before it was kept
                 if low.is_empty() || (step > 2 && !split_kept) {
-                    break;
+                    continue;
                 }
                 let around = |ring| fallback_triangles(input, &best.0, &low, &start.chosen, ring, false);
                 let (mut ring, mut more) = (1, around(1));
@@ -482,7 +504,7 @@ pub(super) fn raise_worst_quad(
                     (ring, more) = (2, around(2));
                 }
                 if more.is_empty() {
-                    break;
+                    continue;
                 }
                 let n = more.len();
                 start.chosen.extend(more);
@@ -505,7 +527,10 @@ pub(super) fn raise_worst_quad(
         } else {
             MAX_QUADS_PER_TRIANGLE
         };
-        if new_worst > worst + 1e-3 && quads_per_triangle(input, &candidate.0) <= limit {
+        let raised = new_worst > worst + 1e-3;
+        let within = quads_per_triangle(input, &candidate.0) <= limit;
+        ring_over_count |= raised && !within && (2..2 + SPLIT_TRIES).contains(&step);
+        if raised && within {
             let mut kept = candidate;
             kept.1.log.splice(
                 0..0,
@@ -516,7 +541,7 @@ pub(super) fn raise_worst_quad(
             kept.1.times = add_times(&best.1.times, &kept.1.times);
             best = kept;
             (low, worst) = low_quads(&best.0, &skip);
-            split_kept = step >= 2;
+            split_kept = (2..2 + SPLIT_TRIES).contains(&step);
         } else {
             best.1.times = add_times(&best.1.times, &candidate.1.times);
         }

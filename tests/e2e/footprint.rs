@@ -35,10 +35,6 @@ const ETA_GOAL: f64 = 0.2;
 /// it; a model missing them that is not listed fails the test.
 const EXCEEDING: &[(&str, &str)] = &[
     (
-        "pipe_coarse",
-        "712 triangles, 0.50 quads/triangle, eta_w 0.159, bound 1.00",
-    ),
-    (
         "second_order_plate",
         "445 triangles, 0.48 quads/triangle, eta_w 0.097, bound 0.26",
     ),
