@@ -71,7 +71,9 @@
 //!    fallback priced quads out, the fallback with splits only; quads under η
 //!    [`ETA_FLOOR`] priced out; one ring around those still under it split. Each is kept
 //!    only when it raises the worst quad without breaking the element-count rule. (A mesh
-//!    of more than [`TRIES_UP_TO`] elements gets them only after a fallback.)
+//!    of more than [`TRIES_UP_TO`] elements gets them only after a fallback.) A result
+//!    whose worst quad is at the input's wall-corner bound (an acute corner of a planar
+//!    surface, which bounds the worst quad of every result) gets no more tries.
 //!
 //! Quads still bad after the fallback are refused (or listed with
 //! [`Options::allow_invalid`]). A run whose quads are all valid the first time, with no
@@ -104,9 +106,9 @@ use reporter::Reporter;
 use rounds::*;
 
 use fallback::{
-    count_rule_limit, fallback_triangles, low_quads, pairs_of, quads_per_triangle,
-    surface_elements, FallbackStart, JobNotes, LocalFallback, Next, COUNT_RULE_FROM,
-    MAX_QUADS_PER_TRIANGLE,
+    count_rule_limit, fallback_triangles, low_quads, pairs_of, quads_per_triangle, raisable,
+    surface_elements, wall_corner_bound, FallbackStart, JobNotes, LocalFallback, Next,
+    COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE, RAISE_MIN,
 };
 pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS};
 #[cfg(feature = "testing")]

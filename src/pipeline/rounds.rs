@@ -423,6 +423,9 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 ///    it);
 /// 2. quads with η below [`ETA_FLOOR`] priced out;
 /// 3. one ring of input triangles around the quads still below [`ETA_FLOOR`] split.
+///
+/// No try runs once the worst quad is within [`RAISE_MIN`] of the input's wall-corner
+/// bound ([`wall_corner_bound`]): no result could be kept.
 pub(super) fn raise_worst_quad(
     input: &Mesh,
     opts: &Options,
@@ -444,6 +447,10 @@ pub(super) fn raise_worst_quad(
     };
     let (mut low, mut worst) = low_quads(&best.0, &skip);
     let triangles = surface_elements(input, etype::TRI3);
+    // speed: an acute corner of a planar surface may bound the worst quad of every result
+    // (measured once, when a try would run): the tries cannot raise it past that bound
+    // (refinement moves the new curve nodes off the walls' lines)
+    let mut bound: Option<f64> = None;
     for step in 0..3 {
         let mut start = best.2.clone();
         let what = match step {
@@ -478,6 +485,16 @@ pub(super) fn raise_worst_quad(
                 format!("{n} triangle(s) around quads under eta {ETA_FLOOR} split")
             }
         };
+        let b = *bound.get_or_insert_with(|| match opts.refine {
+            0 => wall_corner_bound(input),
+            _ => 1.0,
+        });
+        if !raisable(worst, b) {
+            best.1.log.push(format!(
+                "worst quad: eta_w {worst:.3} is at the input's wall-corner bound {b:.3}: no try can raise it"
+            ));
+            break;
+        }
         let Ok(candidate) = run_rounds(input, opts, start, cache, &mut JobNotes::default()) else {
             continue;
         };
@@ -493,7 +510,7 @@ pub(super) fn raise_worst_quad(
         } else {
             MAX_QUADS_PER_TRIANGLE
         };
-        if new_worst > worst + 1e-3 && quads_per_triangle(input, &candidate.0) <= limit {
+        if new_worst > worst + RAISE_MIN && quads_per_triangle(input, &candidate.0) <= limit {
             let mut kept = candidate;
             kept.1.log.splice(
                 0..0,
