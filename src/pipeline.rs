@@ -273,7 +273,7 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         Some((m, lines)) => (m, lines.clone()),
         None => (&input, Vec::new()),
     };
-    let mut cache = SurfaceCache::default();
+    let mut cache = Shared::default();
     // the rings counted per surface first; where that made a difference, the rings
     // counted over the job too, and the better of the two
     let (local, diverged) = run_job(base, opts, FallbackStart::default(), &mut cache);
@@ -346,11 +346,11 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
 /// failed runs again without them (on strips that share curves, a segment split moves one
 /// strip's imbalance to the next). Returns the result and whether per-surface rings made a
 /// difference in either run ([`FallbackStart::global_rings`]).
-fn run_job(
-    base: &Mesh,
+fn run_job<'a>(
+    base: &'a Mesh,
     opts: &Options,
     start: FallbackStart,
-    cache: &mut SurfaceCache,
+    cache: &mut Shared<'a>,
 ) -> (Result<(Mesh, Report, FallbackStart), Error>, bool) {
     let mut notes = JobNotes::default();
     let again = FallbackStart {
@@ -446,6 +446,16 @@ fn progress(opts: &Options, stage: Stage, done: usize, total: usize) {
     if let Some(p) = &opts.progress {
         p.report(Progress::new(stage, done as u64, total as u64));
     }
+}
+
+/// What the jobs of one run share: the surfaces they optimized ([`crate::reuse`]) and the
+/// input side of the final checks, prepared once (both depend on the input alone).
+#[derive(Default)]
+struct Shared<'a> {
+    surfaces: SurfaceCache,
+    /// Prepared during the first round's optimization (or its matching, without the
+    /// optimizer).
+    checks: Option<Checks<'a>>,
 }
 
 /// The input side of the final checks: the validity reference, and the invariants'

@@ -14,11 +14,11 @@ pub(super) fn moved_any(input: &Mesh, output: &Mesh, tags: &[u64]) -> bool {
 
 /// The rounds of one job on `input` (see the module doc), starting from `start`'s priced-out
 /// quads and split triangles; returns the result with the fallback's state at its end.
-pub(super) fn run_rounds(
-    input: &Mesh,
+pub(super) fn run_rounds<'a>(
+    input: &'a Mesh,
     opts: &Options,
     start: FallbackStart,
-    cache: &mut SurfaceCache,
+    cache: &mut Shared<'a>,
     notes: &mut JobNotes,
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut times = Times::default();
@@ -50,8 +50,6 @@ pub(super) fn run_rounds(
     // without optimization: surfaces optimized all the same because their matching left
     // quads that are not valid (vertex duplications fold quads until smoothed)
     let mut force: HashSet<i32> = HashSet::new();
-    // the input side of the checks, prepared once (during the first round's matching)
-    let mut checks: Option<Checks> = None;
     // without optimization: the last round's mesh before optimization, when the next round
     // only optimizes more surfaces of the same recombination
     let mut carried: Option<Recombined> = None;
@@ -98,7 +96,7 @@ pub(super) fn run_rounds(
                     &local.avoid,
                     local.flat_halves_out,
                     optimizing,
-                    &mut checks,
+                    &mut cache.checks,
                     &mut times,
                 )?
             }
@@ -117,13 +115,13 @@ pub(super) fn run_rounds(
         // speed: the surfaces an earlier job optimized from the same recombination get
         // that job's result back instead of being optimized again (exact: `crate::reuse`)
         let fingerprints = (opts.optimize
-            && (round > 0 || !cache.is_empty() || mesh.element_count() <= REUSE_UP_TO))
+            && (round > 0 || !cache.surfaces.is_empty() || mesh.element_count() <= REUSE_UP_TO))
             .then(|| {
                 Fingerprints::of(&mesh, input_tags.0, input_tags.1)
                     .with_variant(1, |s| local.located.binary_search(&s).is_ok())
             });
         let reused = match &fingerprints {
-            Some(fp) => cache.put_back(&mut mesh, fp),
+            Some(fp) => cache.surfaces.put_back(&mut mesh, fp),
             None => Vec::new(),
         };
         let mut run = recombine_report.clone();
@@ -142,7 +140,7 @@ pub(super) fn run_rounds(
             &reused,
             &local.located,
             prepared,
-            &mut checks,
+            &mut cache.checks,
             &mut times,
             &mut run,
         )?;
@@ -150,8 +148,10 @@ pub(super) fn run_rounds(
         release_memory();
         let t = Instant::now();
         progress(opts, Stage::Check, 0, 1);
-        // the input side of the checks, when the first round's matching did not prepare it
-        let checks = checks.get_or_insert_with(|| Checks::new(input, opts.refine == 0));
+        // the input side of the checks, when no round before prepared it
+        let checks = cache
+            .checks
+            .get_or_insert_with(|| Checks::new(input, opts.refine == 0));
         // after a refinement the refined mesh is the baseline of the invariants
         let refined_before = refined.as_ref().map(recombine::Before::new);
         let before = refined_before.as_ref().or(checks.invariants.as_ref());
@@ -228,7 +228,7 @@ pub(super) fn run_rounds(
         progress(opts, Stage::Check, 1, 1);
         times.check += t.elapsed();
         if let Some(fp) = &fingerprints {
-            cache.record(&mesh, fp);
+            cache.surfaces.record(&mesh, fp);
         }
         let mut report = run;
         // the folds walled off in any round (a fallback split can take a fold's triangles
@@ -426,11 +426,11 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 ///
 /// No try runs once the worst quad is within [`RAISE_MIN`] of the input's wall-corner
 /// bound ([`wall_corner_bound`]): no result could be kept.
-pub(super) fn raise_worst_quad(
-    input: &Mesh,
+pub(super) fn raise_worst_quad<'a>(
+    input: &'a Mesh,
     opts: &Options,
     first: (Mesh, Report, FallbackStart),
-    cache: &mut SurfaceCache,
+    cache: &mut Shared<'a>,
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut best = first;
     // without optimization the quads are the matching's as they are (low by design); a
