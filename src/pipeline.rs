@@ -456,6 +456,31 @@ struct Shared<'a> {
     /// Prepared during the first round's optimization (or its matching, without the
     /// optimizer).
     checks: Option<Checks<'a>>,
+    /// The first round of a job from the input alone (nothing priced, avoided, split or
+    /// located), once one ended with quads that are not valid: every such round of the run
+    /// has this outcome.
+    first_round: Option<Outcome>,
+}
+
+/// A round's outcome, as the rest of its job reads it.
+#[derive(Clone)]
+struct Outcome {
+    /// The checked mesh (a surface the optimizer left invalid given its quads from before
+    /// optimization back, when that is valid).
+    mesh: Mesh,
+    /// The round's recombination, refinement and optimization reports.
+    report: Report,
+    /// The quads of `mesh` that are not valid.
+    bad: Vec<BadQuad>,
+    /// Surfaces where the optimizer left a quad bad at a new node it moved, or turned one
+    /// bad, and does not hold their corners yet.
+    turned_bad: Vec<i32>,
+    /// The recombination and refinement reports alone.
+    recombined: Report,
+    /// After a refinement, the refined mesh.
+    refined: Option<Mesh>,
+    /// After a first invalid round, the mesh before optimization.
+    unoptimized: Option<Mesh>,
 }
 
 /// The input side of the final checks: the validity reference, and the invariants'
@@ -940,6 +965,35 @@ mod tests {
         let elems: Vec<&[u64]> = quads.iter().map(|q| &q[..]).collect();
         let out = one_surface(vec![node_block(2, (1..=9).collect(), all)], etype::QUAD4, &elems);
         (input, out)
+    }
+
+    #[test]
+    fn a_first_round_replayed_gives_the_job_that_runs_it_again() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/cad/v41_cylinders_coarse.msh");
+        let input = crate::msh::read_file(&path).expect("a mesh of the repository");
+        let opts = Options::default();
+        let mut notes = JobNotes::default();
+        // a job whose first round has quads that are not valid keeps that round
+        let mut shared = Shared::default();
+        let first = run_rounds(&input, &opts, FallbackStart::default(), &mut shared, &mut notes)
+            .expect("a valid result");
+        assert!(first.1.rounds > 1, "{} round(s)", first.1.rounds);
+        assert!(shared.first_round.is_some());
+        // the fallback with splits only starts from the same first round: replayed, and
+        // run again in a run of its own, the same result
+        let start = FallbackStart {
+            splits_only: true,
+            ..FallbackStart::default()
+        };
+        let replayed = run_rounds(&input, &opts, start.clone(), &mut shared, &mut notes)
+            .expect("a valid result");
+        let mut alone = Shared::default();
+        let again =
+            run_rounds(&input, &opts, start, &mut alone, &mut notes).expect("a valid result");
+        assert_eq!(replayed.0, again.0);
+        assert_eq!(replayed.1.rounds, again.1.rounds);
+        assert_eq!(replayed.2.chosen, again.2.chosen);
     }
 
     #[test]

@@ -23,6 +23,15 @@ pub(super) fn run_rounds<'a>(
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut times = Times::default();
     let mut log = Vec::new();
+    // the first round of a job from nothing priced, avoided, split or located is the same
+    // in every job of the run (the start's other settings decide only the rounds after it)
+    let from_nothing = start.priced.is_empty()
+        && start.avoid.is_empty()
+        && !start.flat_halves_out
+        && start.segments.is_empty()
+        && start.located.is_empty()
+        && start.chosen.is_empty()
+        && start.pairs.is_empty();
     let mut chosen: HashSet<u64> = start.chosen;
     let splits_only = start.splits_only;
     let mut local = LocalFallback {
@@ -44,8 +53,6 @@ pub(super) fn run_rounds<'a>(
         ..Default::default()
     };
     let mut fallback = None;
-    // the input's largest tags: a job's own nodes and elements are above them
-    let input_tags = (input.max_node_tag(), input.max_element_tag());
     let mut folds: Vec<recombine::WalledFold> = Vec::new();
     // without optimization: surfaces optimized all the same because their matching left
     // quads that are not valid (vertex duplications fold quads until smoothed)
@@ -55,181 +62,40 @@ pub(super) fn run_rounds<'a>(
     let mut carried: Option<Recombined> = None;
     for round in 0..=FALLBACK_ROUNDS {
         let optimizing = opts.optimize || !force.is_empty();
-        let recombined = match carried.take() {
-            Some(c) => c,
-            None => {
-                let mut mesh = input.clone();
-                if !chosen.is_empty() || !local.segments.is_empty() || !local.pairs.is_empty() {
-                    let t = Instant::now();
-                    let pairs: Vec<recombine::FlatPair> = local.pairs.iter().map(|p| p.1).collect();
-                    let split =
-                        recombine::split_triangles(&mut mesh, &chosen, &pairs, &local.segments);
-                    let mut line = format!("fallback round {round}: ");
-                    if split.segments_split > 0 {
-                        line += &format!(
-                            "{} boundary segment(s) under fans split at their midpoints, ",
-                            split.segments_split
-                        );
-                    }
-                    if split.pairs_split > 0 {
-                        line += &format!(
-                            "{} flat pair(s) of triangles split into three quads each, ",
-                            split.pairs_split
-                        );
-                    }
-                    line += &format!(
-                        "{} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
-                        split.triangles_to_quads,
-                        sorted_list(&split.surfaces),
-                        split.triangles_halved,
-                        split.lines_split
-                    );
-                    log.push(line);
-                    fallback = Some(split);
-                    times.recombine += t.elapsed();
-                }
-                recombine_once(
-                    input,
-                    mesh,
-                    opts,
-                    &local.priced.iter().map(|p| p.1).collect::<Vec<_>>(),
-                    &local.avoid,
-                    local.flat_halves_out,
-                    optimizing,
-                    &mut cache.checks,
-                    &mut times,
-                )?
-            }
+        // speed: a first round from nothing is the one an earlier job of the run had
+        let replay = (round == 0 && from_nothing)
+            .then(|| cache.first_round.clone())
+            .flatten();
+        let outcome = match replay {
+            Some(o) => o,
+            None => one_round(
+                input,
+                opts,
+                round,
+                optimizing,
+                &chosen,
+                &local,
+                &force,
+                &mut carried,
+                &mut fallback,
+                &mut log,
+                &mut times,
+                cache,
+            )?,
         };
-        let Recombined {
-            mut mesh,
-            report: recombine_report,
+        // a first round that needs the fallback may come again in the run's other jobs
+        if round == 0 && from_nothing && !outcome.bad.is_empty() && cache.first_round.is_none() {
+            cache.first_round = Some(outcome.clone());
+        }
+        let Outcome {
+            mesh,
+            report: run,
+            bad,
+            turned_bad,
+            recombined: recombine_report,
             refined,
-            prepared,
-        } = recombined;
-        // after a first invalid run, keep the mesh before optimization: a surface the
-        // optimizer leaves invalid gets it back (and without optimization, the next round
-        // may start from it)
-        let keep = round > 0 && optimizing;
-        let unoptimized = keep.then(|| mesh.clone());
-        // speed: the surfaces an earlier job optimized from the same recombination get
-        // that job's result back instead of being optimized again (exact: `crate::reuse`)
-        let fingerprints = (opts.optimize
-            && (round > 0 || !cache.surfaces.is_empty() || mesh.element_count() <= REUSE_UP_TO))
-            .then(|| {
-                Fingerprints::of(&mesh, input_tags.0, input_tags.1)
-                    .with_variant(1, |s| local.located.binary_search(&s).is_ok())
-            });
-        let reused = match &fingerprints {
-            Some(fp) => cache.surfaces.put_back(&mut mesh, fp),
-            None => Vec::new(),
-        };
-        let mut run = recombine_report.clone();
-        if !reused.is_empty() {
-            run.log.push(format!(
-                "{} surface(s) optimized as in an earlier round: {}",
-                reused.len(),
-                sorted_list(&reused)
-            ));
-        }
-        optimize_once(
-            input,
-            &mut mesh,
-            opts,
-            &force,
-            &reused,
-            &local.located,
-            prepared,
-            &mut cache.checks,
-            &mut times,
-            &mut run,
-        )?;
-        // memory: the optimizer's arrays are freed; the checks allocate next
-        release_memory();
-        let t = Instant::now();
-        progress(opts, Stage::Check, 0, 1);
-        // the input side of the checks, when no round before prepared it
-        let checks = cache
-            .checks
-            .get_or_insert_with(|| Checks::new(input, opts.refine == 0));
-        // after a refinement the refined mesh is the baseline of the invariants
-        let refined_before = refined.as_ref().map(recombine::Before::new);
-        let before = refined_before.as_ref().or(checks.invariants.as_ref());
-        let invariants_of = |m: &Mesh, coords: &TagCoords| match before {
-            Some(b) => b.check_at(m, coords),
-            None => recombine::check_invariants(input, m),
-        };
-        // memory: one table of the output's coordinates for both checks
-        let coords = TagCoords::new(&mesh);
-        // speed: the two checks are independent, so they run side by side (an invariant
-        // failure still comes first)
-        let (invariants, mut bad) = rayon::join(
-            || invariants_of(&mesh, &coords),
-            || checks.validity.invalid_quads_at(&mesh, &coords),
-        );
-        drop(coords);
-        invariants.map_err(|violation| Error::Invariant {
-            stage: if opts.optimize {
-                "optimization"
-            } else {
-                "recombination"
-            },
-            violation,
-        })?;
-        // quads the optimizer left bad at a new node it moved, or turned bad (not bad before
-        // it), on surfaces where it does not hold them yet: from the next round on it holds
-        // the corners at the job's new nodes there to the faces the gate measures them about
-        let mut turned_bad: Vec<i32> = Vec::new();
-        if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
-            // speed: only the surfaces with bad quads are checked again (the others are
-            // valid)
-            let mut bad_surfaces: Vec<i32> = bad.iter().map(|b| b.surface).collect();
-            bad_surfaces.sort_unstable();
-            bad_surfaces.dedup();
-            let was = TagCoords::new(pre);
-            let before: HashSet<[u64; 4]> = checks
-                .validity
-                .invalid_quads_on(pre, &was, Some(&bad_surfaces))
-                .into_iter()
-                .map(|b| sorted4(b.nodes))
-                .collect();
-            let is = TagCoords::new(&mesh);
-            turned_bad = bad
-                .iter()
-                .filter(|b| local.located.binary_search(&b.surface).is_err())
-                .filter(|b| {
-                    let n = b.node();
-                    (n > input_tags.0 && was.get(n) != is.get(n))
-                        || (b.nodes.iter().any(|&n| n > input_tags.0)
-                            && !before.contains(&sorted4(b.nodes)))
-                })
-                .map(|b| b.surface)
-                .collect();
-            drop((was, is));
-            // the surfaces with bad quads as they were before optimization, when that is
-            // valid
-            let surfaces: HashSet<i32> = bad_surfaces.iter().copied().collect();
-            let back = revert_surfaces(&mesh, pre, &surfaces);
-            let coords = TagCoords::new(&back);
-            if checks
-                .validity
-                .invalid_quads_on(&back, &coords, Some(&bad_surfaces))
-                .is_empty()
-                && invariants_of(&back, &coords).is_ok()
-            {
-                run.log.push(format!(
-                    "surface(s) {}: optimization undone (it left a quad that is not valid)",
-                    sorted_list(&surfaces)
-                ));
-                mesh = back;
-                bad.clear();
-            }
-        }
-        progress(opts, Stage::Check, 1, 1);
-        times.check += t.elapsed();
-        if let Some(fp) = &fingerprints {
-            cache.surfaces.record(&mesh, fp);
-        }
+            unoptimized,
+        } = outcome;
         let mut report = run;
         // the folds walled off in any round (a fallback split can take a fold's triangles
         // out of later rounds' topology)
@@ -369,6 +235,212 @@ pub(super) fn run_rounds<'a>(
     }
     // every path of the last round returns; this is only a guard
     Err(Error::FallbackExhausted)
+}
+
+/// One round of a job (see [`run_rounds`]): the input with the fallback's splits
+/// recombined (or the `carried` recombination), optimized (the surfaces of an earlier job
+/// put back) and checked, with what a surface the optimizer left invalid gets back.
+#[allow(clippy::too_many_arguments)]
+fn one_round<'a>(
+    input: &'a Mesh,
+    opts: &Options,
+    round: usize,
+    optimizing: bool,
+    chosen: &HashSet<u64>,
+    local: &LocalFallback,
+    force: &HashSet<i32>,
+    carried: &mut Option<Recombined>,
+    fallback: &mut Option<recombine::FallbackSplit>,
+    log: &mut Vec<String>,
+    times: &mut Times,
+    cache: &mut Shared<'a>,
+) -> Result<Outcome, Error> {
+    // the input's largest tags: a job's own nodes and elements are above them
+    let input_tags = (input.max_node_tag(), input.max_element_tag());
+    let recombined = match carried.take() {
+        Some(c) => c,
+        None => {
+            let mut mesh = input.clone();
+            if !chosen.is_empty() || !local.segments.is_empty() || !local.pairs.is_empty() {
+                let t = Instant::now();
+                let pairs: Vec<recombine::FlatPair> = local.pairs.iter().map(|p| p.1).collect();
+                let split =
+                    recombine::split_triangles(&mut mesh, chosen, &pairs, &local.segments);
+                let mut line = format!("fallback round {round}: ");
+                if split.segments_split > 0 {
+                    line += &format!(
+                        "{} boundary segment(s) under fans split at their midpoints, ",
+                        split.segments_split
+                    );
+                }
+                if split.pairs_split > 0 {
+                    line += &format!(
+                        "{} flat pair(s) of triangles split into three quads each, ",
+                        split.pairs_split
+                    );
+                }
+                line += &format!(
+                    "{} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
+                    split.triangles_to_quads,
+                    sorted_list(&split.surfaces),
+                    split.triangles_halved,
+                    split.lines_split
+                );
+                log.push(line);
+                *fallback = Some(split);
+                times.recombine += t.elapsed();
+            }
+            recombine_once(
+                input,
+                mesh,
+                opts,
+                &local.priced.iter().map(|p| p.1).collect::<Vec<_>>(),
+                &local.avoid,
+                local.flat_halves_out,
+                optimizing,
+                &mut cache.checks,
+                times,
+            )?
+        }
+    };
+    let Recombined {
+        mut mesh,
+        report: recombine_report,
+        refined,
+        prepared,
+    } = recombined;
+    // after a first invalid run, keep the mesh before optimization: a surface the
+    // optimizer leaves invalid gets it back (and without optimization, the next round
+    // may start from it)
+    let keep = round > 0 && optimizing;
+    let unoptimized = keep.then(|| mesh.clone());
+    // speed: the surfaces an earlier job optimized from the same recombination get
+    // that job's result back instead of being optimized again (exact: `crate::reuse`)
+    let fingerprints = (opts.optimize
+        && (round > 0 || !cache.surfaces.is_empty() || mesh.element_count() <= REUSE_UP_TO))
+        .then(|| {
+            Fingerprints::of(&mesh, input_tags.0, input_tags.1)
+                .with_variant(1, |s| local.located.binary_search(&s).is_ok())
+        });
+    let reused = match &fingerprints {
+        Some(fp) => cache.surfaces.put_back(&mut mesh, fp),
+        None => Vec::new(),
+    };
+    let mut run = recombine_report.clone();
+    if !reused.is_empty() {
+        run.log.push(format!(
+            "{} surface(s) optimized as in an earlier round: {}",
+            reused.len(),
+            sorted_list(&reused)
+        ));
+    }
+    optimize_once(
+        input,
+        &mut mesh,
+        opts,
+        force,
+        &reused,
+        &local.located,
+        prepared,
+        &mut cache.checks,
+        times,
+        &mut run,
+    )?;
+    // memory: the optimizer's arrays are freed; the checks allocate next
+    release_memory();
+    let t = Instant::now();
+    progress(opts, Stage::Check, 0, 1);
+    // the input side of the checks, when no round before prepared it
+    let checks = cache
+        .checks
+        .get_or_insert_with(|| Checks::new(input, opts.refine == 0));
+    // after a refinement the refined mesh is the baseline of the invariants
+    let refined_before = refined.as_ref().map(recombine::Before::new);
+    let before = refined_before.as_ref().or(checks.invariants.as_ref());
+    let invariants_of = |m: &Mesh, coords: &TagCoords| match before {
+        Some(b) => b.check_at(m, coords),
+        None => recombine::check_invariants(input, m),
+    };
+    // memory: one table of the output's coordinates for both checks
+    let coords = TagCoords::new(&mesh);
+    // speed: the two checks are independent, so they run side by side (an invariant
+    // failure still comes first)
+    let (invariants, mut bad) = rayon::join(
+        || invariants_of(&mesh, &coords),
+        || checks.validity.invalid_quads_at(&mesh, &coords),
+    );
+    drop(coords);
+    invariants.map_err(|violation| Error::Invariant {
+        stage: if opts.optimize {
+            "optimization"
+        } else {
+            "recombination"
+        },
+        violation,
+    })?;
+    // quads the optimizer left bad at a new node it moved, or turned bad (not bad before
+    // it), on surfaces where it does not hold them yet: from the next round on it holds
+    // the corners at the job's new nodes there to the faces the gate measures them about
+    let mut turned_bad: Vec<i32> = Vec::new();
+    if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
+        // speed: only the surfaces with bad quads are checked again (the others are
+        // valid)
+        let mut bad_surfaces: Vec<i32> = bad.iter().map(|b| b.surface).collect();
+        bad_surfaces.sort_unstable();
+        bad_surfaces.dedup();
+        let was = TagCoords::new(pre);
+        let before: HashSet<[u64; 4]> = checks
+            .validity
+            .invalid_quads_on(pre, &was, Some(&bad_surfaces))
+            .into_iter()
+            .map(|b| sorted4(b.nodes))
+            .collect();
+        let is = TagCoords::new(&mesh);
+        turned_bad = bad
+            .iter()
+            .filter(|b| local.located.binary_search(&b.surface).is_err())
+            .filter(|b| {
+                let n = b.node();
+                (n > input_tags.0 && was.get(n) != is.get(n))
+                    || (b.nodes.iter().any(|&n| n > input_tags.0)
+                        && !before.contains(&sorted4(b.nodes)))
+            })
+            .map(|b| b.surface)
+            .collect();
+        drop((was, is));
+        // the surfaces with bad quads as they were before optimization, when that is
+        // valid
+        let surfaces: HashSet<i32> = bad_surfaces.iter().copied().collect();
+        let back = revert_surfaces(&mesh, pre, &surfaces);
+        let coords = TagCoords::new(&back);
+        if checks
+            .validity
+            .invalid_quads_on(&back, &coords, Some(&bad_surfaces))
+            .is_empty()
+            && invariants_of(&back, &coords).is_ok()
+        {
+            run.log.push(format!(
+                "surface(s) {}: optimization undone (it left a quad that is not valid)",
+                sorted_list(&surfaces)
+            ));
+            mesh = back;
+            bad.clear();
+        }
+    }
+    progress(opts, Stage::Check, 1, 1);
+    times.check += t.elapsed();
+    if let Some(fp) = &fingerprints {
+        cache.surfaces.record(&mesh, fp);
+    }
+    Ok(Outcome {
+        mesh,
+        report: run,
+        bad,
+        turned_bad,
+        recombined: recombine_report,
+        refined,
+        unoptimized,
+    })
 }
 
 /// `mesh` with the quads and the surface-classified nodes of `surfaces` taken from `pre`
