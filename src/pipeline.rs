@@ -73,9 +73,11 @@
 //!    split (one ring, or two where the first is split already), each ring try after the
 //!    first only when the one before was kept; last, where a ring try raised the worst quad
 //!    but broke the element-count rule, only the input triangles inside those still under it
-//!    split (a parity split's node standing for its segment's ends). Each is kept only when it raises the
-//!    worst quad without breaking the element-count rule. (A mesh of more than
-//!    [`TRIES_UP_TO`] elements gets them only after a fallback.)
+//!    split (a parity split's node standing for its segment's ends). Each is kept only when
+//!    it raises the worst quad without breaking the element-count rule. (A mesh of more
+//!    than [`TRIES_UP_TO`] elements gets them only after a fallback.) A result whose worst
+//!    quad is at the input's wall-corner bound (an acute corner of a planar surface, which
+//!    bounds the worst quad of every result) gets no more tries.
 //!
 //! Quads still bad after the fallback are refused (or listed with
 //! [`Options::allow_invalid`]). A run whose quads are all valid the first time, with no
@@ -108,9 +110,9 @@ use reporter::Reporter;
 use rounds::*;
 
 use fallback::{
-    count_rule_limit, fallback_triangles, low_quads, pairs_of, quads_per_triangle,
-    surface_elements, triangles_inside, FallbackStart, JobNotes, LocalFallback, Next,
-    COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE,
+    count_rule_limit, fallback_triangles, low_quads, pairs_of, quads_per_triangle, raisable,
+    surface_elements, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
+    LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE, RAISE_MIN,
 };
 pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_TRIES};
 #[cfg(feature = "testing")]
@@ -275,7 +277,7 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         Some((m, lines)) => (m, lines.clone()),
         None => (&input, Vec::new()),
     };
-    let mut cache = SurfaceCache::default();
+    let mut cache = Shared::default();
     // the rings counted per surface first; where that made a difference, the rings
     // counted over the job too, and the better of the two
     let (local, diverged) = run_job(base, opts, FallbackStart::default(), &mut cache);
@@ -348,11 +350,11 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
 /// failed runs again without them (on strips that share curves, a segment split moves one
 /// strip's imbalance to the next). Returns the result and whether per-surface rings made a
 /// difference in either run ([`FallbackStart::global_rings`]).
-fn run_job(
-    base: &Mesh,
+fn run_job<'a>(
+    base: &'a Mesh,
     opts: &Options,
     start: FallbackStart,
-    cache: &mut SurfaceCache,
+    cache: &mut Shared<'a>,
 ) -> (Result<(Mesh, Report, FallbackStart), Error>, bool) {
     let mut notes = JobNotes::default();
     let again = FallbackStart {
@@ -448,6 +450,41 @@ fn progress(opts: &Options, stage: Stage, done: usize, total: usize) {
     if let Some(p) = &opts.progress {
         p.report(Progress::new(stage, done as u64, total as u64));
     }
+}
+
+/// What the jobs of one run share: the surfaces they optimized ([`crate::reuse`]) and the
+/// input side of the final checks, prepared once (both depend on the input alone).
+#[derive(Default)]
+struct Shared<'a> {
+    surfaces: SurfaceCache,
+    /// Prepared during the first round's optimization (or its matching, without the
+    /// optimizer).
+    checks: Option<Checks<'a>>,
+    /// The first round of a job from the input alone (nothing priced, avoided, split or
+    /// located), once one ended with quads that are not valid: every such round of the run
+    /// has this outcome.
+    first_round: Option<Outcome>,
+}
+
+/// A round's outcome, as the rest of its job reads it.
+#[derive(Clone)]
+struct Outcome {
+    /// The checked mesh (a surface the optimizer left invalid given its quads from before
+    /// optimization back, when that is valid).
+    mesh: Mesh,
+    /// The round's recombination, refinement and optimization reports.
+    report: Report,
+    /// The quads of `mesh` that are not valid.
+    bad: Vec<BadQuad>,
+    /// Surfaces where the optimizer left a quad bad at a new node it moved, or turned one
+    /// bad, and does not hold their corners yet.
+    turned_bad: Vec<i32>,
+    /// The recombination and refinement reports alone.
+    recombined: Report,
+    /// After a refinement, the refined mesh.
+    refined: Option<Mesh>,
+    /// After a first invalid round, the mesh before optimization.
+    unoptimized: Option<Mesh>,
 }
 
 /// The input side of the final checks: the validity reference, and the invariants'
@@ -932,6 +969,35 @@ mod tests {
         let elems: Vec<&[u64]> = quads.iter().map(|q| &q[..]).collect();
         let out = one_surface(vec![node_block(2, (1..=9).collect(), all)], etype::QUAD4, &elems);
         (input, out)
+    }
+
+    #[test]
+    fn a_first_round_replayed_gives_the_job_that_runs_it_again() {
+        let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("tests/data/cad/v41_cylinders_coarse.msh");
+        let input = crate::msh::read_file(&path).expect("a mesh of the repository");
+        let opts = Options::default();
+        let mut notes = JobNotes::default();
+        // a job whose first round has quads that are not valid keeps that round
+        let mut shared = Shared::default();
+        let first = run_rounds(&input, &opts, FallbackStart::default(), &mut shared, &mut notes)
+            .expect("a valid result");
+        assert!(first.1.rounds > 1, "{} round(s)", first.1.rounds);
+        assert!(shared.first_round.is_some());
+        // the fallback with splits only starts from the same first round: replayed, and
+        // run again in a run of its own, the same result
+        let start = FallbackStart {
+            splits_only: true,
+            ..FallbackStart::default()
+        };
+        let replayed = run_rounds(&input, &opts, start.clone(), &mut shared, &mut notes)
+            .expect("a valid result");
+        let mut alone = Shared::default();
+        let again =
+            run_rounds(&input, &opts, start, &mut alone, &mut notes).expect("a valid result");
+        assert_eq!(replayed.0, again.0);
+        assert_eq!(replayed.1.rounds, again.1.rounds);
+        assert_eq!(replayed.2.chosen, again.2.chosen);
     }
 
     #[test]

@@ -346,6 +346,101 @@ pub(super) fn low_quads(mesh: &Mesh, skip: &[i32]) -> (Vec<(i32, [u64; 4])>, f64
     (low, worst)
 }
 
+/// How much a worst-quad try must raise the worst quad's η to be kept.
+pub(super) const RAISE_MIN: f64 = 1e-3;
+
+/// The input's wall-corner bound: no valid result of `input` without refinement has a
+/// worst quad η above it (1 when nothing bounds it below). At a boundary node of a planar
+/// surface, the quads of any valid result partition the angle the surface's triangles make
+/// there (the node never moves, the walls at it keep their directions: their splits are at
+/// midpoints, and every node stays in the plane), so the quad holding the smallest share
+/// has a corner no larger than that angle; at an angle θ up to 90° its η is at most
+/// θ / 90° (eq. 3). Curved surfaces, which can fold the angle, and surfaces with quads or
+/// other faces in the input are left out.
+pub(super) fn wall_corner_bound(input: &Mesh) -> f64 {
+    use glam::DVec3;
+    let coords = TagCoords::new(input);
+    let at = |t: u64| coords.get(t).map(DVec3::from_array);
+    let other_faces: HashSet<i32> = input
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type != etype::TRI3 && !b.is_empty())
+        .map(|b| b.entity_tag)
+        .collect();
+    let mut bound = 1.0_f64;
+    for s in input.sorted_surfaces(|b| b.element_type == etype::TRI3 && !b.is_empty()) {
+        if other_faces.contains(&s) {
+            continue;
+        }
+        let mut tris: Vec<([u64; 3], [DVec3; 3])> = Vec::new();
+        for b in input.element_blocks.iter().filter(|b| {
+            b.entity_dim == 2 && b.entity_tag == s && b.element_type == etype::TRI3
+        }) {
+            for i in 0..b.len() {
+                let e = b.element(i);
+                let n = [e[0], e[1], e[2]];
+                if let (Some(a), Some(b), Some(c)) = (at(n[0]), at(n[1]), at(n[2])) {
+                    tris.push((n, [a, b, c]));
+                }
+            }
+        }
+        if tris.is_empty() || !planar(&tris) {
+            continue;
+        }
+        // boundary nodes: ends of the edges that one triangle alone has
+        let mut edges: Vec<(u64, u64)> = tris
+            .iter()
+            .flat_map(|(n, _)| (0..3).map(move |k| (n[k].min(n[(k + 1) % 3]), n[k].max(n[(k + 1) % 3]))))
+            .collect();
+        edges.sort_unstable();
+        let mut boundary: HashSet<u64> = HashSet::new();
+        for run in edges.chunk_by(|a, b| a == b) {
+            if run.len() != 2 {
+                boundary.extend([run[0].0, run[0].1]);
+            }
+        }
+        let mut angle: std::collections::HashMap<u64, f64> = std::collections::HashMap::new();
+        for (n, p) in &tris {
+            for k in 0..3 {
+                if boundary.contains(&n[k]) {
+                    let (u, v) = (p[(k + 1) % 3] - p[k], p[(k + 2) % 3] - p[k]);
+                    *angle.entry(n[k]).or_default() += u.cross(v).length().atan2(u.dot(v));
+                }
+            }
+        }
+        for a in angle.into_values() {
+            bound = bound.min(a / std::f64::consts::FRAC_PI_2);
+        }
+    }
+    bound
+}
+
+/// True when every node of `tris` lies on one plane, to 1e-9 of their extent (the
+/// optimizer's planar test).
+fn planar(tris: &[([u64; 3], [glam::DVec3; 3])]) -> bool {
+    use glam::DVec3;
+    let normal = tris
+        .iter()
+        .map(|(_, p)| (p[1] - p[0]).cross(p[2] - p[0]))
+        .sum::<DVec3>()
+        .normalize_or_zero();
+    let points = || tris.iter().flat_map(|(_, p)| p.iter().copied());
+    let count = 3 * tris.len();
+    let centre = points().sum::<DVec3>() / count as f64;
+    let (lo, hi) = points().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), p| (lo.min(p), hi.max(p)),
+    );
+    let extent = (hi - lo).length();
+    normal != DVec3::ZERO && points().all(|p| (p - centre).dot(normal).abs() <= 1e-9 * extent)
+}
+
+/// True when a result of worst quad η `worst` may still be raised by [`RAISE_MIN`] under
+/// the wall-corner bound `bound` ([`wall_corner_bound`]; a margin of 1e-6 for rounding).
+pub(super) fn raisable(worst: f64, bound: f64) -> bool {
+    bound > worst + RAISE_MIN - 1e-6
+}
+
 /// New quads per input triangle of `out` against `input` (quads already in the input do
 /// not count).
 pub(super) fn quads_per_triangle(input: &Mesh, out: &Mesh) -> f64 {
@@ -751,6 +846,58 @@ mod tests {
                 degrees: 180.0,
             },
         }
+    }
+
+    /// A planar fan of triangles around node 1 at the origin, spanning `degrees` in the
+    /// plane z = 0 turned by `tilt` radians about the x axis (one node per 10 degrees,
+    /// nodes 2, 3, … at distance 1), with node 1 lifted by `lift` out of that plane.
+    fn wedge(degrees: u32, tilt: f64, lift: f64) -> Mesh {
+        let steps = degrees.div_ceil(10);
+        let mut coords = vec![[0.0, 0.0, lift]];
+        for k in 0..=steps {
+            let a = f64::from(degrees) * f64::from(k) / f64::from(steps);
+            let (y, x) = a.to_radians().sin_cos();
+            coords.push([x, y * tilt.cos(), y * tilt.sin()]);
+        }
+        let tris: Vec<[u64; 3]> = (0..u64::from(steps)).map(|k| [1, k + 2, k + 3]).collect();
+        let elems: Vec<&[u64]> = tris.iter().map(|t| &t[..]).collect();
+        let tags = (1..=coords.len() as u64).collect();
+        one_surface(vec![node_block(2, tags, coords)], etype::TRI3, &elems)
+    }
+
+    #[test]
+    fn the_wall_corner_bound_is_the_acute_angle_of_a_planar_surface() {
+        // a 20-degree corner at node 1 bounds η by 20/90; the other corners (85 degrees
+        // at the arc's ends, 170 between them) do not go lower
+        let bound = wall_corner_bound(&wedge(20, 0.0, 0.0));
+        assert!((bound - 20.0 / 90.0).abs() < 1e-9, "{bound}");
+        // the same in a tilted plane
+        let bound = wall_corner_bound(&wedge(20, 0.5, 0.0));
+        assert!((bound - 20.0 / 90.0).abs() < 1e-9, "{bound}");
+        // a wide fan: its corners are all above 90 degrees but the ends of the arc, which
+        // have 85
+        let bound = wall_corner_bound(&wedge(300, 0.0, 0.0));
+        assert!((bound - 85.0 / 90.0).abs() < 1e-9, "{bound}");
+        // a curved surface (the centre lifted out of the plane) is left out
+        assert_eq!(wall_corner_bound(&wedge(20, 0.0, 0.1)), 1.0);
+        // so is a surface with a quad in the input
+        let mut with_quad = wedge(20, 0.0, 0.0);
+        let mut quads = with_quad.element_blocks[0].clone();
+        quads.element_type = etype::QUAD4;
+        quads.tags = vec![100];
+        quads.nodes = vec![1, 2, 3, 3];
+        with_quad.element_blocks.push(quads);
+        assert_eq!(wall_corner_bound(&with_quad), 1.0);
+    }
+
+    #[test]
+    fn a_worst_quad_at_the_wall_corner_bound_cannot_be_raised() {
+        let bound = 20.0 / 90.0;
+        assert!(!raisable(bound, bound));
+        assert!(!raisable(bound - 0.5 * RAISE_MIN, bound));
+        assert!(raisable(bound - 2.0 * RAISE_MIN, bound));
+        assert!(raisable(0.1, 1.0));
+        assert!(!raisable(1.0, 1.0));
     }
 
     #[test]

@@ -14,15 +14,24 @@ pub(super) fn moved_any(input: &Mesh, output: &Mesh, tags: &[u64]) -> bool {
 
 /// The rounds of one job on `input` (see the module doc), starting from `start`'s priced-out
 /// quads and split triangles; returns the result with the fallback's state at its end.
-pub(super) fn run_rounds(
-    input: &Mesh,
+pub(super) fn run_rounds<'a>(
+    input: &'a Mesh,
     opts: &Options,
     start: FallbackStart,
-    cache: &mut SurfaceCache,
+    cache: &mut Shared<'a>,
     notes: &mut JobNotes,
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut times = Times::default();
     let mut log = Vec::new();
+    // the first round of a job from nothing priced, avoided, split or located is the same
+    // in every job of the run (the start's other settings decide only the rounds after it)
+    let from_nothing = start.priced.is_empty()
+        && start.avoid.is_empty()
+        && !start.flat_halves_out
+        && start.segments.is_empty()
+        && start.located.is_empty()
+        && start.chosen.is_empty()
+        && start.pairs.is_empty();
     let mut chosen: HashSet<u64> = start.chosen;
     let splits_only = start.splits_only;
     let mut local = LocalFallback {
@@ -44,192 +53,49 @@ pub(super) fn run_rounds(
         ..Default::default()
     };
     let mut fallback = None;
-    // the input's largest tags: a job's own nodes and elements are above them
-    let input_tags = (input.max_node_tag(), input.max_element_tag());
     let mut folds: Vec<recombine::WalledFold> = Vec::new();
     // without optimization: surfaces optimized all the same because their matching left
     // quads that are not valid (vertex duplications fold quads until smoothed)
     let mut force: HashSet<i32> = HashSet::new();
-    // the input side of the checks, prepared once (during the first round's matching)
-    let mut checks: Option<Checks> = None;
     // without optimization: the last round's mesh before optimization, when the next round
     // only optimizes more surfaces of the same recombination
     let mut carried: Option<Recombined> = None;
     for round in 0..=FALLBACK_ROUNDS {
         let optimizing = opts.optimize || !force.is_empty();
-        let recombined = match carried.take() {
-            Some(c) => c,
-            None => {
-                let mut mesh = input.clone();
-                if !chosen.is_empty() || !local.segments.is_empty() || !local.pairs.is_empty() {
-                    let t = Instant::now();
-                    let pairs: Vec<recombine::FlatPair> = local.pairs.iter().map(|p| p.1).collect();
-                    let split =
-                        recombine::split_triangles(&mut mesh, &chosen, &pairs, &local.segments);
-                    let mut line = format!("fallback round {round}: ");
-                    if split.segments_split > 0 {
-                        line += &format!(
-                            "{} boundary segment(s) under fans split at their midpoints, ",
-                            split.segments_split
-                        );
-                    }
-                    if split.pairs_split > 0 {
-                        line += &format!(
-                            "{} flat pair(s) of triangles split into three quads each, ",
-                            split.pairs_split
-                        );
-                    }
-                    line += &format!(
-                        "{} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
-                        split.triangles_to_quads,
-                        sorted_list(&split.surfaces),
-                        split.triangles_halved,
-                        split.lines_split
-                    );
-                    log.push(line);
-                    fallback = Some(split);
-                    times.recombine += t.elapsed();
-                }
-                recombine_once(
-                    input,
-                    mesh,
-                    opts,
-                    &local.priced.iter().map(|p| p.1).collect::<Vec<_>>(),
-                    &local.avoid,
-                    local.flat_halves_out,
-                    optimizing,
-                    &mut checks,
-                    &mut times,
-                )?
-            }
+        // speed: a first round from nothing is the one an earlier job of the run had
+        let replay = (round == 0 && from_nothing)
+            .then(|| cache.first_round.clone())
+            .flatten();
+        let outcome = match replay {
+            Some(o) => o,
+            None => one_round(
+                input,
+                opts,
+                round,
+                optimizing,
+                &chosen,
+                &local,
+                &force,
+                &mut carried,
+                &mut fallback,
+                &mut log,
+                &mut times,
+                cache,
+            )?,
         };
-        let Recombined {
-            mut mesh,
-            report: recombine_report,
+        // a first round that needs the fallback may come again in the run's other jobs
+        if round == 0 && from_nothing && !outcome.bad.is_empty() && cache.first_round.is_none() {
+            cache.first_round = Some(outcome.clone());
+        }
+        let Outcome {
+            mesh,
+            report: run,
+            bad,
+            turned_bad,
+            recombined: recombine_report,
             refined,
-            prepared,
-        } = recombined;
-        // after a first invalid run, keep the mesh before optimization: a surface the
-        // optimizer leaves invalid gets it back (and without optimization, the next round
-        // may start from it)
-        let keep = round > 0 && optimizing;
-        let unoptimized = keep.then(|| mesh.clone());
-        // speed: the surfaces an earlier job optimized from the same recombination get
-        // that job's result back instead of being optimized again (exact: `crate::reuse`)
-        let fingerprints = (opts.optimize
-            && (round > 0 || !cache.is_empty() || mesh.element_count() <= REUSE_UP_TO))
-            .then(|| {
-                Fingerprints::of(&mesh, input_tags.0, input_tags.1)
-                    .with_variant(1, |s| local.located.binary_search(&s).is_ok())
-            });
-        let reused = match &fingerprints {
-            Some(fp) => cache.put_back(&mut mesh, fp),
-            None => Vec::new(),
-        };
-        let mut run = recombine_report.clone();
-        if !reused.is_empty() {
-            run.log.push(format!(
-                "{} surface(s) optimized as in an earlier round: {}",
-                reused.len(),
-                sorted_list(&reused)
-            ));
-        }
-        optimize_once(
-            input,
-            &mut mesh,
-            opts,
-            &force,
-            &reused,
-            &local.located,
-            prepared,
-            &mut checks,
-            &mut times,
-            &mut run,
-        )?;
-        // memory: the optimizer's arrays are freed; the checks allocate next
-        release_memory();
-        let t = Instant::now();
-        progress(opts, Stage::Check, 0, 1);
-        // the input side of the checks, when the first round's matching did not prepare it
-        let checks = checks.get_or_insert_with(|| Checks::new(input, opts.refine == 0));
-        // after a refinement the refined mesh is the baseline of the invariants
-        let refined_before = refined.as_ref().map(recombine::Before::new);
-        let before = refined_before.as_ref().or(checks.invariants.as_ref());
-        let invariants_of = |m: &Mesh, coords: &TagCoords| match before {
-            Some(b) => b.check_at(m, coords),
-            None => recombine::check_invariants(input, m),
-        };
-        // memory: one table of the output's coordinates for both checks
-        let coords = TagCoords::new(&mesh);
-        // speed: the two checks are independent, so they run side by side (an invariant
-        // failure still comes first)
-        let (invariants, mut bad) = rayon::join(
-            || invariants_of(&mesh, &coords),
-            || checks.validity.invalid_quads_at(&mesh, &coords),
-        );
-        drop(coords);
-        invariants.map_err(|violation| Error::Invariant {
-            stage: if opts.optimize {
-                "optimization"
-            } else {
-                "recombination"
-            },
-            violation,
-        })?;
-        // quads the optimizer left bad at a new node it moved, or turned bad (not bad before
-        // it), on surfaces where it does not hold them yet: from the next round on it holds
-        // the corners at the job's new nodes there to the faces the gate measures them about
-        let mut turned_bad: Vec<i32> = Vec::new();
-        if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
-            // speed: only the surfaces with bad quads are checked again (the others are
-            // valid)
-            let mut bad_surfaces: Vec<i32> = bad.iter().map(|b| b.surface).collect();
-            bad_surfaces.sort_unstable();
-            bad_surfaces.dedup();
-            let was = TagCoords::new(pre);
-            let before: HashSet<[u64; 4]> = checks
-                .validity
-                .invalid_quads_on(pre, &was, Some(&bad_surfaces))
-                .into_iter()
-                .map(|b| sorted4(b.nodes))
-                .collect();
-            let is = TagCoords::new(&mesh);
-            turned_bad = bad
-                .iter()
-                .filter(|b| local.located.binary_search(&b.surface).is_err())
-                .filter(|b| {
-                    let n = b.node();
-                    (n > input_tags.0 && was.get(n) != is.get(n))
-                        || (b.nodes.iter().any(|&n| n > input_tags.0)
-                            && !before.contains(&sorted4(b.nodes)))
-                })
-                .map(|b| b.surface)
-                .collect();
-            drop((was, is));
-            // the surfaces with bad quads as they were before optimization, when that is
-            // valid
-            let surfaces: HashSet<i32> = bad_surfaces.iter().copied().collect();
-            let back = revert_surfaces(&mesh, pre, &surfaces);
-            let coords = TagCoords::new(&back);
-            if checks
-                .validity
-                .invalid_quads_on(&back, &coords, Some(&bad_surfaces))
-                .is_empty()
-                && invariants_of(&back, &coords).is_ok()
-            {
-                run.log.push(format!(
-                    "surface(s) {}: optimization undone (it left a quad that is not valid)",
-                    sorted_list(&surfaces)
-                ));
-                mesh = back;
-                bad.clear();
-            }
-        }
-        progress(opts, Stage::Check, 1, 1);
-        times.check += t.elapsed();
-        if let Some(fp) = &fingerprints {
-            cache.record(&mesh, fp);
-        }
+            unoptimized,
+        } = outcome;
         let mut report = run;
         // the folds walled off in any round (a fallback split can take a fold's triangles
         // out of later rounds' topology)
@@ -371,6 +237,212 @@ pub(super) fn run_rounds(
     Err(Error::FallbackExhausted)
 }
 
+/// One round of a job (see [`run_rounds`]): the input with the fallback's splits
+/// recombined (or the `carried` recombination), optimized (the surfaces of an earlier job
+/// put back) and checked, with what a surface the optimizer left invalid gets back.
+#[allow(clippy::too_many_arguments)]
+fn one_round<'a>(
+    input: &'a Mesh,
+    opts: &Options,
+    round: usize,
+    optimizing: bool,
+    chosen: &HashSet<u64>,
+    local: &LocalFallback,
+    force: &HashSet<i32>,
+    carried: &mut Option<Recombined>,
+    fallback: &mut Option<recombine::FallbackSplit>,
+    log: &mut Vec<String>,
+    times: &mut Times,
+    cache: &mut Shared<'a>,
+) -> Result<Outcome, Error> {
+    // the input's largest tags: a job's own nodes and elements are above them
+    let input_tags = (input.max_node_tag(), input.max_element_tag());
+    let recombined = match carried.take() {
+        Some(c) => c,
+        None => {
+            let mut mesh = input.clone();
+            if !chosen.is_empty() || !local.segments.is_empty() || !local.pairs.is_empty() {
+                let t = Instant::now();
+                let pairs: Vec<recombine::FlatPair> = local.pairs.iter().map(|p| p.1).collect();
+                let split =
+                    recombine::split_triangles(&mut mesh, chosen, &pairs, &local.segments);
+                let mut line = format!("fallback round {round}: ");
+                if split.segments_split > 0 {
+                    line += &format!(
+                        "{} boundary segment(s) under fans split at their midpoints, ",
+                        split.segments_split
+                    );
+                }
+                if split.pairs_split > 0 {
+                    line += &format!(
+                        "{} flat pair(s) of triangles split into three quads each, ",
+                        split.pairs_split
+                    );
+                }
+                line += &format!(
+                    "{} triangle(s) split into three quads each on surface(s) {}, {} neighbouring triangle(s) and {} line(s) split in two",
+                    split.triangles_to_quads,
+                    sorted_list(&split.surfaces),
+                    split.triangles_halved,
+                    split.lines_split
+                );
+                log.push(line);
+                *fallback = Some(split);
+                times.recombine += t.elapsed();
+            }
+            recombine_once(
+                input,
+                mesh,
+                opts,
+                &local.priced.iter().map(|p| p.1).collect::<Vec<_>>(),
+                &local.avoid,
+                local.flat_halves_out,
+                optimizing,
+                &mut cache.checks,
+                times,
+            )?
+        }
+    };
+    let Recombined {
+        mut mesh,
+        report: recombine_report,
+        refined,
+        prepared,
+    } = recombined;
+    // after a first invalid run, keep the mesh before optimization: a surface the
+    // optimizer leaves invalid gets it back (and without optimization, the next round
+    // may start from it)
+    let keep = round > 0 && optimizing;
+    let unoptimized = keep.then(|| mesh.clone());
+    // speed: the surfaces an earlier job optimized from the same recombination get
+    // that job's result back instead of being optimized again (exact: `crate::reuse`)
+    let fingerprints = (opts.optimize
+        && (round > 0 || !cache.surfaces.is_empty() || mesh.element_count() <= REUSE_UP_TO))
+        .then(|| {
+            Fingerprints::of(&mesh, input_tags.0, input_tags.1)
+                .with_variant(1, |s| local.located.binary_search(&s).is_ok())
+        });
+    let reused = match &fingerprints {
+        Some(fp) => cache.surfaces.put_back(&mut mesh, fp),
+        None => Vec::new(),
+    };
+    let mut run = recombine_report.clone();
+    if !reused.is_empty() {
+        run.log.push(format!(
+            "{} surface(s) optimized as in an earlier round: {}",
+            reused.len(),
+            sorted_list(&reused)
+        ));
+    }
+    optimize_once(
+        input,
+        &mut mesh,
+        opts,
+        force,
+        &reused,
+        &local.located,
+        prepared,
+        &mut cache.checks,
+        times,
+        &mut run,
+    )?;
+    // memory: the optimizer's arrays are freed; the checks allocate next
+    release_memory();
+    let t = Instant::now();
+    progress(opts, Stage::Check, 0, 1);
+    // the input side of the checks, when no round before prepared it
+    let checks = cache
+        .checks
+        .get_or_insert_with(|| Checks::new(input, opts.refine == 0));
+    // after a refinement the refined mesh is the baseline of the invariants
+    let refined_before = refined.as_ref().map(recombine::Before::new);
+    let before = refined_before.as_ref().or(checks.invariants.as_ref());
+    let invariants_of = |m: &Mesh, coords: &TagCoords| match before {
+        Some(b) => b.check_at(m, coords),
+        None => recombine::check_invariants(input, m),
+    };
+    // memory: one table of the output's coordinates for both checks
+    let coords = TagCoords::new(&mesh);
+    // speed: the two checks are independent, so they run side by side (an invariant
+    // failure still comes first)
+    let (invariants, mut bad) = rayon::join(
+        || invariants_of(&mesh, &coords),
+        || checks.validity.invalid_quads_at(&mesh, &coords),
+    );
+    drop(coords);
+    invariants.map_err(|violation| Error::Invariant {
+        stage: if opts.optimize {
+            "optimization"
+        } else {
+            "recombination"
+        },
+        violation,
+    })?;
+    // quads the optimizer left bad at a new node it moved, or turned bad (not bad before
+    // it), on surfaces where it does not hold them yet: from the next round on it holds
+    // the corners at the job's new nodes there to the faces the gate measures them about
+    let mut turned_bad: Vec<i32> = Vec::new();
+    if let (false, Some(pre)) = (bad.is_empty(), unoptimized.as_ref()) {
+        // speed: only the surfaces with bad quads are checked again (the others are
+        // valid)
+        let mut bad_surfaces: Vec<i32> = bad.iter().map(|b| b.surface).collect();
+        bad_surfaces.sort_unstable();
+        bad_surfaces.dedup();
+        let was = TagCoords::new(pre);
+        let before: HashSet<[u64; 4]> = checks
+            .validity
+            .invalid_quads_on(pre, &was, Some(&bad_surfaces))
+            .into_iter()
+            .map(|b| sorted4(b.nodes))
+            .collect();
+        let is = TagCoords::new(&mesh);
+        turned_bad = bad
+            .iter()
+            .filter(|b| local.located.binary_search(&b.surface).is_err())
+            .filter(|b| {
+                let n = b.node();
+                (n > input_tags.0 && was.get(n) != is.get(n))
+                    || (b.nodes.iter().any(|&n| n > input_tags.0)
+                        && !before.contains(&sorted4(b.nodes)))
+            })
+            .map(|b| b.surface)
+            .collect();
+        drop((was, is));
+        // the surfaces with bad quads as they were before optimization, when that is
+        // valid
+        let surfaces: HashSet<i32> = bad_surfaces.iter().copied().collect();
+        let back = revert_surfaces(&mesh, pre, &surfaces);
+        let coords = TagCoords::new(&back);
+        if checks
+            .validity
+            .invalid_quads_on(&back, &coords, Some(&bad_surfaces))
+            .is_empty()
+            && invariants_of(&back, &coords).is_ok()
+        {
+            run.log.push(format!(
+                "surface(s) {}: optimization undone (it left a quad that is not valid)",
+                sorted_list(&surfaces)
+            ));
+            mesh = back;
+            bad.clear();
+        }
+    }
+    progress(opts, Stage::Check, 1, 1);
+    times.check += t.elapsed();
+    if let Some(fp) = &fingerprints {
+        cache.surfaces.record(&mesh, fp);
+    }
+    Ok(Outcome {
+        mesh,
+        report: run,
+        bad,
+        turned_bad,
+        recombined: recombine_report,
+        refined,
+        unoptimized,
+    })
+}
+
 /// `mesh` with the quads and the surface-classified nodes of `surfaces` taken from `pre`
 /// (the same mesh before optimization: the optimizer moves and removes only nodes inside a
 /// surface, and changes only its quads).
@@ -430,11 +502,14 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 ///    parity split's node stands for its segment's ends, so the triangle it halved
 ///    counts), fewer new quads than a ring. It comes last: a result it raises just above
 ///    the floor would end the ring tries, which may raise the worst quad further.
-pub(super) fn raise_worst_quad(
-    input: &Mesh,
+///
+/// No try runs once the worst quad is within [`RAISE_MIN`] of the input's wall-corner
+/// bound ([`wall_corner_bound`]): no result could be kept.
+pub(super) fn raise_worst_quad<'a>(
+    input: &'a Mesh,
     opts: &Options,
     first: (Mesh, Report, FallbackStart),
-    cache: &mut SurfaceCache,
+    cache: &mut Shared<'a>,
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
     let mut best = first;
     // without optimization the quads are the matching's as they are (low by design); a
@@ -455,6 +530,10 @@ pub(super) fn raise_worst_quad(
     // the element-count rule
     let mut split_kept = false;
     let mut ring_over_count = false;
+    // speed: an acute corner of a planar surface may bound the worst quad of every result
+    // (measured once, when a try would run): the tries cannot raise it past that bound
+    // (refinement moves the new curve nodes off the walls' lines)
+    let mut bound: Option<f64> = None;
     for step in 0..3 + SPLIT_TRIES {
         let mut start = best.2.clone();
         let what = match step {
@@ -511,6 +590,16 @@ pub(super) fn raise_worst_quad(
                 format!("{n} triangle(s) in {ring} ring(s) around quads under eta {ETA_FLOOR} split")
             }
         };
+        let b = *bound.get_or_insert_with(|| match opts.refine {
+            0 => wall_corner_bound(input),
+            _ => 1.0,
+        });
+        if !raisable(worst, b) {
+            best.1.log.push(format!(
+                "worst quad: eta_w {worst:.3} is at the input's wall-corner bound {b:.3}: no try can raise it"
+            ));
+            break;
+        }
         split_kept = false;
         let Ok(candidate) = run_rounds(input, opts, start, cache, &mut JobNotes::default()) else {
             continue;
@@ -527,7 +616,7 @@ pub(super) fn raise_worst_quad(
         } else {
             MAX_QUADS_PER_TRIANGLE
         };
-        let raised = new_worst > worst + 1e-3;
+        let raised = new_worst > worst + RAISE_MIN;
         let within = quads_per_triangle(input, &candidate.0) <= limit;
         ring_over_count |= raised && !within && (2..2 + SPLIT_TRIES).contains(&step);
         if raised && within {
