@@ -162,17 +162,8 @@ pub(crate) fn extract(
             nrm[v as usize] += qn;
         }
     }
-    let centre = pos.iter().copied().sum::<DVec3>() / n.max(1) as f64;
-    let (lo, hi) = pos.iter().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), &p| (lo.min(p), hi.max(p)),
-    );
-    let diag = (hi - lo).length();
     let plane = total.normalize_or_zero();
-    let planar = plane != DVec3::ZERO
-        && pos
-            .iter()
-            .all(|&p| (p - centre).dot(plane).abs() <= 1e-9 * diag);
+    let planar = on_one_plane(&pos, plane);
     for v in nrm.iter_mut() {
         *v = if planar { plane } else { v.normalize_or_zero() };
     }
@@ -356,4 +347,20 @@ pub(crate) fn write_back(
         block.nodes = nodes_out;
         block.partitions = parts_out;
     }
+}
+
+/// True when every point of `points` lies on the plane through their mean with the unit
+/// normal `normal` (not zero), to 1e-9 of the diagonal of their bounding box: what makes a
+/// surface planar for the optimizer (and for the worst-quad tries' wall-corner bound).
+pub(crate) fn on_one_plane(points: &[DVec3], normal: DVec3) -> bool {
+    let centre = points.iter().copied().sum::<DVec3>() / points.len().max(1) as f64;
+    let (lo, hi) = points.iter().fold(
+        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    let diag = (hi - lo).length();
+    normal != DVec3::ZERO
+        && points
+            .iter()
+            .all(|&p| (p - centre).dot(normal).abs() <= 1e-9 * diag)
 }

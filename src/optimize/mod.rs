@@ -102,6 +102,7 @@ pub(crate) mod test_util {
     }
 }
 
+pub(crate) use extract::on_one_plane;
 pub use local::Stats;
 pub use reference::PreparedReference;
 

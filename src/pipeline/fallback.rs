@@ -415,24 +415,16 @@ pub(super) fn wall_corner_bound(input: &Mesh) -> f64 {
     bound
 }
 
-/// True when every node of `tris` lies on one plane, to 1e-9 of their extent (the
-/// optimizer's planar test).
+/// True when every node of `tris` lies on one plane ([`crate::optimize::on_one_plane`],
+/// about the sum of their normals: the optimizer's planar test).
 fn planar(tris: &[([u64; 3], [glam::DVec3; 3])]) -> bool {
-    use glam::DVec3;
     let normal = tris
         .iter()
         .map(|(_, p)| (p[1] - p[0]).cross(p[2] - p[0]))
-        .sum::<DVec3>()
+        .sum::<glam::DVec3>()
         .normalize_or_zero();
-    let points = || tris.iter().flat_map(|(_, p)| p.iter().copied());
-    let count = 3 * tris.len();
-    let centre = points().sum::<DVec3>() / count as f64;
-    let (lo, hi) = points().fold(
-        (DVec3::splat(f64::INFINITY), DVec3::splat(f64::NEG_INFINITY)),
-        |(lo, hi), p| (lo.min(p), hi.max(p)),
-    );
-    let extent = (hi - lo).length();
-    normal != DVec3::ZERO && points().all(|p| (p - centre).dot(normal).abs() <= 1e-9 * extent)
+    let points: Vec<glam::DVec3> = tris.iter().flat_map(|(_, p)| *p).collect();
+    crate::optimize::on_one_plane(&points, normal)
 }
 
 /// True when a result of worst quad η `worst` may still be raised by [`RAISE_MIN`] under
