@@ -388,24 +388,19 @@ fn job_measures(
     r: &(Mesh, Report, FallbackStart),
 ) -> (bool, bool, f64, f64) {
     let limit = count_rule_limit(surface_elements(input, etype::TRI3));
-    let skip = if opts.smooth_quads {
-        Vec::new()
-    } else {
-        quad_only_surfaces(input)
-    };
     let per_triangle = quads_per_triangle(input, &r.0);
     (
         r.1.invalid.is_empty(),
         per_triangle <= limit,
-        low_quads(&r.0, &skip).1,
+        low_quads(&r.0, &unmeasured_surfaces(input, opts)).1,
         per_triangle,
     )
 }
 
 /// The better of two valid results of the same input: one with no quad listed as invalid
 /// ([`Options::allow_invalid`]), then one within the element-count rule
-/// ([`count_rule_limit`]), then the higher worst quad η (by more than 0.001), then fewer
-/// quads; `a` on a tie.
+/// ([`count_rule_limit`]), then the higher worst quad η (by more than [`RAISE_MIN`]), then
+/// fewer quads; `a` on a tie.
 fn better_job(
     input: &Mesh,
     opts: &Options,
@@ -416,7 +411,7 @@ fn better_job(
     let (x, y) = (measure(&a), measure(&b));
     let b_better = if (x.0, x.1) != (y.0, y.1) {
         (y.0, y.1) > (x.0, x.1)
-    } else if (x.2 - y.2).abs() > 1e-3 {
+    } else if (x.2 - y.2).abs() > RAISE_MIN {
         y.2 > x.2
     } else {
         y.3 < x.3
@@ -731,6 +726,16 @@ fn optimize_once<'a>(
     report.optimize = Some(orep);
     times.optimize += t.elapsed();
     Ok(())
+}
+
+/// The surfaces whose quads the worst quad leaves aside (sorted): those `input` meshed with
+/// quads alone, which stay as read unless [`Options::smooth_quads`].
+fn unmeasured_surfaces(input: &Mesh, opts: &Options) -> Vec<i32> {
+    if opts.smooth_quads {
+        Vec::new()
+    } else {
+        quad_only_surfaces(input)
+    }
 }
 
 /// The surfaces of `mesh` with 4-node quads and no 3-node triangle: meshed with quads

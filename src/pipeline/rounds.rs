@@ -519,11 +519,7 @@ pub(super) fn raise_worst_quad<'a>(
     if !opts.optimize || !best.1.invalid.is_empty() || large {
         return Ok(best);
     }
-    let skip = if opts.smooth_quads {
-        Vec::new()
-    } else {
-        quad_only_surfaces(input)
-    };
+    let skip = unmeasured_surfaces(input, opts);
     let (mut low, mut worst) = low_quads(&best.0, &skip);
     let triangles = surface_elements(input, etype::TRI3);
     // whether the last ring try was kept, and whether one raised the worst quad but broke
@@ -535,6 +531,7 @@ pub(super) fn raise_worst_quad<'a>(
     // (refinement moves the new curve nodes off the walls' lines)
     let mut bound: Option<f64> = None;
     for step in 0..3 + SPLIT_TRIES {
+        let ring_try = (2..2 + SPLIT_TRIES).contains(&step);
         let mut start = best.2.clone();
         let what = match step {
             0 => {
@@ -618,7 +615,7 @@ pub(super) fn raise_worst_quad<'a>(
         };
         let raised = new_worst > worst + RAISE_MIN;
         let within = quads_per_triangle(input, &candidate.0) <= limit;
-        ring_over_count |= raised && !within && (2..2 + SPLIT_TRIES).contains(&step);
+        ring_over_count |= raised && !within && ring_try;
         if raised && within {
             let mut kept = candidate;
             kept.1.log.splice(
@@ -630,7 +627,7 @@ pub(super) fn raise_worst_quad<'a>(
             kept.1.times = add_times(&best.1.times, &kept.1.times);
             best = kept;
             (low, worst) = low_quads(&best.0, &skip);
-            split_kept = (2..2 + SPLIT_TRIES).contains(&step);
+            split_kept = ring_try;
         } else {
             best.1.times = add_times(&best.1.times, &candidate.1.times);
         }
