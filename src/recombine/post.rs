@@ -117,10 +117,19 @@ pub(crate) fn build_faces(
             mark[t as usize] = mark[t as usize].saturating_add(1);
         }
     }
+    let mut joined = Joined::around(topo, used.iter().map(|&i| graph.extra_fans[i].v));
     for &i in &used {
         let fan = &graph.extra_fans[i];
         if try_swap(
-            topo, fan, mate, &mark, coords, &mut faces, &mut alive, &tri_face,
+            topo,
+            fan,
+            mate,
+            &mark,
+            coords,
+            &mut faces,
+            &mut alive,
+            &tri_face,
+            &mut joined,
         ) {
             out.swaps += 1;
         } else {
@@ -145,6 +154,50 @@ pub(crate) fn build_faces(
     Ok(out)
 }
 
+/// The nodes an edge joins to the apexes of the used extra edges' fans: the surface's
+/// triangle edges at those apexes, and the diagonals earlier swaps drew from them. A swap
+/// may not draw a diagonal between two nodes an edge already joins: where a surface wraps
+/// round so tightly that the hexagon's far vertex is also a neighbour of the apex (a pin
+/// meshed coarser than its radius), the new quads would share that edge with the faces
+/// already on it.
+struct Joined {
+    /// (apex, node) pairs, sorted.
+    pairs: Vec<(u32, u32)>,
+    /// Diagonals drawn by swaps, as (smaller, larger) node ids.
+    drawn: Vec<(u32, u32)>,
+}
+
+impl Joined {
+    /// The edges at `apexes` in the triangles of `topo` (one pass over the triangles).
+    fn around(topo: &SurfaceTopo, apexes: impl Iterator<Item = u32>) -> Self {
+        let mut apexes: Vec<u32> = apexes.collect();
+        apexes.sort_unstable();
+        apexes.dedup();
+        let mut pairs = Vec::new();
+        if !apexes.is_empty() {
+            for t in &topo.tris {
+                for (k, &v) in t.iter().enumerate() {
+                    if apexes.binary_search(&v).is_ok() {
+                        pairs.push((v, t[(k + 1) % 3]));
+                        pairs.push((v, t[(k + 2) % 3]));
+                    }
+                }
+            }
+        }
+        pairs.sort_unstable();
+        pairs.dedup();
+        Joined {
+            pairs,
+            drawn: Vec::new(),
+        }
+    }
+
+    /// Whether an edge already joins apex `v` and node `x`.
+    fn joins(&self, v: u32, x: u32) -> bool {
+        self.pairs.binary_search(&(v, x)).is_ok() || self.drawn.contains(&(v.min(x), v.max(x)))
+    }
+}
+
 /// Edge swap (5.3.1): fan `t1 t2 t3` at `v` with `t1–t3` matched by the extra edge and `t2`
 /// matched to `t4` across the edge opposite `v`. The hexagon `t1 ∪ t2 ∪ t4 ∪ t3` is cut by
 /// the diagonal from `v` to `t4`'s far vertex `x` into two quads (the diagonal `a1 a2` of the
@@ -152,8 +205,9 @@ pub(crate) fn build_faces(
 /// part in another used extra edge's fan and the new diagonal lies inside the quad
 /// `t2 ∪ t4` (so both new quads are simple polygons, possibly non-convex, never folded)
 /// and no corner of the new quads is nearly straight or zero (corner η ≤
-/// [`FIXED_CORNER_MIN_ETA`](super::geometry::FIXED_CORNER_MIN_ETA)); returns false (nothing
-/// changed, the fan then gets a vertex duplication) otherwise.
+/// [`FIXED_CORNER_MIN_ETA`](super::geometry::FIXED_CORNER_MIN_ETA)) and no edge joins `v`
+/// and `x` already ([`Joined`]); returns false (nothing changed, the fan then gets a vertex
+/// duplication) otherwise.
 #[allow(clippy::too_many_arguments)]
 fn try_swap(
     topo: &SurfaceTopo,
@@ -164,6 +218,7 @@ fn try_swap(
     faces: &mut [Vec<u32>],
     alive: &mut [bool],
     tri_face: &[u32],
+    joined: &mut Joined,
 ) -> bool {
     if fan.tris.len() != 3 || fan.tris.iter().any(|&t| mark[t as usize] != 1) {
         return false;
@@ -192,7 +247,7 @@ fn try_swap(
     let Some(iv) = h.iter().position(|&p| p == v) else {
         return false;
     };
-    if h[(iv + 3) % 6] != x {
+    if h[(iv + 3) % 6] != x || joined.joins(v, x) {
         return false;
     }
     let at = |s: usize| h[(iv + s) % 6];
@@ -217,6 +272,7 @@ fn try_swap(
     faces[tri_face[t1 as usize] as usize] = vec![at(0), at(1), at(2), at(3)];
     faces[tri_face[t3 as usize] as usize] = vec![at(3), at(4), at(5), at(0)];
     alive[tri_face[t2 as usize] as usize] = false;
+    joined.drawn.push((v.min(x), v.max(x)));
     true
 }
 

@@ -328,6 +328,61 @@ fn a_filleted_box_gets_no_quad_folded_about_its_own_normal() {
     assert!(gmsh_sj > 0.0, "{}", report.report);
 }
 
+/// Gmsh's mesh of a box with a thin tilted cylinder fused on top, meshed at about twice its
+/// radius (`tests/data/cad/thin_pin_wrapped.py`): the cylinder is a few triangles round, so
+/// nodes 108 and 494, on opposite sides of it and joined by an edge of two triangles, share
+/// four of their six neighbours. An extra edge's fan at one of them once took an edge swap
+/// whose new diagonal ran from one to the other, and the quads on that diagonal and on the
+/// input edge gave an edge of four faces (an internal check failure). The swap is left to
+/// a vertex duplication there: the part recombines, every edge in at most two faces and
+/// every quad valid, by the gate and by the independent checker.
+#[test]
+fn an_edge_swap_draws_no_diagonal_along_an_existing_edge() {
+    let input = common::repo_dir().join("tests/data/cad/v41_thin_pin_wrapped.msh");
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    // the edge of the two wrapped stars (the quirk this fixture holds)
+    let faces_on = |m: &Mesh, a: u64, b: u64| -> usize {
+        m.element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 2 && b.entity_tag == 7)
+            .flat_map(|blk| (0..blk.len()).map(move |i| blk.element(i).to_vec()))
+            .filter(|e| {
+                let k = e.len();
+                (0..k).any(|j| {
+                    let (p, q) = (e[j], e[(j + 1) % k]);
+                    (p, q) == (a, b) || (p, q) == (b, a)
+                })
+            })
+            .count()
+    };
+    assert_eq!(faces_on(&mesh, 108, 494), 2);
+    let mut out = mesh.clone();
+    let mut opts = Options::default();
+    // the checks below compare the input and the output by tag
+    opts.keep_tags = true;
+    let report = quadrangulate(&mut out, &opts).unwrap_or_else(|e| panic!("{e}"));
+    assert!(validity::invalid_quads(&mesh, &out).is_empty());
+    assert!(faces_on(&out, 108, 494) <= 2);
+    let triangles_left: usize = out
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
+        .map(|b| b.len())
+        .sum();
+    assert_eq!(triangles_left, 0, "{}", report.log.join("\n"));
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("pin-quads.msh");
+    let (code, _, stderr) = blossomquad_run([
+        input.as_os_str(),
+        "-o".as_ref(),
+        output.as_os_str(),
+        "--keep-tags".as_ref(),
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let checked = check_mesh(&input, &output, &[]);
+    assert!(checked.ok, "{}", checked.report);
+}
+
 /// Gmsh's mesh of a box with a thin cylinder fused on top, meshed coarser than the
 /// cylinder's radius (`tests/data/cad/thin_cylinder.py`): around the cylinder triangles fold
 /// over their neighbours, and the mesh overlaps itself: an edge of four triangles. Folds
