@@ -13,11 +13,15 @@
 //!   of the input faces of the surface nearest to it (every face within 1e-9 of the mesh's
 //!   extent of the nearest distance counts); the quad's own normal only when the surface
 //!   has no face at all. Where those nearest faces cancel out too (a surface folded back
-//!   onto itself), the corner has no normal and the quad is not valid;
+//!   onto itself), the corner has no normal and the quad is not valid. Where the surface
+//!   wraps round a node (one of its faces there turns 90° or more from the node's normal,
+//!   [`WRAP_COS`]: a fold, a pin a few triangles round), that normal stands for no side of
+//!   the surface, and a corner there is measured about the input faces nearest to a point
+//!   inside the corner, a quarter of the way along its two edges (its own side);
 //! - no corner is seen edge-on from the surface (its sine about that normal above
 //!   [`MIN_SINE`] of its edges' lengths);
 //! - each corner also turns positively (sine above [`MIN_SINE`] of its edges' lengths) about
-//!   the input normal at every node of the quad the input has: on a coarse curved face
+//!   the input normal at every node of the quad the input has and does not wrap round: on a coarse curved face
 //!   whose normal turns sharply within one quad, a corner can be fine about its own node's
 //!   normal and reflex about the surface a neighbouring corner sees (`tests/check_mesh.py`,
 //!   which measures a quad's corners about one normal of the input faces around it, found
@@ -53,6 +57,12 @@ static MIN_TAN: std::sync::LazyLock<f64> =
 /// lengths): a corner whose plane is about perpendicular to the surface is not valid even
 /// when its in-plane angle is right.
 pub const MIN_SINE: f64 = 1e-9;
+
+/// A face whose unit normal has at most this dot product with its node's normal (it turns
+/// 90° or more from it) makes the node wrapped: the surface turns round it too sharply for
+/// one normal to stand for the side of the surface a corner there is on (a fold, a pin a few
+/// triangles round).
+pub const WRAP_COS: f64 = 0.0;
 
 /// Shortest edge counted as non-zero, relative to the diagonal of the mesh's bounding box.
 pub const MIN_EDGE: f64 = 1e-12;
@@ -312,20 +322,50 @@ fn extent(mesh: &Mesh) -> f64 {
 /// The unit input normals of one surface by node tag (zero where the faces around a node
 /// cancel): a table indexed by tag when the surface's nodes are a good share of the tag
 /// range, else sorted pairs.
-enum Normals {
+struct Normals {
+    at: NodeNormals,
+    /// The wrapped nodes (see [`Normals::wraps`]), sorted.
+    wrapped: Vec<u64>,
+}
+
+/// The unit normals by node tag: a table indexed by tag, or sorted pairs.
+enum NodeNormals {
     Dense(Vec<DVec3>),
     Sorted(Vec<(u64, DVec3)>),
 }
 
-impl Normals {
-    /// The unit normal at node `t`, when the input has one there.
+impl NodeNormals {
+    /// The unit normal at node `t` (zero where the faces around it cancel), when the
+    /// surface has the node.
     fn get(&self, t: u64) -> Option<DVec3> {
-        let n = match self {
-            Normals::Dense(d) => d.get(t as usize).copied(),
-            Normals::Sorted(p) => p.binary_search_by_key(&t, |x| x.0).ok().map(|i| p[i].1),
-        }?;
-        Some(n).filter(|n| *n != DVec3::ZERO)
+        match self {
+            NodeNormals::Dense(d) => d.get(t as usize).copied(),
+            NodeNormals::Sorted(p) => p.binary_search_by_key(&t, |x| x.0).ok().map(|i| p[i].1),
+        }
     }
+}
+
+impl Normals {
+    /// The unit normal at node `t`, when the input has one there (not zero).
+    fn get(&self, t: u64) -> Option<DVec3> {
+        self.at.get(t).filter(|n| *n != DVec3::ZERO)
+    }
+
+    /// Whether the surface wraps round node `t`: one of its faces there turns 90° or more
+    /// ([`WRAP_COS`]) from the node's normal (a fold, or a pin meshed coarser than its radius, a few
+    /// triangles round). The node's normal then stands for no side of the surface, and a
+    /// corner there is measured about its own side ([`own_side`]).
+    fn wraps(&self, t: u64) -> bool {
+        !self.wrapped.is_empty() && self.wrapped.binary_search(&t).is_ok()
+    }
+}
+
+/// The point a corner at `p` with edges `a` and `b` (to its two neighbours) is measured
+/// at when its node is wrapped ([`Normals::wraps`]): a quarter of the way along both edges,
+/// inside the corner, where only the faces on the quad's own side of the surface are
+/// nearest.
+fn own_side(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
+    p + 0.25 * (a + b)
 }
 
 /// Faces per parallel task.
@@ -418,7 +458,7 @@ fn input_normals(input: &Mesh, coords: &TagCoords, s: i32) -> Normals {
     }
     // speed: accumulated straight into a table when the surface's tags are dense enough
     // (a node is in about six triangles), else sorted pairs merged
-    if max <= 8 * uses + 1024 {
+    let at = if max <= 8 * uses + 1024 {
         let mut dense = vec![DVec3::ZERO; max as usize + 1];
         each_face(&mut |e, n| {
             for &t in e {
@@ -428,7 +468,7 @@ fn input_normals(input: &Mesh, coords: &TagCoords, s: i32) -> Normals {
         dense
             .par_chunks_mut(CHUNK)
             .for_each(|c| c.iter_mut().for_each(|n| *n = n.normalize_or_zero()));
-        Normals::Dense(dense)
+        NodeNormals::Dense(dense)
     } else {
         let mut acc: Vec<(u64, DVec3)> = Vec::with_capacity(uses as usize);
         each_face(&mut |e, n| {
@@ -447,8 +487,25 @@ fn input_normals(input: &Mesh, coords: &TagCoords, s: i32) -> Normals {
         for x in &mut out {
             x.1 = x.1.normalize_or_zero();
         }
-        Normals::Sorted(out)
-    }
+        NodeNormals::Sorted(out)
+    };
+    // the wrapped nodes: a face turning WRAP_COS or more from the node's normal
+    let mut wrapped = Vec::new();
+    each_face(&mut |e, n| {
+        let len = n.length();
+        for &t in e {
+            if len > 0.0
+                && at
+                    .get(t)
+                    .is_some_and(|m| m != DVec3::ZERO && n.dot(m) <= WRAP_COS * len)
+            {
+                wrapped.push(t);
+            }
+        }
+    });
+    wrapped.sort_unstable();
+    wrapped.dedup();
+    Normals { at, wrapped }
 }
 
 /// One input face: its corners (3 or 4) and twice its vector area.
@@ -586,14 +643,22 @@ fn check_quad<'n>(
     // the input normal at each corner's node (`None`: a node the input lacks), and each
     // corner's two edges, its plane's normal `a × b` and its sine floor, read by both passes
     let at: [Option<DVec3>; 4] = std::array::from_fn(|k| normals.get(q[k]));
+    let wraps: [bool; 4] = std::array::from_fn(|k| at[k].is_some() && normals.wraps(q[k]));
     let corners: [(DVec3, DVec3, DVec3, f64); 4] = std::array::from_fn(|k| {
         let a = p[(k + 1) % 4] - p[k];
         let b = p[(k + 3) % 4] - p[k];
         (a, b, a.cross(b), MIN_SINE * a.length() * b.length())
     });
     for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
+        // a node the input lacks, or whose faces cancel out: the faces nearest to it; a
+        // wrapped node: the faces nearest to a point inside the corner (its own side)
         let n = match at[k] {
-            Some(n) => n,
+            Some(n) if !wraps[k] => n,
+            Some(_) => match nearest().normal(own_side(p[k], a, b)) {
+                Some(n) if n == DVec3::ZERO => return Some(Defect::NoNormal { corner: k }),
+                Some(n) => n,
+                None => own,
+            },
             None => match nearest().normal(p[k]) {
                 Some(n) if n == DVec3::ZERO => return Some(Defect::NoNormal { corner: k }),
                 Some(n) => n,
@@ -617,7 +682,7 @@ fn check_quad<'n>(
     // a coarse curved surface can have every corner positive about its own node's normal
     // and one of them reflex about the surface a neighbouring node sees
     for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
-        for n in at.iter().flatten() {
+        for n in at.iter().zip(wraps).filter(|x| !x.1).filter_map(|x| *x.0) {
             let s = n.dot(ab);
             if s.is_nan() || s <= floor {
                 return Some(Defect::Corner {
@@ -673,6 +738,30 @@ mod tests {
                 .len(),
             1
         );
+    }
+
+    #[test]
+    fn a_corner_at_a_wrapped_node_is_measured_on_its_own_side() {
+        // the unit square 1-2-3-4 (normal +z) with triangle 2-1-5 folded back over it across
+        // edge 1-2: at nodes 1 and 2 the area-weighted normals turn 90 degrees or more from
+        // the square's, so they stand for no side; the square's corners there are measured
+        // about the faces nearest to a point inside them, the square's own
+        let mut c = SQUARE.to_vec();
+        c.push([0.5, 2.0, 0.5]);
+        let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4], &[2, 1, 5]]);
+        let reference = Reference::new(&input);
+        let normals = &reference.surfaces[0].1.normals;
+        assert!(normals.wraps(1) && normals.wraps(2));
+        assert!(!normals.wraps(3) && !normals.wraps(4));
+        // about node 1's own normal, (0, 1, 0), the corner there is seen edge-on
+        assert!(normals.get(1).unwrap().dot(DVec3::Z).abs() < 1e-12);
+        let square = mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]]);
+        assert_eq!(reference.invalid_quads(&square), vec![]);
+        // turned over, it is not valid about its own side either
+        let turned = mesh(&c, etype::QUAD4, &[&[1, 4, 3, 2]]);
+        let bad = reference.invalid_quads(&turned);
+        assert_eq!(bad.len(), 1);
+        assert!(matches!(bad[0].defect, Defect::Corner { .. }), "{:?}", bad[0]);
     }
 
     #[test]

@@ -51,7 +51,8 @@ code. Checks (names as in the JSON report):
   quad_valid        every output quad is valid, measured in 3D against the surface
                     normal of the input triangles it came from (those whose nodes are
                     all among the quad's, else those sharing an edge or a node with
-                    it, else the nearest): its four corners strictly between 0 and
+                    it, else the nearest; where no one normal stands for the quad, each
+                    corner about its own, see OwnSide): its four corners strictly between 0 and
                     180 degrees (positive sine about that normal), its normal agrees
                     with that normal (oriented like the input), and no edge has zero
                     length; and Gmsh's own minSJ of the element (its scaled Jacobian
@@ -523,6 +524,147 @@ class NearestTriangle:
                 return best
 
 
+def closest_on_triangle(p, a, b, c):
+    """The point of triangle abc nearest to p (by its Voronoi regions)."""
+    ab, ac, ap = sub(b, a), sub(c, a), sub(p, a)
+    d1, d2 = dot(ab, ap), dot(ac, ap)
+    if d1 <= 0.0 and d2 <= 0.0:
+        return a
+    bp = sub(p, b)
+    d3, d4 = dot(ab, bp), dot(ac, bp)
+    if d3 >= 0.0 and d4 <= d3:
+        return b
+    vc = d1 * d4 - d3 * d2
+    if vc <= 0.0 and d1 >= 0.0 and d3 <= 0.0:
+        v = d1 / (d1 - d3)
+        return add(a, tuple(x * v for x in ab))
+    cp = sub(p, c)
+    d5, d6 = dot(ab, cp), dot(ac, cp)
+    if d6 >= 0.0 and d5 <= d6:
+        return c
+    vb = d5 * d2 - d1 * d6
+    if vb <= 0.0 and d2 >= 0.0 and d6 <= 0.0:
+        w = d2 / (d2 - d6)
+        return add(a, tuple(x * w for x in ac))
+    va = d3 * d6 - d5 * d4
+    if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
+        w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
+        return add(b, tuple(x * w for x in sub(c, b)))
+    den = 1.0 / (va + vb + vc)
+    v, w = vb * den, vc * den
+    return add(a, add(tuple(x * v for x in ab), tuple(x * w for x in ac)))
+
+
+# A face turning this far from its node's normal (cosine of 90 degrees) makes the node
+# wrapped (OwnSide), as in GUIDE.md's validity.
+WRAP_COS = 0.0
+
+# Faces at a quad's nodes turning this far from the mean of those it came from (cosine of
+# 60 degrees) lie on several sides of a sharp turn of the surface (check_quads).
+TURN_COS = 0.5
+
+
+class OwnSide:
+    """Where one input surface wraps round a node, and the normal of its own side there.
+
+    A node is wrapped when one of the surface's faces at it turns 90 degrees or more from
+    the node's area-weighted normal (a fold, or a pin meshed coarser than its radius, a
+    few triangles round): that normal stands for no side of the surface. A corner at such
+    a node is measured about the input faces nearest to a point inside it, a quarter of
+    the way along its two edges (its own side); the faces are found through a grid of
+    cells, by true distance (ties within 1e-9 of the model's size all count). A quad with
+    a corner at a wrapped node, with no input node of the surface at all, or where a face
+    at one of its nodes turns 60 degrees or more from the mean of the faces it came from,
+    has its other corners measured as GUIDE.md's validity measures them: about the node's
+    area-weighted normal at an input node, about the faces nearest to the node at a node
+    the run added."""
+
+    def __init__(self, in_faces, inp, scale):
+        self.faces = []
+        at_node = {}
+        for _, f in in_faces:
+            if not all(n in inp.nodes for n in f):
+                continue
+            pts = [inp.nodes[n] for n in f]
+            n = polygon_normal(pts)
+            self.faces.append((pts, n))
+            for t in f:
+                at_node[t] = add(at_node.get(t, (0.0, 0.0, 0.0)), n)
+        self.wrapped = set()
+        for _, f in in_faces:
+            if not all(n in inp.nodes for n in f):
+                continue
+            n = polygon_normal([inp.nodes[x] for x in f])
+            if norm(n) == 0.0:
+                continue
+            for t in f:
+                m = at_node[t]
+                if norm(m) > 0.0 and dot(n, m) <= WRAP_COS * norm(n) * norm(m):
+                    self.wrapped.add(t)
+        self.tie = 1e-9 * scale
+        self.at_node = {t: unit(m) for t, m in at_node.items()}
+        # a uniform grid of cells about the mean face size, each face in every cell its
+        # bounding box meets
+        self.grid = {}
+        if self.faces:
+            size = sum(max(norm(sub(q, pts[0])) for q in pts) for pts, _ in self.faces) / len(self.faces)
+            self.cell = max(size, 1e-12 * scale)
+            for i, (pts, _) in enumerate(self.faces):
+                lo = self._cell([min(q[j] for q in pts) for j in range(3)])
+                hi = self._cell([max(q[j] for q in pts) for j in range(3)])
+                for x in range(lo[0], hi[0] + 1):
+                    for y in range(lo[1], hi[1] + 1):
+                        for z in range(lo[2], hi[2] + 1):
+                            self.grid.setdefault((x, y, z), []).append(i)
+
+    def _cell(self, p):
+        return tuple(int(math.floor(p[j] / self.cell)) for j in range(3))
+
+    def corner(self, node, p, a, b):
+        """The unit normal the corner at `node` (at p, edges a and b) is measured about in a
+        quad with a wrapped node."""
+        if node in self.wrapped:
+            return self.normal(p, a, b)
+        m = self.at_node.get(node, (0.0, 0.0, 0.0))
+        if norm(m) > 0.0:
+            return m
+        return self.nearest(p)
+
+    def normal(self, p, a, b):
+        """The unit normal of the corner at p with edges a and b (to its neighbours)."""
+        return self.nearest(add(p, tuple(0.25 * (x + y) for x, y in zip(a, b))))
+
+    def nearest(self, c):
+        """The unit summed normal of the input faces nearest to point c."""
+        if not self.faces:
+            return (0.0, 0.0, 0.0)
+        dist = {}
+        cx, cy, cz = self._cell(c)
+        r = 0
+        while True:
+            # the cells at Chebyshev distance r from c's cell
+            for x in range(cx - r, cx + r + 1):
+                for y in range(cy - r, cy + r + 1):
+                    for z in range(cz - r, cz + r + 1):
+                        if max(abs(x - cx), abs(y - cy), abs(z - cz)) != r:
+                            continue
+                        for i in self.grid.get((x, y, z), ()):
+                            if i not in dist:
+                                pts = self.faces[i][0]
+                                dist[i] = min(norm(sub(c, closest_on_triangle(c, pts[0], pts[j], pts[j + 1])))
+                                              for j in range(1, len(pts) - 1))
+            best = min(dist.values(), default=math.inf)
+            # a face in no searched cell is at least r cells away
+            if best + self.tie <= r * self.cell or len(dist) == len(self.faces):
+                break
+            r += 1
+        total = (0.0, 0.0, 0.0)
+        for i, d in dist.items():
+            if d <= best + self.tie:
+                total = add(total, self.faces[i][1])
+        return unit(total)
+
+
 def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0, no_quad_validity=False):
     rep = Report()
     rep.quad_stats = QuadStats()
@@ -620,9 +762,10 @@ def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0, no_quad_v
                     pieces = [key(x, y) for x, y in zip(nodes, nodes[1:])]
                     ok = all(uses_out.get(p) == 2 for p in pieces)
                     rep.check("curve_edges", ok, f"surface {surface}: embedded segment {e} lost")
-        check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, bnd_in)
+        own = OwnSide(in_faces, inp, scale)
+        check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, bnd_in, own)
         if not no_quad_validity:
-            check_quads(rep, surface, in_faces, out_faces, inp, out, scale, rep.quad_stats)
+            check_quads(rep, surface, in_faces, out_faces, inp, out, scale, rep.quad_stats, own)
     check_periodic(rep, inp, out, scale)
     # Surfaces sharing an input boundary edge must still share it, split the same way.
     mismatched = [(e, chains) for e, chains in sorted(shared_splits.items())
@@ -641,7 +784,7 @@ def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0, no_quad_v
     return rep, quads, tris_left
 
 
-def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, bnd_in):
+def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, bnd_in, own):
     """Area (planar surfaces) and orientation checks for one surface. After refinement the
     area may change by what the boundary's new nodes add or cut: at most a tenth of the
     segment's length off each input boundary segment (see match_split), so at most
@@ -685,8 +828,14 @@ def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, 
                 continue
             p = [out.nodes[n] for n in f]
             ref = (0.0, 0.0, 0.0)
-            for t in f:
-                ref = add(ref, unit(at_node.get(t, (0.0, 0.0, 0.0))))
+            k = len(f)
+            # a wrapped node's normal stands for no side: each corner on its own (OwnSide)
+            wrapped = any(t in own.wrapped for t in f)
+            for i, t in enumerate(f):
+                if wrapped:
+                    ref = add(ref, own.corner(t, p[i], sub(p[(i + 1) % k], p[i]), sub(p[i - 1], p[i])))
+                else:
+                    ref = add(ref, unit(at_node.get(t, (0.0, 0.0, 0.0))))
             if norm(ref) == 0.0:
                 if finder is None:
                     centroids = [tuple(sum(c[i] for c in q) / len(q) for i in range(3)) for q in in_pts]
@@ -725,7 +874,7 @@ class QuadStats:
 SIN_TOL = 1e-9
 
 
-def check_quads(rep, surface, in_faces, out_faces, inp, out, scale, stats):
+def check_quads(rep, surface, in_faces, out_faces, inp, out, scale, stats, own):
     """Validity of every output quad of one surface, measured in 3D against the surface
     normal of the input: each of the four corners strictly between 0 and 180 degrees
     (positive sine about the reference normal), the quad oriented like the input faces
@@ -756,12 +905,19 @@ def check_quads(rep, surface, in_faces, out_faces, inp, out, scale, stats):
             for i in by_node.get(n, ()):
                 shared[i] = shared.get(i, 0) + 1
         ref = (0.0, 0.0, 0.0)
+        # a quad with no input node of the surface has no faces it came from
+        by_corners = not shared
         for need in ("all", 2, 1):
             for i, c in shared.items():
                 k = len(in_faces[i][1])
                 if (need == "all" and c == k) or (need != "all" and c >= need):
                     ref = add(ref, in_normals[i])
             if norm(ref) > 0.0:
+                # faces at the quad's nodes turning 60 degrees or more from the mean of
+                # those it came from lie on several sides of a sharp turn of the surface:
+                # no one normal stands for the quad
+                mean = unit(ref)
+                by_corners = any(dot(in_normals[i], mean) <= TURN_COS for i in shared)
                 break
         if norm(ref) == 0.0:
             if finder is None:
@@ -778,6 +934,13 @@ def check_quads(rep, surface, in_faces, out_faces, inp, out, scale, stats):
         for i in range(4):
             if norm(sub(pts[(i + 1) % 4], pts[i])) <= zero:
                 problems.append(f"zero-length edge {f[i]}-{f[(i + 1) % 4]}")
+        # at a wrapped node, or where the faces the quad came from turn sharply, they lie on
+        # several sides of the surface: each corner is measured on its own (OwnSide)
+        corner_ref = [ref] * 4
+        if (by_corners or any(n in own.wrapped for n in f)) and not problems:
+            corner_ref = [own.corner(f[i], pts[i], sub(pts[(i + 1) % 4], pts[i]), sub(pts[i - 1], pts[i]))
+                          for i in range(4)]
+            ref = unit(tuple(sum(c[j] for c in corner_ref) for j in range(3)))
         if dot(polygon_normal(pts), ref) <= 0.0:
             problems.append("inverted (normal opposite to the input triangles')")
         worst = 0.0
@@ -788,7 +951,7 @@ def check_quads(rep, surface, in_faces, out_faces, inp, out, scale, stats):
             if l1 <= zero or l2 <= zero:
                 worst = math.inf
                 continue
-            sine = dot(cross(e1, e2), ref) / (l1 * l2)
+            sine = dot(cross(e1, e2), corner_ref[i]) / (l1 * l2)
             if sine <= SIN_TOL:
                 angle = math.degrees(math.acos(max(-1.0, min(1.0, dot(e1, e2) / (l1 * l2)))))
                 kind = "reflex" if sine < -SIN_TOL else "flat"

@@ -10,8 +10,11 @@
 //! four distinct nodes, no zero-length edge, and every corner strictly between 0° and 180°
 //! measured in 3D about the area-weighted normal of the input faces at that corner's node,
 //! or, for a node the input does not have, of the input faces nearest to it (which also
-//! means the quad is oriented like them), and about that normal at each of the quad's nodes
-//! the input has; and its scaled Jacobian at every corner about its own normal (the cross
+//! means the quad is oriented like them), or, at a wrapped node (a face there turns 90° or
+//! more from the node's normal: a fold, a pin a few triangles round), of the input faces
+//! nearest to a point inside the corner, a quarter of the way along its two edges (its own
+//! side); and about the normal at each of the quad's nodes the input has and does not wrap
+//! round; and its scaled Jacobian at every corner about its own normal (the cross
 //! product of its diagonals) is positive. That is the definition of
 //! `blossomquad::validity`, written again here independently so that the gate itself is
 //! checked. The output must also be numbered 1..N (nodes and elements) unless the
@@ -113,6 +116,7 @@ fn closest_on_triangle(p: V, t: [V; 3]) -> V {
 struct Face {
     corners: Vec<V>,
     normal: V,
+    nodes: Vec<u64>,
 }
 
 impl Face {
@@ -184,7 +188,24 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
             faces.entry(b.entity_tag).or_default().push(Face {
                 corners: c,
                 normal: n,
+                nodes: t.to_vec(),
             });
+        }
+    }
+    // the wrapped nodes: a face there turns WRAP_COS or more from the node's normal
+    let mut wrapped: std::collections::HashSet<(i32, u64)> = Default::default();
+    for (&s, list) in &faces {
+        for f in list {
+            let ln = norm(f.normal);
+            for &v in &f.nodes {
+                let m = normal[&(s, v)];
+                if ln > 0.0
+                    && norm(m) > 0.0
+                    && dot(f.normal, m) <= blossomquad::validity::WRAP_COS * ln * norm(m)
+                {
+                    wrapped.insert((s, v));
+                }
+            }
         }
     }
     let no_faces: Vec<Face> = Vec::new();
@@ -213,8 +234,15 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
             // the reference normal at each corner: the input's at its node, else (a node
             // the run added: parity and fallback splits, vertex duplications) the normal of
             // the input faces nearest to it
+            let wraps = |k: usize| wrapped.contains(&(s, q[k]));
             let known: Vec<V> = (0..4)
                 .map(|k| match normal.get(&(s, q[k])) {
+                    Some(_) if wraps(k) => {
+                        let a = sub(p[(k + 1) % 4], p[k]);
+                        let c = sub(p[(k + 3) % 4], p[k]);
+                        let inside = add(p[k], add(a, c).map(|x| 0.25 * x));
+                        nearest_normal(surface_faces, inside, tie)
+                    }
                     Some(n) if norm(*n) > 0.0 => *n,
                     _ => nearest_normal(surface_faces, p[k], tie),
                 })
@@ -265,6 +293,9 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                     let Some(m) = normal.get(&(s, q[j])).filter(|m| norm(**m) > 0.0) else {
                         continue;
                     };
+                    if wraps(j) {
+                        continue;
+                    }
                     let sj = dot(cross(a, c), *m) / (norm(a) * norm(c) * norm(*m));
                     if !(sj > 1e-12) {
                         return Err(format!(

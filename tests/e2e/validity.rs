@@ -383,6 +383,62 @@ fn an_edge_swap_draws_no_diagonal_along_an_existing_edge() {
     assert!(checked.ok, "{}", checked.report);
 }
 
+/// Gmsh's mesh of a box with a tilted cylinder fused on top, meshed at about 2.8 times its
+/// radius (`tests/data/cad/thin_pin_own_side.py`): the cylinder's lateral surface wraps round
+/// node 55, where a face turns 90° or more from the node's area-weighted normal, so that
+/// normal stands for no side of the surface. Measured about it, quads on the pin stayed
+/// invalid through every fallback round and the part was refused; measured on their own
+/// side (the faces nearest to a point inside the corner), the part recombines, every quad
+/// valid by the gate and by the independent checker, which measures such corners the same
+/// way.
+#[test]
+fn a_thin_pin_is_recombined_with_its_corners_measured_on_their_own_side() {
+    let input = common::repo_dir().join("tests/data/cad/v41_thin_pin_own_side.msh");
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    // the quirk: a face at node 55 of surface 7 turns 90 degrees or more from the node's
+    // area-weighted normal
+    let coords: std::collections::HashMap<u64, glam::DVec3> = mesh
+        .node_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().copied().zip(b.coords.iter().copied()))
+        .map(|(t, c)| (t, glam::DVec3::from_array(c)))
+        .collect();
+    let faces: Vec<glam::DVec3> = mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.entity_tag == 7)
+        .flat_map(|b| (0..b.len()).map(move |i| b.element(i).to_vec()))
+        .filter(|e| e.contains(&55))
+        .map(|e| (coords[&e[1]] - coords[&e[0]]).cross(coords[&e[2]] - coords[&e[0]]))
+        .collect();
+    let at_node: glam::DVec3 = faces.iter().sum();
+    assert!(faces.iter().any(|n| n.dot(at_node) <= 0.0));
+    let mut out = mesh.clone();
+    let mut opts = Options::default();
+    // the checks below compare the input and the output by tag
+    opts.keep_tags = true;
+    let report = quadrangulate(&mut out, &opts).unwrap_or_else(|e| panic!("{e}"));
+    assert!(validity::invalid_quads(&mesh, &out).is_empty());
+    let triangles_left: usize = out
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
+        .map(|b| b.len())
+        .sum();
+    assert_eq!(triangles_left, 0, "{}", report.log.join("\n"));
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("pin-quads.msh");
+    let (code, _, stderr) = blossomquad_run([
+        input.as_os_str(),
+        "-o".as_ref(),
+        output.as_os_str(),
+        "--keep-tags".as_ref(),
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    let checked = check_mesh(&input, &output, &[]);
+    assert!(checked.ok, "{}", checked.report);
+}
+
 /// Gmsh's mesh of a box with a thin cylinder fused on top, meshed coarser than the
 /// cylinder's radius (`tests/data/cad/thin_cylinder.py`): around the cylinder triangles fold
 /// over their neighbours, and the mesh overlaps itself: an edge of four triangles. Folds
