@@ -329,7 +329,7 @@ fn a_filleted_box_gets_no_quad_folded_about_its_own_normal() {
 }
 
 /// Gmsh's mesh of a box with a thin tilted cylinder fused on top, meshed at about twice its
-/// radius (`tests/data/cad/thin_pin_wrapped.py`): the cylinder is a few triangles round, so
+/// radius (`tests/data/cad/thin_cylinder.py wrapped`): the cylinder is a few triangles round, so
 /// nodes 108 and 494, on opposite sides of it and joined by an edge of two triangles, share
 /// four of their six neighbours. An extra edge's fan at one of them once took an edge swap
 /// whose new diagonal ran from one to the other, and the quads on that diagonal and on the
@@ -356,13 +356,20 @@ fn an_edge_swap_draws_no_diagonal_along_an_existing_edge() {
             .count()
     };
     assert_eq!(faces_on(&mesh, 108, 494), 2);
+    let out = recombines_validly_by_tag(&input, &mesh);
+    assert!(faces_on(&out, 108, 494) <= 2);
+}
+
+/// Recombines `mesh` (read from `input`) keeping its tags: `Ok`, every quad valid by the
+/// gate, no triangle left; then the CLI on `input` with `--keep-tags`, exit 0 and the
+/// independent checker passing. Returns the recombined mesh.
+fn recombines_validly_by_tag(input: &Path, mesh: &Mesh) -> Mesh {
     let mut out = mesh.clone();
     let mut opts = Options::default();
     // the checks below compare the input and the output by tag
     opts.keep_tags = true;
     let report = quadrangulate(&mut out, &opts).unwrap_or_else(|e| panic!("{e}"));
-    assert!(validity::invalid_quads(&mesh, &out).is_empty());
-    assert!(faces_on(&out, 108, 494) <= 2);
+    assert!(validity::invalid_quads(mesh, &out).is_empty());
     let triangles_left: usize = out
         .element_blocks
         .iter()
@@ -371,7 +378,7 @@ fn an_edge_swap_draws_no_diagonal_along_an_existing_edge() {
         .sum();
     assert_eq!(triangles_left, 0, "{}", report.log.join("\n"));
     let dir = tempfile::tempdir().expect("temp dir");
-    let output = dir.path().join("pin-quads.msh");
+    let output = dir.path().join("quads.msh");
     let (code, _, stderr) = blossomquad_run([
         input.as_os_str(),
         "-o".as_ref(),
@@ -379,12 +386,13 @@ fn an_edge_swap_draws_no_diagonal_along_an_existing_edge() {
         "--keep-tags".as_ref(),
     ]);
     assert_eq!(code, Some(0), "{stderr}");
-    let checked = check_mesh(&input, &output, &[]);
+    let checked = check_mesh(input, &output, &[]);
     assert!(checked.ok, "{}", checked.report);
+    out
 }
 
 /// Gmsh's mesh of a box with a tilted cylinder fused on top, meshed at about 2.8 times its
-/// radius (`tests/data/cad/thin_pin_own_side.py`): the cylinder's lateral surface wraps round
+/// radius (`tests/data/cad/thin_cylinder.py own_side`): the cylinder's lateral surface wraps round
 /// node 55, where a face turns 90° or more from the node's area-weighted normal, so that
 /// normal stands for no side of the surface. Measured about it, quads on the pin stayed
 /// invalid through every fallback round and the part was refused; measured on their own
@@ -413,34 +421,11 @@ fn a_thin_pin_is_recombined_with_its_corners_measured_on_their_own_side() {
         .collect();
     let at_node: glam::DVec3 = faces.iter().sum();
     assert!(faces.iter().any(|n| n.dot(at_node) <= 0.0));
-    let mut out = mesh.clone();
-    let mut opts = Options::default();
-    // the checks below compare the input and the output by tag
-    opts.keep_tags = true;
-    let report = quadrangulate(&mut out, &opts).unwrap_or_else(|e| panic!("{e}"));
-    assert!(validity::invalid_quads(&mesh, &out).is_empty());
-    let triangles_left: usize = out
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
-        .map(|b| b.len())
-        .sum();
-    assert_eq!(triangles_left, 0, "{}", report.log.join("\n"));
-    let dir = tempfile::tempdir().expect("temp dir");
-    let output = dir.path().join("pin-quads.msh");
-    let (code, _, stderr) = blossomquad_run([
-        input.as_os_str(),
-        "-o".as_ref(),
-        output.as_os_str(),
-        "--keep-tags".as_ref(),
-    ]);
-    assert_eq!(code, Some(0), "{stderr}");
-    let checked = check_mesh(&input, &output, &[]);
-    assert!(checked.ok, "{}", checked.report);
+    recombines_validly_by_tag(&input, &mesh);
 }
 
 /// Gmsh's mesh of a box with a thin cylinder fused on top, meshed coarser than the
-/// cylinder's radius (`tests/data/cad/thin_cylinder.py`): around the cylinder triangles fold
+/// cylinder's radius (`tests/data/cad/thin_cylinder.py folded`): around the cylinder triangles fold
 /// over their neighbours, and the mesh overlaps itself: an edge of four triangles. Folds
 /// alone would be walled off (no quad across them); the non-manifold edge is refused, in
 /// one line naming it (surface, element, the edge, the triangles), not the fold on a
