@@ -715,4 +715,64 @@ mod tests {
         assert_eq!(plan(&l, &opts, true, true), Plan::Trial);
         assert_eq!(plan(&l, &opts, false, false), Plan::One);
     }
+
+    /// A surface of [`SINGLE_FROM`] quads or more with a low mean η, its sizes from its own
+    /// edges (as without reference triangles), after nothing but the extraction.
+    fn larger_square() -> Local {
+        let quads = (1u64..20)
+            .find_map(|seed| synth::pair_optimal(&synth::delaunay_square(36, 1.0, 0.3, seed)))
+            .expect("an even, matchable square");
+        let (_, mut l) = local_of(&synth::to_mesh(&quads));
+        l.h = crate::quality::size::mean_incident_edge_length(
+            &l.pos,
+            l.quads.iter().map(|q| &q[..]),
+        );
+        l
+    }
+
+    /// The unsheared schedule's rounds run from a copy after the first round's pass and
+    /// smoothing (as the trial runs them) end exactly where they end run from the start: the
+    /// first round's pass and smoothing do not depend on the conformal solve after them.
+    #[test]
+    fn the_unsheared_rounds_from_the_shared_first_round_end_as_from_the_start() {
+        let opts = OptimizeOptions::default();
+        let mut l = larger_square();
+        let sweeps = first_sweeps(&l, &opts);
+        smooth::smooth(&mut l, sweeps, opts.diagonal_weight);
+        let gate = valid::Gate::new(&l);
+        let mut tm = StageTimer::new(opts.trace, "optimize", 0);
+        let (mut a, mut a_ops, mut a_gate) = (l.clone(), OperationCounts::default(), gate.clone());
+        topology_rounds(&mut a, &opts, &mut a_ops, &mut tm, &|_| {}, true, &mut a_gate);
+        let (mut b, mut b_ops, mut b_gate) = (l, OperationCounts::default(), gate);
+        let mut rounds = Rounds::new(&opts);
+        assert!(rounds.pass_and_smooth(&mut b, &opts, &mut b_ops, &mut tm));
+        // the plain schedule goes on from here with the original
+        let (mut u, mut u_ops, mut u_gate, mut u_rounds) = (b.clone(), b_ops, b_gate.clone(), rounds.clone());
+        rounds.run(&mut b, &opts, &mut b_ops, &mut tm, &|_| {}, false, &mut b_gate);
+        u_rounds.run(&mut u, &opts, &mut u_ops, &mut tm, &|_| {}, true, &mut u_gate);
+        use crate::optimize::test_util::bits;
+        assert_eq!(bits(&a.pos), bits(&u.pos));
+        assert_eq!((&a.quads, &a.alive), (&u.quads, &u.alive));
+        assert_eq!(a_ops.smoothing_moves, u_ops.smoothing_moves);
+        assert!(a.quads.len() >= CUT_TRIAL_FROM, "{} quads", a.quads.len());
+    }
+
+    /// The trial of a main surface of [`CUT_TRIAL_FROM`] quads or more (the schedules
+    /// compared after the max-min polish) ends the same on one thread and on two.
+    #[test]
+    fn a_cut_trial_does_not_depend_on_the_thread_count() {
+        let opts = OptimizeOptions::default();
+        let l = larger_square();
+        assert!(l.quads.len() >= CUT_TRIAL_FROM && l.stats().eta_mean < ALTERNATIVES_BELOW);
+        let run = |threads| {
+            crate::optimize::test_util::on_threads(threads, || {
+                let mut m = l.clone();
+                let rep = run_surface(&mut m, &opts, true, &|_| {});
+                let pos = crate::optimize::test_util::bits(&m.pos);
+                (pos, m.quads, m.alive, rep.after.eta_mean.to_bits())
+            })
+        };
+        let one = run(1);
+        assert_eq!(one, run(2));
+    }
 }
