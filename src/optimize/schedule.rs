@@ -186,10 +186,10 @@ fn trial(
 /// Small planar surfaces of this many quads or more that try the three schedules
 /// ([`trial`]) compare them after the max-min polish, and only the kept one runs the
 /// pattern sweeps and the mean polish, which raise η̄ by about as much in each schedule.
-/// On these surfaces (the trials of main surfaces) no fixture or corpus output lost 0.005
-/// of η̄ or η_w; choosing that early on smaller ones as well lost up to 0.029 of η_w or
-/// 0.012 of η̄ on 9 of the corpus and Gmsh example models, for little time (figures in
-/// BENCHMARKS.md, "Measurements behind the defaults").
+/// On these surfaces (main surfaces, or any without topology rounds) no output of the
+/// corpus runs or of Gmsh's example meshes lost 0.005 of η̄ or η_w; choosing that early on
+/// smaller ones as well lost up to 0.029 of η_w or 0.012 of η̄ on 9 of those models, for
+/// little time (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const CUT_TRIAL_FROM: usize = SINGLE_FROM;
 
 /// The square finish (β = 0) of the state after the plain topology rounds; with `cut`,
