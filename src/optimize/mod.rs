@@ -32,11 +32,15 @@
 //! schedules (square-target finish, the one above, topology rounds each followed by the
 //! conformal solve): under 1,000 quads, or when the surface holds half of the reference's
 //! triangles or more, the three run side by side and the best by η̄, η_w and estimated τ
-//! is kept (`schedule::better`); other such surfaces run one of them, chosen by their mean η
-//! after the first smoothing. The choice reads the surface and the reference alone, and
-//! each schedule is deterministic, so the result does not depend on the thread count or on
-//! the other surfaces. Surfaces are started largest first, each on the next idle thread. On large
-//! surfaces the topology passes after the first only look near what the previous pass
+//! is kept (`schedule::better`; from 1,000 quads they are compared after the max-min polish
+//! and only the kept one runs the pattern and mean-η sweeps; the one with the conformal
+//! solve after each round starts from the plain one's first pass and smoothing, which are
+//! the same); other such surfaces run one of them, chosen by their mean η after the first
+//! smoothing. Only the surfaces that may try the three keep a planar reference (for the τ
+//! estimates), and a τ is estimated only when the η terms of a comparison hold. The
+//! choice reads the surface and the reference alone, and each schedule is deterministic,
+//! so the result does not depend on the thread count or on the other surfaces. Surfaces
+//! are started largest first, each on the next idle thread. On large surfaces the topology passes after the first only look near what the previous pass
 //! changed, and the rounds stop after a pass that changed under 1 % of the quads; from 2^15
 //! quads each pass runs on the two halves of the quads side by side, then on a band along
 //! their seam (deterministic, but not the serial pass's result). Quads are
@@ -378,7 +382,10 @@ pub fn optimize_prepared(
                 .map_or(triangles == 0, |r| 2 * r.triangles() >= triangles);
             l.in_large_mesh = triangles >= schedule::LARGE_MESH_FROM;
             let mut tr = StageTimer::new(opts.trace, "attach", l.surface);
-            attach_reference(&mut l, sref, refnodes, opts.reference_size_scale);
+            // planar surfaces keep their reference triangles only for the τ estimates
+            let keep_planar = schedule::may_try(&l, opts, main);
+            let scale = opts.reference_size_scale;
+            attach_reference(&mut l, sref, refnodes, scale, keep_planar);
             tr.lap("attach_reference");
             tr.done();
             let w = weight(&l);

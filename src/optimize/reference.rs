@@ -3,7 +3,6 @@
 //! located on it, target sizes from its edge lengths.
 
 use super::local::{Local, NONE};
-use super::schedule::SCHEDULE_CHOICE_BELOW;
 use super::surface_tags;
 use crate::mesh::{etype, Mesh};
 use crate::mesh::{NodeIds, NodeTable};
@@ -142,11 +141,6 @@ pub(super) fn surface_reference(reference: &Mesh, rnodes: &NodeTable, s: i32) ->
         compact_sparse,
     }
 }
-/// Attaches the surface's reference triangulation (`sref`, the prepared triangles of the
-/// same surface entity, else the quads split in two), locates every node on it and sets the
-/// sizes (those from reference triangles times `size_scale`).
-/// Planar surfaces need no projection: their nodes missing from the reference take the mean
-/// size of their matched neighbours and no spatial index is built.
 impl SurfaceReference {
     /// Number of reference triangles.
     pub(super) fn triangles(&self) -> usize {
@@ -154,11 +148,18 @@ impl SurfaceReference {
     }
 }
 
+/// Attaches the surface's reference triangulation (`sref`, the prepared triangles of the
+/// same surface entity, else the quads split in two), locates every node on it and sets the
+/// sizes (those from reference triangles times `size_scale`).
+/// Planar surfaces need no projection: their nodes missing from the reference take the mean
+/// size of their matched neighbours, and they keep the reference triangles (in a spatial
+/// index, with their sizes, for [`Local::tau_estimate`]) only with `keep_planar`.
 pub(super) fn attach_reference(
     l: &mut Local,
     sref: Option<SurfaceReference>,
     rnodes: &NodeIds,
     size_scale: f64,
+    keep_planar: bool,
 ) {
     let mut sref = sref.unwrap_or_else(SurfaceReference::empty);
     let mut pts = std::mem::take(&mut sref.pts);
@@ -272,8 +273,8 @@ pub(super) fn attach_reference(
             }
             left = rest;
         }
-        if !own && l.quads.len() < SCHEDULE_CHOICE_BELOW {
-            // small surfaces choose between schedules by τ (`Local::tau_estimate`)
+        if !own && keep_planar {
+            // the surface may choose between schedules by τ (`Local::tau_estimate`)
             l.reference = Some(std::sync::Arc::new(TriSurface::new(pts, tris)));
             l.ref_sizes = nodal;
         }
@@ -321,7 +322,7 @@ mod tests {
         let (_, mut l) = local_of(&synth::to_mesh(&quads));
         let rnodes = NodeTable::new(&reference);
         let sref = surface_reference(&reference, &rnodes, l.surface);
-        attach_reference(&mut l, Some(sref), &rnodes.into_ids(), 1.0);
+        attach_reference(&mut l, Some(sref), &rnodes.into_ids(), 1.0, true);
         assert!(l.planar && !l.ref_sizes.is_empty() && l.reference.is_some());
         let start_sizes = l.h.clone();
         for v in 0..l.pos.len() {

@@ -45,10 +45,7 @@ pub(super) fn run_surface(
             let keep = conformal::KEEP_ASPECT;
             finish_ticking(l, opts, &mut ops, &mut tm, keep, &mut gate, tick);
         }
-        Plan::Trial => {
-            let start = opts.topology.then(|| (l.clone(), ops, gate.clone()));
-            trial(l, opts, &mut ops, &mut tm, tick, &mut gate, start);
-        }
+        Plan::Trial => trial(l, opts, &mut ops, &mut tm, tick, &mut gate),
         Plan::Single { unshear } => {
             topology_rounds(l, opts, &mut ops, &mut tm, tick, unshear, &mut gate);
             let keep = conformal::KEEP_ASPECT;
@@ -97,7 +94,7 @@ fn plan(l: &Local, opts: &OptimizeOptions, polish: bool, main: bool) -> Plan {
     let mean = l.stats().eta_mean;
     if mean >= ALTERNATIVES_BELOW {
         Plan::One
-    } else if main || !opts.topology || l.quads.len() < SINGLE_FROM {
+    } else if tries(l, opts, main) {
         Plan::Trial
     } else {
         Plan::Single {
@@ -106,14 +103,31 @@ fn plan(l: &Local, opts: &OptimizeOptions, polish: bool, main: bool) -> Plan {
     }
 }
 
+/// True when a small planar surface with a low mean η tries the three schedules rather
+/// than choosing one from its mean η ([`plan`]).
+fn tries(l: &Local, opts: &OptimizeOptions, main: bool) -> bool {
+    main || !opts.topology || l.quads.len() < SINGLE_FROM
+}
+
+/// True when `l` may try the three schedules ([`Plan::Trial`], depending on its mean η
+/// after the first smoothing): the one use of a planar surface's reference triangles, in
+/// the τ estimates of [`keep_best`]. Reads what is known before the first smoothing;
+/// `main` as for [`run_surface`].
+pub(super) fn may_try(l: &Local, opts: &OptimizeOptions, main: bool) -> bool {
+    let polish = opts.angle_sweeps > 0 && opts.smooth_iterations > 0;
+    polish && l.planar && l.quads.len() < SCHEDULE_CHOICE_BELOW && tries(l, opts, main)
+}
+
 /// A schedule's state, with its operation counts and validity gate.
 type Branch = (Local, OperationCounts, valid::Gate);
 
 /// The three schedules of a small planar surface, side by side, keeping the best in `l`
 /// (see [`keep_best`]): after the topology rounds, finishing with square targets (β = 0)
-/// beside the aspect-keeping finish, and (from `start`, the state after the first
-/// smoothing, when given) topology rounds each followed by a conformal solve. `l`, `ops`
-/// and `gate` run the aspect-keeping one, with progress ticks.
+/// beside the aspect-keeping finish, and (with topology rounds) the rounds each followed by
+/// a conformal solve. `l`, `ops` and `gate` run the aspect-keeping one, with progress
+/// ticks, and end with the kept schedule's. On surfaces of [`CUT_TRIAL_FROM`] quads or
+/// more the schedules stop after the max-min polish ([`finish_head`]), and only the kept
+/// one runs the rest of the finish ([`finish_tail`]).
 fn trial(
     l: &mut Local,
     opts: &OptimizeOptions,
@@ -121,76 +135,130 @@ fn trial(
     tm: &mut StageTimer<'_>,
     tick: &(dyn Fn(usize) + Sync),
     gate: &mut valid::Gate,
-    mut start: Option<Branch>,
 ) {
+    // speed: on larger surfaces the schedules are compared before their last, costliest
+    // stages (see the constant)
+    let cut = l.quads.len() >= CUT_TRIAL_FROM;
+    // speed: the first round's pass and smoothing are the same in the plain and the
+    // unsheared schedule (the conformal solve comes after them), so the unsheared one
+    // starts from a copy after them. When that pass changed nothing, it would repeat the
+    // plain schedule, which it replaces only with a higher η̄, so it does not run.
+    let mut rounds = Rounds::new(opts);
+    let mut unsheared: Option<(Branch, Rounds)> = None;
+    if opts.topology && rounds.pass_and_smooth(l, opts, ops, tm) {
+        unsheared = Some(((l.clone(), *ops, gate.clone()), rounds.clone()));
+    }
     // speed: the schedules are independent, so they run side by side (each is
     // deterministic, so the kept one does not depend on the thread count)
     let mut square: Option<Branch> = None;
     rayon::join(
         || {
             if opts.topology {
-                topology_rounds(l, opts, ops, tm, tick, false, gate);
+                rounds.run(l, opts, ops, tm, tick, false, gate);
             }
             // the square finish starts from the state after the topology rounds
             let fork = (l.clone(), *ops, gate.clone());
             rayon::join(
-                || square = Some(square_finish(opts, fork)),
+                || square = Some(square_finish(opts, fork, cut)),
                 || {
                     let keep = conformal::KEEP_ASPECT;
-                    finish_ticking(l, opts, ops, tm, keep, gate, tick)
+                    finish_head(l, opts, ops, tm, keep, gate, tick);
+                    if !cut {
+                        finish_tail(l, opts, ops, tm, gate, tick);
+                    }
                 },
             );
         },
         || {
-            if let Some(u) = start.as_mut() {
-                unsheared_schedule(opts, u);
+            if let Some((u, r)) = unsheared.as_mut() {
+                unsheared_schedule(opts, u, r, cut);
             }
         },
     );
     if let Some(sq) = square {
-        keep_best(l, ops, sq, start);
+        keep_best(l, ops, gate, sq, unsheared.map(|(u, _)| u));
+    }
+    if cut {
+        finish_tail(l, opts, ops, tm, gate, tick);
     }
 }
 
-/// The square finish (β = 0) of the state after the plain topology rounds.
-fn square_finish(opts: &OptimizeOptions, (mut l, mut ops, mut gate): Branch) -> Branch {
+/// Small planar surfaces of this many quads or more that try the three schedules
+/// ([`trial`]) compare them after the max-min polish, and only the kept one runs the
+/// pattern sweeps and the mean polish, which raise η̄ by about as much in each schedule.
+/// On these surfaces (main surfaces, or any without topology rounds) no output of the
+/// corpus runs or of Gmsh's example meshes lost 0.005 of η̄ or η_w; choosing that early on
+/// smaller ones as well lost up to 0.029 of η_w or 0.012 of η̄ on 9 of those models, for
+/// little time (figures in BENCHMARKS.md, "Measurements behind the defaults").
+const CUT_TRIAL_FROM: usize = SINGLE_FROM;
+
+/// The square finish (β = 0) of the state after the plain topology rounds; with `cut`,
+/// only up to the max-min polish ([`finish_head`]).
+fn square_finish(opts: &OptimizeOptions, (mut l, mut ops, mut gate): Branch, cut: bool) -> Branch {
     let mut tp = StageTimer::new(opts.trace, "optimize (square finish)", l.surface);
-    finish(&mut l, opts, &mut ops, &mut tp, 0.0, &mut gate);
+    finish_head(&mut l, opts, &mut ops, &mut tp, 0.0, &mut gate, &|_| {});
+    if !cut {
+        finish_tail(&mut l, opts, &mut ops, &mut tp, &mut gate, &|_| {});
+    }
     tp.done();
     (l, ops, gate)
 }
 
 /// The schedule whose topology rounds are each followed by the conformal solve, run on
-/// `u` (the state after the first smoothing).
-fn unsheared_schedule(opts: &OptimizeOptions, (u, u_ops, u_gate): &mut Branch) {
+/// `u` from the middle of the first round (`rounds`: its pass and smoothing done); with
+/// `cut`, only up to the max-min polish ([`finish_head`]).
+fn unsheared_schedule(
+    opts: &OptimizeOptions,
+    (u, u_ops, u_gate): &mut Branch,
+    rounds: &mut Rounds,
+    cut: bool,
+) {
     let mut tu = StageTimer::new(opts.trace, "optimize (conformal rounds)", u.surface);
-    topology_rounds(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
-    finish(u, opts, u_ops, &mut tu, conformal::KEEP_ASPECT, u_gate);
+    rounds.run(u, opts, u_ops, &mut tu, &|_| {}, true, u_gate);
+    let keep = conformal::KEEP_ASPECT;
+    finish_head(u, opts, u_ops, &mut tu, keep, u_gate, &|_| {});
+    if !cut {
+        finish_tail(u, opts, u_ops, &mut tu, u_gate, &|_| {});
+    }
     tu.done();
 }
 
-/// Keeps in `l` (the aspect-keeping schedule's result) the best of it, `square` and
-/// `unsheared` by [`better`]: the square finish unless the aspect-keeping one is better,
-/// then the unsheared schedule if better than both.
+/// Keeps in `l`, `ops` and `gate` (the aspect-keeping schedule's) the best of it, `square`
+/// and `unsheared` by [`better`]: the square finish unless the aspect-keeping one is
+/// better, then the unsheared schedule if better than both. A schedule's τ estimate is
+/// computed only when a comparison gets to it (the η terms come first).
 fn keep_best(
     l: &mut Local,
     ops: &mut OperationCounts,
-    (mut square, square_ops, _): Branch,
+    gate: &mut valid::Gate,
+    (mut square, square_ops, mut square_gate): Branch,
     unsheared: Option<Branch>,
 ) {
-    let base = (square.stats(), square.tau_estimate());
-    let mut best = (l.stats(), l.tau_estimate());
-    if !better(&best, &base) {
+    let (plain_kept, take_unsheared) = {
+        let taus: [std::cell::OnceCell<f64>; 3] = Default::default();
+        let plain = (l.stats(), || *taus[0].get_or_init(|| l.tau_estimate()));
+        let base = (square.stats(), || *taus[1].get_or_init(|| square.tau_estimate()));
+        let plain_kept = better(&plain, &base);
+        let take_unsheared = unsheared.as_ref().is_some_and(|(u, _, _)| {
+            let cand = (u.stats(), || *taus[2].get_or_init(|| u.tau_estimate()));
+            let beats_best = if plain_kept {
+                better(&cand, &plain)
+            } else {
+                better(&cand, &base)
+            };
+            beats_best && better(&cand, &base)
+        });
+        (plain_kept, take_unsheared)
+    };
+    if !plain_kept {
         std::mem::swap(l, &mut square);
+        std::mem::swap(gate, &mut square_gate);
         *ops = square_ops;
-        best = base;
     }
-    if let Some((mut u, u_ops, _)) = unsheared {
-        let cand = (u.stats(), u.tau_estimate());
-        if better(&cand, &best) && better(&cand, &base) {
-            std::mem::swap(l, &mut u);
-            *ops = u_ops;
-        }
+    if let (true, Some((mut u, u_ops, mut u_gate))) = (take_unsheared, unsheared) {
+        std::mem::swap(l, &mut u);
+        std::mem::swap(gate, &mut u_gate);
+        *ops = u_ops;
     }
 }
 
@@ -206,11 +274,12 @@ const SINGLE_FROM: usize = 1000;
 const UNSHEAR_BELOW: f64 = 0.81;
 
 /// True when `cand` (stats, τ estimate) should replace `base`: a higher η̄, η_w at most
-/// [`ETA_W_SLACK`] lower and τ at most [`TAU_SLACK`] points lower.
-fn better(cand: &(Stats, f64), base: &(Stats, f64)) -> bool {
+/// [`ETA_W_SLACK`] lower and τ at most [`TAU_SLACK`] points lower. The τ estimates are
+/// asked for only when the η terms hold.
+fn better(cand: &(Stats, impl Fn() -> f64), base: &(Stats, impl Fn() -> f64)) -> bool {
     cand.0.eta_mean > base.0.eta_mean
         && cand.0.eta_worst >= base.0.eta_worst - ETA_W_SLACK
-        && cand.1 >= base.1 - TAU_SLACK
+        && cand.1() >= base.1() - TAU_SLACK
 }
 
 /// How much lower η_w a schedule may end with than the plain one and still be chosen.
@@ -250,46 +319,125 @@ fn topology_rounds(
     unshear: bool,
     gate: &mut valid::Gate,
 ) {
-    // speed: around the changes of a topology pass on a large surface, 3/5 of the sweeps
-    let near_its = (opts.smooth_iterations * NEAR_SWEEPS_NUM).div_ceil(5);
-    // speed: after a pass, smooth only around what it changed (see `near_changes`), and
-    // let the next pass's operators search only there (elsewhere they found nothing; see
-    // BENCHMARKS.md)
-    let mut focus: Option<Vec<bool>> = None;
-    for _ in 0..opts.max_rounds {
+    Rounds::new(opts).run(l, opts, ops, tm, tick, unshear, gate);
+}
+
+/// Where a surface's topology rounds are ([`topology_rounds`]): a round is its pass and
+/// smoothing ([`Rounds::pass_and_smooth`]), then the rest ([`Rounds::close`]), so that two
+/// schedules can share a round's first part.
+#[derive(Clone)]
+struct Rounds {
+    /// Rounds not yet started.
+    left: usize,
+    /// The nodes the next pass searches around (large surfaces, after a pass).
+    focus: Option<Vec<bool>>,
+    /// The round in the middle: its pass changed this many quads, on a large surface.
+    open: Option<(usize, bool)>,
+}
+
+impl Rounds {
+    /// No round started, up to `opts.max_rounds`.
+    fn new(opts: &OptimizeOptions) -> Self {
+        Rounds {
+            left: opts.max_rounds,
+            focus: None,
+            open: None,
+        }
+    }
+
+    /// The remaining rounds (closing the one in the middle first), each followed by the
+    /// conformal solve when `unshear`.
+    #[allow(clippy::too_many_arguments)]
+    fn run(
+        &mut self,
+        l: &mut Local,
+        opts: &OptimizeOptions,
+        ops: &mut OperationCounts,
+        tm: &mut StageTimer<'_>,
+        tick: &(dyn Fn(usize) + Sync),
+        unshear: bool,
+        gate: &mut valid::Gate,
+    ) {
+        loop {
+            if self.open.is_some() {
+                self.close(l, opts, ops, tick, unshear, gate);
+            }
+            if !self.pass_and_smooth(l, opts, ops, tm) {
+                return;
+            }
+        }
+    }
+
+    /// Starts the next round: the topology pass and the smoothing near its changes (of every
+    /// node on small surfaces). False, with nothing changed, when no round is left or the
+    /// pass changed nothing (the rounds are over).
+    fn pass_and_smooth(
+        &mut self,
+        l: &mut Local,
+        opts: &OptimizeOptions,
+        ops: &mut OperationCounts,
+        tm: &mut StageTimer<'_>,
+    ) -> bool {
+        if self.left == 0 {
+            return false;
+        }
+        self.left -= 1;
+        // speed: around the changes of a topology pass on a large surface, 3/5 of the sweeps
+        let near_its = (opts.smooth_iterations * NEAR_SWEEPS_NUM).div_ceil(5);
         // the state before the pass, to find what it changed (a pass never adds quads,
         // so the surface size decides before it)
         let snapshot = large(l).then(|| (l.quads.clone(), l.alive.clone(), l.pos.clone()));
-        // speed: on a large surface, the pass in two halves side by side (`halves`)
+        // speed: on a large surface, the pass in two halves side by side (`halves`); after
+        // a pass, the operators search only near its changes (elsewhere they found
+        // nothing; see BENCHMARKS.md)
         let changed = if l.quads.len() >= HALVES_FROM {
-            super::halves::pass(l, ops, focus.as_deref())
+            super::halves::pass(l, ops, self.focus.as_deref())
         } else {
-            topo::pass(l, ops, focus.as_deref())
+            topo::pass(l, ops, self.focus.as_deref())
         };
         tm.lap("topo");
         if changed == 0 {
-            break;
+            self.left = 0;
+            return false;
         }
         l.build_adjacency();
+        // speed: after a pass, smooth only around what it changed (see `near_changes`)
         ops.smoothing_moves += match &snapshot {
             None => smooth::smooth(l, opts.smooth_iterations, opts.diagonal_weight),
             Some(snapshot) => {
                 let active = near_changes(l, snapshot, RESMOOTH_RINGS);
-                focus = Some(active.clone());
+                self.focus = Some(active.clone());
                 smooth::smooth_near(l, near_its, opts.diagonal_weight, active)
             }
         };
         lap_with_quality(tm, l, "resmooth");
+        self.open = Some((changed, snapshot.is_some()));
+        true
+    }
+
+    /// Ends the round in the middle: the conformal solve when `unshear`, the gate's check,
+    /// a progress tick; on a large surface, a pass that changed under 1/ROUNDS_STOP_SHARE
+    /// of the quads is the last (the next ones find fewer still; see the constant).
+    fn close(
+        &mut self,
+        l: &mut Local,
+        opts: &OptimizeOptions,
+        ops: &mut OperationCounts,
+        tick: &(dyn Fn(usize) + Sync),
+        unshear: bool,
+        gate: &mut valid::Gate,
+    ) {
+        let Some((changed, large)) = self.open.take() else {
+            return;
+        };
         if unshear {
             let mg = opts.conformal_multigrid;
             ops.smoothing_moves += conformal::unshear(l, conformal::KEEP_ASPECT, mg);
         }
         gate.check(l, true, "topology round");
         tick(1);
-        // speed: on a large surface, a pass that changed under 1/ROUNDS_STOP_SHARE of the
-        // quads is the last: the next ones find fewer still (see the constant)
-        if snapshot.is_some() && changed * ROUNDS_STOP_SHARE < l.quads.len() {
-            break;
+        if large && changed * ROUNDS_STOP_SHARE < l.quads.len() {
+            self.left = 0;
         }
     }
 }
@@ -308,6 +456,7 @@ const ROUNDS_STOP_SHARE: usize = 100;
 
 /// The last stages: conformal solve (keeping `keep_aspect` of the aspect ratios), max-min
 /// polish, pattern sweeps, mean-η polish.
+#[cfg(test)]
 pub(super) fn finish(
     l: &mut Local,
     opts: &OptimizeOptions,
@@ -335,6 +484,21 @@ fn finish_ticking(
     gate: &mut valid::Gate,
     tick: &(dyn Fn(usize) + Sync),
 ) {
+    finish_head(l, opts, ops, tm, keep_aspect, gate, tick);
+    finish_tail(l, opts, ops, tm, gate, tick);
+}
+
+/// The first two steps of [`finish`]: the conformal solve and the max-min polish, giving a
+/// progress tick after each.
+fn finish_head(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    ops: &mut OperationCounts,
+    tm: &mut StageTimer<'_>,
+    keep_aspect: f64,
+    gate: &mut valid::Gate,
+    tick: &(dyn Fn(usize) + Sync),
+) {
     // quality: undo global shear the node-by-node smoothers cannot (conformal.rs)
     if opts.angle_sweeps > 0 && opts.smooth_iterations > 0 {
         ops.smoothing_moves += conformal::unshear(l, keep_aspect, opts.conformal_multigrid);
@@ -349,7 +513,21 @@ fn finish_ticking(
         ops.smoothing_moves += smooth::polish_worst(l, sweeps);
         gate.check(l, true, "max-min polish");
         lap_with_quality(tm, l, "polish_worst");
-        tick(1);
+    }
+    tick(1);
+}
+
+/// The last two steps of [`finish`]: the pattern sweeps, then the mean polish (and on large
+/// surfaces the max-min polish again), giving a progress tick after each.
+fn finish_tail(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    ops: &mut OperationCounts,
+    tm: &mut StageTimer<'_>,
+    gate: &mut valid::Gate,
+    tick: &(dyn Fn(usize) + Sync),
+) {
+    if opts.angle_sweeps > 0 {
         let sweeps = by_size(l, opts.angle_sweeps, opts.angle_sweeps.div_ceil(2));
         ops.smoothing_moves += smooth::optimize_angles(l, sweeps);
         gate.check(l, true, "pattern search");
@@ -450,9 +628,9 @@ pub(crate) const LARGE_MESH_FROM: usize = 1 << 19;
 /// BENCHMARKS.md, "Measurements behind the defaults").
 pub(super) const LARGE_SURFACE_FROM: usize = 10_000;
 
-/// Planar surfaces with fewer quads may choose among three schedules ([`plan`]) and keep
-/// their reference triangles for the τ estimates that choice needs.
-pub(super) const SCHEDULE_CHOICE_BELOW: usize = 20_000;
+/// Planar surfaces with fewer quads may choose among three schedules ([`plan`]); those that
+/// may try them ([`may_try`]) keep their reference triangles for the τ estimates.
+const SCHEDULE_CHOICE_BELOW: usize = 20_000;
 
 /// Small planar surfaces choose among the three schedules ([`plan`]) only when their mean η
 /// after the first smoothing is below this: surfaces already above it gain next to nothing
@@ -536,5 +714,65 @@ mod tests {
         assert_eq!(plan(&l, &opts, true, false), single);
         assert_eq!(plan(&l, &opts, true, true), Plan::Trial);
         assert_eq!(plan(&l, &opts, false, false), Plan::One);
+    }
+
+    /// A surface of [`SINGLE_FROM`] quads or more with a low mean η, its sizes from its own
+    /// edges (as without reference triangles), after nothing but the extraction.
+    fn larger_square() -> Local {
+        let quads = (1u64..20)
+            .find_map(|seed| synth::pair_optimal(&synth::delaunay_square(36, 1.0, 0.3, seed)))
+            .expect("an even, matchable square");
+        let (_, mut l) = local_of(&synth::to_mesh(&quads));
+        l.h = crate::quality::size::mean_incident_edge_length(
+            &l.pos,
+            l.quads.iter().map(|q| &q[..]),
+        );
+        l
+    }
+
+    /// The unsheared schedule's rounds run from a copy after the first round's pass and
+    /// smoothing (as the trial runs them) end exactly where they end run from the start: the
+    /// first round's pass and smoothing do not depend on the conformal solve after them.
+    #[test]
+    fn the_unsheared_rounds_from_the_shared_first_round_end_as_from_the_start() {
+        let opts = OptimizeOptions::default();
+        let mut l = larger_square();
+        let sweeps = first_sweeps(&l, &opts);
+        smooth::smooth(&mut l, sweeps, opts.diagonal_weight);
+        let gate = valid::Gate::new(&l);
+        let mut tm = StageTimer::new(opts.trace, "optimize", 0);
+        let (mut a, mut a_ops, mut a_gate) = (l.clone(), OperationCounts::default(), gate.clone());
+        topology_rounds(&mut a, &opts, &mut a_ops, &mut tm, &|_| {}, true, &mut a_gate);
+        let (mut b, mut b_ops, mut b_gate) = (l, OperationCounts::default(), gate);
+        let mut rounds = Rounds::new(&opts);
+        assert!(rounds.pass_and_smooth(&mut b, &opts, &mut b_ops, &mut tm));
+        // the plain schedule goes on from here with the original
+        let (mut u, mut u_ops, mut u_gate, mut u_rounds) = (b.clone(), b_ops, b_gate.clone(), rounds.clone());
+        rounds.run(&mut b, &opts, &mut b_ops, &mut tm, &|_| {}, false, &mut b_gate);
+        u_rounds.run(&mut u, &opts, &mut u_ops, &mut tm, &|_| {}, true, &mut u_gate);
+        use crate::optimize::test_util::bits;
+        assert_eq!(bits(&a.pos), bits(&u.pos));
+        assert_eq!((&a.quads, &a.alive), (&u.quads, &u.alive));
+        assert_eq!(a_ops.smoothing_moves, u_ops.smoothing_moves);
+        assert!(a.quads.len() >= CUT_TRIAL_FROM, "{} quads", a.quads.len());
+    }
+
+    /// The trial of a main surface of [`CUT_TRIAL_FROM`] quads or more (the schedules
+    /// compared after the max-min polish) ends the same on one thread and on two.
+    #[test]
+    fn a_cut_trial_does_not_depend_on_the_thread_count() {
+        let opts = OptimizeOptions::default();
+        let l = larger_square();
+        assert!(l.quads.len() >= CUT_TRIAL_FROM && l.stats().eta_mean < ALTERNATIVES_BELOW);
+        let run = |threads| {
+            crate::optimize::test_util::on_threads(threads, || {
+                let mut m = l.clone();
+                let rep = run_surface(&mut m, &opts, true, &|_| {});
+                let pos = crate::optimize::test_util::bits(&m.pos);
+                (pos, m.quads, m.alive, rep.after.eta_mean.to_bits())
+            })
+        };
+        let one = run(1);
+        assert_eq!(one, run(2));
     }
 }
