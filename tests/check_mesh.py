@@ -484,6 +484,15 @@ def scale_of(mesh):
     return max(norm(sub(hi, lo)), 1e-300)
 
 
+def ring(cx, cy, cz, r):
+    """The grid cells at Chebyshev distance r from cell (cx, cy, cz)."""
+    for x in range(cx - r, cx + r + 1):
+        for y in range(cy - r, cy + r + 1):
+            for z in range(cz - r, cz + r + 1):
+                if max(abs(x - cx), abs(y - cy), abs(z - cz)) == r:
+                    yield (x, y, z)
+
+
 class NearestTriangle:
     """Uniform grid over triangle centroids for nearest-centroid queries."""
 
@@ -507,15 +516,11 @@ class NearestTriangle:
         best, best_d = None, float("inf")
         r = 0
         while True:
-            for i in range(cx - r, cx + r + 1):
-                for j in range(cy - r, cy + r + 1):
-                    for k in range(cz - r, cz + r + 1):
-                        if max(abs(i - cx), abs(j - cy), abs(k - cz)) != r:
-                            continue
-                        for t in self.grid.get((i, j, k), ()):
-                            d = norm(sub(self.centroids[t], p))
-                            if d < best_d:
-                                best, best_d = t, d
+            for cell in ring(cx, cy, cz, r):
+                for t in self.grid.get(cell, ()):
+                    d = norm(sub(self.centroids[t], p))
+                    if d < best_d:
+                        best, best_d = t, d
             # Any centroid outside the searched cube is at least r * cell away.
             if best is not None and best_d <= r * self.cell:
                 return best
@@ -642,17 +647,12 @@ class OwnSide:
         cx, cy, cz = self._cell(c)
         r = 0
         while True:
-            # the cells at Chebyshev distance r from c's cell
-            for x in range(cx - r, cx + r + 1):
-                for y in range(cy - r, cy + r + 1):
-                    for z in range(cz - r, cz + r + 1):
-                        if max(abs(x - cx), abs(y - cy), abs(z - cz)) != r:
-                            continue
-                        for i in self.grid.get((x, y, z), ()):
-                            if i not in dist:
-                                pts = self.faces[i][0]
-                                dist[i] = min(norm(sub(c, closest_on_triangle(c, pts[0], pts[j], pts[j + 1])))
-                                              for j in range(1, len(pts) - 1))
+            for cell in ring(cx, cy, cz, r):
+                for i in self.grid.get(cell, ()):
+                    if i not in dist:
+                        pts = self.faces[i][0]
+                        dist[i] = min(norm(sub(c, closest_on_triangle(c, pts[0], pts[j], pts[j + 1])))
+                                      for j in range(1, len(pts) - 1))
             best = min(dist.values(), default=math.inf)
             # a face in no searched cell is at least r cells away
             if best + self.tie <= r * self.cell or len(dist) == len(self.faces):
