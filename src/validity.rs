@@ -21,11 +21,11 @@
 //! - no corner is seen edge-on from the surface (its sine about that normal above
 //!   [`MIN_SINE`] of its edges' lengths);
 //! - each corner also turns positively (sine above [`MIN_SINE`] of its edges' lengths) about
-//!   the input normal at every node of the quad the input has and does not wrap round: on a coarse curved face
-//!   whose normal turns sharply within one quad, a corner can be fine about its own node's
-//!   normal and reflex about the surface a neighbouring corner sees (`tests/check_mesh.py`,
-//!   which measures a quad's corners about one normal of the input faces around it, found
-//!   such quads on the corpus's many-bosses model);
+//!   the input normal at every node of the quad the input has and does not wrap round: on
+//!   a coarse curved face whose normal turns sharply within one quad, a corner can be fine
+//!   about its own node's normal and reflex about the surface a neighbouring corner sees
+//!   (`tests/check_mesh.py`, which measures a quad's corners about one normal of the input
+//!   faces around it, found such quads on the corpus's many-bosses model);
 //! - the quad holds to its own geometry: its scaled Jacobian at each corner about its *own*
 //!   normal (the cross product of its diagonals, the normal of the bilinear map at the
 //!   quad's centre) is above `tan ε`, ε the angle of [`MIN_CORNER_ETA`]. The Jacobian
@@ -352,9 +352,9 @@ impl Normals {
     }
 
     /// Whether the surface wraps round node `t`: one of its faces there turns 90° or more
-    /// ([`WRAP_COS`]) from the node's normal (a fold, or a pin meshed coarser than its radius, a few
-    /// triangles round). The node's normal then stands for no side of the surface, and a
-    /// corner there is measured about its own side ([`own_side`]).
+    /// ([`WRAP_COS`]) from the node's normal (a fold, or a pin meshed coarser than its
+    /// radius, a few triangles round). The node's normal then stands for no side of the
+    /// surface, and a corner there is measured about its own side ([`own_side`]).
     fn wraps(&self, t: u64) -> bool {
         !self.wrapped.is_empty() && self.wrapped.binary_search(&t).is_ok()
     }
