@@ -585,29 +585,30 @@ class OwnSide:
     the run added."""
 
     def __init__(self, in_faces, inp, scale):
+        # each face's points and twice its vector area, and the area-weighted normal at
+        # each node (unit)
         self.faces = []
         at_node = {}
+        nodes_of = []
         for _, f in in_faces:
             if not all(n in inp.nodes for n in f):
                 continue
             pts = [inp.nodes[n] for n in f]
             n = polygon_normal(pts)
             self.faces.append((pts, n))
+            nodes_of.append(f)
             for t in f:
                 at_node[t] = add(at_node.get(t, (0.0, 0.0, 0.0)), n)
+        self.at_node = {t: unit(m) for t, m in at_node.items()}
         self.wrapped = set()
-        for _, f in in_faces:
-            if not all(n in inp.nodes for n in f):
-                continue
-            n = polygon_normal([inp.nodes[x] for x in f])
+        for (_, n), f in zip(self.faces, nodes_of):
             if norm(n) == 0.0:
                 continue
             for t in f:
-                m = at_node[t]
-                if norm(m) > 0.0 and dot(n, m) <= WRAP_COS * norm(n) * norm(m):
+                m = self.at_node[t]
+                if norm(m) > 0.0 and dot(n, m) <= WRAP_COS * norm(n):
                     self.wrapped.add(t)
         self.tie = 1e-9 * scale
-        self.at_node = {t: unit(m) for t, m in at_node.items()}
         # a uniform grid of cells about the mean face size, each face in every cell its
         # bounding box meets
         self.grid = {}
@@ -816,11 +817,6 @@ def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, 
         rep.check("area", rel <= allowed, f"surface {surface}: area {area_in!r} -> {area_out!r} (rel {rel:.3e})")
         flipped = sum(1 for p in out_pts if dot(polygon_normal(p), axis) <= 0.0)
     else:
-        # area-weighted input normal at each input node of the surface
-        at_node = {}
-        for (_, f), n in zip(in_faces, normals):
-            for t in f:
-                at_node[t] = add(at_node.get(t, (0.0, 0.0, 0.0)), n)
         finder = None
         flipped = 0
         for _, f in out_faces:
@@ -835,7 +831,8 @@ def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, 
                 if wrapped:
                     ref = add(ref, own.corner(t, p[i], sub(p[(i + 1) % k], p[i]), sub(p[i - 1], p[i])))
                 else:
-                    ref = add(ref, unit(at_node.get(t, (0.0, 0.0, 0.0))))
+                    # the area-weighted input normal at the node (OwnSide)
+                    ref = add(ref, own.at_node.get(t, (0.0, 0.0, 0.0)))
             if norm(ref) == 0.0:
                 if finder is None:
                     centroids = [tuple(sum(c[i] for c in q) / len(q) for i in range(3)) for q in in_pts]
