@@ -69,7 +69,9 @@
 //!    job's).
 //! 5. **The worst quad.** A valid optimized result gets more tries: where the fallback
 //!    priced quads out, the fallback with splits only; quads under η [`ETA_FLOOR`] priced
-//!    out; up to [`SPLIT_TRIES`] times, the input triangles around those still under it
+//!    out; the boundary segments under those with a flat wall corner split (the segment of
+//!    the quad's two input triangles that does not end at that corner's node, so the
+//!    triangles pair otherwise); up to [`SPLIT_TRIES`] times, the input triangles around those still under it
 //!    split (one ring, or two where the first is split already), each ring try after the
 //!    first only when the one before was kept; last, where a ring try raised the worst quad
 //!    but broke the element-count rule, only the input triangles inside those still under it
@@ -110,7 +112,7 @@ use reporter::Reporter;
 use rounds::*;
 
 use fallback::{
-    count_rule_limit, fallback_triangles, low_quads, pairs_of, quads_per_triangle, raisable,
+    count_rule_limit, fallback_triangles, low_quad_segments, low_quads, pairs_of, quads_per_triangle, raisable,
     surface_elements, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
     LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE, RAISE_MIN,
 };

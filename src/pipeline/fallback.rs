@@ -560,29 +560,9 @@ pub(super) fn fan_segments(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -
     let coords = TagCoords::new(input);
     let at = |t: u64| coords.get(t).map(glam::DVec3::from_array);
     let triangles = SurfaceTriangles::of(input, &surfaces);
-    // per surface: how many of its triangles hold each edge, and its boundary segments at
-    // each node
-    let key = |a: u64, b: u64| (a.min(b), a.max(b));
-    let mut edge_count: std::collections::HashMap<(i32, u64, u64), u32> =
-        std::collections::HashMap::new();
-    for &(s, t) in triangles.0.keys() {
-        for j in 0..3 {
-            let (a, c) = key(t[j], t[(j + 1) % 3]);
-            *edge_count.entry((s, a, c)).or_default() += 1;
-        }
-    }
-    let on_boundary = |s: i32, a: u64, b: u64| {
-        let (a, b) = key(a, b);
-        edge_count.get(&(s, a, b)) == Some(&1)
-    };
-    let mut segments_at: std::collections::HashMap<(i32, u64), Vec<u64>> =
-        std::collections::HashMap::new();
-    for (&(s, a, b), &c) in &edge_count {
-        if c == 1 {
-            segments_at.entry((s, a)).or_default().push(b);
-            segments_at.entry((s, b)).or_default().push(a);
-        }
-    }
+    let boundary = Boundary::of(&triangles);
+    let on_boundary = |s: i32, a: u64, b: u64| boundary.is_segment(s, a, b);
+    let segments_at = &boundary.at;
     let mut out: Vec<(u64, u64)> = Vec::new();
     for q in bad {
         let s = q.surface;
@@ -616,6 +596,111 @@ pub(super) fn fan_segments(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -
                 continue;
             };
             let len = px.distance(py);
+            if best.is_none_or(|(l, _)| len > l) {
+                best = Some((len, seg));
+            }
+        }
+        if let Some((_, seg)) = best {
+            out.push(seg);
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// The boundary segments of a set of surfaces' triangles: the edges that one triangle of
+/// the surface holds.
+struct Boundary {
+    /// How many of a surface's triangles hold each edge (surface, smaller tag, larger tag).
+    count: std::collections::HashMap<(i32, u64, u64), u32>,
+    /// The other ends of a surface's boundary segments at each node.
+    at: std::collections::HashMap<(i32, u64), Vec<u64>>,
+}
+
+impl Boundary {
+    fn of(triangles: &SurfaceTriangles) -> Self {
+        let mut count: std::collections::HashMap<(i32, u64, u64), u32> =
+            std::collections::HashMap::new();
+        for &(s, t) in triangles.0.keys() {
+            for j in 0..3 {
+                let (a, c) = key(t[j], t[(j + 1) % 3]);
+                *count.entry((s, a, c)).or_default() += 1;
+            }
+        }
+        let mut at: std::collections::HashMap<(i32, u64), Vec<u64>> =
+            std::collections::HashMap::new();
+        for (&(s, a, b), &c) in &count {
+            if c == 1 {
+                at.entry((s, a)).or_default().push(b);
+                at.entry((s, b)).or_default().push(a);
+            }
+        }
+        Boundary { count, at }
+    }
+
+    /// True when `(a, b)` is a boundary segment of surface `s`.
+    fn is_segment(&self, s: i32, a: u64, b: u64) -> bool {
+        let (a, b) = key(a, b);
+        self.count.get(&(s, a, b)) == Some(&1)
+    }
+}
+
+/// The node pair `(a, b)` in increasing order.
+fn key(a: u64, b: u64) -> (u64, u64) {
+    (a.min(b), a.max(b))
+}
+
+/// Smallest angle of a quad's corner at a wall node, in degrees, from which
+/// [`low_quad_segments`] splits a segment under it: a corner whose η (eq. 3) is at most
+/// [`crate::recombine::FIXED_CORNER_MIN_ETA`], which no smoothing opens or closes.
+const FLAT_WALL_CORNER_DEG: f64 = 157.5;
+
+/// Boundary segments whose split lets the triangles of a poor quad pair otherwise, and
+/// that `done` does not hold yet. A poor quad (`low`: surface and node tags of `result`) is
+/// two input triangles `(u, v, x)` and `(v, w, x)` of one surface whose widest corner, at
+/// least [`FLAT_WALL_CORNER_DEG`], is at `v`, a boundary node of the surface: a wall corner
+/// no smoothing changes. The longer boundary segment of the two triangles that does not
+/// end at `v` is split. Typically `v` is a reflex wall corner whose middle triangle has its
+/// third side on a curve: that triangle's only neighbours are the two beside it, and its
+/// wide angle at `v` makes a flat or reflex corner with either; its halves pair with one
+/// each, and the corner at `v` is parted between two quads.
+pub(super) fn low_quad_segments(
+    input: &Mesh,
+    result: &Mesh,
+    low: &[(i32, [u64; 4])],
+    done: &[(u64, u64)],
+) -> Vec<(u64, u64)> {
+    let surfaces: HashSet<i32> = low.iter().map(|l| l.0).collect();
+    let triangles = SurfaceTriangles::of(input, &surfaces);
+    let boundary = Boundary::of(&triangles);
+    let (inputs, results) = (TagCoords::new(input), TagCoords::new(result));
+    let at = |c: &TagCoords, t: u64| c.get(t).map(glam::DVec3::from_array);
+    let mut out: Vec<(u64, u64)> = Vec::new();
+    for &(s, n) in low {
+        let Some(p) = n.iter().map(|&t| at(&results, t)).collect::<Option<Vec<_>>>() else {
+            continue;
+        };
+        let angle = |k: usize| (p[(k + 1) % 4] - p[k]).angle_between(p[(k + 3) % 4] - p[k]);
+        let Some(k) = (0..4).max_by(|&a, &b| angle(a).total_cmp(&angle(b))) else {
+            continue;
+        };
+        let (u, v, w, x) = (n[(k + 3) % 4], n[k], n[(k + 1) % 4], n[(k + 2) % 4]);
+        if angle(k).to_degrees() < FLAT_WALL_CORNER_DEG || !boundary.at.contains_key(&(s, v)) {
+            continue;
+        }
+        if !triangles.has(s, u, v, x) || !triangles.has(s, v, w, x) {
+            continue;
+        }
+        let mut best: Option<(f64, (u64, u64))> = None;
+        for (a, b) in [(u, x), (w, x)] {
+            let seg = key(a, b);
+            if !boundary.is_segment(s, a, b) || done.contains(&seg) || out.contains(&seg) {
+                continue;
+            }
+            let (Some(pa), Some(pb)) = (at(&inputs, a), at(&inputs, b)) else {
+                continue;
+            };
+            let len = pa.distance(pb);
             if best.is_none_or(|(l, _)| len > l) {
                 best = Some((len, seg));
             }

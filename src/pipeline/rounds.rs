@@ -269,7 +269,7 @@ fn one_round<'a>(
                 let mut line = format!("fallback round {round}: ");
                 if split.segments_split > 0 {
                     line += &format!(
-                        "{} boundary segment(s) under fans split at their midpoints, ",
+                        "{} boundary segment(s) split at their midpoints, ",
                         split.segments_split
                     );
                 }
@@ -494,10 +494,13 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 ///    into quads around a bad quad may give better quads than the matching's way around
 ///    it);
 /// 2. quads with η below [`ETA_FLOOR`] priced out;
-/// 3. up to [`SPLIT_TRIES`] times, the input triangles around the quads still below
+/// 3. the boundary segments under flat wall corners of those quads split
+///    ([`low_quad_segments`]): a pair whose only partners give a corner near 180° at a wall
+///    node gets its halves paired with one neighbour each;
+/// 4. up to [`SPLIT_TRIES`] times, the input triangles around the quads still below
 ///    [`ETA_FLOOR`] split: one ring, or two where the first is all split already; a ring
 ///    try after the first runs only when the one before it was kept;
-/// 4. where a ring try raised the worst quad but broke the element-count rule, the input
+/// 5. where a ring try raised the worst quad but broke the element-count rule, the input
 ///    triangles inside the quads still below [`ETA_FLOOR`] split ([`triangles_inside`]: a
 ///    parity split's node stands for its segment's ends, so the triangle it halved
 ///    counts), fewer new quads than a ring. It comes last: a result it raises just above
@@ -530,8 +533,8 @@ pub(super) fn raise_worst_quad<'a>(
     // (measured once, when a try would run): the tries cannot raise it past that bound
     // (refinement moves the new curve nodes off the walls' lines)
     let mut bound: Option<f64> = None;
-    for step in 0..3 + SPLIT_TRIES {
-        let ring_try = (2..2 + SPLIT_TRIES).contains(&step);
+    for step in 0..4 + SPLIT_TRIES {
+        let ring_try = (3..3 + SPLIT_TRIES).contains(&step);
         let mut start = best.2.clone();
         let what = match step {
             0 => {
@@ -555,8 +558,17 @@ pub(super) fn raise_worst_quad<'a>(
                 start.priced.extend(new);
                 format!("{n} quad(s) under eta {ETA_FLOOR} priced out")
             }
+            2 => {
+                let new = low_quad_segments(input, &best.0, &low, &start.segments);
+                if new.is_empty() || start.no_segments {
+                    continue;
+                }
+                let n = new.len();
+                start.segments.extend(new);
+                format!("{n} boundary segment(s) under flat wall corners of quads under eta {ETA_FLOOR} split")
+            }
             // the last try: the triangles inside the quads still low
-            _ if step == 2 + SPLIT_TRIES => {
+            _ if step == 3 + SPLIT_TRIES => {
                 if !ring_over_count {
                     continue;
                 }
@@ -571,7 +583,7 @@ pub(super) fn raise_worst_quad<'a>(
             }
             _ => {
                 // a ring try after the first only when the one before it was kept
-                if low.is_empty() || (step > 2 && !split_kept) {
+                if low.is_empty() || (step > 3 && !split_kept) {
                     continue;
                 }
                 let around = |ring| fallback_triangles(input, &best.0, &low, &start.chosen, ring, false);
@@ -599,9 +611,12 @@ pub(super) fn raise_worst_quad<'a>(
         }
         split_kept = false;
         let Ok(candidate) = run_rounds(input, opts, start, cache, &mut JobNotes::default()) else {
+            best.1.log.push(format!("worst quad: {what}: not kept (refused)"));
             continue;
         };
         if !candidate.1.invalid.is_empty() {
+            best.1.log.push(format!("worst quad: {what}: not kept (not valid)"));
+            best.1.times = add_times(&best.1.times, &candidate.1.times);
             continue;
         }
         let (_, new_worst) = low_quads(&candidate.0, &skip);
@@ -629,6 +644,10 @@ pub(super) fn raise_worst_quad<'a>(
             (low, worst) = low_quads(&best.0, &skip);
             split_kept = ring_try;
         } else {
+            best.1.log.push(format!(
+                "worst quad: {what}: not kept (eta_w {new_worst:.3}, {:.3} new quads per input triangle)",
+                quads_per_triangle(input, &candidate.0)
+            ));
             best.1.times = add_times(&best.1.times, &candidate.1.times);
         }
     }

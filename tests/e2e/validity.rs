@@ -534,3 +534,67 @@ fn coarse_cylinders_get_valid_quads_from_a_local_fallback() {
         .fold(f64::INFINITY, f64::min);
     assert!(worst >= 0.2, "eta_w {worst:.3}:\n{log}");
 }
+
+/// Gmsh's mesh of a plate with an octagonal hole whose bottom edge lies 0.03 above the
+/// curve the plate shares with a strip below it, at size 0.3
+/// (`tests/data/cad/octagon_hole.py`): at the hole's two bottom corners (reflex, 225°) the
+/// middle triangle has its third side on the shared curve, so its only partners are the
+/// triangles beside it, and either pair has a corner near 180° at the wall node, which no
+/// smoothing opens (η 0.142). Pricing those quads out moves the flat corner to the next
+/// pair; splitting the segment under each corner (and the strip's triangle across it) lets
+/// the halves pair with one neighbour each. The footprint goals hold: the worst quad's η at
+/// least 0.2, at most 0.6 new quads per input triangle, every quad valid.
+#[test]
+fn a_reflex_wall_corner_over_a_curve_gets_its_segment_split() {
+    let input = common::repo_dir().join("tests/data/cad/v41_octagon_hole_near_curve.msh");
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    // the quirk: a triangle of the plate (surface 2) at a bottom corner of the hole (node 7
+    // or 8) has its two other nodes on the shared curve y = 1
+    let y: std::collections::HashMap<u64, f64> = mesh
+        .node_blocks
+        .iter()
+        .flat_map(|b| b.tags.iter().copied().zip(b.coords.iter().map(|c| c[1])))
+        .collect();
+    let over_curve = mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.entity_tag == 2 && b.element_type == etype::TRI3)
+        .flat_map(|b| (0..b.len()).map(move |i| b.element(i).to_vec()))
+        .filter(|t| t.contains(&7) || t.contains(&8))
+        .filter(|t| t.iter().filter(|n| (y[n] - 1.0).abs() < 1e-9).count() == 2)
+        .count();
+    assert_eq!(over_curve, 2);
+    let mut out = mesh.clone();
+    let mut opts = Options::default();
+    opts.keep_tags = true;
+    let report = quadrangulate(&mut out, &opts).unwrap_or_else(|e| panic!("{e}"));
+    let log = report.log.join("\n");
+    assert!(
+        log.contains(
+            "boundary segment(s) under flat wall corners of quads under eta 0.2 split: eta_w"
+        ),
+        "{log}"
+    );
+    let worst = blossomquad::quality::quad_etas(&out)
+        .iter()
+        .map(|e| e.1)
+        .fold(f64::INFINITY, f64::min);
+    assert!(worst >= 0.2, "eta_w {worst:.3}:\n{log}");
+    let triangles: usize = mesh
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
+        .map(|b| b.len())
+        .sum();
+    let quads: usize = out
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4)
+        .map(|b| b.len())
+        .sum();
+    assert!(
+        quads as f64 <= 0.6 * triangles as f64,
+        "{quads} quads:\n{log}"
+    );
+    recombines_validly_by_tag(&input, &mesh);
+}
