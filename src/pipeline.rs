@@ -67,6 +67,15 @@
 //!    the face beyond the curve; with its own worst-quad tries, the better of the two
 //!    results is kept, by the same order (where neither is valid, the refusal is the first
 //!    job's).
+//!    Where the kept result still breaks the element-count rule (the splits cascaded), or
+//!    no job was valid, one more job prices out, in its pricing rounds, every pair with a
+//!    hopeless corner at a wall node (near 180° or 0°, which optimization never changes) on
+//!    the surfaces of the bad quads, not only the bad pairs
+//!    ([`crate::recombine::RecombineOptions::hopeless_out`]): where the surface's structure
+//!    forces such a pair (along a curve meshed much finer than the face, boundary nodes with
+//!    the two triangles of one fan), pricing the bad pairs one by one moves the flat corner
+//!    to the next fan, and the matching now takes extra edges instead. With its own
+//!    worst-quad tries, the better of the two results is kept, by the same order.
 //! 5. **The worst quad.** A valid optimized result gets more tries: where the fallback
 //!    priced quads out, the fallback with splits only; quads under η [`ETA_FLOOR`] priced
 //!    out; the boundary segments under those with a flat wall corner split (the segment of
@@ -330,6 +339,29 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
     } else {
         result
     };
+    // where every job broke the element-count rule (the fallback's splits cascaded) or
+    // was refused: one more job that prices out every pair with a hopeless corner at a
+    // wall node on the surfaces of the bad quads, and the better of the two
+    let cascaded = result
+        .as_ref()
+        .map_or(true, |r| !job_measures(base, opts, r).1);
+    let result = if cascaded {
+        let start = FallbackStart {
+            global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
+            hopeless: true,
+            ..FallbackStart::default()
+        };
+        let (hopeless, _) = run_job(base, opts, start, &mut cache);
+        let hopeless = hopeless.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
+        match (result, hopeless) {
+            (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
+            (Ok(a), Err(_)) => Ok(a),
+            (Err(_), Ok(b)) => Ok(b),
+            (Err(e), Err(_)) => Err(e),
+        }
+    } else {
+        result
+    };
     match result {
         Ok((out, mut report, _)) => {
             *mesh = out;
@@ -424,9 +456,13 @@ fn better_job(
             true => "split rings counted over the job",
             false => "split rings counted per surface",
         };
-        match r.2.flat_pairs {
+        let pairs = match r.2.flat_pairs {
             true => format!("{rings}, flat pairs"),
             false => rings.to_string(),
+        };
+        match r.2.hopeless {
+            true => format!("{pairs}, every pair with a corner near 180 or 0 degrees at a wall node priced out"),
+            false => pairs,
         }
     };
     let (k, o) = if b_better { (y, x) } else { (x, y) };
@@ -534,6 +570,7 @@ fn recombine_once<'a>(
     priced_out: &[[u64; 4]],
     parity_avoid: &[(u64, u64)],
     flat_halves_out: bool,
+    hopeless_out: &[i32],
     optimizing: bool,
     checks: &mut Option<Checks<'a>>,
     times: &mut Times,
@@ -549,6 +586,7 @@ fn recombine_once<'a>(
         priced_out: priced_out.to_vec(),
         parity_avoid: parity_avoid.to_vec(),
         flat_halves_out,
+        hopeless_out: hopeless_out.to_vec(),
         trace: opts.trace.clone(),
         progress: opts.progress.clone(),
         // `quadrangulate` removed them from `input` (the fallback's splits add none)

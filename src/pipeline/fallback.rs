@@ -55,6 +55,12 @@ pub(super) struct LocalFallback {
     /// Merged halves of split triangles priced out
     /// ([`crate::recombine::RecombineOptions::flat_halves_out`]).
     pub(super) flat_halves_out: bool,
+    /// Surfaces (sorted tags) whose pairs with a hopeless corner at a wall node are priced
+    /// out ([`crate::recombine::RecombineOptions::hopeless_out`]).
+    pub(super) hopeless_out: Vec<i32>,
+    /// Price out such pairs on the surfaces of the bad quads in a pricing round (the job's
+    /// start said so).
+    pub(super) hopeless: bool,
     /// Boundary segments split at their midpoints (node tags).
     pub(super) segments: Vec<(u64, u64)>,
     /// No segment splits (the job's start said so).
@@ -94,6 +100,8 @@ impl LocalFallback {
             priced: self.priced,
             avoid: self.avoid,
             flat_halves_out: self.flat_halves_out,
+            hopeless_out: self.hopeless_out,
+            hopeless: self.hopeless,
             segments: self.segments,
             no_segments: self.no_segments,
             located: self.located,
@@ -130,7 +138,17 @@ impl LocalFallback {
             if !segments.is_empty() {
                 self.flat_halves_out = true;
             }
-            if !new.is_empty() || !segments.is_empty() {
+            // the surfaces of the bad quads: every pair with a hopeless corner at a wall
+            // node priced out there too (pricing the bad pairs alone moves a flat corner
+            // that the surface's structure forces to the next such pair)
+            let before = self.hopeless_out.len();
+            if self.hopeless {
+                self.hopeless_out.extend(spots.iter().map(|s| s.0));
+            }
+            self.hopeless_out.sort_unstable();
+            self.hopeless_out.dedup();
+            let surfaces = self.hopeless_out.len() - before;
+            if !new.is_empty() || !segments.is_empty() || surfaces > 0 {
                 self.pricing_rounds += 1;
                 let count = (new.len(), segments.len());
                 self.priced.extend(new);
@@ -276,6 +294,12 @@ pub(super) struct FallbackStart {
     pub(super) avoid: Vec<(u64, u64)>,
     /// Merged halves of split triangles priced out.
     pub(super) flat_halves_out: bool,
+    /// Surfaces whose pairs with a hopeless corner at a wall node are priced out.
+    pub(super) hopeless_out: Vec<i32>,
+    /// A pricing round prices out every pair with a hopeless corner at a wall node on the
+    /// surfaces of the bad quads (the job the pipeline runs where the others broke the
+    /// element-count rule or were refused).
+    pub(super) hopeless: bool,
     /// Boundary segments split at their midpoints (node tags).
     pub(super) segments: Vec<(u64, u64)>,
     /// No segment splits (after a job with them failed).

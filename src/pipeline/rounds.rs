@@ -28,6 +28,7 @@ pub(super) fn run_rounds<'a>(
     let from_nothing = start.priced.is_empty()
         && start.avoid.is_empty()
         && !start.flat_halves_out
+        && start.hopeless_out.is_empty()
         && start.segments.is_empty()
         && start.located.is_empty()
         && start.chosen.is_empty()
@@ -38,6 +39,8 @@ pub(super) fn run_rounds<'a>(
         priced: start.priced,
         avoid: start.avoid,
         flat_halves_out: start.flat_halves_out,
+        hopeless_out: start.hopeless_out,
+        hopeless: start.hopeless,
         segments: start.segments,
         pricing_rounds: if splits_only { PRICING_ROUNDS } else { 0 },
         segment_rounds: if splits_only || start.no_segments {
@@ -181,6 +184,12 @@ pub(super) fn run_rounds<'a>(
                 if segments > 0 {
                     line += &format!(", {segments} parity split segment(s) avoided");
                 }
+                if !local.hopeless_out.is_empty() {
+                    line += &format!(
+                        ", and every pair with a corner near 180 or 0 degrees at a wall node on surface(s) {}",
+                        sorted_list(&local.hopeless_out)
+                    );
+                }
                 log.push(line);
                 continue;
             }
@@ -297,6 +306,7 @@ fn one_round<'a>(
                 &local.priced.iter().map(|p| p.1).collect::<Vec<_>>(),
                 &local.avoid,
                 local.flat_halves_out,
+                &local.hopeless_out,
                 optimizing,
                 &mut cache.checks,
                 times,

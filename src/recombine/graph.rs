@@ -160,11 +160,15 @@ pub(crate) fn wall_nodes(topo: &SurfaceTopo) -> Vec<u32> {
     out
 }
 
-/// The split nodes of a surface (sorted ids: parity and fallback splits) and whether the
-/// merged halves at a flat one are priced out ([`split_halves_cost`]).
-pub(crate) struct SplitNodes<'a> {
-    pub nodes: &'a [u32],
+/// What the pipeline's fallback prices out of a surface's matching beyond single pairs: the
+/// split nodes of the surface (sorted ids: parity and fallback splits) and whether the
+/// merged halves at a flat one are priced out ([`split_halves_cost`]), and whether every
+/// pair with a hopeless corner at a wall node costs [`priced_out_cost`] instead of
+/// [`HOPELESS_COST`].
+pub(crate) struct Pricing<'a> {
+    pub split_nodes: &'a [u32],
     pub flat_halves_out: bool,
+    pub hopeless_out: bool,
 }
 
 /// The matching graph of one surface.
@@ -181,14 +185,14 @@ pub(crate) struct Graph {
 /// Builds the graph: one edge per graph edge with its cost (eq. 4), plus one extra edge per
 /// fan of three or more triangles whose end triangles are not already adjacent (section
 /// 5.3; a fan ends at walls: the surface boundary, curves, or orientation changes).
-/// `split_nodes` (sorted global ids) are the nodes made by parity repair; `cross_w` > 0
+/// `pricing` says what the fallback priced out (see [`Pricing`]); `cross_w` > 0
 /// adds `cross_w` times the cross-field cost (eq. 7) to every edge that is not hopeless, with
 /// the nearest-wall field ([`boundary_cross_field`]) or, when `harmonic`, the smooth field of
 /// [`smooth_cross_field`] (its cost scaled by the field's confidence `|z|`).
 pub(crate) fn build(
     topo: &SurfaceTopo,
     coords: &[DVec3],
-    splits: SplitNodes,
+    pricing: Pricing,
     cross_w: f64,
     harmonic: bool,
     with_extra: bool,
@@ -203,10 +207,11 @@ pub(crate) fn build(
     // merged halves at a flat split node: priced out once they were not valid, else at
     // the cost of a curved boundary's (the optimizer's topology passes may still repair
     // them)
-    let split_nodes = splits.nodes;
+    let split_nodes = pricing.split_nodes;
     let curved = curved_split_halves_cost(n);
+    let hopeless_out = priced_out_cost(n);
     let split_costs = [
-        if splits.flat_halves_out {
+        if pricing.flat_halves_out {
             split_halves_cost(n)
         } else {
             curved
@@ -233,6 +238,9 @@ pub(crate) fn build(
                 (u != NONE && (t as u32) < u).then(|| {
                     let mut c =
                         edge_cost(topo, coords, normals, walls, split_nodes, split_costs, t, k);
+                    if pricing.hopeless_out && c == HOPELESS_COST {
+                        c = hopeless_out;
+                    }
                     if cross_w > 0.0 && c <= 2 * COST_SCALE {
                         let tri = topo.tris[t];
                         let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];

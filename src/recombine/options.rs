@@ -51,6 +51,13 @@ pub struct RecombineOptions {
     /// those of a curved boundary ([`curved_split_halves_cost`](super::curved_split_halves_cost)): the pipeline's fallback
     /// sets it once a quad at a split node was not valid.
     pub flat_halves_out: bool,
+    /// Surfaces (entity tags, sorted) where every pair with a hopeless corner at a wall
+    /// node (a corner near 180° or 0° that optimization never changes,
+    /// [`HOPELESS_COST`](super::HOPELESS_COST)) costs [`priced_out_cost`](super::priced_out_cost) instead, so the
+    /// matching takes up to two extra edges, whose quads optimization repairs, rather than
+    /// one such pair: the pipeline's fallback sets it to the surfaces where a round left a
+    /// quad that is not valid, and a worst-quad try to those with a quad under η 0.2.
+    pub hopeless_out: Vec<i32>,
     /// Mesh again the strips (narrow faces whose triangles lie in one row between walls)
     /// whose matching's quads are poor, in cells and midlines of new nodes (on by default;
     /// see the recombination's documentation).
@@ -82,6 +89,7 @@ impl Default for RecombineOptions {
             priced_out: Vec::new(),
             parity_avoid: Vec::new(),
             flat_halves_out: false,
+            hopeless_out: Vec::new(),
             two_row_strips: true,
             trace: None,
             progress: None,

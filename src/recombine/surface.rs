@@ -164,9 +164,10 @@ pub(super) fn match_surface(
     let mut g = graph::build(
         &w.topo,
         coords,
-        graph::SplitNodes {
-            nodes: split_nodes,
+        graph::Pricing {
+            split_nodes,
             flat_halves_out: opts.flat_halves_out,
+            hopeless_out: opts.hopeless_out.binary_search(&w.tag).is_ok(),
         },
         cross,
         opts.harmonic_cross_field,

@@ -598,3 +598,50 @@ fn a_reflex_wall_corner_over_a_curve_gets_its_segment_split() {
     );
     recombines_validly_by_tag(&input, &mesh);
 }
+
+/// Gmsh's mesh of a unit box refined towards its edges (size 0.07 there, 0.35 at 0.3 away;
+/// `tests/data/cad/edge_refined_box.py`): along the edges, boundary nodes with the two
+/// triangles of one fan get a flat corner when those are paired, and pricing out the bad
+/// pairs one by one moves the flat corner to the next fan. The fallback's splits then
+/// cascaded into every triangle of the box (3,147 quads from 1,064 triangles); the job that
+/// prices out every pair with a corner near 180° or 0° at a wall node on the surfaces of
+/// the bad quads recombines it with no triangle split. The footprint goals hold: at most
+/// 0.6 new quads per input triangle, the worst quad's η at least 0.2, every quad valid.
+#[test]
+fn an_edge_refined_box_recombines_without_a_cascade_of_splits() {
+    let input = common::repo_dir().join("tests/data/cad/v41_edge_refined_box.msh");
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    let count = |m: &Mesh, t: u32| -> usize {
+        m.element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == 2 && b.element_type == t)
+            .map(|b| b.len())
+            .sum()
+    };
+    let triangles = count(&mesh, etype::TRI3);
+    assert_eq!(triangles, 1064);
+    let mut out = mesh.clone();
+    let mut opts = Options::default();
+    opts.keep_tags = true;
+    let report = quadrangulate(&mut out, &opts).unwrap_or_else(|e| panic!("{e}"));
+    let log = report.log.join("\n");
+    assert!(
+        log.contains(
+            "every pair with a corner near 180 or 0 degrees at a wall node priced out kept"
+        ),
+        "{log}"
+    );
+    let split = report.fallback.as_ref().map_or(0, |f| f.triangles_to_quads);
+    assert_eq!(split, 0, "{log}");
+    let quads = count(&out, etype::QUAD4);
+    assert!(
+        quads as f64 <= 0.6 * triangles as f64,
+        "{quads} quads:\n{log}"
+    );
+    let worst = blossomquad::quality::quad_etas(&out)
+        .iter()
+        .map(|e| e.1)
+        .fold(f64::INFINITY, f64::min);
+    assert!(worst >= 0.2, "eta_w {worst:.3}:\n{log}");
+    recombines_validly_by_tag(&input, &mesh);
+}
