@@ -58,24 +58,23 @@
 //!    kept: a valid one, then one within the element-count rule, then the higher worst
 //!    quad, then fewer quads (the local rings can end valid where the cascade of whole
 //!    surfaces does not, or the other way round). Where the kept job split triangles and
-//!    its result (after the worst-quad tries of step 5) breaks the element-count rule or
-//!    has a quad under η [`ETA_FLOOR`], or where no job was valid, the job runs once more
-//!    with **flat pairs**: at a surface's first ring, a bad pair flat or reflex at an end
-//!    of its diagonal is split into three quads that leave the edges at that node whole
-//!    ([`crate::recombine::FlatPair`]; the two triangles are split as chosen ones from the
-//!    surface's second ring on), so a boundary fan's split does not halve the triangles of
-//!    the face beyond the curve; with its own worst-quad tries, the better of the two
-//!    results is kept, by the same order (where neither is valid, the refusal is the first
-//!    job's).
-//!    Where the kept result still breaks the element-count rule (the splits cascaded), or
-//!    no job was valid, one more job prices out, in its pricing rounds, every pair with a
-//!    hopeless corner at a wall node (near 180° or 0°, which optimization never changes) on
-//!    the surfaces of the bad quads, not only the bad pairs
+//!    its result breaks the element-count rule (the splits cascaded), or no job was valid,
+//!    the job runs again pricing out, in its pricing rounds, every pair with a hopeless
+//!    corner at a wall node (near 180° or 0°, which optimization never changes) on the
+//!    surfaces of the bad quads, not only the bad pairs
 //!    ([`crate::recombine::RecombineOptions::hopeless_out`]): where the surface's structure
-//!    forces such a pair (along a curve meshed much finer than the face, boundary nodes with
-//!    the two triangles of one fan), pricing the bad pairs one by one moves the flat corner
-//!    to the next fan, and the matching now takes extra edges instead. With its own
-//!    worst-quad tries, the better of the two results is kept, by the same order.
+//!    forces such a pair (along a curve meshed much finer than the face, boundary nodes
+//!    with the two triangles of one fan), pricing the bad pairs one by one moves the flat
+//!    corner to the next fan, and the matching now takes extra edges instead. The better of the two is kept, by the same order, and only it gets the
+//!    worst-quad tries of step 5. Where the fallback split triangles and the result (after
+//!    those tries) breaks the element-count rule or has a quad under η [`ETA_FLOOR`], or
+//!    where no job was valid, the job runs once more with **flat pairs**: at a surface's
+//!    first ring, a bad pair flat or reflex at an end of its diagonal is split into three
+//!    quads that leave the edges at that node whole ([`crate::recombine::FlatPair`]; the
+//!    two triangles are split as chosen ones from the surface's second ring on), so a
+//!    boundary fan's split does not halve the triangles of the face beyond the curve; with
+//!    its own worst-quad tries, the better of the two results is kept, by the same order
+//!    (where neither is valid, the refusal is the first job's).
 //! 5. **The worst quad.** A valid optimized result gets more tries: where the fallback
 //!    priced quads out, the fallback with splits only; quads under η [`ETA_FLOOR`] priced
 //!    out; the boundary segments under those with a flat wall corner split (the segment of
@@ -310,14 +309,35 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
             r
         })
     };
-    // where the fallback split triangles and its result misses a goal (above the
-    // element-count rule, or a quad under η ETA_FLOOR), or where nothing was valid: the
-    // same with flat pairs, each with its worst-quad tries, and the better of the two
+    // whether the fallback split triangles (or nothing was valid), before the worst-quad
+    // tries
     let split = match &result {
         Ok(r) => !r.2.chosen.is_empty(),
         Err(e) => matches!(e, Error::Invalid { .. } | Error::FallbackExhausted),
     };
+    // where the fallback split triangles and the result breaks the element-count rule (the
+    // splits cascaded), or nothing was valid: the job that prices out every pair with a hopeless corner at a
+    // wall node on the surfaces of the bad quads, and the better of the two (before the
+    // worst-quad tries, which only the kept one gets)
+    let cascaded = split
+        && result
+            .as_ref()
+            .map_or(true, |r| !job_measures(base, opts, r).1);
+    let result = if cascaded {
+        let start = FallbackStart {
+            global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
+            hopeless: true,
+            ..FallbackStart::default()
+        };
+        let (hopeless, _) = run_job(base, opts, start, &mut cache);
+        keep_better(base, opts, result, hopeless)
+    } else {
+        result
+    };
     let result = result.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
+    // where the fallback split triangles and the result misses a goal (above the
+    // element-count rule, or a quad under η ETA_FLOOR), or where nothing was valid: the
+    // same with flat pairs, with its worst-quad tries, and the better of the two
     let missed = result
         .as_ref()
         .map_or(true, |r| !meets_goals(base, opts, r));
@@ -329,36 +349,7 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         };
         let (pairs, _) = run_job(base, opts, start, &mut cache);
         let pairs = pairs.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
-        match (result, pairs) {
-            (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
-            (Ok(a), Err(_)) => Ok(a),
-            (Err(_), Ok(b)) => Ok(b),
-            // the refusal of the job without flat pairs, as it was
-            (Err(e), Err(_)) => Err(e),
-        }
-    } else {
-        result
-    };
-    // where every job broke the element-count rule (the fallback's splits cascaded) or
-    // was refused: one more job that prices out every pair with a hopeless corner at a
-    // wall node on the surfaces of the bad quads, and the better of the two
-    let cascaded = result
-        .as_ref()
-        .map_or(true, |r| !job_measures(base, opts, r).1);
-    let result = if cascaded {
-        let start = FallbackStart {
-            global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
-            hopeless: true,
-            ..FallbackStart::default()
-        };
-        let (hopeless, _) = run_job(base, opts, start, &mut cache);
-        let hopeless = hopeless.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
-        match (result, hopeless) {
-            (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
-            (Ok(a), Err(_)) => Ok(a),
-            (Err(_), Ok(b)) => Ok(b),
-            (Err(e), Err(_)) => Err(e),
-        }
+        keep_better(base, opts, result, pairs)
     } else {
         result
     };
@@ -403,6 +394,22 @@ fn run_job<'a>(
         e => Err(e),
     });
     (result, notes.rings_diverged)
+}
+
+/// The better of two jobs' outcomes ([`better_job`] when both are valid); where both were
+/// refused, the first refusal.
+fn keep_better(
+    base: &Mesh,
+    opts: &Options,
+    a: Result<(Mesh, Report, FallbackStart), Error>,
+    b: Result<(Mesh, Report, FallbackStart), Error>,
+) -> Result<(Mesh, Report, FallbackStart), Error> {
+    match (a, b) {
+        (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
+        (Ok(a), Err(_)) => Ok(a),
+        (Err(_), Ok(b)) => Ok(b),
+        (Err(e), Err(_)) => Err(e),
+    }
 }
 
 /// True when `r` keeps the element-count rule ([`count_rule_limit`]), lists no invalid
