@@ -607,29 +607,37 @@ pub(super) fn fan_segments(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -
         };
         let mut ys = ys.clone();
         ys.sort_unstable();
-        let mut best: Option<(f64, (u64, u64))> = None;
-        for y in ys {
-            if y == u || y == w || !(triangles.has(s, x, y, w) || triangles.has(s, x, y, u)) {
-                continue;
-            }
-            let seg = key(x, y);
-            if done.contains(&seg) || out.contains(&seg) {
-                continue;
-            }
-            let (Some(px), Some(py)) = (at(x), at(y)) else {
-                continue;
-            };
-            let len = px.distance(py);
-            if best.is_none_or(|(l, _)| len > l) {
-                best = Some((len, seg));
-            }
-        }
-        if let Some((_, seg)) = best {
+        let candidates = ys
+            .into_iter()
+            .filter(|&y| y != u && y != w)
+            .filter(|&y| triangles.has(s, x, y, w) || triangles.has(s, x, y, u))
+            .map(|y| key(x, y))
+            .filter(|seg| !done.contains(seg) && !out.contains(seg));
+        if let Some(seg) = longest(candidates, &at) {
             out.push(seg);
         }
     }
     out.sort_unstable();
     out
+}
+
+/// The longest of `segments` (node pairs) by the positions `at` gives, the first of equal
+/// ones; segments with an end `at` does not know are skipped.
+fn longest(
+    segments: impl Iterator<Item = (u64, u64)>,
+    at: &impl Fn(u64) -> Option<glam::DVec3>,
+) -> Option<(u64, u64)> {
+    let mut best: Option<(f64, (u64, u64))> = None;
+    for seg in segments {
+        let (Some(pa), Some(pb)) = (at(seg.0), at(seg.1)) else {
+            continue;
+        };
+        let len = pa.distance(pb);
+        if best.is_none_or(|(l, _)| len > l) {
+            best = Some((len, seg));
+        }
+    }
+    best.map(|b| b.1)
 }
 
 /// The boundary segments of a set of surfaces' triangles: the edges that one triangle of
@@ -715,21 +723,12 @@ pub(super) fn low_quad_segments(
         if !triangles.has(s, u, v, x) || !triangles.has(s, v, w, x) {
             continue;
         }
-        let mut best: Option<(f64, (u64, u64))> = None;
-        for (a, b) in [(u, x), (w, x)] {
-            let seg = key(a, b);
-            if !boundary.is_segment(s, a, b) || done.contains(&seg) || out.contains(&seg) {
-                continue;
-            }
-            let (Some(pa), Some(pb)) = (at(&inputs, a), at(&inputs, b)) else {
-                continue;
-            };
-            let len = pa.distance(pb);
-            if best.is_none_or(|(l, _)| len > l) {
-                best = Some((len, seg));
-            }
-        }
-        if let Some((_, seg)) = best {
+        let candidates = [(u, x), (w, x)]
+            .into_iter()
+            .filter(|&(a, b)| boundary.is_segment(s, a, b))
+            .map(|(a, b)| key(a, b))
+            .filter(|seg| !done.contains(seg) && !out.contains(seg));
+        if let Some(seg) = longest(candidates, &|t| at(&inputs, t)) {
             out.push(seg);
         }
     }

@@ -488,6 +488,42 @@ fn a_thin_cylinder_folded_by_gmsh_is_refused_naming_its_non_manifold_edge() {
     assert!(!output.exists(), "nothing written");
 }
 
+/// The 2D elements of type `t` of `mesh`, on surface `surface` or on all.
+fn count_2d(mesh: &Mesh, t: u32, surface: Option<i32>) -> usize {
+    mesh.element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == t)
+        .filter(|b| surface.is_none_or(|s| b.entity_tag == s))
+        .map(|b| b.len())
+        .sum()
+}
+
+/// Quadrangulates `input` with its tags kept (the validity check compares the input and the
+/// output by tag) and returns the run's report and log; asserts every quad valid and the
+/// footprint goals: at most 0.6 new quads per input triangle, the worst quad's η at least
+/// 0.2.
+fn quadrangulated_within_goals(input: &Mesh) -> (blossomquad::Report, String) {
+    let mut out = input.clone();
+    let mut opts = Options::default();
+    opts.keep_tags = true;
+    let report = quadrangulate(&mut out, &opts).unwrap_or_else(|e| panic!("{e}"));
+    assert!(validity::invalid_quads(input, &out).is_empty());
+    let log = report.log.join("\n");
+    let triangles = count_2d(input, etype::TRI3, None);
+    let quads = count_2d(&out, etype::QUAD4, None);
+    let per_triangle = quads as f64 / triangles as f64;
+    assert!(
+        per_triangle <= 0.6,
+        "{per_triangle:.3} quads per triangle:\n{log}"
+    );
+    let worst = blossomquad::quality::quad_etas(&out)
+        .iter()
+        .map(|e| e.1)
+        .fold(f64::INFINITY, f64::min);
+    assert!(worst >= 0.2, "eta_w {worst:.3}:\n{log}");
+    (report, log)
+}
+
 /// The robustness corpus's three coarse cylinders fused with a slab
 /// (`corpus/cylinders_coarse.py` at its coarse size 0.45, MSH 4.1): on the lateral face of
 /// one cylinder (surface 11, 92 triangles, a few segments around, dihedral angles between
@@ -500,39 +536,14 @@ fn a_thin_cylinder_folded_by_gmsh_is_refused_naming_its_non_manifold_edge() {
 #[test]
 fn coarse_cylinders_get_valid_quads_from_a_local_fallback() {
     let input = common::repo_dir().join("tests/data/cad/v41_cylinders_coarse.msh");
-    let mut mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
-    let before = mesh.clone();
-    let count = |m: &Mesh, t: u32, surface: Option<i32>| -> usize {
-        m.element_blocks
-            .iter()
-            .filter(|b| b.entity_dim == 2 && b.element_type == t)
-            .filter(|b| surface.is_none_or(|s| b.entity_tag == s))
-            .map(|b| b.len())
-            .sum()
-    };
-    let triangles = count(&before, etype::TRI3, None);
-    let lateral = count(&before, etype::TRI3, Some(11));
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    let triangles = count_2d(&mesh, etype::TRI3, None);
+    let lateral = count_2d(&mesh, etype::TRI3, Some(11));
     assert_eq!((triangles, lateral), (670, 92));
-    // the validity check compares the input and the output by tag
-    let mut opts = Options::default();
-    opts.keep_tags = true;
-    let report = quadrangulate(&mut mesh, &opts).unwrap_or_else(|e| panic!("{e}"));
-    assert!(validity::invalid_quads(&before, &mesh).is_empty());
-    let log = report.log.join("\n");
+    let (report, log) = quadrangulated_within_goals(&mesh);
     // the fallback ran on this mesh, and split a few triangles of the lateral face only
     let split = report.fallback.as_ref().map_or(0, |f| f.triangles_to_quads);
     assert!(split > 0 && 4 * split < lateral, "{split} split:\n{log}");
-    let quads = count(&mesh, etype::QUAD4, None);
-    let per_triangle = quads as f64 / triangles as f64;
-    assert!(
-        per_triangle <= 0.6,
-        "{per_triangle:.3} quads per triangle:\n{log}"
-    );
-    let worst = blossomquad::quality::quad_etas(&mesh)
-        .iter()
-        .map(|e| e.1)
-        .fold(f64::INFINITY, f64::min);
-    assert!(worst >= 0.2, "eta_w {worst:.3}:\n{log}");
 }
 
 /// Gmsh's mesh of a plate with an octagonal hole whose bottom edge lies 0.03 above the
@@ -564,37 +575,12 @@ fn a_reflex_wall_corner_over_a_curve_gets_its_segment_split() {
         .filter(|t| t.iter().filter(|n| (y[n] - 1.0).abs() < 1e-9).count() == 2)
         .count();
     assert_eq!(over_curve, 2);
-    let mut out = mesh.clone();
-    let mut opts = Options::default();
-    opts.keep_tags = true;
-    let report = quadrangulate(&mut out, &opts).unwrap_or_else(|e| panic!("{e}"));
-    let log = report.log.join("\n");
+    let (_, log) = quadrangulated_within_goals(&mesh);
     assert!(
         log.contains(
             "boundary segment(s) under flat wall corners of quads under eta 0.2 split: eta_w"
         ),
         "{log}"
-    );
-    let worst = blossomquad::quality::quad_etas(&out)
-        .iter()
-        .map(|e| e.1)
-        .fold(f64::INFINITY, f64::min);
-    assert!(worst >= 0.2, "eta_w {worst:.3}:\n{log}");
-    let triangles: usize = mesh
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
-        .map(|b| b.len())
-        .sum();
-    let quads: usize = out
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == etype::QUAD4)
-        .map(|b| b.len())
-        .sum();
-    assert!(
-        quads as f64 <= 0.6 * triangles as f64,
-        "{quads} quads:\n{log}"
     );
     recombines_validly_by_tag(&input, &mesh);
 }
@@ -611,20 +597,8 @@ fn a_reflex_wall_corner_over_a_curve_gets_its_segment_split() {
 fn an_edge_refined_box_recombines_without_a_cascade_of_splits() {
     let input = common::repo_dir().join("tests/data/cad/v41_edge_refined_box.msh");
     let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
-    let count = |m: &Mesh, t: u32| -> usize {
-        m.element_blocks
-            .iter()
-            .filter(|b| b.entity_dim == 2 && b.element_type == t)
-            .map(|b| b.len())
-            .sum()
-    };
-    let triangles = count(&mesh, etype::TRI3);
-    assert_eq!(triangles, 1064);
-    let mut out = mesh.clone();
-    let mut opts = Options::default();
-    opts.keep_tags = true;
-    let report = quadrangulate(&mut out, &opts).unwrap_or_else(|e| panic!("{e}"));
-    let log = report.log.join("\n");
+    assert_eq!(count_2d(&mesh, etype::TRI3, None), 1064);
+    let (report, log) = quadrangulated_within_goals(&mesh);
     assert!(
         log.contains(
             "every pair with a corner near 180 or 0 degrees at a wall node priced out kept"
@@ -633,15 +607,5 @@ fn an_edge_refined_box_recombines_without_a_cascade_of_splits() {
     );
     let split = report.fallback.as_ref().map_or(0, |f| f.triangles_to_quads);
     assert_eq!(split, 0, "{log}");
-    let quads = count(&out, etype::QUAD4);
-    assert!(
-        quads as f64 <= 0.6 * triangles as f64,
-        "{quads} quads:\n{log}"
-    );
-    let worst = blossomquad::quality::quad_etas(&out)
-        .iter()
-        .map(|e| e.1)
-        .fold(f64::INFINITY, f64::min);
-    assert!(worst >= 0.2, "eta_w {worst:.3}:\n{log}");
     recombines_validly_by_tag(&input, &mesh);
 }
