@@ -53,10 +53,11 @@ pub struct RecombineOptions {
     pub flat_halves_out: bool,
     /// Surfaces (entity tags, sorted) where every pair with a hopeless corner at a wall
     /// node (a corner near 180° or 0° that optimization never changes,
-    /// [`HOPELESS_COST`](super::HOPELESS_COST)) costs [`priced_out_cost`](super::priced_out_cost) instead, so the
-    /// matching takes up to two extra edges, whose quads optimization repairs, rather than
-    /// one such pair: the pipeline's fallback sets it to the surfaces where a round left a
-    /// quad that is not valid, and a worst-quad try to those with a quad under η 0.2.
+    /// [`HOPELESS_COST`](super::HOPELESS_COST)) costs
+    /// [`priced_out_cost`](super::priced_out_cost) instead, so the matching takes up to two
+    /// extra edges, whose quads optimization repairs, rather than one such pair. The
+    /// pipeline's fallback sets it, in the job it runs where the splits cascaded, to the
+    /// surfaces where a round left a quad that is not valid.
     pub hopeless_out: Vec<i32>,
     /// Mesh again the strips (narrow faces whose triangles lie in one row between walls)
     /// whose matching's quads are poor, in cells and midlines of new nodes (on by default;
