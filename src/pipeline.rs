@@ -65,8 +65,9 @@
 //!    ([`crate::recombine::RecombineOptions::hopeless_out`]): where the surface's structure
 //!    forces such a pair (along a curve meshed much finer than the face, boundary nodes
 //!    with the two triangles of one fan), pricing the bad pairs one by one moves the flat
-//!    corner to the next fan, and the matching now takes extra edges instead. The better of the two is kept, by the same order, and only it gets the
-//!    worst-quad tries of step 5. Where the fallback split triangles and the result (after
+//!    corner to the next fan, and the matching now takes extra edges instead. The better
+//!    of the two is kept, by the same order, and only it gets the worst-quad tries of
+//!    step 5. Where the fallback split triangles and the result (after
 //!    those tries) breaks the element-count rule or has a quad under η [`ETA_FLOOR`], or
 //!    where no job was valid, the job runs once more with **flat pairs**: at a surface's
 //!    first ring, a bad pair flat or reflex at an end of its diagonal is split into three
@@ -79,9 +80,9 @@
 //!    priced quads out, the fallback with splits only; quads under η [`ETA_FLOOR`] priced
 //!    out; the boundary segments under those with a flat wall corner split (the segment of
 //!    the quad's two input triangles that does not end at that corner's node, so the
-//!    triangles pair otherwise); up to [`SPLIT_TRIES`] times, the input triangles around those still under it
-//!    split (one ring, or two where the first is split already), each ring try after the
-//!    first only when the one before was kept; last, where a ring try raised the worst quad
+//!    triangles pair otherwise); up to [`SPLIT_TRIES`] times, the input triangles around
+//!    those still under it split (one ring, or two where the first is split already),
+//!    each ring try after the first only when the one before was kept; last, where a ring try raised the worst quad
 //!    but broke the element-count rule, only the input triangles inside those still under it
 //!    split (a parity split's node standing for its segment's ends). Each is kept only when
 //!    it raises the worst quad without breaking the element-count rule. (A mesh of more
@@ -316,9 +317,9 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         Err(e) => matches!(e, Error::Invalid { .. } | Error::FallbackExhausted),
     };
     // where the fallback split triangles and the result breaks the element-count rule (the
-    // splits cascaded), or nothing was valid: the job that prices out every pair with a hopeless corner at a
-    // wall node on the surfaces of the bad quads, and the better of the two (before the
-    // worst-quad tries, which only the kept one gets)
+    // splits cascaded), or nothing was valid: the job that prices out every pair with a
+    // hopeless corner at a wall node on the surfaces of the bad quads, and the better of the
+    // two (before the worst-quad tries, which only the kept one gets)
     let cascaded = split
         && result
             .as_ref()

@@ -98,12 +98,13 @@ pub fn priced_out_cost(n: usize) -> i64 {
 /// move during optimization (section 6), so a corner there keeps its angle for good. A quad
 /// whose corner at a wall node is (nearly) straight or (nearly) zero — typically the two
 /// halves of a triangle split by a parity repair, merged back into a "quad" with a 180°
-/// angle — can never become valid, so it costs [`HOPELESS_COST`], far more than a folded
-/// quad, and the matching takes it only when avoiding it would cost even more; when the
-/// straight corner is at a parity-split node (`split_nodes`, sorted) it costs
-/// `split_costs[0]` when that corner is flat ([`FLAT_SPLIT_ETA`], a straight boundary), else
-/// `split_costs[1]` (a curved one; see [`split_halves_cost`]). `wall_nodes` holds the surface's wall nodes, `normals` the
-/// triangles' [`tri_normal`](super::geometry::tri_normal)s.
+/// angle — can never become valid, so it costs `wall_costs[2]` ([`HOPELESS_COST`], far more
+/// than a folded quad, or [`priced_out_cost`] where the fallback priced such pairs out), and
+/// the matching takes it only when avoiding it would cost even more; when the straight
+/// corner is at a parity-split node (`split_nodes`, sorted) it costs `wall_costs[0]` when
+/// that corner is flat ([`FLAT_SPLIT_ETA`], a straight boundary), else `wall_costs[1]` (a
+/// curved one; see [`split_halves_cost`]). `wall_nodes` holds the surface's wall nodes,
+/// `normals` the triangles' [`tri_normal`](super::geometry::tri_normal)s.
 #[allow(clippy::too_many_arguments)]
 pub(crate) fn edge_cost(
     topo: &SurfaceTopo,
@@ -111,7 +112,7 @@ pub(crate) fn edge_cost(
     normals: &[DVec3],
     wall_nodes: &NodeSet,
     split_nodes: &[u32],
-    split_costs: [i64; 2],
+    wall_costs: [i64; 3],
     t: usize,
     k: usize,
 ) -> i64 {
@@ -133,11 +134,11 @@ pub(crate) fn edge_cost(
                 )
         };
         return if at_split(FLAT_SPLIT_ETA) {
-            split_costs[0]
+            wall_costs[0]
         } else if at_split(FIXED_CORNER_MIN_ETA) {
-            split_costs[1]
+            wall_costs[1]
         } else {
-            HOPELESS_COST
+            wall_costs[2]
         };
     }
     cost
@@ -206,17 +207,21 @@ pub(crate) fn build(
     tm.lap("walls");
     // merged halves at a flat split node: priced out once they were not valid, else at
     // the cost of a curved boundary's (the optimizer's topology passes may still repair
-    // them)
+    // them); other hopeless pairs priced out where the fallback said so
     let split_nodes = pricing.split_nodes;
     let curved = curved_split_halves_cost(n);
-    let hopeless_out = priced_out_cost(n);
-    let split_costs = [
+    let wall_costs = [
         if pricing.flat_halves_out {
             split_halves_cost(n)
         } else {
             curved
         },
         curved,
+        if pricing.hopeless_out {
+            priced_out_cost(n)
+        } else {
+            HOPELESS_COST
+        },
     ];
     let field = match (cross_w > 0.0, harmonic) {
         (false, _) => CrossField::default(),
@@ -237,10 +242,7 @@ pub(crate) fn build(
                 let u = topo.nbr[3 * t + k];
                 (u != NONE && (t as u32) < u).then(|| {
                     let mut c =
-                        edge_cost(topo, coords, normals, walls, split_nodes, split_costs, t, k);
-                    if pricing.hopeless_out && c == HOPELESS_COST {
-                        c = hopeless_out;
-                    }
+                        edge_cost(topo, coords, normals, walls, split_nodes, wall_costs, t, k);
                     if cross_w > 0.0 && c <= 2 * COST_SCALE {
                         let tri = topo.tris[t];
                         let e = coords[tri[(k + 1) % 3] as usize] - coords[tri[k] as usize];

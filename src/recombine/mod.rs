@@ -35,10 +35,10 @@
 //!    quad (η_s ≤ 0) costs more than any valid one. Integer costs: `round(10⁴ · (1 − η_s))`
 //!    ∈ [0, 2·10⁴] ([`COST_SCALE`]). A *hopeless* quad, with a (nearly) straight or zero
 //!    corner at a wall node ([`FIXED_CORNER_MIN_ETA`]) — which optimization can never move —
-//!    costs [`HOPELESS_COST`] = 10⁵ (three extra edges, [`priced_out_cost`], on the surfaces
-//!    of [`RecombineOptions::hopeless_out`]); the two halves of a parity-split triangle (a 180° corner
-//!    at the split node) cost 5/2 of an extra edge ([`curved_split_halves_cost`]): the
-//!    matching takes up to two more extra edges (whose quads optimization repairs) to
+//!    costs [`HOPELESS_COST`] = 10⁵ (three extra edges, [`priced_out_cost`], on the
+//!    surfaces of [`RecombineOptions::hopeless_out`]); the two halves of a parity-split
+//!    triangle (a 180° corner at the split node) cost 5/2 of an extra edge
+//!    ([`curved_split_halves_cost`]): the matching takes up to two more extra edges (whose quads optimization repairs) to
 //!    avoid them; with [`RecombineOptions::flat_halves_out`] (set by the pipeline's
 //!    fallback once such a quad was not valid), halves at a flat split node cost 15/4
 //!    ([`split_halves_cost`]), above three extra edges, a priced-out pair or an extra edge
