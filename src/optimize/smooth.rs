@@ -12,7 +12,7 @@
 //! below zero) does not drop. On curved surfaces every candidate is projected back onto the
 //! reference triangulation by a local walk from the node's current triangle, and a move
 //! is refused when it would fold a quad of the star about its own normal (the cross product
-//! of its diagonals, `valid::keeps_own_jacobian`) or (on `OptimizeOptions::located_surfaces`)
+//! of its diagonals, `valid::OwnJacobian`) or (on `OptimizeOptions::located_surfaces`)
 //! turn a corner at a node the reference does not have away from the reference triangles
 //! that node touches (`valid::keeps_located_turns`), which the keys do not see.
 //!
@@ -31,7 +31,7 @@
 //! BENCHMARKS.md, "Measurements behind the defaults").
 
 use super::local::{rotate_to, Local, StarEval};
-use super::valid::{keeps_located_turns, keeps_own_jacobian};
+use super::valid::{keeps_located_turns, OwnJacobian};
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -130,11 +130,12 @@ fn propose_centroid(l: &Local, v: u32, diag: f64) -> Option<(DVec3, u32)> {
     let star = StarEval::new(l, v);
     let old = star.min_key(x0);
     let guard = star.needs_guard(old);
+    let own = std::cell::OnceCell::new();
     for t in [1.0, 0.5, 0.25] {
         let (cand, tri) = l.project(v, x0 + step * t);
         if star.all_at_least(cand, old)
             && (!guard || star.keeps_valid(x0, cand))
-            && keeps_own_jacobian(l, v, x0, cand)
+            && own.get_or_init(|| OwnJacobian::at(l, v, x0)).keeps(l, cand)
             && keeps_located_turns(l, v, x0, cand)
         {
             return Some((cand, tri));
@@ -172,13 +173,14 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
         return None;
     }
     let guard = star.needs_guard(min0);
+    let own = std::cell::OnceCell::new();
     pattern_search8(l, v, &[0.15, 0.05, 0.015], best_sum, |ps| {
         let r = star.min_sum8(ps);
         std::array::from_fn(|j| {
             let (min, sum) = r[j];
             (min >= min0
                 && (!guard || star.keeps_valid(x0, ps[j]))
-                && keeps_own_jacobian(l, v, x0, ps[j])
+                && own.get_or_init(|| OwnJacobian::at(l, v, x0)).keeps(l, ps[j])
                 && keeps_located_turns(l, v, x0, ps[j]))
             .then_some(sum)
         })
@@ -263,10 +265,12 @@ fn propose_worst(l: &Local, v: u32) -> Option<(DVec3, u32)> {
         return None;
     }
     let guard = star.needs_guard(min0);
+    let own = std::cell::OnceCell::new();
     pattern_search8(l, v, &[0.1, 0.03, 0.01, 0.003], min0, |ps| {
         let r = star.min_sum8(ps);
         std::array::from_fn(|j| {
-            ((!guard || star.keeps_valid(x0, ps[j])) && keeps_own_jacobian(l, v, x0, ps[j])
+            ((!guard || star.keeps_valid(x0, ps[j]))
+                && own.get_or_init(|| OwnJacobian::at(l, v, x0)).keeps(l, ps[j])
                 && keeps_located_turns(l, v, x0, ps[j]))
                 .then_some(r[j].0)
         })

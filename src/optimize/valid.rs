@@ -153,6 +153,9 @@ fn turns_about(normals: &[DVec3], cos: f64, c: DVec3) -> bool {
 /// corners about the quads' reference normals only; on a coarse curved face a node the
 /// input does not have can cross onto a face whose normal turns away from those.
 pub(crate) fn keeps_located_turns(l: &Local, v: u32, x0: DVec3, p: DVec3) -> bool {
+    if !l.located_turns {
+        return true;
+    }
     let star = l.star(v);
     let any = star
         .iter()
@@ -221,18 +224,63 @@ pub(crate) fn own_jacobian_ok(p: &[DVec3; 4]) -> bool {
     })
 }
 
-/// True when moving node `v` from `x0` to `p` keeps every quad around it that passes
-/// [`own_jacobian_ok`] at `x0` passing it (always on a planar surface, where the rule holds
-/// by itself). The smoothing sweeps' keys measure corners about the reference normal only;
-/// this keeps their moves from folding a quad about its own normal, which would cost the
-/// whole stage at the [`Gate`].
-pub(crate) fn keeps_own_jacobian(l: &Local, v: u32, x0: DVec3, p: DVec3) -> bool {
-    l.planar
-        || l.star(v).iter().all(|&q| {
-            let at =
-                |x: DVec3| l.quads[q as usize].map(|w| if w == v { x } else { l.pos[w as usize] });
-            !own_jacobian_ok(&at(x0)) || own_jacobian_ok(&at(p))
-        })
+/// Which quads of node `v`'s star pass [`own_jacobian_ok`] with `v` at its start position
+/// `x0`, found once for all the candidate positions of one move (the smoothing sweeps try
+/// up to 32): a move keeps those passing ([`OwnJacobian::keeps`]) and may leave the others
+/// as they are. Nothing to hold on a planar surface, where the rule holds by itself. The
+/// smoothing sweeps' keys measure corners about the reference normal only; this keeps
+/// their moves from folding a quad about its own normal, which would cost the whole stage
+/// at the [`Gate`].
+pub(crate) struct OwnJacobian {
+    /// Bit `i`: star quad `i` passes at `x0` (stars of up to 64 quads).
+    held: u64,
+    /// The star has more than 64 quads: each candidate checks `x0` again.
+    wide: bool,
+    v: u32,
+    x0: DVec3,
+}
+
+impl OwnJacobian {
+    /// The star quads of `v` that pass at `x0` (none held on a planar surface).
+    pub(crate) fn at(l: &Local, v: u32, x0: DVec3) -> Self {
+        let star = l.star(v);
+        let wide = !l.planar && star.len() > 64;
+        let mut held = 0u64;
+        if !l.planar && !wide {
+            for (i, &q) in star.iter().enumerate() {
+                if own_jacobian_ok(&moved(l, q, v, x0)) {
+                    held |= 1 << i;
+                }
+            }
+        }
+        OwnJacobian { held, wide, v, x0 }
+    }
+
+    /// True when every star quad that passed at the start position passes with the node at
+    /// `p`.
+    pub(crate) fn keeps(&self, l: &Local, p: DVec3) -> bool {
+        let star = l.star(self.v);
+        if self.wide {
+            return star.iter().all(|&q| {
+                !own_jacobian_ok(&moved(l, q, self.v, self.x0))
+                    || own_jacobian_ok(&moved(l, q, self.v, p))
+            });
+        }
+        let mut held = self.held;
+        while held != 0 {
+            let i = held.trailing_zeros() as usize;
+            held &= held - 1;
+            if !own_jacobian_ok(&moved(l, star[i], self.v, p)) {
+                return false;
+            }
+        }
+        true
+    }
+}
+
+/// The corners of quad `q` with its node `v` at `x`.
+fn moved(l: &Local, q: u32, v: u32, x: DVec3) -> [DVec3; 4] {
+    l.quads[q as usize].map(|w| if w == v { x } else { l.pos[w as usize] })
 }
 
 /// True when alive quad `q` is valid (module docs). It depends only on the quad's nodes and
