@@ -14,8 +14,10 @@
 //! more from the node's normal: a fold, a pin a few triangles round), of the input faces
 //! nearest to a point inside the corner, a quarter of the way along its two edges (its own
 //! side); and about the normal at each of the quad's nodes the input has and does not wrap
-//! round; and its scaled Jacobian at every corner about its own normal (the cross
-//! product of its diagonals) is positive. That is the definition of
+//! round; and, where no node wraps and no input face at its nodes turns 60° or more from
+//! the mean unit normal of the input faces it came from (all their nodes among the quad's,
+//! else two, else one), about that mean; and its scaled Jacobian at every corner about its
+//! own normal (the cross product of its diagonals) is positive. That is the definition of
 //! `blossomquad::validity`, written again here independently so that the gate itself is
 //! checked. The output must also be numbered 1..N (nodes and elements) unless the
 //! renumbering said why not. Anything else is a finding.
@@ -303,6 +305,55 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                             q[k], q[j]
                         ));
                     }
+                }
+            }
+            // and about the mean unit normal of the input faces it came from (all their
+            // nodes among the quad's, else two, else one), where one stands for it: no
+            // wrapped node and no face at its nodes turning 60 degrees or more from it
+            if (0..4).any(wraps) {
+                continue;
+            }
+            let shared: Vec<(&Face, usize)> = surface_faces
+                .iter()
+                .map(|f| (f, f.nodes.iter().filter(|v| q.contains(v)).count()))
+                .filter(|x| x.1 > 0)
+                .collect();
+            let unit = |v: V| {
+                let l = norm(v);
+                if l > 0.0 {
+                    v.map(|x| x / l)
+                } else {
+                    [0.0; 3]
+                }
+            };
+            let Some(mean) = [
+                |f: &Face, c: usize| c == f.nodes.len(),
+                |_: &Face, c: usize| c >= 2,
+                |_: &Face, c: usize| c >= 1,
+            ]
+            .iter()
+            .map(|keep| {
+                shared
+                    .iter()
+                    .filter(|(f, c)| keep(f, *c))
+                    .fold([0.0; 3], |m, (f, _)| add(m, unit(f.normal)))
+            })
+            .find(|m| norm(*m) > 0.0) else {
+                continue;
+            };
+            let mean = unit(mean);
+            if shared.iter().any(|(f, _)| dot(unit(f.normal), mean) <= 0.5) {
+                continue;
+            }
+            for k in 0..4 {
+                let a = sub(p[(k + 1) % 4], p[k]);
+                let c = sub(p[(k + 3) % 4], p[k]);
+                let sm = dot(cross(a, c), mean) / (norm(a) * norm(c));
+                if !(sm > 1e-12) {
+                    return Err(format!(
+                        "surface {s}: quad {tag} {q:?} has a corner at node {} that is reflex about the faces it came from (sine {sm:e})",
+                        q[k]
+                    ));
                 }
             }
         }
