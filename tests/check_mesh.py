@@ -43,10 +43,11 @@ code. Checks (names as in the JSON report):
                     input's average normal; on a curved surface with the sum of
                     the input surface's area-weighted normals at its nodes (the
                     normal GUIDE.md's validity is measured about; faces with no input
-                    node, e.g. a fallback split's centre quad, use the normal of the
-                    input triangle nearest their centroid). (The nearest triangle
-                    alone is ill-defined on a thin tube: a quad across it has its
-                    centroid on the axis, as near to the far wall as to its own.)
+                    node, e.g. a fallback split's centre quad, use the normals of the
+                    input faces nearest to each of their nodes). (The input triangle
+                    nearest a face's centroid is ill-defined on a thin tube: a quad
+                    across it has its centroid on the axis, as near to the far wall
+                    as to its own.)
 
   quad_valid        every output quad is valid, measured in 3D against the surface
                     normal of the input triangles it came from (those whose nodes are
@@ -817,7 +818,6 @@ def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, 
         rep.check("area", rel <= allowed, f"surface {surface}: area {area_in!r} -> {area_out!r} (rel {rel:.3e})")
         flipped = sum(1 for p in out_pts if dot(polygon_normal(p), axis) <= 0.0)
     else:
-        finder = None
         flipped = 0
         for _, f in out_faces:
             if not all(n in out.nodes for n in f):
@@ -834,12 +834,10 @@ def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, 
                     # the area-weighted input normal at the node (OwnSide)
                     ref = add(ref, own.at_node.get(t, (0.0, 0.0, 0.0)))
             if norm(ref) == 0.0:
-                if finder is None:
-                    centroids = [tuple(sum(c[i] for c in q) / len(q) for i in range(3)) for q in in_pts]
-                    finder = NearestTriangle(centroids, normals)
-                c = tuple(sum(q[i] for q in p) / len(p) for i in range(3))
-                t = finder.nearest(c)
-                ref = normals[t] if t is not None else (0.0, 0.0, 0.0)
+                # no input node: the input faces nearest to each of its nodes (by true
+                # distance), as a node the run added is measured
+                for q in p:
+                    ref = add(ref, own.nearest(q))
             if dot(polygon_normal(p), ref) <= 0.0:
                 flipped += 1
     rep.check("orientation", flipped == 0,
