@@ -18,7 +18,10 @@
 //! surface gives the same optimized surface. A surface is kept only when its node blocks
 //! hold no node that another entity's elements use and its quads use no node of another
 //! surface's node block, so that putting back its node blocks and quad blocks changes
-//! nothing else.
+//! nothing else; except a node that the quads of both surfaces use (a fallback split's node
+//! on a curve one segment long, which has no node block, lands in the block of one of its
+//! surfaces): it lies on the boundary of both surfaces' quads, so neither optimizer moves
+//! it, and it keeps the coordinates both fingerprints hold.
 
 use std::collections::{HashMap, HashSet};
 use std::hash::{DefaultHasher, Hash, Hasher};
@@ -204,7 +207,8 @@ impl SurfaceCache {
 
     /// Records the optimized state of `mesh`'s surfaces, whose recombined state had the
     /// fingerprints `fp`; surfaces that share nodes across blocks (see the module doc) are
-    /// not recorded.
+    /// not recorded, except through nodes that the quads of both surfaces use (which no
+    /// optimizer moves).
     pub(crate) fn record(&mut self, mesh: &Mesh, fp: &Fingerprints) {
         // the surface whose node block holds each node
         let mut block_of: HashMap<u64, i32> = HashMap::new();
@@ -213,12 +217,23 @@ impl SurfaceCache {
                 block_of.insert(t, b.entity_tag);
             }
         }
+        // the nodes of a surface's block that its own quads use: on the boundary between
+        // its quads and another surface's that use them too (a split node on a curve
+        // without a node block of its own), where neither optimizer moves them
+        let mut own_use: HashSet<u64> = HashSet::new();
+        for b in mesh.element_blocks.iter().filter(|b| is_quads(b)) {
+            for n in &b.nodes {
+                if block_of.get(n) == Some(&b.entity_tag) {
+                    own_use.insert(*n);
+                }
+            }
+        }
         let mut tangled: HashSet<i32> = HashSet::new();
         for b in &mesh.element_blocks {
             let own = is_quads(b).then_some(b.entity_tag);
             for n in &b.nodes {
                 match (block_of.get(n), own) {
-                    (Some(&o), Some(s)) if o != s => {
+                    (Some(&o), Some(s)) if o != s && !own_use.contains(n) => {
                         tangled.insert(o);
                         tangled.insert(s);
                     }
@@ -355,5 +370,77 @@ mod tests {
                 .cloned()
         };
         assert_eq!(block(&put), block(&moved));
+    }
+
+    #[test]
+    fn a_node_both_surfaces_quads_use_in_one_surfaces_block_keeps_both_reusable() {
+        // a node on the curve between the two surfaces moved into the first surface's block
+        // (where a fallback split of a curve with no node block of its own puts its node):
+        // both surfaces are still recorded, and what is put back is the optimizer's; a node
+        // of that block that only the other surface's quads use keeps both out
+        let (input, mut mesh) = recombined();
+        let (nodes, elements) = (input.max_node_tag(), input.max_element_tag());
+        let users = |m: &Mesh, t: u64| -> Vec<i32> {
+            let mut s: Vec<i32> = m
+                .element_blocks
+                .iter()
+                .filter(|b| is_quads(b) && b.nodes.contains(&t))
+                .map(|b| b.entity_tag)
+                .collect();
+            s.sort_unstable();
+            s.dedup();
+            s
+        };
+        let (ci, k) = mesh
+            .node_blocks
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| b.entity_dim == 1)
+            .find_map(|(i, b)| {
+                (0..b.tags.len())
+                    .find(|&k| users(&mesh, b.tags[k]).len() == 2)
+                    .map(|k| (i, k))
+            })
+            .expect("a curve node both surfaces' quads use");
+        let tag = mesh.node_blocks[ci].tags.remove(k);
+        let c = mesh.node_blocks[ci].coords.remove(k);
+        let (owner, user) = (users(&mesh, tag)[0], users(&mesh, tag)[1]);
+        let b = mesh
+            .node_blocks
+            .iter_mut()
+            .find(|b| b.entity_dim == 2 && b.entity_tag == owner)
+            .expect("the surface's block");
+        b.tags.push(tag);
+        b.coords.push(c);
+        let opts = OptimizeOptions::default();
+        let made = Fingerprints::of(&mesh, nodes, elements);
+        let mut optimized = mesh.clone();
+        optimize(&mut optimized, &input, &opts).expect("optimizes");
+        let mut cache = SurfaceCache::default();
+        cache.record(&optimized, &made);
+        assert_eq!(cache.entries.len(), made.0.len(), "every surface recorded");
+        let other = shifted(&mesh, nodes, elements, 1000);
+        let fp = Fingerprints::of(&other, nodes, elements);
+        let mut put = other.clone();
+        assert_eq!(cache.put_back(&mut put, &fp).len(), fp.0.len());
+        let mut again = other.clone();
+        optimize(&mut again, &input, &opts).expect("optimizes");
+        assert_eq!(put.node_blocks, again.node_blocks);
+        assert_eq!(put.element_blocks, again.element_blocks);
+        // the node used by the other surface's quads alone: neither is recorded
+        let mut alone = optimized.clone();
+        for b in alone
+            .element_blocks
+            .iter_mut()
+            .filter(|b| b.entity_tag == owner)
+        {
+            b.nodes
+                .iter_mut()
+                .filter(|t| **t == tag)
+                .for_each(|t| *t = u64::MAX);
+        }
+        let mut cache = SurfaceCache::default();
+        cache.record(&alone, &made);
+        assert!(!cache.entries.keys().any(|k| k.0 == owner || k.0 == user));
     }
 }
