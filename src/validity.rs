@@ -242,6 +242,20 @@ impl<'a> Reference<'a> {
         self.invalid_quads_on(output, out_coords, None)
     }
 
+    /// A node the input surface `surface` wraps round (one of its faces there turns 90° or
+    /// more from the node's normal, [`WRAP_COS`]): one of `prefer` when the surface wraps
+    /// round one of them, else its wrapped node of the smallest tag; `None` when it wraps
+    /// round none.
+    pub(crate) fn wrapped_node(&self, surface: i32, prefer: &[u64]) -> Option<u64> {
+        let i = self.surfaces.binary_search_by_key(&surface, |x| x.0).ok()?;
+        let normals = &self.surfaces[i].1.normals;
+        prefer
+            .iter()
+            .copied()
+            .find(|&t| normals.wraps(t))
+            .or_else(|| normals.wrapped.first().copied())
+    }
+
     /// [`Reference::invalid_quads_at`] on the surfaces `only` (sorted tags) when given.
     pub(crate) fn invalid_quads_on(
         &self,

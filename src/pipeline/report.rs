@@ -80,12 +80,16 @@ pub enum Error {
     #[error("internal error: the fallback ended without a result")]
     FallbackExhausted,
     /// Some quads are not valid even after the fallback.
-    #[error("{}", invalid_message(bad))]
+    #[error("{}", invalid_message(bad, *wrapped))]
     Invalid {
         /// The quads still bad after the last round.
         bad: Vec<BadQuad>,
         /// The rounds' log up to the refusal (what [`Report::log`] would have held).
         log: Vec<String>,
+        /// A surface of those quads that the input wraps round a node, and that node (one
+        /// of the quads' when it can): a surface meshed coarser than its curvature, a few
+        /// triangles round, where a quad of two triangles spans too sharp a turn.
+        wrapped: Option<(i32, u64)>,
     },
     /// Second-order input refused, or second-order elements not valid.
     #[error(transparent)]
@@ -120,11 +124,17 @@ impl From<crate::high_order::HighOrderError> for Error {
     }
 }
 
-fn invalid_message(bad: &[BadQuad]) -> String {
-    format!(
+fn invalid_message(bad: &[BadQuad], wrapped: Option<(i32, u64)>) -> String {
+    let mut m = format!(
         "{} quad(s) on surface(s) {} are not valid even after splitting their triangles into quads; first: {}",
         bad.len(),
         sorted_list(bad.iter().map(|b| &b.surface)),
         bad.first().map(|b| b.to_string()).unwrap_or_default()
-    )
+    );
+    if let Some((surface, node)) = wrapped {
+        m += &format!(
+            "; surface {surface} is meshed coarser than its curvature: at node {node} one of its triangles turns 90 degrees or more from the mean of those around the node, so a quad of two triangles spans too sharp a turn (a finer mesh there, e.g. with Mesh.MeshSizeFromCurvature, avoids it)"
+        );
+    }
+    m
 }

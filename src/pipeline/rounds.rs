@@ -238,7 +238,19 @@ pub(super) fn run_rounds<'a>(
             }
             let mut lines = std::mem::take(&mut report.log);
             lines.extend(log.last().cloned());
-            return Err(Error::Invalid { bad, log: lines });
+            // a surface of the bad quads that wraps round a node: named in the refusal
+            let wrapped = cache.checks.as_ref().and_then(|c| {
+                bad.iter().find_map(|b| {
+                    c.validity
+                        .wrapped_node(b.surface, &b.nodes)
+                        .map(|n| (b.surface, n))
+                })
+            });
+            return Err(Error::Invalid {
+                bad,
+                log: lines,
+                wrapped,
+            });
         }
         chosen.extend(more);
     }

@@ -129,7 +129,7 @@ fn a_nearly_flat_input_corner_is_refused_naming_the_surface_or_written_with_allo
     assert!(!msg.contains('{') && !msg.contains("BadQuad"), "{msg}");
     // the rounds' log travels with the refusal, up to the last round's bad quads
     match &err {
-        blossomquad::Error::Invalid { bad, log } => {
+        blossomquad::Error::Invalid { bad, log, .. } => {
             assert!(!bad.is_empty());
             assert!(
                 log.last().is_some_and(|l| l.contains("not valid")),
@@ -483,6 +483,44 @@ fn a_thin_cylinder_folded_by_gmsh_is_refused_naming_its_non_manifold_edge() {
     );
     assert!(
         stderr.contains("86-316 is shared by 4 triangles"),
+        "{stderr}"
+    );
+    assert!(!output.exists(), "nothing written");
+}
+
+/// Gmsh's mesh of a thin torus fused with a cone, meshed coarser than the torus tube's
+/// curvature (`tests/data/cad/coarse_torus.py`): at some nodes of the tube a triangle turns
+/// 90 degrees or more from the others and no split gives valid quads there. The refusal
+/// says so, naming the surface and a node the surface wraps round, and nothing is written.
+#[test]
+fn a_surface_meshed_coarser_than_its_curvature_is_refused_naming_where() {
+    let input = common::repo_dir().join("tests/data/cad/v41_coarse_torus.msh");
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    let mut m = mesh.clone();
+    let err = quadrangulate(&mut m, &Options::default()).expect_err("refused");
+    assert_eq!(m, mesh, "the mesh is unchanged on error");
+    let (surface, node) = match &err {
+        blossomquad::Error::Invalid { bad, wrapped, .. } => {
+            let w = wrapped.expect("a wrapped node named");
+            assert!(bad.iter().any(|b| b.surface == w.0), "{bad:?}");
+            w
+        }
+        other => panic!("not a refusal of invalid quads: {other}"),
+    };
+    let msg = err.to_string();
+    for w in [
+        format!("surface {surface} is meshed coarser than its curvature"),
+        format!("at node {node} one of its triangles turns 90 degrees or more"),
+        "Mesh.MeshSizeFromCurvature".to_string(),
+    ] {
+        assert!(msg.contains(&w), "{w:?} not in {msg}");
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("out.msh");
+    let (code, _, stderr) = blossomquad_run([input.as_os_str(), "-o".as_ref(), output.as_os_str()]);
+    assert_eq!(code, Some(1), "{stderr}");
+    assert!(
+        stderr.contains("meshed coarser than its curvature"),
         "{stderr}"
     );
     assert!(!output.exists(), "nothing written");
