@@ -205,7 +205,8 @@ pub struct Reference<'a> {
 struct SurfaceReference {
     normals: Normals,
     nearest: std::sync::OnceLock<Nearest>,
-    /// The faces by node, built on the first quad of a curved surface.
+    /// The faces by node, for curved surfaces (built with the rest, or on the first quad of
+    /// a surface the input has no face of).
     source: std::sync::OnceLock<SourceFaces>,
 }
 
@@ -322,10 +323,18 @@ impl<'a> Reference<'a> {
 
 impl SurfaceReference {
     fn new(input: &Mesh, coords: &TagCoords, s: i32) -> Self {
+        let normals = input_normals(input, coords, s);
+        // speed: every quad of a curved surface needs its faces by node, built here (the
+        // pipeline prepares this while the optimizer runs)
+        let source = if normals.planar {
+            std::sync::OnceLock::new()
+        } else {
+            std::sync::OnceLock::from(SourceFaces::new(input, coords, s))
+        };
         SurfaceReference {
-            normals: input_normals(input, coords, s),
+            normals,
             nearest: std::sync::OnceLock::new(),
-            source: std::sync::OnceLock::new(),
+            source,
         }
     }
 }
@@ -571,10 +580,18 @@ const TURN_COS: f64 = 0.5;
 /// The input faces of one surface by node, for the normal of the faces a quad came from
 /// ([`SourceFaces::normal`]).
 struct SourceFaces {
-    /// `(node tag, face)` for every node of every face, sorted.
-    by_node: Vec<(u64, u32)>,
+    /// The faces at each node.
+    at: FacesAt,
     /// Each face's node count and unit normal (zero for a face of no area).
     faces: Vec<(u8, DVec3)>,
+}
+
+/// The faces at each node: by tag in a table when the tags are dense enough (those of
+/// node tag `t` are `around[start[t]..start[t + 1]]`), else sorted by tag (`tags[i]` the
+/// node of `around[i]`).
+enum FacesAt {
+    Dense { start: Vec<u32>, around: Vec<u32> },
+    Sorted { tags: Vec<u64>, around: Vec<u32> },
 }
 
 impl SourceFaces {
@@ -598,8 +615,50 @@ impl SourceFaces {
                 }
             }
         }
-        radix_sort_by_key(&mut by_node, |x| x.0);
-        SourceFaces { by_node, faces }
+        // speed: a table by tag when the tags are dense (as Gmsh writes them: a node is in
+        // about six triangles), the faces of each node in face order
+        let max = by_node.iter().map(|x| x.0).max().unwrap_or(0);
+        let at = if max <= 8 * by_node.len() as u64 + 1024 {
+            let max = max as usize;
+            let mut start = vec![0u32; max + 2];
+            for &(t, _) in &by_node {
+                start[t as usize + 1] += 1;
+            }
+            for i in 0..=max {
+                start[i + 1] += start[i];
+            }
+            let mut fill = start.clone();
+            let mut around = vec![0u32; by_node.len()];
+            for &(t, f) in &by_node {
+                around[fill[t as usize] as usize] = f;
+                fill[t as usize] += 1;
+            }
+            FacesAt::Dense { start, around }
+        } else {
+            radix_sort_by_key(&mut by_node, |x| x.0);
+            FacesAt::Sorted {
+                tags: by_node.iter().map(|x| x.0).collect(),
+                around: by_node.iter().map(|x| x.1).collect(),
+            }
+        };
+        SourceFaces { at, faces }
+    }
+
+    /// The faces at node `t`, in face order.
+    fn at(&self, t: u64) -> &[u32] {
+        match &self.at {
+            FacesAt::Dense { start, around } => match usize::try_from(t) {
+                Ok(t) if t + 1 < start.len() => {
+                    &around[start[t] as usize..start[t + 1] as usize]
+                }
+                _ => &[],
+            },
+            FacesAt::Sorted { tags, around } => {
+                let from = tags.partition_point(|&x| x < t);
+                let to = from + tags[from..].iter().take_while(|&&x| x == t).count();
+                &around[from..to]
+            }
+        }
     }
 
     /// The unit mean normal of the input faces quad `q` came from: those whose nodes are
@@ -609,34 +668,37 @@ impl SourceFaces {
     /// (the faces lie on several sides of a sharp turn: no one normal stands for the quad,
     /// and its corners are measured at their own nodes).
     fn normal(&self, q: &[u64; 4]) -> Option<DVec3> {
-        // the faces at the quad's nodes and how many of its nodes each has
-        let mut shared: Vec<(u32, u8)> = Vec::with_capacity(24);
+        // the faces at the quad's nodes and how many of its nodes each has (speed: on the
+        // stack up to 64 faces)
+        let mut stack = [(0u32, 0u8); 64];
+        let mut len = 0;
+        let mut more: Vec<(u32, u8)> = Vec::new();
         for &t in q {
-            let from = self.by_node.partition_point(|x| x.0 < t);
-            for &(_, f) in self.by_node[from..].iter().take_while(|x| x.0 == t) {
-                match shared.iter_mut().find(|x| x.0 == f) {
-                    Some(x) => x.1 += 1,
-                    None => shared.push((f, 1)),
+            for &f in self.at(t) {
+                if let Some(x) = stack[..len].iter_mut().chain(more.iter_mut()).find(|x| x.0 == f) {
+                    x.1 += 1;
+                } else if len < stack.len() {
+                    stack[len] = (f, 1);
+                    len += 1;
+                } else {
+                    more.push((f, 1));
                 }
             }
         }
+        let shared = || stack[..len].iter().chain(more.iter());
         let sum = |keep: &dyn Fn(u8, u8) -> bool| -> DVec3 {
-            shared
-                .iter()
+            shared()
                 .filter(|&&(f, c)| keep(c, self.faces[f as usize].0))
                 .map(|&(f, _)| self.faces[f as usize].1)
                 .sum()
         };
-        let mean = [
-            sum(&|c, k| c == k),
-            sum(&|c, _| c >= 2),
-            sum(&|c, _| c >= 1),
-        ]
-        .into_iter()
-        .find(|n| *n != DVec3::ZERO)?
-        .normalize_or_zero();
-        let turns = shared
+        let levels: [&dyn Fn(u8, u8) -> bool; 3] = [&|c, k| c == k, &|c, _| c >= 2, &|c, _| c >= 1];
+        let mean = levels
             .iter()
+            .map(|keep| sum(*keep))
+            .find(|n| *n != DVec3::ZERO)?
+            .normalize_or_zero();
+        let turns = shared()
             .any(|&(f, _)| self.faces[f as usize].1.dot(mean) <= TURN_COS);
         (mean != DVec3::ZERO && !turns).then_some(mean)
     }
