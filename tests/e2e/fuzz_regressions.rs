@@ -509,6 +509,22 @@ fn a_repeated_element_tag_gets_a_number_for_each_element() {
     );
 }
 
+/// Fuzz finding: an annulus in the plane z = 0 (MSH 4.1, 55 triangles) with triangle 77
+/// folded over triangle 76 (opposite normals across their edge 3-30: overlapping,
+/// inverted triangles). A fold was walled off as on a thin pin, and the output was written
+/// with a quad turned over about its node's normal; on a flat surface a fold has no side
+/// to stand for, so the surface is refused naming it, and nothing is written.
+#[test]
+fn folded_triangles_on_a_flat_surface_are_refused_not_walled_off() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz/folded-triangles-in-a-flat-annulus.msh");
+    let text = std::fs::read_to_string(&path).expect("read the finding");
+    assert_refused(
+        &text,
+        &["element 77", "folded over triangle 76", "edge 3-30"],
+    );
+}
+
 /// Fuzz finding (pipeline target): two triangles on one surface whose second and fourth
 /// nodes coincide, so the second triangle lies on the first, turned over. Both were split
 /// into quads whose new nodes' nearest input faces cancel out, and the gate then measured

@@ -137,6 +137,32 @@ pub(crate) enum OnCurve {
     Bare(i32),
 }
 
+/// True when the triangles `tris` (unit normals `normals`) lie in one plane: every normal
+/// parallel to the first non-zero one, either way, and every node within 1e-9 of the
+/// triangles' extent of the plane through that triangle.
+fn flat(tris: &[[u32; 3]], normals: &[glam::DVec3], nodes: &NodeTable) -> bool {
+    let Some(i) = normals.iter().position(|n| *n != glam::DVec3::ZERO) else {
+        return true;
+    };
+    let (n0, p0) = (normals[i], nodes.coords[tris[i][0] as usize]);
+    let (mut lo, mut hi) = (p0, p0);
+    for t in tris {
+        for &v in t {
+            let p = nodes.coords[v as usize];
+            lo = lo.min(p);
+            hi = hi.max(p);
+        }
+    }
+    let tol = 1e-9 * (hi - lo).length();
+    normals
+        .iter()
+        .all(|n| *n == glam::DVec3::ZERO || n.dot(n0).abs() >= 1.0 - 1e-9)
+        && tris
+            .iter()
+            .flatten()
+            .all(|&v| (nodes.coords[v as usize] - p0).dot(n0).abs() <= tol)
+}
+
 mod checks;
 mod halves;
 
@@ -178,7 +204,9 @@ impl SurfaceTopo {
     /// across it; parity repair sees it as a wall segment like any other), and the refusal
     /// it would have given (the fold with the smallest edge) comes back beside the
     /// topology with the node tags of the folded edges, for the caller to report if the
-    /// quads are not valid.
+    /// quads are not valid. On a flat surface (every triangle in one plane) a fold is
+    /// triangles lying over each other, with no side of the surface for a quad to stand
+    /// on: that surface is refused, naming the fold.
     pub fn new(
         tris: Vec<[u32; 3]>,
         normals: &[glam::DVec3],
@@ -273,6 +301,14 @@ impl SurfaceTopo {
             return Err(edge_refusal(surface, key, problem, tag));
         }
         let fold = first_fold(&tris, normals, &nbr, &walled, nodes);
+        // on a flat surface a fold is triangles lying over each other (overlapping or
+        // inverted), with no side of the surface for a quad there: refused whole
+        let fold = match fold {
+            Some((key, problem)) if flat(&tris, normals, nodes) => {
+                return Err(edge_refusal(surface, key, problem, tag));
+            }
+            fold => fold,
+        };
         // folds are walled off: no pair across them (a fold across a curve is a wall
         // already); the first one is kept to be reported if the result is not valid
         let mut nbr = nbr;
