@@ -434,26 +434,35 @@ fn face_normal(p: &[DVec3; 4], k: usize) -> DVec3 {
     n
 }
 
-/// The faces of input surface `s` whose nodes all exist, in block order.
-fn input_faces(input: &Mesh, coords: &TagCoords, s: i32) -> Vec<Face> {
-    let mut faces = Vec::new();
-    for b in input
+/// The faces of input surface `s` whose nodes all exist, in block order: each one's node
+/// tags, corners and node count (3 or 4).
+fn surface_faces<'m>(
+    input: &'m Mesh,
+    coords: &'m TagCoords,
+    s: i32,
+) -> impl Iterator<Item = (&'m [u64], [DVec3; 4], usize)> + 'm {
+    input
         .element_blocks
         .iter()
-        .filter(|b| b.entity_tag == s && b.is_linear_face())
-    {
-        let k = b.nodes_per_element();
-        for i in 0..b.len() {
-            if let Some(p) = face_corners(coords, b.element(i)) {
-                faces.push(Face {
-                    corners: p,
-                    len: k as u8,
-                    normal: face_normal(&p, k),
-                });
-            }
-        }
-    }
-    faces
+        .filter(move |b| b.entity_tag == s && b.is_linear_face())
+        .flat_map(move |b| {
+            let k = b.nodes_per_element();
+            (0..b.len()).filter_map(move |i| {
+                let e = b.element(i);
+                face_corners(coords, e).map(|p| (&e[..k], p, k))
+            })
+        })
+}
+
+/// The faces of input surface `s` whose nodes all exist, in block order.
+fn input_faces(input: &Mesh, coords: &TagCoords, s: i32) -> Vec<Face> {
+    surface_faces(input, coords, s)
+        .map(|(_, p, k)| Face {
+            corners: p,
+            len: k as u8,
+            normal: face_normal(&p, k),
+        })
+        .collect()
 }
 
 /// The area-weighted normals of the input faces of surface `s` at their nodes, normalized
@@ -599,21 +608,11 @@ impl SourceFaces {
     fn new(input: &Mesh, coords: &TagCoords, s: i32) -> Self {
         let mut by_node = Vec::new();
         let mut faces = Vec::new();
-        for b in input
-            .element_blocks
-            .iter()
-            .filter(|b| b.entity_tag == s && b.is_linear_face())
-        {
-            let k = b.nodes_per_element();
-            for i in 0..b.len() {
-                let e = b.element(i);
-                if let Some(p) = face_corners(coords, e) {
-                    for &t in &e[..k] {
-                        by_node.push((t, faces.len() as u32));
-                    }
-                    faces.push((k as u8, face_normal(&p, k).normalize_or_zero()));
-                }
+        for (e, p, k) in surface_faces(input, coords, s) {
+            for &t in e {
+                by_node.push((t, faces.len() as u32));
             }
+            faces.push((k as u8, face_normal(&p, k).normalize_or_zero()));
         }
         // speed: a table by tag when the tags are dense (as Gmsh writes them: a node is in
         // about six triangles), the faces of each node in face order
