@@ -16,8 +16,12 @@
 //!   onto itself), the corner has no normal and the quad is not valid. Where the surface
 //!   wraps round a node (one of its faces there turns 90° or more from the node's normal,
 //!   [`WRAP_COS`]: a fold, a pin a few triangles round), that normal stands for no side of
-//!   the surface, and a corner there is measured about the input faces nearest to a point
-//!   inside the corner, a quarter of the way along its two edges (its own side);
+//!   the surface, and a corner there is measured on its own side: about the mean unit
+//!   normal of the input faces at that node the quad holds (all their nodes among the
+//!   quad's), else, where it holds none (a node the run added is one of its corners),
+//!   about the input faces nearest to a point inside the corner, a quarter of the way
+//!   along its two edges. Where the surface folds over itself, several faces lie at that
+//!   point, and only those the quad holds say which side it is on;
 //! - no corner is seen edge-on from the surface (its sine about that normal above
 //!   [`MIN_SINE`] of its edges' lengths);
 //! - each corner also turns positively (sine above [`MIN_SINE`] of its edges' lengths) about
@@ -660,6 +664,24 @@ impl SourceFaces {
         }
     }
 
+    /// The unit mean normal of the input faces at node `t` that quad `q` holds (all their
+    /// nodes among the quad's): the side of the surface its corner at `t` is on where the
+    /// surface wraps round `t`. `None` when the quad holds no face there (a node the run
+    /// added is one of its corners); zero when those faces cancel out (the quad folds
+    /// across its diagonal).
+    fn held_at(&self, q: &[u64; 4], t: u64) -> Option<DVec3> {
+        let mut held = self
+            .at(t)
+            .iter()
+            .filter(|&&f| {
+                let on = q.iter().filter(|&&v| self.at(v).contains(&f)).count();
+                on == usize::from(self.faces[f as usize].0)
+            })
+            .peekable();
+        held.peek()?;
+        Some(held.map(|&f| self.faces[f as usize].1).sum::<DVec3>().normalize_or_zero())
+    }
+
     /// The unit mean normal of the input faces quad `q` came from: those whose nodes are
     /// all among the quad's, else those sharing an edge's two nodes with it, else one
     /// node; `None` when no face has a node of the quad, when those normals cancel, or
@@ -840,10 +862,14 @@ fn check_quad<'n>(
     });
     for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
         // a node the input lacks, or whose faces cancel out: the faces nearest to it; a
-        // wrapped node: the faces nearest to a point inside the corner (its own side)
+        // wrapped node: the input faces the quad holds there, else the faces nearest to a
+        // point inside the corner (its own side)
         let n = match at[k] {
             Some(n) if !wraps[k] => n,
-            Some(_) => match nearest().normal(own_side(p[k], a, b)) {
+            Some(_) => match source()
+                .held_at(&q, q[k])
+                .or_else(|| nearest().normal(own_side(p[k], a, b)))
+            {
                 Some(n) if n == DVec3::ZERO => return Some(Defect::NoNormal { corner: k }),
                 Some(n) => n,
                 None => own,
@@ -968,6 +994,31 @@ mod tests {
         let bad = reference.invalid_quads(&turned);
         assert_eq!(bad.len(), 1);
         assert!(matches!(bad[0].defect, Defect::Corner { .. }), "{:?}", bad[0]);
+    }
+
+    #[test]
+    fn a_corner_at_a_fold_is_measured_about_the_faces_its_quad_holds() {
+        // the unit square 1-2-3-4 (normal +z) with a larger triangle 2-1-5 folded flat over
+        // it across edge 1-2: a point inside the square's corner at node 1 lies on both, and
+        // the folded one outweighs the square's; the faces the quad holds at node 1 are the
+        // square's, and they say which side its corner is on
+        let mut c = SQUARE.to_vec();
+        c.push([0.5, 10.0, 0.0]);
+        let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4], &[2, 1, 5]]);
+        let reference = Reference::new(&input);
+        let normals = &reference.surfaces[0].1.normals;
+        assert!(normals.wraps(1) && normals.wraps(2));
+        let square = mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]]);
+        assert_eq!(reference.invalid_quads(&square), vec![]);
+        let turned = mesh(&c, etype::QUAD4, &[&[1, 4, 3, 2]]);
+        assert_eq!(reference.invalid_quads(&turned).len(), 1);
+        // a quad holding no input face at node 1 (node 6 is new) is measured at the point
+        // inside its corner, where the folded triangle outweighs the square's
+        c.push([1.0, 0.5, 0.0]);
+        let split = mesh(&c, etype::QUAD4, &[&[1, 2, 6, 4]]);
+        let bad = reference.invalid_quads(&split);
+        assert_eq!(bad.len(), 1);
+        assert_eq!(bad[0].node(), 1, "{:?}", bad[0]);
     }
 
     #[test]

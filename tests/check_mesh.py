@@ -576,8 +576,11 @@ class OwnSide:
     A node is wrapped when one of the surface's faces at it turns 90 degrees or more from
     the node's area-weighted normal (a fold, or a pin meshed coarser than its radius, a
     few triangles round): that normal stands for no side of the surface. A corner at such
-    a node is measured about the input faces nearest to a point inside it, a quarter of
-    the way along its two edges (its own side); the faces are found through a grid of
+    a node is measured on its own side: about the mean unit normal of the input faces
+    there that the quad holds (all their nodes among its own), else about the input faces
+    nearest to a point inside it, a quarter of the way along its two edges (where the
+    surface folds over itself several faces lie at that point, and only those the quad
+    holds say which side it is on); the nearest faces are found through a grid of
     cells, by true distance (ties within 1e-9 of the model's size all count). A quad with
     a corner at a wrapped node, with no input node of the surface at all, or where a face
     at one of its nodes turns 60 degrees or more from the mean of the faces it came from,
@@ -591,15 +594,19 @@ class OwnSide:
         self.faces = []
         at_node = {}
         nodes_of = []
+        # each node's faces (indices into self.faces)
+        self.faces_at = {}
         for _, f in in_faces:
             if not all(n in inp.nodes for n in f):
                 continue
             pts = [inp.nodes[n] for n in f]
             n = polygon_normal(pts)
-            self.faces.append((pts, n))
-            nodes_of.append(f)
             for t in f:
                 at_node[t] = add(at_node.get(t, (0.0, 0.0, 0.0)), n)
+                self.faces_at.setdefault(t, []).append(len(self.faces))
+            self.faces.append((pts, n))
+            nodes_of.append(f)
+        self.nodes_of = nodes_of
         self.at_node = {t: unit(m) for t, m in at_node.items()}
         self.wrapped = set()
         for (_, n), f in zip(self.faces, nodes_of):
@@ -627,10 +634,18 @@ class OwnSide:
     def _cell(self, p):
         return tuple(int(math.floor(p[j] / self.cell)) for j in range(3))
 
-    def corner(self, node, p, a, b):
-        """The unit normal the corner at `node` (at p, edges a and b) is measured about in a
-        quad with a wrapped node."""
+    def corner(self, node, p, a, b, face):
+        """The unit normal the corner at `node` (at p, edges a and b) of output face `face`
+        (its node tags) is measured about in a face with a wrapped node. At a wrapped node:
+        the mean unit normal of the input faces there whose nodes are all among the face's
+        (those it holds), else the input faces nearest to a point inside the corner."""
         if node in self.wrapped:
+            held = [i for i in self.faces_at.get(node, ()) if all(t in face for t in self.nodes_of[i])]
+            if held:
+                total = (0.0, 0.0, 0.0)
+                for i in held:
+                    total = add(total, unit(self.faces[i][1]))
+                return unit(total)
             return self.normal(p, a, b)
         m = self.at_node.get(node, (0.0, 0.0, 0.0))
         if norm(m) > 0.0:
@@ -829,7 +844,7 @@ def check_geometry(rep, surface, in_faces, out_faces, inp, out, scale, refined, 
             wrapped = any(t in own.wrapped for t in f)
             for i, t in enumerate(f):
                 if wrapped:
-                    ref = add(ref, own.corner(t, p[i], sub(p[(i + 1) % k], p[i]), sub(p[i - 1], p[i])))
+                    ref = add(ref, own.corner(t, p[i], sub(p[(i + 1) % k], p[i]), sub(p[i - 1], p[i]), f))
                 else:
                     # the area-weighted input normal at the node (OwnSide)
                     ref = add(ref, own.at_node.get(t, (0.0, 0.0, 0.0)))
@@ -933,7 +948,7 @@ def check_quads(rep, surface, in_faces, out_faces, inp, out, scale, stats, own):
         # several sides of the surface: each corner is measured on its own (OwnSide)
         corner_ref = [ref] * 4
         if (by_corners or any(n in own.wrapped for n in f)) and not problems:
-            corner_ref = [own.corner(f[i], pts[i], sub(pts[(i + 1) % 4], pts[i]), sub(pts[i - 1], pts[i]))
+            corner_ref = [own.corner(f[i], pts[i], sub(pts[(i + 1) % 4], pts[i]), sub(pts[i - 1], pts[i]), f)
                           for i in range(4)]
             ref = unit(tuple(sum(c[j] for c in corner_ref) for j in range(3)))
         if dot(polygon_normal(pts), ref) <= 0.0:

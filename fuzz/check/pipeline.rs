@@ -11,9 +11,10 @@
 //! measured in 3D about the area-weighted normal of the input faces at that corner's node,
 //! or, for a node the input does not have, of the input faces nearest to it (which also
 //! means the quad is oriented like them), or, at a wrapped node (a face there turns 90° or
-//! more from the node's normal: a fold, a pin a few triangles round), of the input faces
-//! nearest to a point inside the corner, a quarter of the way along its two edges (its own
-//! side); and about the normal at each of the quad's nodes the input has and does not wrap
+//! more from the node's normal: a fold, a pin a few triangles round), on its own side: the
+//! mean unit normal of the input faces there the quad holds (all their nodes among its
+//! own), else the input faces nearest to a point inside the corner, a quarter of the way
+//! along its two edges; and about the normal at each of the quad's nodes the input has and does not wrap
 //! round; and, where no node wraps and no input face at its nodes turns 60° or more from
 //! the mean unit normal of the input faces it came from (all their nodes among the quad's,
 //! else two, else one), about that mean; and its scaled Jacobian at every corner about its
@@ -237,14 +238,41 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
             // the run added: parity and fallback splits, vertex duplications) the normal of
             // the input faces nearest to it
             let wraps = |k: usize| wrapped.contains(&(s, q[k]));
+            let held_at = |k: usize| -> Option<V> {
+                let held: Vec<&Face> = surface_faces
+                    .iter()
+                    .filter(|f| f.nodes.contains(&q[k]) && f.nodes.iter().all(|v| q.contains(v)))
+                    .collect();
+                (!held.is_empty()).then(|| {
+                    let m = held.iter().fold([0.0; 3], |m, f| {
+                        let l = norm(f.normal);
+                        add(
+                            m,
+                            if l > 0.0 {
+                                f.normal.map(|x| x / l)
+                            } else {
+                                [0.0; 3]
+                            },
+                        )
+                    });
+                    let l = norm(m);
+                    if l > 0.0 {
+                        m.map(|x| x / l)
+                    } else {
+                        [0.0; 3]
+                    }
+                })
+            };
             let known: Vec<V> = (0..4)
                 .map(|k| match normal.get(&(s, q[k])) {
-                    Some(_) if wraps(k) => {
+                    // a wrapped node: the input faces there the quad holds (all their
+                    // nodes among its own), else those nearest to a point inside the corner
+                    Some(_) if wraps(k) => held_at(k).unwrap_or_else(|| {
                         let a = sub(p[(k + 1) % 4], p[k]);
                         let c = sub(p[(k + 3) % 4], p[k]);
                         let inside = add(p[k], add(a, c).map(|x| 0.25 * x));
                         nearest_normal(surface_faces, inside, tie)
-                    }
+                    }),
                     Some(n) if norm(*n) > 0.0 => *n,
                     _ => nearest_normal(surface_faces, p[k], tie),
                 })

@@ -538,3 +538,15 @@ fn a_surface_folded_onto_itself_is_refused_not_written() {
     let text = std::fs::read_to_string(&path).expect("read the finding");
     assert_refused(&text, &["element 5", "folded over triangle 6"]);
 }
+
+/// Fuzz finding (218,962 runs): an annulus (MSH 4.1, 55 triangles) with triangle 67 folded
+/// over its neighbour and one node moved far off, so that a large triangle lies folded over
+/// the quad's own at node 46. The gate measured the corner there on the quad's side, the
+/// fuzz check and `tests/check_mesh.py` about the faces nearest to a point inside it, where
+/// the folded triangle outweighed the quad's own: they called a valid quad reflex. All
+/// three now measure a corner at a wrapped node about the input faces the quad holds
+/// there.
+#[test]
+fn a_corner_at_a_fold_is_measured_about_the_triangles_its_quad_holds() {
+    assert_valid_recombination("folded-triangle-held-by-its-quad-at-a-wrapped-node.msh");
+}
