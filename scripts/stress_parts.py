@@ -2,6 +2,7 @@
 """Random CAD parts through blossomquad and the independent checker: a robustness sweep.
 
     scripts/stress_parts.py [--seeds 0:199] [--dir WORKDIR] [--tool PATH] [--timeout 600]
+                            [--options]
 
 Each seed builds one OpenCASCADE part with the Gmsh Python API, from one of eight
 families picked by the seed: a plate with polygonal holes fragmented by rectangles, a box
@@ -16,6 +17,13 @@ every surface or none (then Gmsh writes no line elements). The part is meshed wi
   1. `blossomquad IN -o OUT --tag-map MAP` runs (wall time measured, `--timeout` seconds at
      most);
   2. when it writes OUT, `tests/check_mesh.py IN OUT --tag-map=MAP` must pass.
+
+With `--options` the seed also picks the tool's options (the same part, other switches):
+none, or one or two of `--refine 1` (the checker then runs with `--refined=1`),
+`--keep-tags` (then without `--tag-map`), `--format msh22` or `--format msh41`, `--binary` or `--ascii`,
+`--cross-field 0`, `--cross-field 0.3 --harmonic-cross-field`, `--conformal-multigrid`,
+`--no-topology`, `--smooth 3`, `--no-optimize` (see `tool_options`); results.tsv then
+has one more column, the options.
 
 Every run is one line of WORKDIR/results.tsv: seed, family, size, triangles, status (ok,
 refused, checker, crash, timeout), new quads per input triangle, worst and mean η, seconds,
@@ -118,6 +126,36 @@ def generate(seed, out):
     print(f"{FAMILIES[family]} {size}")
 
 
+# The tool's switches a seed may pick with --options: each entry is one choice.
+OPTION_CHOICES = [
+    ["--refine", "1"],
+    ["--keep-tags"],
+    ["--format", "msh22"],
+    ["--format", "msh41"],
+    ["--binary"],
+    ["--ascii"],
+    ["--cross-field", "0"],
+    ["--cross-field", "0.3", "--harmonic-cross-field"],
+    ["--conformal-multigrid"],
+    ["--no-topology"],
+    ["--smooth", "3"],
+    ["--no-optimize"],
+]
+
+
+def tool_options(seed):
+    """The tool's options for `seed` with --options: none for one seed in four, else one or
+    two choices of OPTION_CHOICES (not both of a pair that excludes the other: two formats,
+    binary and ASCII)."""
+    rng = random.Random(1_000_003 * seed + 17)
+    if rng.random() < 0.25:
+        return []
+    picks = rng.sample(range(len(OPTION_CHOICES)), rng.choice([1, 2]))
+    if {2, 3} <= set(picks) or {4, 5} <= set(picks):
+        picks = picks[:1]
+    return [x for i in sorted(picks) for x in OPTION_CHOICES[i]]
+
+
 SUMMARY = re.compile(r"(\d+) triangles -> (\d+) quads \(quality eta: worst ([\d.]+), mean ([\d.]+)\)")
 
 
@@ -138,9 +176,12 @@ def run(seed, args):
     for f in (out, tag_map):
         if os.path.exists(f):
             os.remove(f)
+    extra = tool_options(seed) if args.options else []
+    # the tags kept as they are: no map (the tool refuses both)
+    mapping = [] if "--keep-tags" in extra else ["--tag-map", tag_map]
     start = time.time()
     try:
-        r = subprocess.run([args.tool, inp, "-o", out, "--tag-map", tag_map],
+        r = subprocess.run([args.tool, inp, "-o", out] + mapping + extra,
                            capture_output=True, text=True, timeout=args.timeout)
         code, text = r.returncode, (r.stdout + r.stderr).strip()
     except subprocess.TimeoutExpired:
@@ -154,8 +195,10 @@ def run(seed, args):
     if code is None:
         status = "timeout"
     elif code == 0:
-        c = subprocess.run([sys.executable, os.path.join(REPO, "tests", "check_mesh.py"), inp, out,
-                            f"--tag-map={tag_map}"], capture_output=True, text=True)
+        refined = ["--refined=1"] if "--refine" in extra else []
+        mapped = [f"--tag-map={tag_map}"] if mapping else []
+        c = subprocess.run([sys.executable, os.path.join(REPO, "tests", "check_mesh.py"), inp, out]
+                           + mapped + refined, capture_output=True, text=True)
         status = "ok" if c.returncode == 0 else "checker"
         if status == "checker":
             last = c.stdout.strip()[-300:]
@@ -163,7 +206,8 @@ def run(seed, args):
         status = "refused"
     else:
         status = "crash"
-    return [seed, family, size, tris, status, qt, worst, mean, f"{wall:.2f}", last]
+    row = [seed, family, size, tris, status, qt, worst, mean, f"{wall:.2f}", last]
+    return row + [" ".join(extra)] if args.options else row
 
 
 def main():
@@ -176,29 +220,36 @@ def main():
     ap.add_argument("--tool", default=os.environ.get(
         "BLOSSOMQUAD", os.path.join(REPO, "target", "release", "blossomquad")))
     ap.add_argument("--timeout", type=float, default=600.0)
+    ap.add_argument("--options", action="store_true",
+                    help="each seed also picks the tool's options (see tool_options)")
     args = ap.parse_args()
     first, last = (int(x) for x in args.seeds.split(":"))
     os.makedirs(args.dir, exist_ok=True)
     rows = []
     with open(os.path.join(args.dir, "results.tsv"), "w") as f:
-        f.write("seed\tfamily\tsize\ttriangles\tstatus\tquads_per_triangle\teta_w\teta_mean\tseconds\tlast\n")
+        f.write("seed\tfamily\tsize\ttriangles\tstatus\tquads_per_triangle\teta_w\teta_mean\tseconds\tlast"
+                + ("\toptions" if args.options else "") + "\n")
         for seed in range(first, last + 1):
             row = run(seed, args)
             rows.append(row)
             f.write("\t".join(str(x) for x in row) + "\n")
             f.flush()
             print(f"seed {seed:4d} {row[1]:12s} {row[3]:7d} triangles  {row[4]:8s} "
-                  f"q/t {row[5] or '-':6s} eta_w {row[6] or '-':6s} {row[8]} s", flush=True)
+                  f"q/t {row[5] or '-':6s} eta_w {row[6] or '-':6s} {row[8]} s"
+                  + (f"  [{row[10]}]" if args.options else ""), flush=True)
     counts = {}
     for r in rows:
         counts[r[4]] = counts.get(r[4], 0) + 1
     print("\n" + ", ".join(f"{k}: {v}" for k, v in sorted(counts.items())))
-    over = [r for r in rows if r[4] == "ok" and r[3] >= 500 and float(r[5]) > 0.6]
+    # (a refined run has four times the quads)
+    over = [r for r in rows if r[4] == "ok" and r[3] >= 500 and float(r[5]) > 0.6
+            and not (args.options and "--refine" in r[10])]
     print(f"{len(over)} run(s) of 500 triangles or more above 0.6 quads per triangle: "
           + ", ".join(f"{r[0]} ({r[1]}, {r[5]})" for r in over))
     for r in rows:
         if r[4] not in ("ok",):
-            print(f"seed {r[0]} ({r[1]}, size {r[2]}): {r[4]}: {r[9]}")
+            opts = f", options {r[10] or 'none'}" if args.options else ""
+            print(f"seed {r[0]} ({r[1]}, size {r[2]}{opts}): {r[4]}: {r[9]}")
     bad = sum(1 for r in rows if r[4] in ("checker", "crash", "timeout", "genfail"))
     return 1 if bad else 0
 
