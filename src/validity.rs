@@ -8,20 +8,24 @@
 //!   the area-weighted normal of the input faces of the same surface around the corner's
 //!   node, oriented like them. So a quad that turned over (inverted, or oriented against
 //!   the triangles it came from) fails at its corners, and so does a flat (180°) or reflex
-//!   corner. A node the input surface does not have (vertex duplications, parity and
-//!   fallback splits, refinement), or whose input faces cancel out, takes the summed normal
-//!   of the input faces of the surface nearest to it (every face within 1e-9 of the mesh's
-//!   extent of the nearest distance counts); the quad's own normal only when the surface
-//!   has no face at all. Where those nearest faces cancel out too (a surface folded back
-//!   onto itself), the corner has no normal and the quad is not valid. Where the surface
+//!   corner. A corner at a node the input surface does not have (vertex duplications,
+//!   parity and fallback splits, refinement), or whose input faces cancel out, takes the
+//!   summed normal of the input faces of the surface nearest to a point inside the corner,
+//!   a quarter of the way along its two edges (every face within 1e-9 of the mesh's extent
+//!   of the nearest distance counts): the faces the quad lies on there, where the node
+//!   itself, at the midpoint of an input edge, is as near to the faces on both sides of
+//!   that edge, which on a coarse curved surface turn far apart; the quad's own normal only
+//!   when the surface has no face at all. Where those nearest faces cancel out too (a
+//!   surface folded back onto itself), the corner has no normal and the quad is not valid.
+//!   Where the surface
 //!   wraps round a node (one of its faces there turns 90° or more from the node's normal,
 //!   [`WRAP_COS`]: a fold, a pin a few triangles round), that normal stands for no side of
 //!   the surface, and a corner there is measured on its own side: about the mean unit
 //!   normal of the input faces at that node the quad holds (all their nodes among the
 //!   quad's), else, where it holds none (a node the run added is one of its corners),
-//!   about the input faces nearest to a point inside the corner, a quarter of the way
-//!   along its two edges. Where the surface folds over itself, several faces lie at that
-//!   point, and only those the quad holds say which side it is on;
+//!   about the input faces nearest to the point inside the corner. Where the surface folds
+//!   over itself, several faces lie at that point, and only those the quad holds say which
+//!   side it is on;
 //! - no corner is seen edge-on from the surface (its sine about that normal above
 //!   [`MIN_SINE`] of its edges' lengths);
 //! - each corner also turns positively (sine above [`MIN_SINE`] of its edges' lengths) about
@@ -861,9 +865,9 @@ fn check_quad<'n>(
         (a, b, a.cross(b), MIN_SINE * a.length() * b.length())
     });
     for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
-        // a node the input lacks, or whose faces cancel out: the faces nearest to it; a
-        // wrapped node: the input faces the quad holds there, else the faces nearest to a
-        // point inside the corner (its own side)
+        // a node the input lacks, or whose faces cancel out: the faces nearest to a point
+        // inside the corner (the faces the quad lies on there); a wrapped node: the input
+        // faces the quad holds there, else the same
         let n = match at[k] {
             Some(n) if !wraps[k] => n,
             Some(_) => match source()
@@ -874,7 +878,7 @@ fn check_quad<'n>(
                 Some(n) => n,
                 None => own,
             },
-            None => match nearest().normal(p[k]) {
+            None => match nearest().normal(own_side(p[k], a, b)) {
                 Some(n) if n == DVec3::ZERO => return Some(Defect::NoNormal { corner: k }),
                 Some(n) => n,
                 None => own,
@@ -1019,6 +1023,33 @@ mod tests {
         let bad = reference.invalid_quads(&split);
         assert_eq!(bad.len(), 1);
         assert_eq!(bad[0].node(), 1, "{:?}", bad[0]);
+    }
+
+    #[test]
+    fn a_corner_at_a_new_node_is_measured_about_the_faces_its_quad_lies_on() {
+        // triangle 1-2-3 in z = 0 (normal +z) and a larger one, 2-1-4, folded back over it
+        // across edge 1-2 (its normal turns more than 90 degrees from +z); a quad split out
+        // of triangle 1-2-3 (node 1, the midpoint 5 of edge 1-2, the centroid 6, the
+        // midpoint 7 of edge 1-3) lies on it alone, though node 5 is as near to both
+        // triangles, whose normals sum to one turned away from +z
+        let c = [
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [0.5, 1., 0.],
+            [0.5, 1.5, 0.9],
+            [0.5, 0., 0.],
+            [0.5, 1. / 3., 0.],
+            [0.25, 0.5, 0.],
+        ];
+        let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[2, 1, 4]]);
+        let reference = Reference::new(&input);
+        let sum = (DVec3::Z + DVec3::new(0., 0.9, -1.5)).normalize();
+        let at_5 = DVec3::new(0., 1. / 3., 0.).cross(DVec3::new(-0.5, 0., 0.));
+        assert!(at_5.dot(sum) < 0.0, "the corner is reflex about both faces' sum");
+        let quad = mesh(&c, etype::QUAD4, &[&[1, 5, 6, 7]]);
+        assert_eq!(reference.invalid_quads(&quad), vec![]);
+        let turned = mesh(&c, etype::QUAD4, &[&[1, 7, 6, 5]]);
+        assert_eq!(reference.invalid_quads(&turned).len(), 1);
     }
 
     #[test]

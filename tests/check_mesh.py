@@ -585,8 +585,9 @@ class OwnSide:
     a corner at a wrapped node, with no input node of the surface at all, or where a face
     at one of its nodes turns 60 degrees or more from the mean of the faces it came from,
     has its other corners measured as GUIDE.md's validity measures them: about the node's
-    area-weighted normal at an input node, about the faces nearest to the node at a node
-    the run added."""
+    area-weighted normal at an input node, about the faces nearest to the point inside the
+    corner at a node the run added (the faces the quad lies on there; the node itself, at
+    the midpoint of an input edge, is as near to the faces on both sides of that edge)."""
 
     def __init__(self, in_faces, inp, scale):
         # each face's points and twice its vector area, and the area-weighted normal at
@@ -650,7 +651,8 @@ class OwnSide:
         m = self.at_node.get(node, (0.0, 0.0, 0.0))
         if norm(m) > 0.0:
             return m
-        return self.nearest(p)
+        # a node the run added: the faces the quad lies on at the corner
+        return self.normal(p, a, b)
 
     def normal(self, p, a, b):
         """The unit normal of the corner at p with edges a and b (to its neighbours)."""

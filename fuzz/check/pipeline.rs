@@ -9,13 +9,13 @@
 //! `recombine::check_invariants` against the mesh as read, and every quad must be valid:
 //! four distinct nodes, no zero-length edge, and every corner strictly between 0° and 180°
 //! measured in 3D about the area-weighted normal of the input faces at that corner's node,
-//! or, for a node the input does not have, of the input faces nearest to it (which also
-//! means the quad is oriented like them), or, at a wrapped node (a face there turns 90° or
-//! more from the node's normal: a fold, a pin a few triangles round), on its own side: the
-//! mean unit normal of the input faces there the quad holds (all their nodes among its
-//! own), else the input faces nearest to a point inside the corner, a quarter of the way
-//! along its two edges; and about the normal at each of the quad's nodes the input has and does not wrap
-//! round; and, where no node wraps and no input face at its nodes turns 60° or more from
+//! or, for a node the input does not have, of the input faces nearest to a point inside the
+//! corner, a quarter of the way along its two edges (which also means the quad is oriented
+//! like them), or, at a wrapped node (a face there turns 90° or more from the node's
+//! normal: a fold, a pin a few triangles round), on its own side: the mean unit normal of
+//! the input faces there the quad holds (all their nodes among its own), else the input
+//! faces nearest to that point inside the corner; and about the normal at each of the
+//! quad's nodes the input has and does not wrap round; and, where no node wraps and no input face at its nodes turns 60° or more from
 //! the mean unit normal of the input faces it came from (all their nodes among the quad's,
 //! else two, else one), about that mean; and its scaled Jacobian at every corner about its
 //! own normal (the cross product of its diagonals) is positive. That is the definition of
@@ -263,18 +263,21 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                     }
                 })
             };
+            // the input faces nearest to a point inside corner k, a quarter of the way along
+            // its two edges (the faces the quad lies on there)
+            let inside = |k: usize| {
+                let a = sub(p[(k + 1) % 4], p[k]);
+                let c = sub(p[(k + 3) % 4], p[k]);
+                nearest_normal(surface_faces, add(p[k], add(a, c).map(|x| 0.25 * x)), tie)
+            };
             let known: Vec<V> = (0..4)
                 .map(|k| match normal.get(&(s, q[k])) {
                     // a wrapped node: the input faces there the quad holds (all their
                     // nodes among its own), else those nearest to a point inside the corner
-                    Some(_) if wraps(k) => held_at(k).unwrap_or_else(|| {
-                        let a = sub(p[(k + 1) % 4], p[k]);
-                        let c = sub(p[(k + 3) % 4], p[k]);
-                        let inside = add(p[k], add(a, c).map(|x| 0.25 * x));
-                        nearest_normal(surface_faces, inside, tie)
-                    }),
+                    Some(_) if wraps(k) => held_at(k).unwrap_or_else(|| inside(k)),
                     Some(n) if norm(*n) > 0.0 => *n,
-                    _ => nearest_normal(surface_faces, p[k], tie),
+                    // a node the run added, or whose faces cancel out
+                    _ => inside(k),
                 })
                 .collect();
             for k in 0..4 {

@@ -12,9 +12,10 @@
 //! about), with [`Local::located_turns`] (the surface named in
 //! `OptimizeOptions::located_surfaces`) the corner at a node the reference does not have
 //! (split, duplicated and refined nodes) is in that range about the normal of every
-//! reference triangle the node touches where it now is (the faces the gate measures that
-//! corner about: on a coarse curved face such a node can cross onto a face that turns far
-//! from the quad's reference normal), and the quad holds to its own geometry: its scaled
+//! reference triangle that a point inside the corner (a quarter of the way along its two
+//! edges) touches where it now is (the faces the gate measures that corner about: on a
+//! coarse curved face such a node can cross onto a face that turns far from the quad's
+//! reference normal), and the quad holds to its own geometry: its scaled
 //! Jacobian at every corner about its own normal (the cross product of its diagonals) is at
 //! least [`MIN_OWN_SJ`] (the gate's rule of `crate::validity`, with a margin). On a planar
 //! surface a quad whose corners all turn positively about the plane's normal is convex, so
@@ -100,24 +101,33 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
             return false;
         }
         // at a node the reference does not have, the normals of the reference triangles
-        // it touches (the gate's nearest faces there)
-        if located(l, nodes[k]) && !turns_about(&located_normals(l, nodes[k], p[k]), cos, c) {
+        // that a point inside the corner touches (the gate's nearest faces there)
+        if located(l, nodes[k])
+            && !turns_about(&located_normals(l, nodes[k], inside(p[k], a, b)), cos, c)
+        {
             return false;
         }
     }
     l.planar || own_jacobian_ok(&p)
 }
 
-/// True when the optimizer holds the corner at node `v` to the reference triangles it
-/// touches ([`Local::located_turns`]): the validity gate measures it about the input faces
-/// nearest to it ([`located_normals`]); a curved surface with reference triangles, and a
-/// node the reference does not have (a split node, a duplicated vertex, a node of a
-/// fallback split or of a refinement), whose [`Local::gate_nrm`] is zero.
+/// True when the optimizer holds the corner at node `v` to the reference triangles a point
+/// inside it touches ([`Local::located_turns`]): the validity gate measures it about the
+/// input faces nearest to that point ([`located_normals`]); a curved surface with reference
+/// triangles, and a node the reference does not have (a split node, a duplicated vertex, a
+/// node of a fallback split or of a refinement), whose [`Local::gate_nrm`] is zero.
 pub(crate) fn located(l: &Local, v: u32) -> bool {
     l.located_turns && l.reference.is_some() && l.gate_nrm.get(v as usize) == Some(&DVec3::ZERO)
 }
 
-/// The unit normals of the reference triangles that point `p` of node `v` touches
+/// The point inside the corner at `p` with edges `a` and `b` (to its two neighbours), a
+/// quarter of the way along both, where the validity gate measures a corner at a node the
+/// input does not have (the faces the quad lies on there).
+fn inside(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
+    p + 0.25 * (a + b)
+}
+
+/// The unit normals of the reference triangles that point `p` near node `v` touches
 /// ([`TriSurface::touching`](crate::quality::locate::TriSurface::touching) within
 /// [`Local::tie`], from the triangle a walk from `v`'s finds): the faces the validity gate
 /// sums the normal of a node it has no input normal at from. A corner that turns positively
@@ -163,34 +173,22 @@ pub(crate) fn keeps_located_turns(l: &Local, v: u32, x0: DVec3, p: DVec3) -> boo
     if !any {
         return true;
     }
-    let at_v = |x: DVec3| located(l, v).then(|| located_normals(l, v, x));
-    let (n0, n1) = (at_v(x0), at_v(p));
     star.iter().all(|&q| {
         let quad = l.quads[q as usize];
-        let normals: [Option<Vec<DVec3>>; 4] = std::array::from_fn(|k| {
-            let w = quad[k];
-            if w == v {
-                None
-            } else {
-                located(l, w).then(|| located_normals(l, w, l.pos[w as usize]))
-            }
-        });
-        let ok = |x: DVec3, nv: &Option<Vec<DVec3>>| {
+        // the corners at located nodes, measured at a point inside each (it moves with `v`
+        // on every corner of the quad)
+        let ok = |x: DVec3| {
             let pts = quad.map(|w| if w == v { x } else { l.pos[w as usize] });
             (0..4).all(|k| {
-                let list = if quad[k] == v {
-                    nv.as_deref()
-                } else {
-                    normals[k].as_deref()
-                };
-                let Some(list) = list else {
+                if !located(l, quad[k]) {
                     return true;
-                };
+                }
                 let (a, b) = (pts[(k + 1) & 3] - pts[k], pts[(k + 3) & 3] - pts[k]);
-                turns_about(list, a.dot(b).abs(), a.cross(b))
+                let list = located_normals(l, quad[k], inside(pts[k], a, b));
+                turns_about(&list, a.dot(b).abs(), a.cross(b))
             })
         };
-        !ok(x0, &n0) || ok(p, &n1)
+        !ok(x0) || ok(p)
     })
 }
 

@@ -138,3 +138,33 @@ fn invalid_message(bad: &[BadQuad], wrapped: Option<(i32, u64)>) -> String {
     }
     m
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::validity::Defect;
+
+    #[test]
+    fn a_refusal_on_a_wrapped_surface_says_it_is_meshed_coarser_than_its_curvature() {
+        let bad = vec![BadQuad {
+            surface: 3,
+            element: 17,
+            nodes: [5, 6, 7, 8],
+            defect: Defect::Corner {
+                corner: 1,
+                degrees: -40.0,
+            },
+        }];
+        let plain = invalid_message(&bad, None);
+        assert!(plain.starts_with("1 quad(s) on surface(s) 3 are not valid"), "{plain}");
+        assert!(!plain.contains("curvature"), "{plain}");
+        let wrapped = invalid_message(&bad, Some((3, 6)));
+        for w in [
+            "surface 3 is meshed coarser than its curvature",
+            "at node 6 one of its triangles turns 90 degrees or more",
+            "Mesh.MeshSizeFromCurvature",
+        ] {
+            assert!(wrapped.contains(w), "{w:?} not in {wrapped}");
+        }
+    }
+}

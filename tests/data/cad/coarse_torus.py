@@ -1,8 +1,8 @@
 """Writes v41_coarse_torus.msh: Gmsh's mesh (OpenCASCADE, MSH 4.1 binary, Frontal-Delaunay,
 size 0.3) of a torus of radii 1 and 0.105 fused with a cone of radii 0.763 and 0.149, height
 2, through its hole. The torus tube, about 0.66 round, is meshed coarser than its
-curvature: at some nodes a triangle turns 90 degrees or more from the others, and no
-split of its triangles gives valid quads there.
+curvature: at some nodes a triangle turns 90 degrees or more from the others, and no pair
+of triangles there makes a valid quad (the fallback splits them into three quads each).
 
 Usage: python3 coarse_torus.py OUT.msh
 """
