@@ -355,7 +355,7 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         result
     };
     match result {
-        Ok((out, mut report, _)) => {
+        Ok((out, mut report, end)) => {
             *mesh = out;
             report.warnings.splice(
                 0..0,
@@ -363,6 +363,11 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
                     .into_iter()
                     .map(|text| Warning::RepeatedTriangles { text }),
             );
+            if let Some(checks) = &cache.checks {
+                report
+                    .warnings
+                    .extend(coarse_surfaces(base, &checks.validity, &end.chosen));
+            }
             Ok(report)
         }
         Err(e) => {
@@ -370,6 +375,45 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
             Err(e)
         }
     }
+}
+
+/// The surfaces where the fallback split triangles (`chosen`, tags of `input`'s) at a node
+/// the surface wraps round ([`validity::Reference::wrapped_among`]): meshed coarser than
+/// their curvature, so no pair of triangles there made a valid quad: a warning each, in
+/// surface order, naming such a node.
+fn coarse_surfaces(
+    input: &Mesh,
+    reference: &validity::Reference,
+    chosen: &HashSet<u64>,
+) -> Vec<Warning> {
+    if chosen.is_empty() {
+        return Vec::new();
+    }
+    // the nodes of each surface's split triangles
+    let mut split: std::collections::BTreeMap<i32, Vec<u64>> = Default::default();
+    for b in input
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
+    {
+        for (i, tag) in b.tags.iter().enumerate() {
+            if chosen.contains(tag) {
+                split
+                    .entry(b.entity_tag)
+                    .or_default()
+                    .extend_from_slice(b.element(i));
+            }
+        }
+    }
+    split
+        .into_iter()
+        .filter_map(|(surface, mut nodes)| {
+            nodes.sort_unstable();
+            nodes.dedup();
+            let node = reference.wrapped_among(surface, &nodes)?;
+            Some(Warning::CoarseSurface { surface, node })
+        })
+        .collect()
 }
 
 /// One job's rounds from `start`; a job that split boundary segments under fans and still

@@ -265,6 +265,14 @@ impl<'a> Reference<'a> {
             .or_else(|| normals.wrapped.first().copied())
     }
 
+    /// The node of smallest tag among `nodes` (sorted) that input surface `surface` wraps
+    /// round ([`Reference::wrapped_node`]), if any.
+    pub(crate) fn wrapped_among(&self, surface: i32, nodes: &[u64]) -> Option<u64> {
+        let i = self.surfaces.binary_search_by_key(&surface, |x| x.0).ok()?;
+        let normals = &self.surfaces[i].1.normals;
+        nodes.iter().copied().find(|&t| normals.wraps(t))
+    }
+
     /// [`Reference::invalid_quads_at`] on the surfaces `only` (sorted tags) when given.
     pub(crate) fn invalid_quads_on(
         &self,

@@ -28,6 +28,15 @@ pub enum Warning {
         /// The quads and what is wrong with each, in words.
         list: String,
     },
+    /// A surface meshed coarser than its curvature (at `node` one of its triangles turns 90
+    /// degrees or more from the mean of those around it): no pair of triangles there made a
+    /// valid quad, and the fallback split triangles there into three quads each.
+    CoarseSurface {
+        /// The surface entity's tag.
+        surface: i32,
+        /// A node the surface wraps round, of a split triangle.
+        node: u64,
+    },
     /// Second-order elements written although their Jacobian is not positive everywhere
     /// (only when invalid elements are allowed).
     InvalidSecondOrder {
@@ -46,6 +55,7 @@ impl Warning {
             Warning::RepeatedTriangles { .. } => "repeated_triangles",
             Warning::Renumbering { .. } => "renumbering",
             Warning::InvalidQuads { .. } => "invalid_quads",
+            Warning::CoarseSurface { .. } => "coarse_surface",
             Warning::InvalidSecondOrder { .. } => "invalid_second_order",
         }
     }
@@ -68,6 +78,10 @@ impl std::fmt::Display for Warning {
             Warning::InvalidQuads { count, list } => {
                 write!(f, "writing {count} invalid quad(s): {list}")
             }
+            Warning::CoarseSurface { surface, node } => write!(
+                f,
+                "surface {surface} is meshed coarser than its curvature: at input node {node} one of its triangles turns 90 degrees or more from the mean of those around the node, so no pair of triangles there makes a valid quad, and its triangles there were split into three quads each (a finer mesh there, e.g. with Mesh.MeshSizeFromCurvature, gives fewer and better quads)"
+            ),
             Warning::InvalidSecondOrder { count, list } => write!(
                 f,
                 "writing {count} second-order element(s) whose Jacobian is not positive everywhere: {list}"
@@ -111,5 +125,17 @@ mod tests {
         };
         assert!(!r.is_invalid_written());
         assert_eq!(r.to_string(), "node tags kept");
+        let c = Warning::CoarseSurface {
+            surface: 4,
+            node: 17,
+        };
+        assert_eq!(c.kind(), "coarse_surface");
+        assert!(!c.is_invalid_written());
+        let text = c.to_string();
+        assert!(
+            text.starts_with("surface 4 is meshed coarser than its curvature: at input node 17"),
+            "{text}"
+        );
+        assert!(!text.contains("--"), "{text}");
     }
 }

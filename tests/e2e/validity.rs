@@ -495,7 +495,8 @@ fn a_thin_cylinder_folded_by_gmsh_is_refused_naming_its_non_manifold_edge() {
 /// own triangle, and a corner at a node the split added is measured about the faces the
 /// quad lies on there (not about the faces on both sides of the input edge the node halves,
 /// which turn far apart), so the surface is written, every quad valid to the gate and to
-/// the independent checker, at the price of more quads than half the triangles.
+/// the independent checker, at the price of more quads than half the triangles, with a
+/// warning saying the surface is meshed coarser than its curvature.
 #[test]
 fn a_surface_meshed_coarser_than_its_curvature_is_recombined_by_splitting_its_triangles() {
     let input = common::repo_dir().join("tests/data/cad/v41_coarse_torus.msh");
@@ -510,6 +511,12 @@ fn a_surface_meshed_coarser_than_its_curvature_is_recombined_by_splitting_its_tr
     let (code, _, stderr) = blossomquad_run(args);
     assert_eq!(code, Some(0), "{stderr}");
     assert!(stderr.contains("into three quads each"), "{stderr}");
+    // a warning says why, naming the surface and a node it wraps round
+    assert!(
+        stderr.contains("warning: surface 1 is meshed coarser than its curvature: at input node"),
+        "{stderr}"
+    );
+    assert!(stderr.contains("Mesh.MeshSizeFromCurvature"), "{stderr}");
     let report = check_mesh(&input, &output, &[]);
     assert!(report.ok, "{}", report.report);
     let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
