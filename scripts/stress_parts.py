@@ -167,7 +167,8 @@ def run(seed, args):
         g = subprocess.run([sys.executable, os.path.abspath(__file__), "--generate", str(seed), inp],
                            capture_output=True, text=True, timeout=args.timeout)
         if g.returncode != 0:
-            return [seed, "-", "-", 0, "genfail", "", "", "", "", g.stderr.strip()[-200:]]
+            row = [seed, "-", "-", 0, "genfail", "", "", "", "", g.stderr.strip()[-200:]]
+            return row + [""] if args.options else row
         with open(info, "w") as f:
             f.write(g.stdout.strip())
     family, size = open(info).read().split()

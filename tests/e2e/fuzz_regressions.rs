@@ -550,3 +550,27 @@ fn a_surface_folded_onto_itself_is_refused_not_written() {
 fn a_corner_at_a_fold_is_measured_about_the_triangles_its_quad_holds() {
     assert_valid_recombination("folded-triangle-held-by-its-quad-at-a-wrapped-node.msh");
 }
+
+/// Fuzz finding (pipeline target, from its grown corpus): an annulus in the plane z = 0
+/// whose triangle 90 was rewritten to nodes 11, 33 and 12, so that it lies over other
+/// triangles, turned over, and shares no edge with them (its edge 11-12 is a boundary
+/// segment no other triangle has). No edge check saw it; its three quads were written
+/// turned over (the fuzz check and `tests/check_mesh.py` found them). On a flat surface a
+/// triangle turned the other way from the rest is refused naming it, and nothing is
+/// written.
+#[test]
+fn a_triangle_turned_over_on_a_flat_surface_is_refused() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz/triangle-turned-over-on-a-flat-annulus.msh");
+    let text = std::fs::read_to_string(&path).expect("read the finding");
+    // (the file also repeats an element tag: the reader's warning comes first)
+    let dir = tempfile::tempdir().expect("temp dir");
+    let (code, err, output) = run(dir.path(), &text, false);
+    assert_eq!(code, 1, "expected exit 1, stderr:\n{err}");
+    let last = err.lines().last().unwrap_or_default();
+    assert!(last.starts_with("blossomquad: error: "), "{err}");
+    for w in ["surface 1, element 90", "the triangle is turned over"] {
+        assert!(last.contains(w), "{w:?} missing from: {last}");
+    }
+    assert!(!output.exists(), "an output file was written");
+}

@@ -163,6 +163,17 @@ fn flat(tris: &[[u32; 3]], normals: &[glam::DVec3], nodes: &NodeTable) -> bool {
             .all(|&v| (nodes.coords[v as usize] - p0).dot(n0).abs() <= tol)
 }
 
+/// The first triangle of a flat surface (see [`flat`]) whose normal points opposite to the
+/// area-weighted sum of all the triangles' normals, if any.
+fn turned_over(tris: &[[u32; 3]], normals: &[glam::DVec3], nodes: &NodeTable) -> Option<usize> {
+    let area = |t: &[u32; 3]| {
+        let p = t.map(|v| nodes.coords[v as usize]);
+        (p[1] - p[0]).cross(p[2] - p[0]).length()
+    };
+    let sum: glam::DVec3 = tris.iter().zip(normals).map(|(t, n)| area(t) * *n).sum();
+    normals.iter().position(|n| n.dot(sum) < 0.0)
+}
+
 mod checks;
 mod halves;
 
@@ -302,13 +313,34 @@ impl SurfaceTopo {
         }
         let fold = first_fold(&tris, normals, &nbr, &walled, nodes);
         // on a flat surface a fold is triangles lying over each other (overlapping or
-        // inverted), with no side of the surface for a quad there: refused whole
+        // inverted), with no side of the surface for a quad there: refused whole; so is a
+        // triangle turned the other way from the rest that shares no edge with them (a flap
+        // joined to them at its nodes only, which no edge check sees)
+        // (speed: the plane is only looked for where a fold or a normal turned more than
+        // 90 degrees from the first says it may matter)
+        let n0 = normals.iter().find(|n| **n != glam::DVec3::ZERO).copied();
+        let mixed = n0.is_some_and(|n0| {
+            normals
+                .par_iter()
+                .with_min_len(4096)
+                .any(|n| n.dot(n0) < 0.0)
+        });
+        let planar = (fold.is_some() || mixed) && flat(&tris, normals, nodes);
         let fold = match fold {
-            Some((key, problem)) if flat(&tris, normals, nodes) => {
+            Some((key, problem)) if planar => {
                 return Err(edge_refusal(surface, key, problem, tag));
             }
             fold => fold,
         };
+        if planar && mixed {
+            if let Some(t) = turned_over(&tris, normals, nodes) {
+                return Err(RecombineError::InvalidElement {
+                    surface,
+                    element: tag(t),
+                    problem: "the triangle is turned over: the surface is flat and its normal points opposite to the rest of the surface's (it lies over other triangles, or its nodes run the wrong way round)".into(),
+                });
+            }
+        }
         // folds are walled off: no pair across them (a fold across a curve is a wall
         // already); the first one is kept to be reported if the result is not valid
         let mut nbr = nbr;
