@@ -777,7 +777,8 @@ def check(inp, out, allow_dropped_volumes, allow_triangles, refined=0, no_quad_v
             for a, b in segs:
                 e = key(a, b)
                 if uses_in.get(e) == 2:
-                    nodes = (a,) + all_splits.get(e, ()) + (b,)
+                    # the chain of a split runs from the lower tag (match_split)
+                    nodes = (e[0],) + all_splits.get(e, ()) + (e[1],)
                     pieces = [key(x, y) for x, y in zip(nodes, nodes[1:])]
                     ok = all(uses_out.get(p) == 2 for p in pieces)
                     rep.check("curve_edges", ok, f"surface {surface}: embedded segment {e} lost")

@@ -85,3 +85,20 @@ fn refine_level_out_of_range_is_a_usage_error() {
     assert_eq!(code, Some(2), "{err}");
     assert!(err.contains("--refine"), "{err}");
 }
+
+/// A random boolean part (`tests/data/cad/v41_boolean_embedded_curve.msh`) with a curve
+/// embedded in its surface 28, refined once: the embedded curve's segment from node 100 to
+/// node 25 (its line element running to the lower tag) is split like every other, and its
+/// pieces are edges of two quads each. The checker follows a split chain from the lower
+/// tag, whichever way the line element runs (it read that chain backwards and called the
+/// segment lost).
+#[test]
+fn refine_once_a_surface_with_an_embedded_curve() {
+    let input = common::repo_dir().join("tests/data/cad/v41_boolean_embedded_curve.msh");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let refined = dir.path().join("refined.msh");
+    let (code, err) = recombine(&input, &refined, &["--refine", "1"]);
+    assert_eq!(code, Some(0), "{err}");
+    let report = check_mesh(&input, &refined, &["--refined=1"]);
+    assert!(report.ok, "{}", report.report);
+}
