@@ -256,21 +256,21 @@ impl<'a> Reference<'a> {
     /// round one of them, else its wrapped node of the smallest tag; `None` when it wraps
     /// round none.
     pub(crate) fn wrapped_node(&self, surface: i32, prefer: &[u64]) -> Option<u64> {
-        let i = self.surfaces.binary_search_by_key(&surface, |x| x.0).ok()?;
-        let normals = &self.surfaces[i].1.normals;
-        prefer
-            .iter()
-            .copied()
-            .find(|&t| normals.wraps(t))
-            .or_else(|| normals.wrapped.first().copied())
+        self.wrapped_among(surface, prefer)
+            .or_else(|| self.normals(surface)?.wrapped.first().copied())
     }
 
-    /// The node of smallest tag among `nodes` (sorted) that input surface `surface` wraps
-    /// round ([`Reference::wrapped_node`]), if any.
+    /// The first of `nodes` (the smallest tag when sorted) that input surface `surface`
+    /// wraps round ([`Reference::wrapped_node`]), if any.
     pub(crate) fn wrapped_among(&self, surface: i32, nodes: &[u64]) -> Option<u64> {
-        let i = self.surfaces.binary_search_by_key(&surface, |x| x.0).ok()?;
-        let normals = &self.surfaces[i].1.normals;
+        let normals = self.normals(surface)?;
         nodes.iter().copied().find(|&t| normals.wraps(t))
+    }
+
+    /// The input normals of surface `surface`, when the input has faces of it.
+    fn normals(&self, surface: i32) -> Option<&Normals> {
+        let i = self.surfaces.binary_search_by_key(&surface, |x| x.0).ok()?;
+        Some(&self.surfaces[i].1.normals)
     }
 
     /// [`Reference::invalid_quads_at`] on the surfaces `only` (sorted tags) when given.
@@ -419,9 +419,9 @@ impl Normals {
 }
 
 /// The point a corner at `p` with edges `a` and `b` (to its two neighbours) is measured
-/// at when its node is wrapped ([`Normals::wraps`]): a quarter of the way along both edges,
-/// inside the corner, where only the faces on the quad's own side of the surface are
-/// nearest.
+/// at when its node is one the input lacks, or is wrapped ([`Normals::wraps`]) and the quad
+/// holds no input face there: a quarter of the way along both edges, inside the corner,
+/// where the faces the quad lies on are nearest.
 fn own_side(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
     p + 0.25 * (a + b)
 }
@@ -602,6 +602,25 @@ const PLANAR_COS: f64 = 1.0 - 1e-15;
 /// ([`SourceFaces::normal`]).
 const TURN_COS: f64 = 0.5;
 
+/// The values of `pairs` (key below `len`, value) grouped by key, in their order (CSR): those
+/// of key `k` are `around[start[k]..start[k + 1]]`.
+fn grouped(len: usize, pairs: impl Iterator<Item = (usize, u32)> + Clone) -> (Vec<u32>, Vec<u32>) {
+    let mut start = vec![0u32; len + 1];
+    for (k, _) in pairs.clone() {
+        start[k + 1] += 1;
+    }
+    for i in 0..len {
+        start[i + 1] += start[i];
+    }
+    let mut fill = start.clone();
+    let mut around = vec![0u32; start[len] as usize];
+    for (k, v) in pairs {
+        around[fill[k] as usize] = v;
+        fill[k] += 1;
+    }
+    (start, around)
+}
+
 /// The input faces of one surface by node, for the normal of the faces a quad came from
 /// ([`SourceFaces::normal`]).
 struct SourceFaces {
@@ -634,20 +653,10 @@ impl SourceFaces {
         // about six triangles), the faces of each node in face order
         let max = by_node.iter().map(|x| x.0).max().unwrap_or(0);
         let at = if max <= 8 * by_node.len() as u64 + 1024 {
-            let max = max as usize;
-            let mut start = vec![0u32; max + 2];
-            for &(t, _) in &by_node {
-                start[t as usize + 1] += 1;
-            }
-            for i in 0..=max {
-                start[i + 1] += start[i];
-            }
-            let mut fill = start.clone();
-            let mut around = vec![0u32; by_node.len()];
-            for &(t, f) in &by_node {
-                around[fill[t as usize] as usize] = f;
-                fill[t as usize] += 1;
-            }
+            let (start, around) = grouped(
+                max as usize + 1,
+                by_node.iter().map(|&(t, f)| (t as usize, f)),
+            );
             FacesAt::Dense { start, around }
         } else {
             radix_sort_by_key(&mut by_node, |x| x.0);
@@ -774,23 +783,12 @@ impl Nearest {
                 face_of.push(f as u32);
             }
         }
-        let mut start = vec![0u32; points.len() + 1];
-        for t in &tris {
-            for &v in t {
-                start[v as usize + 1] += 1;
-            }
-        }
-        for i in 0..points.len() {
-            start[i + 1] += start[i];
-        }
-        let mut fill = start.clone();
-        let mut around = vec![0u32; start[points.len()] as usize];
-        for (ti, t) in tris.iter().enumerate() {
-            for &v in t {
-                around[fill[v as usize] as usize] = ti as u32;
-                fill[v as usize] += 1;
-            }
-        }
+        let (start, around) = grouped(
+            points.len(),
+            tris.iter()
+                .enumerate()
+                .flat_map(|(ti, t)| t.map(|v| (v as usize, ti as u32))),
+        );
         Nearest {
             faces,
             face_of,
@@ -878,19 +876,14 @@ fn check_quad<'n>(
         // faces the quad holds there, else the same
         let n = match at[k] {
             Some(n) if !wraps[k] => n,
-            Some(_) => match source()
-                .held_at(&q, q[k])
-                .or_else(|| nearest().normal(own_side(p[k], a, b)))
-            {
-                Some(n) if n == DVec3::ZERO => return Some(Defect::NoNormal { corner: k }),
-                Some(n) => n,
-                None => own,
-            },
-            None => match nearest().normal(own_side(p[k], a, b)) {
-                Some(n) if n == DVec3::ZERO => return Some(Defect::NoNormal { corner: k }),
-                Some(n) => n,
-                None => own,
-            },
+            known => {
+                let held = known.and_then(|_| source().held_at(&q, q[k]));
+                match held.or_else(|| nearest().normal(own_side(p[k], a, b))) {
+                    Some(n) if n == DVec3::ZERO => return Some(Defect::NoNormal { corner: k }),
+                    Some(n) => n,
+                    None => own,
+                }
+            }
         };
         let s = n.dot(ab);
         let c = a.dot(b);
