@@ -134,13 +134,15 @@ fn mean_node(l: &Local, v: u32, size_weight: f64) -> Option<(DVec3, u32)> {
     let sum0 = sum0 + size_term(x0);
     let eval = |p: DVec3| eval(p).map(|(m, s)| (m, s + size_term(p)));
     // a trial must also keep the corners at located nodes turning about the faces there
-    let keeps = |p: DVec3| super::valid::keeps_located_turns(l, v, x0, p);
-    let score =
-        |p: DVec3| eval(p).and_then(|(mx, sum)| (mx <= max0 && keeps(p)).then_some(sum));
+    let holds = super::valid::Holds::new(l, v, x0);
+    let keeps = |p: DVec3| holds.keeps_located(p);
+    let score = |p: DVec3, floor: f64| {
+        eval(p).and_then(|(mx, sum)| (mx <= max0 && sum > floor && keeps(p)).then_some(sum))
+    };
     if star.fast() {
         // the eight compass trials of a step scored together (same sums as `eval`)
         // speed: the η sums (an atan each) only for the trials that keep the worst
-        return pattern_search8(l, v, &[0.1, 0.04, 0.015], sum0, |ps| {
+        return pattern_search8(l, v, &[0.1, 0.04, 0.015], sum0, |ps, floor| {
             let mut max = [0.0_f64; 8];
             let mut ok = [true; 8];
             let mut cots = [[0.0_f64; 8]; STAR_MAX];
@@ -152,16 +154,20 @@ fn mean_node(l: &Local, v: u32, size_weight: f64) -> Option<(DVec3, u32)> {
                 }
             }
             std::array::from_fn(|j| {
-                (ok[j] && max[j] <= max0 && keeps(ps[j])).then(|| {
-                    cots[..star.len()]
-                        .iter()
-                        .fold(0.0, |sum, cot| sum + eta_of_cot(cot[j].max(0.0)))
-                        + size_term(ps[j])
-                })
+                if !(ok[j] && max[j] <= max0) {
+                    return None;
+                }
+                let sum = cots[..star.len()]
+                    .iter()
+                    .fold(0.0, |sum, cot| sum + eta_of_cot(cot[j].max(0.0)))
+                    + size_term(ps[j]);
+                (sum > floor && keeps(ps[j])).then_some(sum)
             })
         });
     }
-    pattern_search8(l, v, &[0.1, 0.04, 0.015], sum0, |ps| ps.map(score))
+    pattern_search8(l, v, &[0.1, 0.04, 0.015], sum0, |ps, floor| {
+        ps.map(|p| score(p, floor))
+    })
 }
 
 /// Up to `sweeps` sweeps of [`mean_node`] over all free nodes, Gauss-Seidel by colour (the

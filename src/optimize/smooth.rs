@@ -12,9 +12,9 @@
 //! below zero) does not drop. On curved surfaces every candidate is projected back onto the
 //! reference triangulation by a local walk from the node's current triangle, and a move
 //! is refused when it would fold a quad of the star about its own normal (the cross product
-//! of its diagonals, `valid::OwnJacobian`) or (on `OptimizeOptions::located_surfaces`)
+//! of its diagonals, `valid::Rule::OwnJacobian`) or (on `OptimizeOptions::located_surfaces`)
 //! turn a corner at a node the reference does not have away from the reference triangles
-//! that node touches (`valid::keeps_located_turns`), which the keys do not see.
+//! that node touches (`valid::Rule::LocatedTurns`), which the keys do not see.
 //!
 //! Sweeps are Gauss-Seidel by colour: nodes are greedily coloured so that two nodes of one
 //! colour never share a quad, the moves of one colour are computed in parallel (rayon) from
@@ -31,7 +31,7 @@
 //! BENCHMARKS.md, "Measurements behind the defaults").
 
 use super::local::{rotate_to, Local, StarEval};
-use super::valid::{keeps_located_turns, OwnJacobian};
+use super::valid::Holds;
 use glam::DVec3;
 use rayon::prelude::*;
 
@@ -130,13 +130,12 @@ fn propose_centroid(l: &Local, v: u32, diag: f64) -> Option<(DVec3, u32)> {
     let star = StarEval::new(l, v);
     let old = star.min_key(x0);
     let guard = star.needs_guard(old);
-    let own = std::cell::OnceCell::new();
+    let holds = Holds::new(l, v, x0);
     for t in [1.0, 0.5, 0.25] {
         let (cand, tri) = l.project(v, x0 + step * t);
         if star.all_at_least(cand, old)
             && (!guard || star.keeps_valid(x0, cand))
-            && own.get_or_init(|| OwnJacobian::at(l, v, x0)).keeps(l, cand)
-            && keeps_located_turns(l, v, x0, cand)
+            && holds.keeps(cand)
         {
             return Some((cand, tri));
         }
@@ -173,15 +172,15 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
         return None;
     }
     let guard = star.needs_guard(min0);
-    let own = std::cell::OnceCell::new();
-    pattern_search8(l, v, &[0.15, 0.05, 0.015], best_sum, |ps| {
+    let holds = Holds::new(l, v, x0);
+    pattern_search8(l, v, &[0.15, 0.05, 0.015], best_sum, |ps, floor| {
         let r = star.min_sum8(ps);
         std::array::from_fn(|j| {
             let (min, sum) = r[j];
             (min >= min0
+                && sum > floor
                 && (!guard || star.keeps_valid(x0, ps[j]))
-                && own.get_or_init(|| OwnJacobian::at(l, v, x0)).keeps(l, ps[j])
-                && keeps_located_turns(l, v, x0, ps[j]))
+                && holds.keeps(ps[j]))
             .then_some(sum)
         })
     })
@@ -189,15 +188,16 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
 
 /// Pattern search for node `v` in its tangent plane: for each step `s·h` in `steps`, the 8
 /// compass moves from the best point so far (projected on the reference surface) are
-/// scored together (`score` gets the eight projected points in compass order and returns
-/// their scores, `None` meaning not allowed); the best score above `start` (the score of
-/// the current position) wins. Returns the best position and its reference triangle, if any.
+/// scored together (`score` gets the eight projected points in compass order and the score
+/// a trial must exceed to be taken, and returns their scores, `None` meaning not allowed or
+/// not taken: the checks of a move that cannot win are skipped); the best score above
+/// `start` (the score of the current position) wins. Returns the best position and its reference triangle, if any.
 pub(crate) fn pattern_search8(
     l: &Local,
     v: u32,
     steps: &[f64],
     start: f64,
-    score: impl Fn(&[DVec3; 8]) -> [Option<f64>; 8],
+    score: impl Fn(&[DVec3; 8], f64) -> [Option<f64>; 8],
 ) -> Option<(DVec3, u32)> {
     let vi = v as usize;
     let (t1, t2) = tangents(l.nrm[vi]);
@@ -209,7 +209,7 @@ pub(crate) fn pattern_search8(
         let base = best.map_or(l.pos[vi], |b| b.0);
         let trials: [(DVec3, u32); 8] =
             std::array::from_fn(|k| l.project(v, base + dirs[k] * (s * h)));
-        let scores = score(&trials.map(|t| t.0));
+        let scores = score(&trials.map(|t| t.0), best_score + 1e-12);
         for (k, sc) in scores.into_iter().enumerate() {
             match sc {
                 Some(x) if x > best_score + 1e-12 => {
@@ -265,13 +265,13 @@ fn propose_worst(l: &Local, v: u32) -> Option<(DVec3, u32)> {
         return None;
     }
     let guard = star.needs_guard(min0);
-    let own = std::cell::OnceCell::new();
-    pattern_search8(l, v, &[0.1, 0.03, 0.01, 0.003], min0, |ps| {
+    let holds = Holds::new(l, v, x0);
+    pattern_search8(l, v, &[0.1, 0.03, 0.01, 0.003], min0, |ps, floor| {
         let r = star.min_sum8(ps);
         std::array::from_fn(|j| {
-            ((!guard || star.keeps_valid(x0, ps[j]))
-                && own.get_or_init(|| OwnJacobian::at(l, v, x0)).keeps(l, ps[j])
-                && keeps_located_turns(l, v, x0, ps[j]))
+            (r[j].0 > floor
+                && (!guard || star.keeps_valid(x0, ps[j]))
+                && holds.keeps(ps[j]))
                 .then_some(r[j].0)
         })
     })

@@ -102,8 +102,7 @@ pub(crate) fn quad_valid(l: &Local, nodes: &[u32; 4], normal: DVec3) -> bool {
         }
         // at a node the reference does not have, the normals of the reference triangles
         // that a point inside the corner touches (the gate's nearest faces there)
-        if located(l, nodes[k])
-            && !turns_about(&located_normals(l, nodes[k], inside(p[k], a, b)), cos, c)
+        if located(l, nodes[k]) && !turns_about_located(l, nodes[k], inside(p[k], a, b), cos, c)
         {
             return false;
         }
@@ -127,69 +126,65 @@ fn inside(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
     p + 0.25 * (a + b)
 }
 
-/// The unit normals of the reference triangles that point `p` near node `v` touches
+/// True when the corner `c` = a × b (`cos` = |a · b|) is inside the valid range (sine
+/// positive, |cot| at most [`MAX_COT`]) about the unit normal of every reference triangle
+/// that point `p` near node `v` touches
 /// ([`TriSurface::touching`](crate::quality::locate::TriSurface::touching) within
 /// [`Local::tie`], from the triangle a walk from `v`'s finds): the faces the validity gate
 /// sums the normal of a node it has no input normal at from. A corner that turns positively
-/// about each of them turns positively about any positive sum of them. Empty without a
+/// about each of them turns positively about any positive sum of them. True without a
 /// reference.
-pub(crate) fn located_normals(l: &Local, v: u32, p: DVec3) -> Vec<DVec3> {
+pub(crate) fn turns_about_located(l: &Local, v: u32, p: DVec3, cos: f64, c: DVec3) -> bool {
+    thread_local! {
+        // the touched triangles, kept between calls: this runs for every located corner of
+        // every candidate move
+        static TOUCHED: std::cell::RefCell<Vec<u32>> = const { std::cell::RefCell::new(Vec::new()) };
+    }
     let Some(r) = l.reference.as_deref() else {
-        return Vec::new();
+        return true;
     };
     let Some(hit) = r.walk(l.tri[v as usize], p) else {
-        return Vec::new();
+        return true;
     };
-    let mut tris = Vec::with_capacity(8);
-    r.touching(hit.tri, hit.point, l.tie, &mut tris);
-    tris.into_iter()
-        .map(|t| r.normal(t))
-        .filter(|n| *n != DVec3::ZERO)
-        .collect()
+    TOUCHED.with_borrow_mut(|tris| {
+        tris.clear();
+        r.touching(hit.tri, hit.point, l.tie, tris);
+        tris.iter().all(|&t| {
+            let n = r.normal(t);
+            n == DVec3::ZERO || {
+                let s = n.dot(c);
+                s > 0.0 && cos <= MAX_COT * s
+            }
+        })
+    })
 }
 
-/// True when the corner `c` = a × b (`cos` = |a · b|) is inside the valid range (sine
-/// positive, |cot| at most [`MAX_COT`]) about every normal of `normals`.
-fn turns_about(normals: &[DVec3], cos: f64, c: DVec3) -> bool {
-    normals.iter().all(|n| {
-        let s = n.dot(c);
-        s > 0.0 && cos <= MAX_COT * s
+/// True when the corners of `quad` at located nodes ([`located`]) turn positively about the
+/// faces a point inside each touches ([`turns_about_located`]) with its node `v` at `x`.
+/// With `moved_only`, the corner opposite `v` is left out: it does not depend on where `v`
+/// is.
+fn located_corners_ok(l: &Local, quad: &[u32; 4], v: u32, x: DVec3, moved_only: bool) -> bool {
+    let pts = quad.map(|w| if w == v { x } else { l.pos[w as usize] });
+    let opposite = quad.iter().position(|&w| w == v).map(|i| (i + 2) & 3);
+    (0..4).all(|k| {
+        if !located(l, quad[k]) || (moved_only && opposite == Some(k)) {
+            return true;
+        }
+        let (a, b) = (pts[(k + 1) & 3] - pts[k], pts[(k + 3) & 3] - pts[k]);
+        turns_about_located(l, quad[k], inside(pts[k], a, b), a.dot(b).abs(), a.cross(b))
     })
 }
 
 /// True when moving node `v` from `x0` to `p` keeps every quad around it whose corners at
-/// located nodes ([`located`]) turn positively about the normals there ([`turns_about`]) so
-/// at `p` (always without located nodes in its star). The smoothing sweeps' keys measure
-/// corners about the quads' reference normals only; on a coarse curved face a node the
-/// input does not have can cross onto a face whose normal turns away from those.
-pub(crate) fn keeps_located_turns(l: &Local, v: u32, x0: DVec3, p: DVec3) -> bool {
-    if !l.located_turns {
-        return true;
-    }
-    let star = l.star(v);
-    let any = star
-        .iter()
-        .any(|&q| l.quads[q as usize].iter().any(|&w| located(l, w)));
-    if !any {
-        return true;
-    }
-    star.iter().all(|&q| {
-        let quad = l.quads[q as usize];
-        // the corners at located nodes, measured at a point inside each (it moves with `v`
-        // on every corner of the quad)
-        let ok = |x: DVec3| {
-            let pts = quad.map(|w| if w == v { x } else { l.pos[w as usize] });
-            (0..4).all(|k| {
-                if !located(l, quad[k]) {
-                    return true;
-                }
-                let (a, b) = (pts[(k + 1) & 3] - pts[k], pts[(k + 3) & 3] - pts[k]);
-                let list = located_normals(l, quad[k], inside(pts[k], a, b));
-                turns_about(&list, a.dot(b).abs(), a.cross(b))
-            })
-        };
-        !ok(x0) || ok(p)
-    })
+/// located nodes ([`located`]) turn positively about the faces there
+/// ([`turns_about_located`]) so at `p` (always without located nodes in its star). The
+/// smoothing sweeps' keys measure corners about the quads' reference normals only; on a
+/// coarse curved face a node the input does not have can cross onto a face whose normal
+/// turns away from those. [`StarHold`] answers the same for the many candidate positions of
+/// one move.
+#[cfg(test)]
+fn keeps_located_turns(l: &Local, v: u32, x0: DVec3, p: DVec3) -> bool {
+    StarHold::at(l, v, x0, Rule::LocatedTurns).keeps(l, p)
 }
 
 /// True when the corner between edges `a` and `b` (`cos` = |a · b|, `c` = a × b) is inside
@@ -222,14 +217,50 @@ pub(crate) fn own_jacobian_ok(p: &[DVec3; 4]) -> bool {
     })
 }
 
-/// Which quads of node `v`'s star pass [`own_jacobian_ok`] with `v` at its start position
-/// `x0`, found once for all the candidate positions of one move (the smoothing sweeps try
-/// up to 32): a move keeps those passing ([`OwnJacobian::keeps`]) and may leave the others
-/// as they are. Nothing to hold on a planar surface, where the rule holds by itself. The
-/// smoothing sweeps' keys measure corners about the reference normal only; this keeps
-/// their moves from folding a quad about its own normal, which would cost the whole stage
-/// at the [`Gate`].
-pub(crate) struct OwnJacobian {
+/// A rule a move of one node keeps on the quads of its star that pass it at the start
+/// position ([`StarHold`]). The smoothing sweeps' keys measure corners about the reference
+/// normal only and see neither.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Rule {
+    /// [`own_jacobian_ok`]: no quad folds about its own normal (the cross product of its
+    /// diagonals), which would cost the whole stage at the [`Gate`]. Nothing to hold on a
+    /// planar surface, where the rule holds by itself.
+    OwnJacobian,
+    /// The corners at located nodes ([`located`]) turn positively about the faces a point
+    /// inside each touches ([`turns_about_located`]): on a coarse curved face such a node
+    /// can cross onto a face whose normal turns away from the quad's.
+    LocatedTurns,
+}
+
+impl Rule {
+    /// True when quad `q` passes the rule with its node `v` at `x`; `moved_only` leaves out
+    /// what does not depend on where `v` is (for a quad known to pass with `v` elsewhere).
+    fn passes(self, l: &Local, q: u32, v: u32, x: DVec3, moved_only: bool) -> bool {
+        match self {
+            Rule::OwnJacobian => own_jacobian_ok(&moved(l, q, v, x)),
+            Rule::LocatedTurns => located_corners_ok(l, &l.quads[q as usize], v, x, moved_only),
+        }
+    }
+
+    /// False when the rule cannot fail on `v`'s star.
+    fn applies(self, l: &Local, v: u32) -> bool {
+        match self {
+            Rule::OwnJacobian => !l.planar,
+            Rule::LocatedTurns => {
+                l.located_turns
+                    && l.star(v)
+                        .iter()
+                        .any(|&q| l.quads[q as usize].iter().any(|&w| located(l, w)))
+            }
+        }
+    }
+}
+
+/// Which quads of node `v`'s star pass a [`Rule`] with `v` at its start position `x0`, found
+/// once for all the candidate positions of one move (the smoothing sweeps try up to 32): a
+/// move keeps those passing ([`StarHold::keeps`]) and may leave the others as they are.
+pub(crate) struct StarHold {
+    rule: Rule,
     /// Bit `i`: star quad `i` passes at `x0` (stars of up to 64 quads).
     held: u64,
     /// The star has more than 64 quads: each candidate checks `x0` again.
@@ -238,41 +269,83 @@ pub(crate) struct OwnJacobian {
     x0: DVec3,
 }
 
-impl OwnJacobian {
-    /// The star quads of `v` that pass at `x0` (none held on a planar surface).
-    pub(crate) fn at(l: &Local, v: u32, x0: DVec3) -> Self {
+impl StarHold {
+    /// The star quads of `v` that pass `rule` at `x0` (none held where it cannot fail).
+    pub(crate) fn at(l: &Local, v: u32, x0: DVec3, rule: Rule) -> Self {
         let star = l.star(v);
-        let wide = !l.planar && star.len() > 64;
+        let applies = rule.applies(l, v);
+        let wide = applies && star.len() > 64;
         let mut held = 0u64;
-        if !l.planar && !wide {
+        if applies && !wide {
             for (i, &q) in star.iter().enumerate() {
-                if own_jacobian_ok(&moved(l, q, v, x0)) {
+                if rule.passes(l, q, v, x0, false) {
                     held |= 1 << i;
                 }
             }
         }
-        OwnJacobian { held, wide, v, x0 }
+        StarHold {
+            rule,
+            held,
+            wide,
+            v,
+            x0,
+        }
     }
 
     /// True when every star quad that passed at the start position passes with the node at
     /// `p`.
     pub(crate) fn keeps(&self, l: &Local, p: DVec3) -> bool {
-        let star = l.star(self.v);
+        let (star, v, rule) = (l.star(self.v), self.v, self.rule);
         if self.wide {
-            return star.iter().all(|&q| {
-                !own_jacobian_ok(&moved(l, q, self.v, self.x0))
-                    || own_jacobian_ok(&moved(l, q, self.v, p))
-            });
+            return star
+                .iter()
+                .all(|&q| !rule.passes(l, q, v, self.x0, false) || rule.passes(l, q, v, p, true));
         }
         let mut held = self.held;
         while held != 0 {
             let i = held.trailing_zeros() as usize;
             held &= held - 1;
-            if !own_jacobian_ok(&moved(l, star[i], self.v, p)) {
+            if !rule.passes(l, star[i], v, p, true) {
                 return false;
             }
         }
         true
+    }
+}
+
+/// The [`Rule`]s a smoothing move of node `v` from `x0` keeps, each found at the start
+/// position on first use.
+pub(crate) struct Holds<'a> {
+    l: &'a Local,
+    v: u32,
+    x0: DVec3,
+    own: std::cell::OnceCell<StarHold>,
+    located: std::cell::OnceCell<StarHold>,
+}
+
+impl<'a> Holds<'a> {
+    pub(crate) fn new(l: &'a Local, v: u32, x0: DVec3) -> Self {
+        Holds {
+            l,
+            v,
+            x0,
+            own: std::cell::OnceCell::new(),
+            located: std::cell::OnceCell::new(),
+        }
+    }
+
+    /// True when the move to `p` keeps both rules ([`Rule::OwnJacobian`] checked first).
+    pub(crate) fn keeps(&self, p: DVec3) -> bool {
+        self.hold(&self.own, Rule::OwnJacobian).keeps(self.l, p) && self.keeps_located(p)
+    }
+
+    /// True when the move to `p` keeps [`Rule::LocatedTurns`].
+    pub(crate) fn keeps_located(&self, p: DVec3) -> bool {
+        self.hold(&self.located, Rule::LocatedTurns).keeps(self.l, p)
+    }
+
+    fn hold<'c>(&self, cell: &'c std::cell::OnceCell<StarHold>, rule: Rule) -> &'c StarHold {
+        cell.get_or_init(|| StarHold::at(self.l, self.v, self.x0, rule))
     }
 }
 
