@@ -22,6 +22,11 @@
 //! on a curve one segment long, which has no node block, lands in the block of one of its
 //! surfaces): it lies on the boundary of both surfaces' quads, so neither optimizer moves
 //! it, and it keeps the coordinates both fingerprints hold.
+//!
+//! The validity check is skipped the same way: a state put back that passed it in an
+//! earlier job's output of the same check key ([`SurfaceCache::passed`]) passes it again,
+//! since the check of a surface reads only its quads, their coordinates, the input and
+//! that key.
 
 use std::collections::{HashMap, HashSet};
 use std::hash::{DefaultHasher, Hash, Hasher};
@@ -124,6 +129,9 @@ struct Entry {
     made: Made,
     node_blocks: Vec<NodeBlock>,
     quad_blocks: Vec<ElementBlock>,
+    /// The validity check's key (`crate::validity::check_key`) of the output in which
+    /// every quad of this state passed the check, if it did.
+    passed: Option<u64>,
 }
 
 /// The optimized surfaces of earlier jobs (see the module doc).
@@ -205,11 +213,35 @@ impl SurfaceCache {
         done
     }
 
+    /// Of the surfaces `reused` that [`SurfaceCache::put_back`] gave back with fingerprints
+    /// `fp`, those whose state passed the validity check in an output with check key
+    /// `key`, sorted: the same quads at the same coordinates pass it again (the validity
+    /// check reads no tag the job made, `crate::validity::check_key`).
+    pub(crate) fn passed(&self, fp: &Fingerprints, reused: &[i32], key: u64) -> Vec<i32> {
+        let mut out: Vec<i32> = reused
+            .iter()
+            .copied()
+            .filter(|s| {
+                fp.0.get(s)
+                    .and_then(|(f, _)| self.entries.get(&(*s, *f)))
+                    .is_some_and(|e| e.passed == Some(key))
+            })
+            .collect();
+        out.sort_unstable();
+        out
+    }
+
     /// Records the optimized state of `mesh`'s surfaces, whose recombined state had the
     /// fingerprints `fp`; surfaces that share nodes across blocks (see the module doc) are
     /// not recorded, except through nodes that the quads of both surfaces use (which no
-    /// optimizer moves).
-    pub(crate) fn record(&mut self, mesh: &Mesh, fp: &Fingerprints) {
+    /// optimizer moves). `passed`: the check key of `mesh` and whether a surface's quads
+    /// all passed the validity check in it, when it was checked.
+    pub(crate) fn record(
+        &mut self,
+        mesh: &Mesh,
+        fp: &Fingerprints,
+        passed: Option<(u64, &dyn Fn(i32) -> bool)>,
+    ) {
         // the surface whose node block holds each node
         let mut block_of: HashMap<u64, i32> = HashMap::new();
         for b in mesh.node_blocks.iter().filter(|b| b.entity_dim == 2) {
@@ -266,6 +298,7 @@ impl SurfaceCache {
                     made: made.clone(),
                     node_blocks,
                     quad_blocks,
+                    passed: passed.and_then(|(key, ok)| ok(s).then_some(key)),
                 },
             );
         }
@@ -311,6 +344,40 @@ mod tests {
     }
 
     #[test]
+    fn a_surface_put_back_where_it_passed_the_validity_check_passes_it_again() {
+        let (input, mesh) = recombined();
+        let (nodes, elements) = (input.max_node_tag(), input.max_element_tag());
+        let made = Fingerprints::of(&mesh, nodes, elements);
+        let mut optimized = mesh.clone();
+        optimize(&mut optimized, &input, &OptimizeOptions::default()).expect("optimizes");
+        let reference = crate::validity::Reference::new(&input);
+        let bad = reference.invalid_quads(&optimized);
+        let key = crate::validity::check_key(&optimized);
+        // every surface passed but the first, recorded as not checked
+        let first = *made.0.keys().min().expect("a surface");
+        let ok = |s: i32| s != first && !bad.iter().any(|b| b.surface == s);
+        let mut cache = SurfaceCache::default();
+        cache.record(&optimized, &made, Some((key, &ok)));
+        // the same recombination with the job's own tags shifted, put back
+        let other = shifted(&mesh, nodes, elements, 1000);
+        let fp = Fingerprints::of(&other, nodes, elements);
+        let mut put = other.clone();
+        let reused = cache.put_back(&mut put, &fp);
+        assert_eq!(crate::validity::check_key(&put), key);
+        let passed = cache.passed(&fp, &reused, key);
+        assert!(!passed.is_empty() && !passed.contains(&first), "{passed:?}");
+        // the check left out on them finds what the whole check finds
+        let all = reference.invalid_quads(&put);
+        assert!(all
+            .iter()
+            .all(|b| passed.binary_search(&b.surface).is_err()));
+        let coords = TagCoords::new(&put);
+        assert_eq!(reference.invalid_quads_except(&put, &coords, &passed), all);
+        // in an output of another check key, nothing is known to pass
+        assert!(cache.passed(&fp, &reused, key ^ 1).is_empty());
+    }
+
+    #[test]
     fn a_surface_put_back_is_what_optimizing_it_again_gives_whatever_its_own_tags() {
         let (input, mesh) = recombined();
         let (nodes, elements) = (input.max_node_tag(), input.max_element_tag());
@@ -323,7 +390,7 @@ mod tests {
         let mut optimized = mesh.clone();
         optimize(&mut optimized, &input, &opts).expect("optimizes");
         let mut cache = SurfaceCache::default();
-        cache.record(&optimized, &made);
+        cache.record(&optimized, &made, None);
         // the same recombination with the job's own tags shifted (as a split elsewhere
         // shifts them): the same fingerprints, and the state put back is the optimizer's
         let other = shifted(&mesh, nodes, elements, 1000);
@@ -417,7 +484,7 @@ mod tests {
         let mut optimized = mesh.clone();
         optimize(&mut optimized, &input, &opts).expect("optimizes");
         let mut cache = SurfaceCache::default();
-        cache.record(&optimized, &made);
+        cache.record(&optimized, &made, None);
         assert_eq!(cache.entries.len(), made.0.len(), "every surface recorded");
         let other = shifted(&mesh, nodes, elements, 1000);
         let fp = Fingerprints::of(&other, nodes, elements);
@@ -440,7 +507,7 @@ mod tests {
                 .for_each(|t| *t = u64::MAX);
         }
         let mut cache = SurfaceCache::default();
-        cache.record(&alone, &made);
+        cache.record(&alone, &made, None);
         assert!(!cache.entries.keys().any(|k| k.0 == owner || k.0 == user));
     }
 }

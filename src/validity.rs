@@ -251,6 +251,23 @@ impl<'a> Reference<'a> {
         self.invalid_quads_on(output, out_coords, None)
     }
 
+    /// [`Reference::invalid_quads_at`] on every surface of `output` but those of `except`
+    /// (sorted tags): surfaces known to pass, with the same quads at the same coordinates
+    /// and the same [`check_key`], in an output checked before.
+    pub(crate) fn invalid_quads_except(
+        &self,
+        output: &Mesh,
+        out_coords: &TagCoords,
+        except: &[i32],
+    ) -> Vec<BadQuad> {
+        if except.is_empty() {
+            return self.invalid_quads_at(output, out_coords);
+        }
+        let mut only = output.sorted_surfaces(|b| b.element_type == etype::QUAD4 && !b.is_empty());
+        only.retain(|s| except.binary_search(s).is_err());
+        self.invalid_quads_on(output, out_coords, Some(&only))
+    }
+
     /// A node the input surface `surface` wraps round (one of its faces there turns 90° or
     /// more from the node's normal, [`WRAP_COS`]): one of `prefer` when the surface wraps
     /// round one of them, else its wrapped node of the smallest tag; `None` when it wraps
@@ -356,6 +373,14 @@ impl SurfaceReference {
 }
 
 /// The diagonal of the bounding box of all nodes (1 for an empty mesh).
+/// What the check of one surface's quads reads of the rest of `output`: the same quads over
+/// the same input nodes at the same coordinates (nodes the input lacks under any tag) give
+/// the same result in two outputs with the same key (the length under which an edge is
+/// too short scales with the output's extent).
+pub(crate) fn check_key(output: &Mesh) -> u64 {
+    extent(output).to_bits()
+}
+
 fn extent(mesh: &Mesh) -> f64 {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);

@@ -385,11 +385,18 @@ fn one_round<'a>(
     };
     // memory: one table of the output's coordinates for both checks
     let coords = TagCoords::new(&mesh);
+    // speed: a surface given back as an earlier job left it, where it passed the validity
+    // check in an output of the same check key, passes it again (`SurfaceCache::passed`)
+    let key = crate::validity::check_key(&mesh);
+    let passed = match &fingerprints {
+        Some(fp) => cache.surfaces.passed(fp, &reused, key),
+        None => Vec::new(),
+    };
     // speed: the two checks are independent, so they run side by side (an invariant
     // failure still comes first)
     let (invariants, mut bad) = rayon::join(
         || invariants_of(&mesh, &coords),
-        || checks.validity.invalid_quads_at(&mesh, &coords),
+        || checks.validity.invalid_quads_except(&mesh, &coords, &passed),
     );
     drop(coords);
     invariants.map_err(|violation| Error::Invariant {
@@ -452,7 +459,14 @@ fn one_round<'a>(
     progress(opts, Stage::Check, 1, 1);
     times.check += t.elapsed();
     if let Some(fp) = &fingerprints {
-        cache.surfaces.record(&mesh, fp);
+        // what passed the check: the surfaces without a bad quad, in the mesh checked (not
+        // when undoing an optimization changed its check key)
+        let bad_on: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+        let ok = |s: i32| !bad_on.contains(&s);
+        let checked = crate::validity::check_key(&mesh) == key;
+        cache
+            .surfaces
+            .record(&mesh, fp, checked.then_some((key, &ok as &dyn Fn(i32) -> bool)));
     }
     Ok(Outcome {
         mesh,
