@@ -841,7 +841,8 @@ impl Nearest {
     fn normal(&self, p: DVec3) -> Option<DVec3> {
         let hit = self.surface.closest(p)?;
         let best = (p - hit.point).length();
-        let mut near: Vec<u32> = Vec::new();
+        // speed: the faces around a triangle's corners are a few dozen at most
+        let mut near: Vec<u32> = Vec::with_capacity(32);
         for &v in &self.surface.triangle(hit.tri) {
             let (a, b) = (self.start[v as usize], self.start[v as usize + 1]);
             for &t in &self.around[a as usize..b as usize] {

@@ -200,9 +200,18 @@ impl TriSurface {
         let mut t = start;
         let mut prev = NONE;
         for _ in 0..48 {
-            let bary = plane_barycentric(p, self.corners(t));
+            let corners = self.corners(t);
+            let bary = plane_barycentric(p, corners);
             if bary.iter().all(|&b| b >= -1e-12) {
-                let (q, bary) = closest_on_triangle(p, self.corners(t));
+                // speed: inside, the closest point is the barycentric one
+                // (`closest_on_triangle`'s first case, without computing the coordinates
+                // again)
+                let (q, bary) = if bary.iter().all(|&b| b >= 0.0) {
+                    let [a, b, c] = corners;
+                    (a * bary[0] + b * bary[1] + c * bary[2], bary)
+                } else {
+                    closest_on_triangle(p, corners)
+                };
                 return Some(Hit {
                     tri: t,
                     point: q,
@@ -210,8 +219,7 @@ impl TriSurface {
                 });
             }
             // cross the edge of the most negative coordinate that leads somewhere new
-            let mut order = [0usize, 1, 2];
-            order.sort_by(|&a, &b| bary[a].total_cmp(&bary[b]));
+            let order = ascending3(bary);
             let next = order
                 .iter()
                 .filter(|&&k| bary[k] < -1e-12)
@@ -227,6 +235,22 @@ impl TriSurface {
         }
         self.closest(p)
     }
+}
+
+/// The indices of `x` by increasing value, ties in index order (a stable sort of three).
+fn ascending3(x: [f64; 3]) -> [usize; 3] {
+    let mut o = [0usize, 1, 2];
+    let gt = |o: &[usize; 3], i: usize, j: usize| x[o[i]].total_cmp(&x[o[j]]).is_gt();
+    if gt(&o, 0, 1) {
+        o.swap(0, 1);
+    }
+    if gt(&o, 1, 2) {
+        o.swap(1, 2);
+        if gt(&o, 0, 1) {
+            o.swap(0, 1);
+        }
+    }
+    o
 }
 
 /// Neighbour across each edge; edges used by other than exactly two triangles have none.
@@ -516,6 +540,21 @@ mod tests {
         assert_eq!(touching(DVec3::new(0.0, 0.0, 0.0), 1e-9).len(), 2);
         assert_eq!(touching(DVec3::new(4.0, 0.0, 0.0), 1e-9).len(), 1);
         assert_eq!(touching(DVec3::new(2.0, 0.0, 0.0), 1e-9).len(), 3);
+    }
+
+    #[test]
+    fn three_values_sort_as_a_stable_sort_does() {
+        let vals = [-1.0, 0.0, 1.0, f64::NAN, -0.0];
+        for &a in &vals {
+            for &b in &vals {
+                for &c in &vals {
+                    let x = [a, b, c];
+                    let mut want = [0usize, 1, 2];
+                    want.sort_by(|&i, &j| x[i].total_cmp(&x[j]));
+                    assert_eq!(ascending3(x), want, "{x:?}");
+                }
+            }
+        }
     }
 
     #[test]
