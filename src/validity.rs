@@ -824,23 +824,20 @@ impl Nearest {
         }
     }
 
-    /// Distance from `p` to face `f`.
+    /// Distance from `p` to face `f` ([`triangle_distance`]).
     fn distance(&self, f: u32, p: DVec3) -> f64 {
         let face = &self.faces[f as usize];
         let c = &face.corners;
         (1..face.len as usize - 1)
-            .map(|k| {
-                let (q, _) = crate::quality::locate::closest_on_triangle(p, [c[0], c[k], c[k + 1]]);
-                (p - q).length()
-            })
+            .map(|k| triangle_distance(p, [c[0], c[k], c[k + 1]]))
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// The unit summed normal of the faces nearest to `p`: `None` when the surface has no
-    /// face, zero when the nearest faces cancel out.
+    /// The unit summed normal of the faces nearest to `p` (the faces around the corners
+    /// of the triangle the closest point is on, by [`Nearest::distance`]): `None` when the
+    /// surface has no face, zero when the nearest faces cancel out.
     fn normal(&self, p: DVec3) -> Option<DVec3> {
         let hit = self.surface.closest(p)?;
-        let best = (p - hit.point).length();
         // speed: the faces around a triangle's corners are a few dozen at most
         let mut near: Vec<u32> = Vec::with_capacity(32);
         for &v in &self.surface.triangle(hit.tri) {
@@ -851,14 +848,43 @@ impl Nearest {
         }
         near.sort_unstable();
         near.dedup();
+        let d: Vec<f64> = near.iter().map(|&f| self.distance(f, p)).collect();
+        let best = d.iter().copied().fold(f64::INFINITY, f64::min);
         let n = near
             .iter()
-            .filter(|&&f| self.distance(f, p) <= best + self.tie)
-            .map(|&f| self.faces[f as usize].normal)
+            .zip(&d)
+            .filter(|&(_, &df)| df <= best + self.tie)
+            .map(|(&f, _)| self.faces[f as usize].normal)
             .sum::<DVec3>()
             .normalize_or_zero();
         Some(n)
     }
+}
+
+/// Distance from `p` to triangle `t`: inside its prism, the distance to its plane (not to
+/// a closest point rebuilt from barycentric coordinates, whose rounding a far corner of a
+/// sliver multiplies by its distance: a point inside such a triangle came out 3e-5 away
+/// from it, beyond the ties of the nearest faces); else the distance to its nearest edge.
+fn triangle_distance(p: DVec3, t: [DVec3; 3]) -> f64 {
+    let bary = crate::quality::locate::plane_barycentric(p, t);
+    let n = (t[1] - t[0]).cross(t[2] - t[0]);
+    let n2 = n.length_squared();
+    if bary.iter().all(|&x| x >= 0.0) && n2 > 0.0 {
+        return n.dot(p - t[0]).abs() / n2.sqrt();
+    }
+    (0..3)
+        .map(|k| {
+            let (a, b) = (t[k], t[(k + 1) % 3]);
+            let e = b - a;
+            let len2 = e.length_squared();
+            let s = if len2 > 0.0 {
+                ((p - a).dot(e) / len2).clamp(0.0, 1.0)
+            } else {
+                0.0
+            };
+            (a + e * s).distance(p)
+        })
+        .fold(f64::INFINITY, f64::min)
 }
 
 /// The first defect of quad `q`, if any.
@@ -977,6 +1003,28 @@ mod tests {
     }
 
     const SQUARE: [[f64; 3]; 4] = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], [0., 1., 0.]];
+
+    #[test]
+    fn a_point_inside_a_sliver_with_a_far_corner_is_on_it() {
+        // a sliver 2,134 long and 0.3 wide; the point lies inside it, 9.3e-6 of the way
+        // from its short edge to the far corner: rebuilt from barycentric coordinates the
+        // closest point is 3e-5 off, more than the nearest faces' ties at this extent
+        let t = [
+            DVec3::new(-1.29013427919, -2136.3674624461573, 0.0),
+            DVec3::new(-1.246979603717471, -1.563662964936056, 0.0),
+            DVec3::new(-0.9399999999999834, -1.628127059114755, 0.0),
+        ];
+        let p = DVec3::new(-1.1612056375674913, -1.601505323066991, 0.0);
+        let (q, _) = crate::quality::locate::closest_on_triangle(p, t);
+        assert!(q.distance(p) > 1e-6, "the rebuilt point: {}", q.distance(p));
+        assert!(triangle_distance(p, t) < 1e-12, "{}", triangle_distance(p, t));
+        // off the plane by 0.5, inside the prism: 0.5; beyond the short edge: to that edge
+        assert!((triangle_distance(p + DVec3::Z * 0.5, t) - 0.5).abs() < 1e-12);
+        let out = DVec3::new(-1.1, -1.0, 0.0);
+        let e = (t[2] - t[1]).normalize();
+        let to_edge = (out - t[1]) - e * (out - t[1]).dot(e);
+        assert!((triangle_distance(out, t) - to_edge.length()).abs() < 1e-12);
+    }
 
     #[test]
     fn the_prepared_input_finds_what_the_one_call_finds() {

@@ -556,9 +556,15 @@ def closest_on_triangle(p, a, b, c):
     if va <= 0.0 and (d4 - d3) >= 0.0 and (d5 - d6) >= 0.0:
         w = (d4 - d3) / ((d4 - d3) + (d5 - d6))
         return add(b, tuple(x * w for x in sub(c, b)))
-    den = 1.0 / (va + vb + vc)
-    v, w = vb * den, vc * den
-    return add(a, add(tuple(x * v for x in ab), tuple(x * w for x in ac)))
+    # inside: p moved onto the plane (not rebuilt from barycentric coordinates, whose
+    # rounding a far corner of a sliver multiplies)
+    n = cross(ab, ac)
+    nn = dot(n, n)
+    if not nn > 0.0:
+        den = 1.0 / (va + vb + vc)
+        v, w = vb * den, vc * den
+        return add(a, add(tuple(x * v for x in ab), tuple(x * w for x in ac)))
+    return sub(p, tuple(x * (dot(n, ap) / nn) for x in n))
 
 
 # A face turning this far from its node's normal (cosine of 90 degrees) makes the node

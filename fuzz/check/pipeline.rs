@@ -110,9 +110,16 @@ fn closest_on_triangle(p: V, t: [V; 3]) -> V {
         let w = (d4 - d3) / ((d4 - d3) + (d5 - d6));
         return add(b, sub(c, b).map(|x| x * w));
     }
-    let denom = 1.0 / (va + vb + vc);
-    let (v, w) = (vb * denom, vc * denom);
-    add(a, add(ab.map(|x| x * v), ac.map(|x| x * w)))
+    // inside: p moved onto the plane (not rebuilt from barycentric coordinates, whose
+    // rounding a far corner of a sliver multiplies)
+    let n = cross(ab, ac);
+    let nn = dot(n, n);
+    if !(nn > 0.0) {
+        let denom = 1.0 / (va + vb + vc);
+        let (v, w) = (vb * denom, vc * denom);
+        return add(a, add(ab.map(|x| x * v), ac.map(|x| x * w)));
+    }
+    sub(p, n.map(|x| x * (dot(n, ap) / nn)))
 }
 
 /// One input face: its corners and twice its vector area (Newell).

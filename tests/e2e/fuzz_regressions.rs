@@ -551,6 +551,24 @@ fn a_corner_at_a_fold_is_measured_about_the_triangles_its_quad_holds() {
     assert_valid_recombination("folded-triangle-held-by-its-quad-at-a-wrapped-node.msh");
 }
 
+/// Fuzz finding (pipeline target, from its grown corpus): the annulus of the fold findings
+/// with node 19 moved to y = −2136, so that two long slivers from it lie, turned over, on
+/// the triangles at node 46, and triangle 67 is folded over triangle 97. A quad of triangle
+/// 46-47-20 split into three was measured at a point inside its corner at node 46: the
+/// gate found the sliver there 3e-5 away (a closest point rebuilt from barycentric
+/// coordinates, off by the far corner's distance times their rounding) and measured the
+/// corner about triangle 46-47-20 alone; the fuzz check and `tests/check_mesh.py` found it
+/// on the sliver too, whose normal outweighs, and called the quad reflex. All three now
+/// measure the distance to a triangle's plane inside it; the sliver counts, no pair and no
+/// split there is valid, and the run refuses naming the fold.
+#[test]
+fn a_sliver_over_a_triangle_counts_among_the_faces_nearest_to_a_corner() {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz/sliver-over-a-triangle-at-a-wrapped-node.msh");
+    let text = std::fs::read_to_string(&path).expect("read the finding");
+    assert_refused(&text, &["surface 1, element 67", "folded over triangle 97"]);
+}
+
 /// Fuzz finding (pipeline target, from its grown corpus): an annulus in the plane z = 0
 /// whose triangle 90 was rewritten to nodes 11, 33 and 12, so that it lies over other
 /// triangles, turned over, and shares no edge with them (its edge 11-12 is a boundary
