@@ -302,6 +302,7 @@ def summary(rows):
     big = [r for r in rows if (r.get("triangles") or 0) >= MIN_TRIANGLES and r.get("quads_per_triangle") is not None]
     over = [r for r in big if r["quads_per_triangle"] > MAX_QUADS_PER_TRIANGLE]
     low = [r for r in rows if "η_w" in r.get("fails", [])]
+    low_big = [r for r in low if (r.get("triangles") or 0) >= MIN_TRIANGLES]
     folded = [r for r in rows if "sj" in r.get("fails", [])]
     refused = [r for r in rows if r.get("status") in ("refused", "crash")]
     invalid = [r for r in rows if r.get("status") == "invalid"]
@@ -313,7 +314,8 @@ def summary(rows):
         f"Goals: {len(over)} of the {len(big)} runs with ≥ {MIN_TRIANGLES} triangles end above "
         f"{MAX_QUADS_PER_TRIANGLE} new quads per input triangle"
         + (f" (up to {max(r['quads_per_triangle'] for r in over):.2f})" if over else "")
-        + f"; {len(low)} runs end below min({ETA_GOAL}, wall-corner bound); "
+        + f"; {len(low)} runs end below min({ETA_GOAL}, wall-corner bound) "
+        f"({len(low_big)} with ≥ {MIN_TRIANGLES} triangles); "
         f"{len(folded)} runs have a quad with sj_min ≤ 0; "
         f"{len(refused)} refused or crashed; {len(invalid)} invalid outputs.",
     ]
