@@ -873,17 +873,7 @@ fn triangle_distance(p: DVec3, t: [DVec3; 3]) -> f64 {
         return n.dot(p - t[0]).abs() / n2.sqrt();
     }
     (0..3)
-        .map(|k| {
-            let (a, b) = (t[k], t[(k + 1) % 3]);
-            let e = b - a;
-            let len2 = e.length_squared();
-            let s = if len2 > 0.0 {
-                ((p - a).dot(e) / len2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            (a + e * s).distance(p)
-        })
+        .map(|k| crate::quality::locate::closest_on_segment(p, t[k], t[(k + 1) % 3]).distance(p))
         .fold(f64::INFINITY, f64::min)
 }
 

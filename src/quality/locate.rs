@@ -112,14 +112,7 @@ impl TriSurface {
         for k in 0..3 {
             // the edge opposite corner k
             let (a, b) = (c[(k + 1) % 3], c[(k + 2) % 3]);
-            let e = b - a;
-            let len2 = e.length_squared();
-            let s = if len2 > 0.0 {
-                ((p - a).dot(e) / len2).clamp(0.0, 1.0)
-            } else {
-                0.0
-            };
-            if (a + e * s).distance(p) <= tol {
+            if closest_on_segment(p, a, b).distance(p) <= tol {
                 push(out, self.nbr[t as usize][k]);
             }
         }
@@ -457,6 +450,18 @@ pub fn plane_barycentric(p: DVec3, [a, b, c]: [DVec3; 3]) -> [f64; 3] {
     let v = (d11 * d20 - d01 * d21) / den;
     let w2 = (d00 * d21 - d01 * d20) / den;
     [1.0 - v - w2, v, w2]
+}
+
+/// Closest point of segment `ab` to `p` (`a` when the segment has no length).
+pub fn closest_on_segment(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
+    let e = b - a;
+    let len2 = e.length_squared();
+    let s = if len2 > 0.0 {
+        ((p - a).dot(e) / len2).clamp(0.0, 1.0)
+    } else {
+        0.0
+    };
+    a + e * s
 }
 
 /// Closest point of triangle `[a, b, c]` to `p`, with its barycentric coordinates.

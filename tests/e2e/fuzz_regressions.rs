@@ -68,6 +68,15 @@ fn assert_refused(text: &str, words: &[&str]) {
     assert!(!output.exists(), "an output file was written");
 }
 
+/// [`assert_refused`] on the recorded finding `name` of `tests/data/fuzz`.
+fn assert_finding_refused(name: &str, words: &[&str]) {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("tests/data/fuzz")
+        .join(name);
+    let text = std::fs::read_to_string(&path).expect("read the finding");
+    assert_refused(&text, words);
+}
+
 /// Exit 0 and every quad of the output valid in the xy plane: four distinct nodes and
 /// every corner strictly convex counterclockwise (the input triangles' orientation).
 fn assert_valid_planar_result(text: &str) {
@@ -516,11 +525,8 @@ fn a_repeated_element_tag_gets_a_number_for_each_element() {
 /// to stand for, so the surface is refused naming it, and nothing is written.
 #[test]
 fn folded_triangles_on_a_flat_surface_are_refused_not_walled_off() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/fuzz/folded-triangles-in-a-flat-annulus.msh");
-    let text = std::fs::read_to_string(&path).expect("read the finding");
-    assert_refused(
-        &text,
+    assert_finding_refused(
+        "folded-triangles-in-a-flat-annulus.msh",
         &["element 77", "folded over triangle 76", "edge 3-30"],
     );
 }
@@ -533,10 +539,10 @@ fn folded_triangles_on_a_flat_surface_are_refused_not_walled_off() {
 /// one line naming the folded triangles, with nothing written.
 #[test]
 fn a_surface_folded_onto_itself_is_refused_not_written() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/fuzz/folded-pair-on-coincident-nodes.msh");
-    let text = std::fs::read_to_string(&path).expect("read the finding");
-    assert_refused(&text, &["element 5", "folded over triangle 6"]);
+    assert_finding_refused(
+        "folded-pair-on-coincident-nodes.msh",
+        &["element 5", "folded over triangle 6"],
+    );
 }
 
 /// Fuzz finding (218,962 runs): an annulus (MSH 4.1, 55 triangles) with triangle 67 folded
@@ -563,10 +569,10 @@ fn a_corner_at_a_fold_is_measured_about_the_triangles_its_quad_holds() {
 /// split there is valid, and the run refuses naming the fold.
 #[test]
 fn a_sliver_over_a_triangle_counts_among_the_faces_nearest_to_a_corner() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/fuzz/sliver-over-a-triangle-at-a-wrapped-node.msh");
-    let text = std::fs::read_to_string(&path).expect("read the finding");
-    assert_refused(&text, &["surface 1, element 67", "folded over triangle 97"]);
+    assert_finding_refused(
+        "sliver-over-a-triangle-at-a-wrapped-node.msh",
+        &["surface 1, element 67", "folded over triangle 97"],
+    );
 }
 
 /// Fuzz finding (pipeline target, from its grown corpus): an annulus in the plane z = 0
@@ -578,11 +584,8 @@ fn a_sliver_over_a_triangle_counts_among_the_faces_nearest_to_a_corner() {
 /// written.
 #[test]
 fn a_triangle_turned_over_on_a_flat_surface_is_refused() {
-    let path = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("tests/data/fuzz/triangle-turned-over-on-a-flat-annulus.msh");
-    let text = std::fs::read_to_string(&path).expect("read the finding");
-    assert_refused(
-        &text,
+    assert_finding_refused(
+        "triangle-turned-over-on-a-flat-annulus.msh",
         &["surface 1, element 90", "the triangle is turned over"],
     );
 }
