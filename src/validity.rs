@@ -372,7 +372,6 @@ impl SurfaceReference {
     }
 }
 
-/// The diagonal of the bounding box of all nodes (1 for an empty mesh).
 /// What the check of one surface's quads reads of the rest of `output`: the same quads over
 /// the same input nodes at the same coordinates (nodes the input lacks under any tag) give
 /// the same result in two outputs with the same key (the length under which an edge is
@@ -381,6 +380,7 @@ pub(crate) fn check_key(output: &Mesh) -> u64 {
     extent(output).to_bits()
 }
 
+/// The diagonal of the bounding box of all nodes (1 for an empty mesh).
 fn extent(mesh: &Mesh) -> f64 {
     let mut lo = DVec3::splat(f64::INFINITY);
     let mut hi = DVec3::splat(f64::NEG_INFINITY);

@@ -191,7 +191,8 @@ fn propose_pattern(l: &Local, v: u32) -> Option<(DVec3, u32)> {
 /// scored together (`score` gets the eight projected points in compass order and the score
 /// a trial must exceed to be taken, and returns their scores, `None` meaning not allowed or
 /// not taken: the checks of a move that cannot win are skipped); the best score above
-/// `start` (the score of the current position) wins. Returns the best position and its reference triangle, if any.
+/// `start` (the score of the current position) wins. Returns the best position and its
+/// reference triangle, if any.
 pub(crate) fn pattern_search8(
     l: &Local,
     v: u32,
