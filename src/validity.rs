@@ -242,16 +242,10 @@ impl<'a> Reference<'a> {
     /// [`invalid_quads`] of `output` against this input.
     #[cfg(any(test, feature = "testing"))]
     pub fn invalid_quads(&self, output: &Mesh) -> Vec<BadQuad> {
-        self.invalid_quads_at(output, &TagCoords::new(output))
+        self.invalid_quads_on(output, &TagCoords::new(output), |_| true)
     }
 
-    /// [`Reference::invalid_quads`] with `out_coords`, the coordinates of `output`'s nodes
-    /// by tag.
-    pub(crate) fn invalid_quads_at(&self, output: &Mesh, out_coords: &TagCoords) -> Vec<BadQuad> {
-        self.invalid_quads_on(output, out_coords, None)
-    }
-
-    /// [`Reference::invalid_quads_at`] on every surface of `output` but those of `except`
+    /// [`Reference::invalid_quads`] on every surface of `output` but those of `except`
     /// (sorted tags): surfaces known to pass, with the same quads at the same coordinates
     /// and the same [`check_key`], in an output checked before.
     pub(crate) fn invalid_quads_except(
@@ -260,12 +254,7 @@ impl<'a> Reference<'a> {
         out_coords: &TagCoords,
         except: &[i32],
     ) -> Vec<BadQuad> {
-        if except.is_empty() {
-            return self.invalid_quads_at(output, out_coords);
-        }
-        let mut only = output.sorted_surfaces(|b| b.element_type == etype::QUAD4 && !b.is_empty());
-        only.retain(|s| except.binary_search(s).is_err());
-        self.invalid_quads_on(output, out_coords, Some(&only))
+        self.invalid_quads_on(output, out_coords, |s| except.binary_search(&s).is_err())
     }
 
     /// A node the input surface `surface` wraps round (one of its faces there turns 90° or
@@ -290,19 +279,18 @@ impl<'a> Reference<'a> {
         Some(&self.surfaces[i].1.normals)
     }
 
-    /// [`Reference::invalid_quads_at`] on the surfaces `only` (sorted tags) when given.
+    /// [`Reference::invalid_quads`] on the surfaces `on` accepts, with `out_coords`, the
+    /// coordinates of `output`'s nodes by tag.
     pub(crate) fn invalid_quads_on(
         &self,
         output: &Mesh,
         out_coords: &TagCoords,
-        only: Option<&[i32]>,
+        on: impl Fn(i32) -> bool,
     ) -> Vec<BadQuad> {
         let extent = extent(output);
         let min_edge = MIN_EDGE * extent;
         let mut surfaces = output.sorted_surfaces(|b| b.element_type == etype::QUAD4 && !b.is_empty());
-        if let Some(only) = only {
-            surfaces.retain(|s| only.binary_search(s).is_ok());
-        }
+        surfaces.retain(|&s| on(s));
         surfaces
             .par_iter()
             .flat_map_iter(|&s| {

@@ -175,18 +175,6 @@ fn located_corners_ok(l: &Local, quad: &[u32; 4], v: u32, x: DVec3, moved_only: 
     })
 }
 
-/// True when moving node `v` from `x0` to `p` keeps every quad around it whose corners at
-/// located nodes ([`located`]) turn positively about the faces there
-/// ([`turns_about_located`]) so at `p` (always without located nodes in its star). The
-/// smoothing sweeps' keys measure corners about the quads' reference normals only; on a
-/// coarse curved face a node the input does not have can cross onto a face whose normal
-/// turns away from those. [`StarHold`] answers the same for the many candidate positions of
-/// one move.
-#[cfg(test)]
-fn keeps_located_turns(l: &Local, v: u32, x0: DVec3, p: DVec3) -> bool {
-    StarHold::at(l, v, x0, Rule::LocatedTurns).keeps(l, p)
-}
-
 /// True when the corner between edges `a` and `b` (`cos` = |a · b|, `c` = a × b) is inside
 /// the valid range (sine positive, |cot| at most [`MAX_COT`]) about the reference
 /// triangulation's normal at every node of `nodes` that has one ([`Local::gate_nrm`]): the validity gate measures
@@ -724,7 +712,8 @@ mod tests {
         let w = l.quads[q as usize][0];
         let x0 = l.pos[w as usize];
         l.reference = Some(face(60.0));
-        assert!(keeps_located_turns(&l, w, x0, x0 + DVec3::new(0.05, 0.05, 0.0)));
+        let hold = StarHold::at(&l, w, x0, Rule::LocatedTurns);
+        assert!(hold.keeps(&l, x0 + DVec3::new(0.05, 0.05, 0.0)));
         // the same node with an input normal: measured about that one alone
         l.reference = Some(face(100.0));
         l.gate_nrm[v as usize] = up;

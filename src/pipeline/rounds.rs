@@ -420,7 +420,7 @@ fn one_round<'a>(
         let was = TagCoords::new(pre);
         let before: HashSet<[u64; 4]> = checks
             .validity
-            .invalid_quads_on(pre, &was, Some(&bad_surfaces))
+            .invalid_quads_on(pre, &was, |s| bad_surfaces.binary_search(&s).is_ok())
             .into_iter()
             .map(|b| sorted4(b.nodes))
             .collect();
@@ -444,7 +444,7 @@ fn one_round<'a>(
         let coords = TagCoords::new(&back);
         if checks
             .validity
-            .invalid_quads_on(&back, &coords, Some(&bad_surfaces))
+            .invalid_quads_on(&back, &coords, |s| bad_surfaces.binary_search(&s).is_ok())
             .is_empty()
             && invariants_of(&back, &coords).is_ok()
         {

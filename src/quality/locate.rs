@@ -196,15 +196,8 @@ impl TriSurface {
             let corners = self.corners(t);
             let bary = plane_barycentric(p, corners);
             if bary.iter().all(|&b| b >= -1e-12) {
-                // speed: inside, the closest point is the barycentric one
-                // (`closest_on_triangle`'s first case, without computing the coordinates
-                // again)
-                let (q, bary) = if bary.iter().all(|&b| b >= 0.0) {
-                    let [a, b, c] = corners;
-                    (a * bary[0] + b * bary[1] + c * bary[2], bary)
-                } else {
-                    closest_on_triangle(p, corners)
-                };
+                // speed: the coordinates found are not computed again
+                let (q, bary) = closest_with_barycentric(p, corners, bary);
                 return Some(Hit {
                     tri: t,
                     point: q,
@@ -466,7 +459,11 @@ pub fn closest_on_segment(p: DVec3, a: DVec3, b: DVec3) -> DVec3 {
 
 /// Closest point of triangle `[a, b, c]` to `p`, with its barycentric coordinates.
 pub fn closest_on_triangle(p: DVec3, t: [DVec3; 3]) -> (DVec3, [f64; 3]) {
-    let bary = plane_barycentric(p, t);
+    closest_with_barycentric(p, t, plane_barycentric(p, t))
+}
+
+/// [`closest_on_triangle`] given `bary`, the [`plane_barycentric`] coordinates of `p`.
+fn closest_with_barycentric(p: DVec3, t: [DVec3; 3], bary: [f64; 3]) -> (DVec3, [f64; 3]) {
     if bary.iter().all(|&x| x >= 0.0) {
         return (t[0] * bary[0] + t[1] * bary[1] + t[2] * bary[2], bary);
     }
