@@ -11,8 +11,8 @@
 //!   corner. A corner at a node the input surface does not have (vertex duplications,
 //!   parity and fallback splits, refinement), or whose input faces cancel out, takes the
 //!   summed normal of the input faces of the surface nearest to a point inside the corner,
-//!   a quarter of the way along its two edges (every face within 1e-9 of the mesh's extent
-//!   of the nearest distance counts): the faces the quad lies on there, where the node
+//!   a quarter of the way along its two edges (every face within 1e-9 of the input's
+//!   extent of the nearest distance counts): the faces the quad lies on there, where the node
 //!   itself, at the midpoint of an input edge, is as near to the faces on both sides of
 //!   that edge, which on a coarse curved surface turn far apart; the quad's own normal only
 //!   when the surface has no face at all. Where those nearest faces cancel out too (a
@@ -207,6 +207,10 @@ pub struct Reference<'a> {
     coords: std::sync::Arc<TagCoords<'a>>,
     /// Input surfaces with faces, by increasing tag.
     surfaces: Vec<(i32, SurfaceReference)>,
+    /// Faces this much farther from a point than the nearest one still count as nearest
+    /// (1e-9 of the input's extent): a property of the input alone, so a surface's
+    /// nearest-face search, built once, serves every output checked against it.
+    tie: f64,
 }
 
 /// One input surface's normals and, once needed, its nearest-face search.
@@ -236,6 +240,7 @@ impl<'a> Reference<'a> {
             input,
             coords,
             surfaces,
+            tie: extent(input) * 1e-9,
         }
     }
 
@@ -305,7 +310,7 @@ impl<'a> Reference<'a> {
                 };
                 let nearest = || {
                     sr.nearest.get_or_init(|| {
-                        Nearest::new(input_faces(self.input, &self.coords, s), extent * 1e-9)
+                        Nearest::new(input_faces(self.input, &self.coords, s), self.tie)
                     })
                 };
                 let source = || {
@@ -1027,6 +1032,40 @@ mod tests {
                 .len(),
             1
         );
+    }
+
+    #[test]
+    fn the_nearest_faces_of_a_corner_do_not_depend_on_the_output_s_extent() {
+        // triangle 2-1-4 folded back over 1-2-3 across edge 1-2, rising 5e-7 over it: a
+        // point inside the quad's corner at node 5 lies on 1-2-3 and 7.5e-8 from 2-1-4,
+        // far beyond the ties at the input's extent. An output with a node far away (a
+        // spike another surface's smoothing moved) must not make the two faces tie and
+        // cancel, whichever output a prepared reference checks first.
+        let mut c = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [0.0, 1.0, 0.0],
+            [0.0, 1.0, 5e-7],
+            [0.1, 0.1, 0.0],
+            [0.3, 0.1, 0.0],
+            [0.3, 0.3, 0.0],
+            [0.1, 0.3, 0.0],
+        ];
+        let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[2, 1, 4]]);
+        let near = mesh(&c, etype::QUAD4, &[&[5, 6, 7, 8]]);
+        c.push([1000.0, 0.0, 0.0]);
+        let far = mesh(&c, etype::QUAD4, &[&[5, 6, 7, 8]]);
+        assert_eq!(invalid_quads(&input, &near), vec![]);
+        assert_eq!(invalid_quads(&input, &far), vec![]);
+        for order in [[&near, &far], [&far, &near]] {
+            let reference = Reference::new(&input);
+            for out in order {
+                assert_eq!(reference.invalid_quads(out), vec![]);
+            }
+        }
+        // turned over, the quad is caught in either output
+        let turned = mesh(&c, etype::QUAD4, &[&[5, 8, 7, 6]]);
+        assert_eq!(invalid_quads(&input, &turned).len(), 1);
     }
 
     #[test]

@@ -162,7 +162,8 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
     let mut faces: HashMap<i32, Vec<Face>> = HashMap::new();
     let mut lo = [f64::INFINITY; 3];
     let mut hi = [f64::NEG_INFINITY; 3];
-    for c in ca.values() {
+    // ties: within 1e-9 of the input's extent, as in the gate
+    for c in cb.values() {
         for d in 0..3 {
             lo[d] = lo[d].min(c[d]);
             hi[d] = hi[d].max(c[d]);

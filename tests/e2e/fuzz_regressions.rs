@@ -589,3 +589,21 @@ fn a_triangle_turned_over_on_a_flat_surface_is_refused() {
         &["surface 1, element 90", "the triangle is turned over"],
     );
 }
+
+/// Fuzz finding (pipeline target, from its grown corpus): a cylinder (surface 7) crushed
+/// onto a line, its triangles folded over each other 1e-6 to 1e-5 apart, beside a flat face
+/// whose interior node 96 is a spike 7,520 high that the smoothing moves. The gate measures
+/// corners at nodes the run added about the input faces nearest to a point inside them,
+/// with ties within 1e-9 of an extent; it built a surface's nearest-face search once, with
+/// the ties of the first output it checked, and kept them for the later outputs of the
+/// fallback, whose spike (and extent) had moved. So it passed quads the fuzz check and
+/// `tests/check_mesh.py` found reflex about two folded faces tied at 4.4e-6. The ties now
+/// come from the input's extent in all three; those quads fail, no pair or split there is
+/// valid, and the run refuses naming the fold.
+#[test]
+fn the_ties_of_the_nearest_faces_do_not_move_with_the_output() {
+    assert_finding_refused(
+        "crushed-cylinder-beside-a-spike-the-smoothing-moves.msh",
+        &["surface 7, element 315", "folded over triangle 338"],
+    );
+}
