@@ -46,8 +46,9 @@ pub(crate) struct Local {
     pub gate_nrm: Vec<DVec3>,
     /// Distance within which a node touches a reference triangle (an edge or a corner of
     /// it): at a node `gate_nrm` is zero at, the validity gate measures the corner about the
-    /// input faces nearest to a point inside it, ties within 1e-9 of the mesh's extent; this is
-    /// 1e-8 of it, so every face the gate counts is one the optimizer measures about.
+    /// input faces nearest to a point inside it, ties within 1e-9 of the input's extent; this is
+    /// 1e-8 of the extent of the mesh optimized, which holds every input node, so every face
+    /// the gate counts is one the optimizer measures about.
     pub tie: f64,
     /// Corners at nodes `gate_nrm` is zero at are held to the reference triangles they
     /// touch (the surface is in [`OptimizeOptions::located_surfaces`](super::OptimizeOptions)).

@@ -158,7 +158,18 @@ impl TriSurface {
         let max_r = g.dims.iter().copied().max().unwrap_or(1);
         for r in 0..=max_r {
             g.for_ring(c, r, |t| {
-                let (q, bary) = closest_on_triangle(p, self.corners(t));
+                let corners = self.corners(t);
+                // speed: a triangle whose bounding box is farther than the best point so far
+                // cannot be nearer (a margin above rounding keeps ties computed)
+                if let Some((bd, _)) = best {
+                    let lo = corners[0].min(corners[1]).min(corners[2]);
+                    let hi = corners[0].max(corners[1]).max(corners[2]);
+                    let gap = (lo - p).max(p - hi).max(DVec3::ZERO);
+                    if gap.length_squared() > bd * (1.0 + 1e-9) {
+                        return;
+                    }
+                }
+                let (q, bary) = closest_on_triangle(p, corners);
                 let d = q.distance_squared(p);
                 if best.is_none_or(|(bd, _)| d < bd) {
                     best = Some((
