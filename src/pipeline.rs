@@ -537,10 +537,15 @@ fn progress(opts: &Options, stage: Stage, done: usize, total: usize) {
     }
 }
 
-/// What the jobs of one run share: the surfaces they optimized ([`crate::reuse`]) and the
-/// input side of the final checks, prepared once (both depend on the input alone).
+/// What the jobs of one run share: the surfaces they recombined and optimized
+/// ([`recombine::MatchMemo`], [`crate::reuse`]) and the input side of the final checks,
+/// prepared once (all depend on the input alone).
 #[derive(Default)]
 struct Shared<'a> {
+    /// The matchings of the run's recombinations from its second one.
+    matchings: recombine::MatchMemo,
+    /// Recombinations done in the run.
+    recombinations: usize,
     surfaces: SurfaceCache,
     /// Prepared during the first round's optimization (or its matching, without the
     /// optimizer).
@@ -625,6 +630,7 @@ fn recombine_once<'a>(
     hopeless_out: &[i32],
     optimizing: bool,
     checks: &mut Option<Checks<'a>>,
+    matchings: Option<&recombine::MatchMemo>,
     times: &mut Times,
 ) -> Result<Recombined, Error> {
     let ropts = recombine::RecombineOptions {
@@ -663,7 +669,7 @@ fn recombine_once<'a>(
                 (reference, ready)
             })
         });
-        let r = recombine::recombine(&mut mesh, &ropts);
+        let r = recombine::recombine_with(&mut mesh, &ropts, matchings);
         (r, prep.map(|h| h.join()))
     });
     let (prepared, ready) = match prep {

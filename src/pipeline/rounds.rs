@@ -311,6 +311,11 @@ fn one_round<'a>(
                 *fallback = Some(split);
                 times.recombine += t.elapsed();
             }
+            // speed: the matchings of the run's earlier recombinations (none are kept from
+            // the first, which most runs end with: the keys cost about 2 % of a run on one
+            // large surface)
+            let memo = (cache.recombinations > 0).then_some(&cache.matchings);
+            cache.recombinations += 1;
             recombine_once(
                 input,
                 mesh,
@@ -321,6 +326,7 @@ fn one_round<'a>(
                 &local.hopeless_out,
                 optimizing,
                 &mut cache.checks,
+                memo,
                 times,
             )?
         }

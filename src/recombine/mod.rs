@@ -127,6 +127,7 @@ mod geometry;
 mod graph;
 mod input;
 mod invariants;
+mod memo;
 mod options;
 mod parity;
 mod periodic;
@@ -143,6 +144,7 @@ use std::time::{Duration, Instant};
 
 use crate::mesh::{element_dim, etype, ElementBlock, Mesh, NodeTable};
 use crate::profile::StageTimer;
+pub(crate) use memo::MatchMemo;
 pub(crate) use surface::SurfaceWork;
 use surface::{match_surface, surface_work, SurfaceResult};
 use topology::CurveInfo;
@@ -182,11 +184,24 @@ pub use parity::OddRegion;
 /// quads already present, other element types. On error the mesh may be partly changed
 /// (parity splits, dropped volumes, and the recombined surfaces' triangle blocks emptied
 /// once their topology is built); callers that need the input should clone it first.
+#[cfg(any(test, feature = "testing"))]
 pub fn recombine(
     mesh: &mut Mesh,
     opts: &RecombineOptions,
 ) -> Result<RecombineReport, RecombineError> {
+    recombine_with(mesh, opts, None)
+}
+
+/// [`recombine`] with the matchings of earlier recombinations of the run in `memo` (a
+/// surface equal to one of them but for its global node ids gets its quads back; see
+/// `memo.rs`), where each new one is stored.
+pub(crate) fn recombine_with(
+    mesh: &mut Mesh,
+    opts: &RecombineOptions,
+    memo: Option<&MatchMemo>,
+) -> Result<RecombineReport, RecombineError> {
     let start = Instant::now();
+    let hits_before = memo.map_or(0, MatchMemo::hits);
     let mut tm = StageTimer::new(opts.trace.as_ref(), "recombine", 0);
     let mut report = RecombineReport::default();
     // repeated triangles (zero-area pockets) go first: the checks below compare with the
@@ -274,20 +289,18 @@ pub fn recombine(
                 t.emit();
                 t
             });
+            let side = surface::MeshSide {
+                coords,
+                split_nodes,
+                priced,
+                n_global,
+            };
             // speed: the largest surfaces first (each surface's result does not depend on
             // the order; the results come back in surface order, and of several errors the
             // first surface's is returned)
             let results: Result<Vec<SurfaceResult>, RecombineError> =
                 crate::par::largest_first(work.iter().collect(), |w| w.topo.len(), |w| {
-                    match_surface(
-                        w,
-                        coords,
-                        split_nodes,
-                        priced,
-                        n_global,
-                        opts,
-                        tracker.as_ref(),
-                    )
+                    match_surface(w, &side, opts, tracker.as_ref(), memo)
                 })
                 .into_iter()
                 .collect();
@@ -336,6 +349,11 @@ pub fn recombine(
     if mapped > 0 {
         report.log.push(format!(
             "{mapped} periodic surface(s) got the image of their master's quads"
+        ));
+    }
+    if let Some(k) = memo.map(|m| m.hits() - hits_before).filter(|&k| k > 0) {
+        report.log.push(format!(
+            "{k} surface(s) matched as in an earlier recombination of the run (the same triangles, costs and options)"
         ));
     }
     mesh.invalidate_element_data();

@@ -10,6 +10,7 @@ use rayon::prelude::*;
 
 use super::surface_tags;
 use super::topology::{CurveInfo, SurfaceTopo};
+use super::memo::{self, MatchMemo};
 use super::{graph, post};
 use super::{RecombineError, RecombineOptions, SurfaceReport};
 use crate::mesh::{etype, Mesh, NodeTable};
@@ -149,17 +150,80 @@ pub(super) fn surface_work(
 /// below, the solver's arrays are small and the call would cost more than it frees.
 const RELEASE_BEFORE_SOLVE: usize = 100_000;
 
+/// What every surface's matching reads of the whole mesh.
+#[derive(Clone, Copy)]
+pub(super) struct MeshSide<'a> {
+    /// Node coordinates by global id.
+    pub coords: &'a [glam::DVec3],
+    /// The split nodes (parity and fallback splits), sorted global ids.
+    pub split_nodes: &'a [u32],
+    /// The priced-out quads as sorted global ids, sorted.
+    pub priced: &'a [[u32; 4]],
+    /// The number of global ids (a surface's new nodes are numbered from it).
+    pub n_global: u32,
+}
+
 /// Steps 4–7 for one surface.
 pub(super) fn match_surface(
     w: &SurfaceWork,
-    coords: &[glam::DVec3],
-    split_nodes: &[u32],
-    priced: &[[u32; 4]],
-    n_global: u32,
+    mesh: &MeshSide,
     opts: &RecombineOptions,
     tracker: Option<&Arc<Tracker>>,
+    memo: Option<&MatchMemo>,
 ) -> Result<SurfaceResult, RecombineError> {
+    let MeshSide {
+        coords,
+        split_nodes,
+        priced,
+        n_global,
+    } = *mesh;
     let t0 = Instant::now();
+    let n = w.topo.len();
+    // speed: a surface recombined before in the run, the same but for its global node ids,
+    // gets that matching's quads back (not with the certificate check or a trace, which
+    // want the graph and the solver)
+    let local = memo.filter(|_| !opts.verify && opts.trace.is_none()).map(|m| {
+        let l = memo::Local::new(w.tag, w.morton, &w.topo, coords, split_nodes, priced, opts);
+        (m, l)
+    });
+    if let Some((m, l)) = &local {
+        if let Some((faces, f)) = l.find(m, n_global) {
+            if let Some(t) = tracker {
+                t.graph_built(n);
+                t.matched(n as u64, true);
+            }
+            let t2 = Instant::now();
+            let strip_plans = if opts.two_row_strips {
+                super::strip::plans(&w.topo, &w.strips, coords, &faces, n_global)
+            } else {
+                Vec::new()
+            };
+            let report = SurfaceReport {
+                surface: w.tag,
+                triangles_in: n,
+                quads_out: faces.quads.len(),
+                quads_kept: w.quads_kept,
+                parity_splits: 0,
+                graph_edges: f.graph_edges,
+                extra_edges_added: f.extra_edges_added,
+                extra_edges_used: faces.extra_used,
+                edge_swaps: faces.swaps,
+                vertex_duplications: faces.duplications,
+                strips_remeshed: 0,
+                matching_cost: f.matching_cost,
+                pairs_priced_out: f.pairs_priced_out,
+                priced_out_used: f.priced_out_used,
+                time_graph: w.time + (t2 - t0),
+                time_matching: Duration::ZERO,
+                time_post: t2.elapsed(),
+            };
+            return Ok(SurfaceResult {
+                faces,
+                report,
+                strip_plans,
+            });
+        }
+    }
     let cross = opts.cross_field_weight.clamp(0.0, 5.0);
     let mut g = graph::build(
         &w.topo,
@@ -184,7 +248,6 @@ pub(super) fn match_surface(
         });
     }
     let t1 = Instant::now();
-    let n = w.topo.len();
     if n >= RELEASE_BEFORE_SOLVE {
         // memory: the graph's temporaries (normals, cross field, walls) are freed, maybe
         // on other threads' arenas; the solver allocates next
@@ -272,6 +335,17 @@ pub(super) fn match_surface(
         time_matching,
         time_post: t2.elapsed(),
     };
+    if let Some((m, l)) = &local {
+        let figures = memo::Figures {
+            graph_edges: report.graph_edges,
+            extra_edges_added: report.extra_edges_added,
+            matching_cost: report.matching_cost,
+            pairs_priced_out: report.pairs_priced_out,
+            priced_out_used: report.priced_out_used,
+        };
+        // a result naming a node neither the surface's nor new is not stored (none does)
+        let _ = l.store(m, &faces, n_global, figures);
+    }
     Ok(SurfaceResult {
         faces,
         report,
