@@ -3,9 +3,10 @@
 //! rounds, and most surfaces come back unchanged but for their global node ids, which the
 //! splits elsewhere shift).
 //!
-//! **What stays true:** a surface's graph, matching and quads ([`super::surface`] steps
-//! 4–7) read only its triangles (as global node ids, through their coordinates), its
-//! adjacency, which of its nodes are split nodes, the priced-out quads among its nodes and
+//! **What stays true:** a surface's graph, matching, quads and strip plans
+//! ([`super::surface`] steps 4–7, [`super::strip::plans`]) read only its triangles (as
+//! global node ids, through their coordinates), its adjacency (its regions and strips come
+//! from it), which of its nodes are split nodes, the priced-out quads among its nodes and
 //! the options below; none of them orders anything by a global node id. So two surfaces
 //! equal in those, read in local ids (each node numbered by its first appearance in the
 //! triangle list), get the same quads in local ids, and a result stored for one is the
@@ -18,6 +19,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
 use super::post::{Faces, NewNode};
+use super::strip::StripPlan;
 use super::topology::SurfaceTopo;
 use super::RecombineOptions;
 
@@ -40,7 +42,8 @@ impl MatchMemo {
     }
 }
 
-/// One surface's quads in local ids, and the report figures the matching gave.
+/// One surface's quads and strip plans in local ids, and the report figures the matching
+/// gave.
 struct Stored {
     quads: Vec<[u32; 4]>,
     source: Vec<u32>,
@@ -48,6 +51,7 @@ struct Stored {
     extra_used: usize,
     swaps: usize,
     duplications: usize,
+    plans: Vec<StripPlan>,
     figures: Figures,
 }
 
@@ -132,9 +136,13 @@ impl Local {
         Local { key, global, local }
     }
 
-    /// The stored matching of this surface, if any, in global ids (`n_global`: the first
-    /// id of the surface's new nodes).
-    pub(super) fn find(&self, memo: &MatchMemo, n_global: u32) -> Option<(Faces, Figures)> {
+    /// The stored matching of this surface, if any, with its strip plans, in global ids
+    /// (`n_global`: the first id of the surface's new nodes).
+    pub(super) fn find(
+        &self,
+        memo: &MatchMemo,
+        n_global: u32,
+    ) -> Option<(Faces, Vec<StripPlan>, Figures)> {
         let stored = memo.stored.lock().ok()?;
         let s = stored.get(&self.key)?;
         let id = |v: u32| {
@@ -159,17 +167,23 @@ impl Local {
             swaps: s.swaps,
             duplications: s.duplications,
         };
+        let plans = s
+            .plans
+            .iter()
+            .map(|p| p.with_ids(|v| Some(id(v))))
+            .collect::<Option<Vec<_>>>()?;
         memo.hits.fetch_add(1, Ordering::Relaxed);
-        Some((faces, s.figures))
+        Some((faces, plans, s.figures))
     }
 
-    /// Stores `faces` (global ids, new nodes from `n_global`) and the report `figures` as
-    /// this surface's matching. `None` when a node id is neither the surface's nor new (the
+    /// Stores `faces` (global ids, new nodes from `n_global`), the strip `plans` made from
+    /// them and the report `figures` as this surface's matching. `None` when a node id is neither the surface's nor new (the
     /// result is then not stored).
     pub(super) fn store(
         &self,
         memo: &MatchMemo,
         faces: &Faces,
+        plans: &[StripPlan],
         n_global: u32,
         figures: Figures,
     ) -> Option<()> {
@@ -197,7 +211,12 @@ impl Local {
             .iter()
             .map(|n| Some((n.pos, n.near.iter().map(|&v| id(v)).collect::<Option<Vec<_>>>()?)))
             .collect::<Option<Vec<_>>>()?;
+        let plans = plans
+            .iter()
+            .map(|p| p.with_ids(id))
+            .collect::<Option<Vec<_>>>()?;
         let s = Stored {
+            plans,
             quads,
             source: faces.source.clone(),
             new_nodes,

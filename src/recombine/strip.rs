@@ -463,6 +463,44 @@ pub(crate) struct StripPlan {
     mids: Vec<(Vertex, DVec3, [u32; 2])>,
 }
 
+impl StripPlan {
+    /// The plan with every node id `v` in it (midline nodes aside) replaced by `f(v)`;
+    /// `None` when `f` gives none for one of them.
+    pub(super) fn with_ids(&self, f: impl Fn(u32) -> Option<u32>) -> Option<StripPlan> {
+        let node = |v: Vertex| -> Option<Vertex> {
+            if v >= MID {
+                Some(v)
+            } else {
+                f(u32::try_from(v).ok()?).map(Vertex::from)
+            }
+        };
+        let quads = self
+            .quads
+            .iter()
+            .map(|&(q, src)| {
+                let mut out = q;
+                for v in &mut out {
+                    *v = node(*v)?;
+                }
+                Some((out, src))
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let mids = self
+            .mids
+            .iter()
+            .map(|&(v, p, [a, b])| Some((v, p, [f(a)?, f(b)?])))
+            .collect::<Option<Vec<_>>>()?;
+        Some(StripPlan {
+            strip: self.strip,
+            worst_before: self.worst_before,
+            worst_after: self.worst_after,
+            extra_quads: self.extra_quads,
+            quads,
+            mids,
+        })
+    }
+}
+
 /// For each strip of `strips` (of the surface of `topo`) whose quads in `faces` (the
 /// matching's) have a worst η below [`REMESH_BELOW`], the plan of cells and midlines (see
 /// the module docs) with the best worst quad, when that is at least [`MIN_GAIN`] better

@@ -187,36 +187,13 @@ pub(super) fn match_surface(
         (m, l)
     });
     if let Some((m, l)) = &local {
-        if let Some((faces, f)) = l.find(m, n_global) {
+        if let Some((faces, strip_plans, f)) = l.find(m, n_global) {
             if let Some(t) = tracker {
                 t.graph_built(n);
                 t.matched(n as u64, true);
             }
-            let t2 = Instant::now();
-            let strip_plans = if opts.two_row_strips {
-                super::strip::plans(&w.topo, &w.strips, coords, &faces, n_global)
-            } else {
-                Vec::new()
-            };
-            let report = SurfaceReport {
-                surface: w.tag,
-                triangles_in: n,
-                quads_out: faces.quads.len(),
-                quads_kept: w.quads_kept,
-                parity_splits: 0,
-                graph_edges: f.graph_edges,
-                extra_edges_added: f.extra_edges_added,
-                extra_edges_used: faces.extra_used,
-                edge_swaps: faces.swaps,
-                vertex_duplications: faces.duplications,
-                strips_remeshed: 0,
-                matching_cost: f.matching_cost,
-                pairs_priced_out: f.pairs_priced_out,
-                priced_out_used: f.priced_out_used,
-                time_graph: w.time + (t2 - t0),
-                time_matching: Duration::ZERO,
-                time_post: t2.elapsed(),
-            };
+            let times = [w.time + t0.elapsed(), Duration::ZERO, Duration::ZERO];
+            let report = surface_report(w, &faces, f, times);
             return Ok(SurfaceResult {
                 faces,
                 report,
@@ -313,44 +290,55 @@ pub(super) fn match_surface(
         let before = sent.swap(n as u64, Ordering::Relaxed);
         t.matched((n as u64).saturating_sub(before), true);
     }
-    let report = SurfaceReport {
-        surface: w.tag,
-        triangles_in: n,
-        quads_out: faces.quads.len(),
-        quads_kept: w.quads_kept,
-        parity_splits: 0,
+    let figures = memo::Figures {
         graph_edges: g.real,
         extra_edges_added: edge_count - g.real,
-        extra_edges_used: faces.extra_used,
-        edge_swaps: faces.swaps,
-        vertex_duplications: faces.duplications,
-        strips_remeshed: 0,
         matching_cost: m.cost,
         pairs_priced_out: priced_edges.len(),
         priced_out_used: priced_edges
             .iter()
             .filter(|&&(t, u)| m.mate[t as usize] == u)
             .count(),
-        time_graph,
-        time_matching,
-        time_post: t2.elapsed(),
     };
+    let report = surface_report(w, &faces, figures, [time_graph, time_matching, t2.elapsed()]);
     if let Some((m, l)) = &local {
-        let figures = memo::Figures {
-            graph_edges: report.graph_edges,
-            extra_edges_added: report.extra_edges_added,
-            matching_cost: report.matching_cost,
-            pairs_priced_out: report.pairs_priced_out,
-            priced_out_used: report.priced_out_used,
-        };
         // a result naming a node neither the surface's nor new is not stored (none does)
-        let _ = l.store(m, &faces, n_global, figures);
+        let _ = l.store(m, &faces, &strip_plans, n_global, figures);
     }
     Ok(SurfaceResult {
         faces,
         report,
         strip_plans,
     })
+}
+
+/// The report of surface `w` recombined into `faces`, with its graph's and matching's
+/// `figures` and the times of its graph, matching and quads.
+fn surface_report(
+    w: &SurfaceWork,
+    faces: &post::Faces,
+    figures: memo::Figures,
+    [time_graph, time_matching, time_post]: [Duration; 3],
+) -> SurfaceReport {
+    SurfaceReport {
+        surface: w.tag,
+        triangles_in: w.topo.len(),
+        quads_out: faces.quads.len(),
+        quads_kept: w.quads_kept,
+        parity_splits: 0,
+        graph_edges: figures.graph_edges,
+        extra_edges_added: figures.extra_edges_added,
+        extra_edges_used: faces.extra_used,
+        edge_swaps: faces.swaps,
+        vertex_duplications: faces.duplications,
+        strips_remeshed: 0,
+        matching_cost: figures.matching_cost,
+        pairs_priced_out: figures.pairs_priced_out,
+        priced_out_used: figures.priced_out_used,
+        time_graph,
+        time_matching,
+        time_post,
+    }
 }
 
 /// Gives every real graph edge of `g` whose quad (the union of its two triangles, as
