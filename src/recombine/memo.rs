@@ -10,8 +10,10 @@
 //! the options below; none of them orders anything by a global node id. So two surfaces
 //! equal in those, read in local ids (each node numbered by its first appearance in the
 //! triangle list), get the same quads in local ids, and a result stored for one is the
-//! other's, its ids mapped back. The key is a 128-bit hash of all of it (two independent
-//! SipHash states); nothing else is compared.
+//! other's, its ids mapped back. The key is a 128-bit hash of all of it (two SipHash states
+//! salted apart); nothing else is compared. A collision would hand a surface quads of
+//! another's shape, which the invariants checked after every recombination (conformity,
+//! boundaries, areas) refuse.
 
 use std::collections::HashMap;
 use std::hash::{Hash, Hasher};
