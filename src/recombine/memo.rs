@@ -103,23 +103,28 @@ impl Local {
             opts.two_row_strips.hash(s);
             opts.split_matching.hash(s);
         });
+        // speed: each part hashed as one slice of integers (one write of its bytes)
+        let mut ids: Vec<u32> = Vec::with_capacity(3 * topo.tris.len());
         for t in &topo.tris {
-            let ids = t.map(|v| {
+            ids.extend(t.map(|v| {
                 *local.entry(v).or_insert_with(|| {
                     global.push(v);
                     global.len() as u32 - 1
                 })
-            });
-            add(&|s| ids.hash(s));
+            }));
         }
+        add(&|s| ids.hash(s));
+        drop(ids);
+        let mut bits: Vec<u64> = Vec::with_capacity(3 * global.len());
+        let mut split: Vec<u8> = Vec::with_capacity(global.len());
         for &v in &global {
-            let c = coords[v as usize].to_array().map(f64::to_bits);
-            let split = split_nodes.binary_search(&v).is_ok();
-            add(&|s| {
-                c.hash(s);
-                split.hash(s);
-            });
+            bits.extend(coords[v as usize].to_array().map(f64::to_bits));
+            split.push(u8::from(split_nodes.binary_search(&v).is_ok()));
         }
+        add(&|s| {
+            bits.hash(s);
+            split.hash(s);
+        });
         // the priced-out quads all of whose nodes are the surface's, in local ids
         let mut mine: Vec<[u32; 4]> = priced
             .iter()
