@@ -312,8 +312,7 @@ fn one_round<'a>(
                 times.recombine += t.elapsed();
             }
             // speed: the matchings of the run's earlier recombinations (none are kept from
-            // the first, which most runs end with: the keys cost about 2 % of a run on one
-            // large surface)
+            // the first: most runs need no other, and its keys would be work for nothing)
             let memo = (cache.recombinations > 0).then_some(&cache.matchings);
             cache.recombinations += 1;
             recombine_once(
