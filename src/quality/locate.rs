@@ -162,8 +162,7 @@ impl TriSurface {
                 // speed: a triangle whose bounding box is farther than the best point so far
                 // cannot be nearer (a margin above rounding keeps ties computed)
                 if let Some((bd, _)) = best {
-                    let lo = corners[0].min(corners[1]).min(corners[2]);
-                    let hi = corners[0].max(corners[1]).max(corners[2]);
+                    let (lo, hi) = corner_box(corners);
                     let gap = (lo - p).max(p - hi).max(DVec3::ZERO);
                     if gap.length_squared() > bd * (1.0 + 1e-9) {
                         return;
@@ -430,9 +429,11 @@ impl Grid {
 }
 
 fn tri_box(points: &[DVec3], t: &[u32; 3]) -> (DVec3, DVec3) {
-    let a = points[t[0] as usize];
-    let b = points[t[1] as usize];
-    let c = points[t[2] as usize];
+    corner_box(t.map(|v| points[v as usize]))
+}
+
+/// The bounding box (lowest, highest corner) of a triangle's corners.
+fn corner_box([a, b, c]: [DVec3; 3]) -> (DVec3, DVec3) {
     (a.min(b).min(c), a.max(b).max(c))
 }
 

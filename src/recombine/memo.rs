@@ -20,7 +20,7 @@ use std::hash::{Hash, Hasher};
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::sync::Mutex;
 
-use super::post::{Faces, NewNode};
+use super::post::Faces;
 use super::strip::StripPlan;
 use super::topology::SurfaceTopo;
 use super::RecombineOptions;
@@ -47,12 +47,7 @@ impl MatchMemo {
 /// One surface's quads and strip plans in local ids, and the report figures the matching
 /// gave.
 struct Stored {
-    quads: Vec<[u32; 4]>,
-    source: Vec<u32>,
-    new_nodes: Vec<(glam::DVec3, Vec<u32>)>,
-    extra_used: usize,
-    swaps: usize,
-    duplications: usize,
+    faces: Faces,
     plans: Vec<StripPlan>,
     figures: Figures,
 }
@@ -159,21 +154,7 @@ impl Local {
                 self.global[v as usize]
             }
         };
-        let faces = Faces {
-            quads: s.quads.iter().map(|q| q.map(id)).collect(),
-            source: s.source.clone(),
-            new_nodes: s
-                .new_nodes
-                .iter()
-                .map(|(pos, near)| NewNode {
-                    pos: *pos,
-                    near: near.iter().map(|&v| id(v)).collect(),
-                })
-                .collect(),
-            extra_used: s.extra_used,
-            swaps: s.swaps,
-            duplications: s.duplications,
-        };
+        let faces = s.faces.with_ids(|v| Some(id(v)))?;
         let plans = s
             .plans
             .iter()
@@ -202,34 +183,14 @@ impl Local {
                 self.local.get(&v).copied()
             }
         };
-        let quads = faces
-            .quads
-            .iter()
-            .map(|q| {
-                let mut l = [0u32; 4];
-                for (x, &v) in l.iter_mut().zip(q) {
-                    *x = id(v)?;
-                }
-                Some(l)
-            })
-            .collect::<Option<Vec<_>>>()?;
-        let new_nodes = faces
-            .new_nodes
-            .iter()
-            .map(|n| Some((n.pos, n.near.iter().map(|&v| id(v)).collect::<Option<Vec<_>>>()?)))
-            .collect::<Option<Vec<_>>>()?;
+        let faces = faces.with_ids(id)?;
         let plans = plans
             .iter()
             .map(|p| p.with_ids(id))
             .collect::<Option<Vec<_>>>()?;
         let s = Stored {
+            faces,
             plans,
-            quads,
-            source: faces.source.clone(),
-            new_nodes,
-            extra_used: faces.extra_used,
-            swaps: faces.swaps,
-            duplications: faces.duplications,
             figures,
         };
         memo.stored.lock().ok()?.insert(self.key, s);

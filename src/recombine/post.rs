@@ -36,6 +36,42 @@ pub(crate) struct Faces {
     pub duplications: usize,
 }
 
+impl Faces {
+    /// These quads with every node id `v` in them (quad corners and new nodes' neighbours)
+    /// replaced by `f(v)`; `None` when `f` gives none for one of them.
+    pub(super) fn with_ids(&self, f: impl Fn(u32) -> Option<u32>) -> Option<Faces> {
+        let quads = self
+            .quads
+            .iter()
+            .map(|q| {
+                let mut out = *q;
+                for v in &mut out {
+                    *v = f(*v)?;
+                }
+                Some(out)
+            })
+            .collect::<Option<Vec<_>>>()?;
+        let new_nodes = self
+            .new_nodes
+            .iter()
+            .map(|n| {
+                Some(NewNode {
+                    pos: n.pos,
+                    near: n.near.iter().map(|&v| f(v)).collect::<Option<Vec<_>>>()?,
+                })
+            })
+            .collect::<Option<Vec<_>>>()?;
+        Some(Faces {
+            quads,
+            source: self.source.clone(),
+            new_nodes,
+            extra_used: self.extra_used,
+            swaps: self.swaps,
+            duplications: self.duplications,
+        })
+    }
+}
+
 /// Merges two oriented polygons sharing an edge run in opposite directions. `None` when they
 /// share no such edge.
 pub(super) fn merge<T: Copy + PartialEq>(a: &[T], b: &[T]) -> Option<Vec<T>> {
