@@ -78,6 +78,8 @@ internal! {
 }
 
 mod keysort;
+#[cfg(test)]
+mod layers;
 mod memory;
 mod par;
 mod progress;
