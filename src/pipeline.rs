@@ -121,7 +121,7 @@ use reporter::Reporter;
 use rounds::*;
 
 use fallback::{
-    count_rule_limit, fallback_triangles, low_quad_segments, low_quads, pairs_of, quads_per_triangle, raisable,
+    corner_bounds, count_rule_limit, fallback_triangles, low_quad_segments, low_quads, pairs_of, quads_per_triangle, raisable,
     surface_elements, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
     LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE, RAISE_MIN,
 };
@@ -368,6 +368,8 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
                     .warnings
                     .extend(coarse_surfaces(base, &checks.validity, &end.chosen));
             }
+            let poor = poor_quads(base, opts, mesh, &report);
+            report.warnings.extend(poor);
             Ok(report)
         }
         Err(e) => {
@@ -414,6 +416,74 @@ fn coarse_surfaces(
             Some(Warning::CoarseSurface { surface, node })
         })
         .collect()
+}
+
+/// The quads of `mesh` (the job's result, `report` its report) under η [`ETA_FLOOR`] on
+/// surfaces without a [`Warning::CoarseSurface`] where the input's corners allow better
+/// (below the surface's corner bound, [`corner_bounds`], by more than [`RAISE_MIN`]; an
+/// estimate on a curved surface): one warning naming them. None without optimization (the
+/// matching's quads as they are) or with quads listed as invalid.
+fn poor_quads(input: &Mesh, opts: &Options, mesh: &Mesh, report: &Report) -> Option<Warning> {
+    if !opts.optimize || !report.invalid.is_empty() {
+        return None;
+    }
+    let skip = unmeasured_surfaces(input, opts);
+    // speed: a one-round result whose every measured surface was optimized in it and
+    // ended at η ETA_FLOOR or more has no such quad (the optimizer's own figures)
+    let surfaces = report.optimize.as_ref().map_or(&[][..], |o| &o.surfaces[..]);
+    let optimized: HashSet<i32> = surfaces.iter().map(|s| s.surface).collect();
+    let all_optimized = mesh
+        .sorted_surfaces(|b| b.element_type == etype::QUAD4 && !b.is_empty())
+        .iter()
+        .all(|s| optimized.contains(s) || skip.binary_search(s).is_ok());
+    let low_after = surfaces.iter().any(|s| s.after.eta_worst < ETA_FLOOR);
+    if report.rounds <= 1 && all_optimized && !low_after {
+        return None;
+    }
+    let (low, _) = low_quads(mesh, &skip);
+    if low.is_empty() {
+        return None;
+    }
+    let coarse: Vec<i32> = report
+        .warnings
+        .iter()
+        .filter_map(|w| match w {
+            Warning::CoarseSurface { surface, .. } => Some(*surface),
+            _ => None,
+        })
+        .collect();
+    // refinement moves the new curve nodes off the walls' lines: no bound then
+    let bounds: std::collections::HashMap<i32, f64> = match opts.refine {
+        0 => corner_bounds(input)
+            .into_iter()
+            .map(|c| (c.surface, c.bound))
+            .collect(),
+        _ => Default::default(),
+    };
+    let coords = TagCoords::new(mesh);
+    let etas: Vec<(i32, f64)> = low
+        .iter()
+        .filter(|(s, _)| !coarse.contains(s))
+        .filter_map(|(s, q)| {
+            let p: Vec<glam::DVec3> = q
+                .iter()
+                .map(|&t| coords.get(t).map(glam::DVec3::from_array))
+                .collect::<Option<_>>()?;
+            Some((*s, crate::quality::eta(&[p[0], p[1], p[2], p[3]])))
+        })
+        .filter(|(s, eta)| raisable(*eta, bounds.get(s).copied().unwrap_or(1.0)))
+        .collect();
+    if etas.is_empty() {
+        return None;
+    }
+    let mut surfaces: Vec<i32> = etas.iter().map(|e| e.0).collect();
+    surfaces.sort_unstable();
+    surfaces.dedup();
+    Some(Warning::PoorQuads {
+        count: etas.len(),
+        surfaces,
+        eta_w: etas.iter().map(|e| e.1).fold(f64::INFINITY, f64::min),
+    })
 }
 
 /// One job's rounds from `start`; a job that split boundary segments under fans and still

@@ -6,7 +6,7 @@
 use serde::ser::SerializeStruct;
 
 /// Something the main job did that the caller may not expect (see [`crate::Report`]).
-#[derive(Debug, Clone, PartialEq, Eq)]
+#[derive(Debug, Clone, PartialEq)]
 #[non_exhaustive]
 pub enum Warning {
     /// Triangles that repeat another triangle's nodes (zero-area pockets) were dropped
@@ -37,6 +37,20 @@ pub enum Warning {
         /// A node the surface wraps round, of a split triangle.
         node: u64,
     },
+    /// Quads with η (eq. 3) under 0.2 left where the input's corners allow better (the
+    /// smallest angle the surface's triangles make at a boundary node is above the quad's
+    /// η times 90°): no try of the run raised them without going above about one quad per
+    /// two triangles, as where the input's triangles pair only into such quads (a narrow
+    /// face one triangle wide whose ends force every pair to straddle two cells). Not
+    /// given for the surfaces of a [`Warning::CoarseSurface`].
+    PoorQuads {
+        /// How many quads under η 0.2.
+        count: usize,
+        /// Their surfaces' tags, increasing.
+        surfaces: Vec<i32>,
+        /// The worst of them.
+        eta_w: f64,
+    },
     /// Second-order elements written although their Jacobian is not positive everywhere
     /// (only when invalid elements are allowed).
     InvalidSecondOrder {
@@ -56,6 +70,7 @@ impl Warning {
             Warning::Renumbering { .. } => "renumbering",
             Warning::InvalidQuads { .. } => "invalid_quads",
             Warning::CoarseSurface { .. } => "coarse_surface",
+            Warning::PoorQuads { .. } => "poor_quads",
             Warning::InvalidSecondOrder { .. } => "invalid_second_order",
         }
     }
@@ -82,6 +97,18 @@ impl std::fmt::Display for Warning {
                 f,
                 "surface {surface} is meshed coarser than its curvature: at input node {node} one of its triangles turns 90 degrees or more from the mean of those around the node, so no pair of triangles there makes a valid quad, and its triangles there were split into three quads each (a finer mesh there, e.g. with Mesh.MeshSizeFromCurvature, gives fewer and better quads)"
             ),
+            Warning::PoorQuads {
+                count,
+                surfaces,
+                eta_w,
+            } => {
+                let list: Vec<String> = surfaces.iter().map(i32::to_string).collect();
+                write!(
+                    f,
+                    "{count} quad(s) with eta under 0.2 (worst {eta_w:.3}) on surface(s) {}, though the input's corners there allow better: the input's triangles there pair into no better quads at about one quad per two triangles (a finer or more regular mesh there, e.g. more nodes across a narrow face, gives better quads)",
+                    list.join(", ")
+                )
+            }
             Warning::InvalidSecondOrder { count, list } => write!(
                 f,
                 "writing {count} second-order element(s) whose Jacobian is not positive everywhere: {list}"
@@ -134,6 +161,19 @@ mod tests {
         let text = c.to_string();
         assert!(
             text.starts_with("surface 4 is meshed coarser than its curvature: at input node 17"),
+            "{text}"
+        );
+        assert!(!text.contains("--"), "{text}");
+        let p = Warning::PoorQuads {
+            count: 3,
+            surfaces: vec![2, 5],
+            eta_w: 0.0514,
+        };
+        assert_eq!(p.kind(), "poor_quads");
+        assert!(!p.is_invalid_written());
+        let text = p.to_string();
+        assert!(
+            text.starts_with("3 quad(s) with eta under 0.2 (worst 0.051) on surface(s) 2, 5, "),
             "{text}"
         );
         assert!(!text.contains("--"), "{text}");

@@ -382,6 +382,26 @@ pub(super) const RAISE_MIN: f64 = 1e-3;
 /// θ / 90° (eq. 3). Curved surfaces, which can fold the angle, and surfaces with quads or
 /// other faces in the input are left out.
 pub(super) fn wall_corner_bound(input: &Mesh) -> f64 {
+    corner_bounds(input)
+        .into_iter()
+        .filter(|c| c.planar)
+        .fold(1.0, |b, c| b.min(c.bound))
+}
+
+/// One surface's corner bound ([`corner_bounds`]).
+pub(super) struct CornerBound {
+    pub(super) surface: i32,
+    /// The smallest angle its triangles make at a boundary node, / 90°, capped at 1.
+    pub(super) bound: f64,
+    /// Its nodes lie on one plane (where the bound holds for every valid result, see
+    /// [`wall_corner_bound`]; on a curved surface it is an estimate).
+    pub(super) planar: bool,
+}
+
+/// For each surface of `input` with triangles alone (no quad or other face): the
+/// smallest sum of its triangles' angles at one of its boundary nodes (ends of the edges
+/// that one of its triangles alone has), / 90°, capped at 1, by increasing tag.
+pub(super) fn corner_bounds(input: &Mesh) -> Vec<CornerBound> {
     use glam::DVec3;
     let coords = TagCoords::new(input);
     let at = |t: u64| coords.get(t).map(DVec3::from_array);
@@ -391,7 +411,7 @@ pub(super) fn wall_corner_bound(input: &Mesh) -> f64 {
         .filter(|b| b.entity_dim == 2 && b.element_type != etype::TRI3 && !b.is_empty())
         .map(|b| b.entity_tag)
         .collect();
-    let mut bound = 1.0_f64;
+    let mut out = Vec::new();
     for s in input.sorted_surfaces(|b| b.element_type == etype::TRI3 && !b.is_empty()) {
         if other_faces.contains(&s) {
             continue;
@@ -408,7 +428,7 @@ pub(super) fn wall_corner_bound(input: &Mesh) -> f64 {
                 }
             }
         }
-        if tris.is_empty() || !planar(&tris) {
+        if tris.is_empty() {
             continue;
         }
         // boundary nodes: ends of the edges that one triangle alone has
@@ -432,11 +452,16 @@ pub(super) fn wall_corner_bound(input: &Mesh) -> f64 {
                 }
             }
         }
-        for a in angle.into_values() {
-            bound = bound.min(a / std::f64::consts::FRAC_PI_2);
-        }
+        let bound = angle
+            .into_values()
+            .fold(1.0_f64, |b, a| b.min(a / std::f64::consts::FRAC_PI_2));
+        out.push(CornerBound {
+            surface: s,
+            bound,
+            planar: planar(&tris),
+        });
     }
-    bound
+    out
 }
 
 /// True when every node of `tris` lies on one plane ([`crate::optimize::on_one_plane`],

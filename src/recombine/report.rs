@@ -56,7 +56,7 @@ pub struct SurfaceReport {
 }
 
 /// What the recombination did.
-#[derive(Debug, Clone, Default, PartialEq, Eq, serde::Serialize)]
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize)]
 pub struct RecombineReport {
     /// One entry per surface that had triangles, by surface tag.
     pub surfaces: Vec<SurfaceReport>,

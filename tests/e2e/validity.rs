@@ -488,6 +488,54 @@ fn a_thin_cylinder_folded_by_gmsh_is_refused_naming_its_non_manifold_edge() {
     assert!(!output.exists(), "nothing written");
 }
 
+/// A quarter of a thin cylinder as one face, one triangle wide, with three triangles at
+/// each end (`tests/data/cad/narrow_face.py`): every perfect matching pairs triangles
+/// across two cells of the strip, and the tries that could raise its worst quad split far
+/// more triangles than they pair. The quads are written valid, with a warning naming the
+/// surface and the worst η; the shipped rectangle, whose worst quad is above η 0.2, gets
+/// none.
+#[test]
+fn quads_under_eta_0_2_that_the_input_allows_better_are_named_in_a_warning() {
+    let run = |input: &Path| {
+        let dir = tempfile::tempdir().expect("temp dir");
+        let output = dir.path().join("out.msh");
+        let (code, _, stderr) = blossomquad_run(vec![
+            input.as_os_str().to_owned(),
+            "-o".into(),
+            output.clone().into_os_string(),
+            "--keep-tags".into(),
+        ]);
+        assert_eq!(code, Some(0), "{stderr}");
+        let report = check_mesh(input, &output, &[]);
+        assert!(report.ok, "{}", report.report);
+        stderr
+    };
+    let input = common::repo_dir().join("tests/data/cad/v41_narrow_face.msh");
+    let stderr = run(&input);
+    let line = stderr
+        .lines()
+        .find(|l| l.contains("quad(s) with eta under 0.2"))
+        .unwrap_or_else(|| panic!("no warning of quads under eta 0.2 in {stderr}"));
+    assert!(line.starts_with("warning: "), "{line}");
+    assert!(line.contains("on surface(s) 5, "), "{line}");
+    assert!(line.contains("more nodes across a narrow face"), "{line}");
+    assert!(!line.contains("--"), "{line}");
+    // the worst η the warning gives is the output's
+    let worst: f64 = line
+        .split("(worst ")
+        .nth(1)
+        .and_then(|r| r.split(')').next())
+        .and_then(|x| x.parse().ok())
+        .unwrap_or_else(|| panic!("no worst eta in {line}"));
+    assert!(worst > 0.0 && worst < 0.2, "{line}");
+    assert!(
+        stderr.contains(&format!("worst {worst:.3}, mean")),
+        "{stderr}"
+    );
+    let stderr = run(&common::repo_dir().join("geo/rectangle.msh"));
+    assert!(!stderr.contains("warning"), "{stderr}");
+}
+
 /// Gmsh's mesh of a thin torus fused with a cone, meshed coarser than the torus tube's
 /// curvature (`tests/data/cad/coarse_torus.py`): at some nodes of the tube a triangle turns
 /// 90 degrees or more from the others, and no pair of triangles there makes a valid quad.
