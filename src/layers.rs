@@ -118,9 +118,7 @@ fn code_only(src: &str) -> String {
                 blank(&mut out, i, end);
                 i = end;
             }
-            b'r' if matches!(b.get(i + 1), Some(b'"') | Some(b'#'))
-                && (i == 0 || !(b[i - 1].is_ascii_alphanumeric() || b[i - 1] == b'_')) =>
-            {
+            b'r' if matches!(b.get(i + 1), Some(b'"') | Some(b'#')) && raw_start(b, i) => {
                 let hashes = b[i + 1..].iter().take_while(|&&c| c == b'#').count();
                 if b.get(i + 1 + hashes) != Some(&b'"') {
                     i += 1;
@@ -163,6 +161,17 @@ fn code_only(src: &str) -> String {
         }
     }
     String::from_utf8(out).unwrap_or_default()
+}
+
+/// True when the `r` at `i` starts a raw string (`r"`, `r#"`, `br"`): no identifier
+/// character before it but a `b` that starts one itself.
+fn raw_start(b: &[u8], i: usize) -> bool {
+    let ident = |c: u8| c.is_ascii_alphanumeric() || c == b'_';
+    match i {
+        0 => true,
+        1 => !ident(b[0]) || b[0] == b'b',
+        _ => !ident(b[i - 1]) || (b[i - 1] == b'b' && !ident(b[i - 2])),
+    }
 }
 
 /// True for an attribute that makes an item test code.
@@ -450,7 +459,8 @@ fn the_checker_sees_paths_outside_test_items_only() {
                fn f() { let s = \"crate::cli\"; let c = '{'; crate::quality::eta(); }\n\
                #[cfg(test)]\nmod tests { use crate::pipeline; fn g() { if true { } } }\n\
                #[cfg(any(test, feature = \"testing\"))]\nmod oracle;\n\
-               use crate::{msh::read, par};\n";
+               use crate::{msh::read, par};\n\
+               const R: &[u8] = br\"crate::cli \\\"; use crate::keysort;\n";
     let code = code_only(src);
     let (ranges, declared) = test_items(src, &code);
     assert_eq!(declared, vec!["oracle".to_string()]);
@@ -458,7 +468,7 @@ fn the_checker_sees_paths_outside_test_items_only() {
         .into_iter()
         .map(|p| p.0)
         .collect();
-    assert_eq!(names, ["mesh", "quality", "msh", "par"]);
+    assert_eq!(names, ["mesh", "quality", "msh", "par", "keysort"]);
     let table = read_table(
         "## Layers\n\n| layer | modules | may use |\n|---|---|---|\n\
          | 2 top | `a` | everything below |\n| 1 mid | `b`, `c` | layers 0-0 and `d` |\n\
