@@ -28,11 +28,19 @@
 //!   coordinates averaged from the parent nodes in the same block. The first child of an
 //!   element keeps the element's tag, the others get fresh tags above the maximum; a
 //!   triangle block becomes a quad block. Children are oriented like their parent.
-//! - **Periodic curves.** A `$Periodic` link between curves gets a pair for each new node
-//!   whose segment's two nodes are both paired.
+//! - **Periodic curves and surfaces.** A `$Periodic` link between curves or surfaces gets
+//!   a pair for each new node whose segment's two nodes are both paired (with the image
+//!   segment's new node); a surface link also pairs each element's centre with the centre
+//!   of the master element on the images of its corners. Every new node of a periodic
+//!   slave surface gets its pair, or the mesh is refused (its elements are not images of
+//!   the master's). The new nodes are placed by the same affine rules on both sides
+//!   (chord midpoints, centres; curve nodes by the curve rules, periodic curves being
+//!   images of each other), so each pair keeps the link's transform; the optimizer leaves
+//!   periodic surfaces as they are, so on a curved periodic surface the new nodes stay
+//!   where refinement puts them.
 //! - Refused, with nothing changed: volume elements, elements other than points, 2-node
-//!   lines, 3-node triangles and 4-node quads (high order), and periodic links between
-//!   surfaces that hold elements.
+//!   lines, 3-node triangles and 4-node quads (high order), and periodic surfaces whose
+//!   elements are not images of their masters'.
 //!
 //! **Invariant:** existing node tags, coordinates and classifications are kept; every
 //! element's first child keeps its tag; entities and physical groups are untouched; the
@@ -60,7 +68,8 @@ pub enum RefineError {
         /// Gmsh element type code.
         element_type: u32,
     },
-    /// A `$Periodic` link between surfaces that hold elements.
+    /// A periodic surface whose refined nodes have no images on its master (its elements
+    /// are not the images of the master's).
     PeriodicSurface {
         /// Slave surface tag.
         tag: i32,
@@ -86,8 +95,8 @@ impl std::fmt::Display for RefineError {
             ),
             RefineError::PeriodicSurface { tag } => write!(
                 f,
-                "cannot refine: surface {tag} is periodic (its $Periodic node pairs would need \
-                 the new face nodes matched)"
+                "cannot refine: surface {tag} is periodic, but its elements are not the \
+                 images of its master's, so its new nodes would have no periodic counterparts"
             ),
             RefineError::MissingNode { node } => {
                 write!(
@@ -178,6 +187,14 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
     }
     let first_tag = mesh.max_node_tag() + 1;
     let mut slot = 0usize;
+    // the face centres of the elements of periodic surfaces, by surface and sorted corners
+    let periodic_surfaces: std::collections::HashSet<i32> = mesh
+        .periodic
+        .iter()
+        .filter(|l| l.dim == 2)
+        .flat_map(|l| [l.tag, l.master_tag])
+        .collect();
+    let mut centres: HashMap<(i32, [u64; 4]), u64> = HashMap::new();
 
     // elements
     let mut next_elem = mesh.max_element_tag() + 1;
@@ -222,6 +239,13 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
                 pieces[1][..2].copy_from_slice(&[m[0], el[1]]);
             } else {
                 let c = first_tag + new_pos.len() as u64;
+                if blk.entity_dim == 2 && periodic_surfaces.contains(&blk.entity_tag) {
+                    // a triangle's corners padded with 0 (no node has tag 0)
+                    let mut corners = [0u64; 4];
+                    corners[..k].copy_from_slice(el);
+                    corners.sort_unstable();
+                    centres.insert((blk.entity_tag, corners), c);
+                }
                 let mut sum = DVec3::ZERO;
                 for &t in el {
                     sum += coord(t)?;
@@ -275,6 +299,48 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
                 added.push((first_tag + i as u64, first_tag + j as u64));
             }
         }
+        link.node_pairs.extend(added);
+    }
+    // periodic surface links: pair the new node of each edge whose two nodes are paired,
+    // and the centre of each element whose corners are those of a master element; every
+    // new node of the slave surface must get its image
+    for link in periodic.iter_mut().filter(|l| l.dim == 2) {
+        let pair: HashMap<u64, u64> = link.node_pairs.iter().copied().collect();
+        let mut added = Vec::new();
+        for (i, e) in edges.iter().enumerate() {
+            let (Some(&ma), Some(&mb)) = (pair.get(&e.edge.0), pair.get(&e.edge.1)) else {
+                continue;
+            };
+            if let Ok(j) = edges.binary_search_by_key(&key(ma, mb), |x| x.edge) {
+                added.push((first_tag + i as u64, first_tag + j as u64));
+            }
+        }
+        for (&(surface, corners), &c) in &centres {
+            if surface != link.tag {
+                continue;
+            }
+            let image = corners.map(|v| match v {
+                0 => Some(0),
+                v => pair.get(&v).copied(),
+            });
+            let Some(mut image) = image.into_iter().collect::<Option<Vec<u64>>>() else {
+                continue;
+            };
+            image.sort_unstable();
+            let image = [image[0], image[1], image[2], image[3]];
+            if let Some(&m) = centres.get(&(link.master_tag, image)) {
+                added.push((c, m));
+            }
+        }
+        let paired: std::collections::HashSet<u64> = added.iter().map(|p| p.0).collect();
+        let unpaired = new_owner
+            .iter()
+            .enumerate()
+            .any(|(i, o)| *o == (2, link.tag) && !paired.contains(&(first_tag + i as u64)));
+        if unpaired {
+            return Err(RefineError::PeriodicSurface { tag: link.tag });
+        }
+        added.sort_unstable();
         link.node_pairs.extend(added);
     }
 
@@ -336,16 +402,6 @@ fn check_supported(mesh: &Mesh) -> Result<(), RefineError> {
                 tag: b.entity_tag,
                 element_type: b.element_type,
             });
-        }
-    }
-    for l in mesh.periodic.iter().filter(|l| l.dim == 2) {
-        let has = |t: i32| {
-            mesh.element_blocks
-                .iter()
-                .any(|b| b.entity_dim == 2 && (b.entity_tag == t) && !b.is_empty())
-        };
-        if has(l.tag) || has(l.master_tag) {
-            return Err(RefineError::PeriodicSurface { tag: l.tag });
         }
     }
     Ok(())
@@ -864,5 +920,96 @@ mod tests {
         let mut new_u = u[3..].to_vec();
         new_u.sort_by(|a, b| a.partial_cmp(b).unwrap_or(std::cmp::Ordering::Equal));
         assert_eq!(new_u, vec![0.5, 1.5]);
+    }
+
+    /// Two unit squares of two quads each, the second 1 above the first; surface 2 is the
+    /// slave of surface 1, its nodes paired with those below; `crossed`: surface 2's quads
+    /// split the square the other way (not images of surface 1's).
+    fn periodic_squares(crossed: bool) -> Mesh {
+        let grid = |z: f64, first: u64| -> Vec<(u64, [f64; 3])> {
+            let mut v = Vec::new();
+            for (j, y) in [0.0, 0.5, 1.0].into_iter().enumerate() {
+                for (i, x) in [0.0, 0.5, 1.0].into_iter().enumerate() {
+                    v.push((first + (3 * j + i) as u64, [x, y, z]));
+                }
+            }
+            v
+        };
+        // a 3 x 3 grid of nodes n(i, j) = first + 3 j + i
+        let (low, high) = (grid(0.0, 1), grid(1.0, 11));
+        // two quads of the grid from node `first`, side by side (`vertical` cut) or one
+        // above the other, as (element tag, nodes)
+        let split = |first: u64, vertical: bool| -> Vec<(u64, Vec<u64>)> {
+            let n = |i: u64, j: u64| first + 3 * j + i;
+            if vertical {
+                vec![
+                    (first, vec![n(0, 0), n(1, 0), n(1, 2), n(0, 2)]),
+                    (first + 1, vec![n(1, 0), n(2, 0), n(2, 2), n(1, 2)]),
+                ]
+            } else {
+                vec![
+                    (first, vec![n(0, 0), n(2, 0), n(2, 1), n(0, 1)]),
+                    (first + 1, vec![n(0, 1), n(2, 1), n(2, 2), n(0, 2)]),
+                ]
+            }
+        };
+        let mut m = Mesh::default();
+        for (tag, nodes, quads) in [(1, &low, split(1, true)), (2, &high, split(11, !crossed))] {
+            m.node_blocks.push(NodeBlock {
+                entity_dim: 2,
+                entity_tag: tag,
+                tags: nodes.iter().map(|n| n.0).collect(),
+                coords: nodes.iter().map(|n| n.1).collect(),
+                params: None,
+            });
+            m.element_blocks.push(ElementBlock {
+                entity_dim: 2,
+                entity_tag: tag,
+                element_type: etype::QUAD4,
+                tags: quads.iter().map(|q| q.0).collect(),
+                nodes: quads.iter().flat_map(|q| q.1.iter().copied()).collect(),
+                partitions: None,
+            });
+        }
+        m.periodic.push(PeriodicLink {
+            dim: 2,
+            tag: 2,
+            master_tag: 1,
+            affine: None,
+            node_pairs: (1..=9).map(|k| (10 + k, k)).collect(),
+        });
+        m
+    }
+
+    #[test]
+    fn a_periodic_surface_refined_pairs_every_new_node_with_its_image() {
+        let mut m = periodic_squares(false);
+        refine(&mut m).expect("refine");
+        let c = coords(&m);
+        let pairs: HashMap<u64, u64> = m.periodic[0].node_pairs.iter().copied().collect();
+        let slave: Vec<u64> = m
+            .node_blocks
+            .iter()
+            .filter(|b| b.entity_tag == 2)
+            .flat_map(|b| b.tags.iter().copied())
+            .collect();
+        // 9 nodes, 7 new edge nodes (each quad's 4 edges, one shared) and 2 centres
+        assert_eq!(slave.len(), 18);
+        assert_eq!(pairs.len(), 18);
+        for t in slave {
+            let master = pairs[&t];
+            let d = c[&t] - c[&master];
+            assert!((d - DVec3::Z).length() < 1e-12, "pair {t}-{master} offset {d}");
+        }
+    }
+
+    #[test]
+    fn a_periodic_surface_whose_elements_are_not_images_is_refused_unchanged() {
+        let mut m = periodic_squares(true);
+        let before = m.clone();
+        let e = refine(&mut m).expect_err("the slave's centres have no images");
+        assert_eq!(e, RefineError::PeriodicSurface { tag: 2 });
+        assert!(e.to_string().contains("not the images of its master"), "{e}");
+        assert_eq!(m, before);
     }
 }

@@ -102,6 +102,36 @@ fn periodic_surfaces_and_curves_stay_periodic() {
     }
 }
 
+/// `--refine 1` and `2` on the RVE cube (3 periodic face pairs): every new node of a slave
+/// face is paired with its image on the master, so the refined output is as periodic as
+/// the recombined one (`tests/check_periodic.py`: complete links, every slave element the
+/// image of a master element), and the checker finds it refined that many times.
+#[test]
+fn periodic_surfaces_stay_periodic_when_refined() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let msh = dir.path().join("rve.msh");
+    let o = run(Command::new(python_exe())
+        .arg(models().join("periodic.py"))
+        .arg("rve")
+        .arg("0.3")
+        .arg(&msh));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for levels in ["1", "2"] {
+        let out = dir.path().join(format!("rve-refined-{levels}.msh"));
+        let (code, stderr) = recombine(&msh, &out, &["--refine", levels]);
+        assert_eq!(code, Some(0), "--refine {levels}: {stderr}");
+        let r = check_mesh(&msh, &out, &[&format!("--refined={levels}")]);
+        assert!(r.ok, "--refine {levels}: {}", r.report);
+        let o = run(Command::new(python_exe())
+            .arg(repo_dir().join("tests/check_periodic.py"))
+            .arg(&out));
+        let report = String::from_utf8_lossy(&o.stdout);
+        assert!(o.status.success(), "--refine {levels}: {report}");
+        let links = json_number(&report, "links").unwrap_or(0.0);
+        assert!(links >= 3.0, "{report}");
+    }
+}
+
 /// A periodic box meshed far coarser than its faces (`corpus/periodic_surface.geo` at
 /// sizes 1.2 and 2: four triangles around a centre node per face, so every pair of them
 /// has a flat corner and the fallback splits them): the splits on a master face are
