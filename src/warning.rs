@@ -39,10 +39,11 @@ pub enum Warning {
     },
     /// Quads with η (eq. 3) under 0.2 left where the input's corners allow better (the
     /// smallest angle the surface's triangles make at a boundary node is above the quad's
-    /// η times 90°): no try of the run raised them without going above about one quad per
-    /// two triangles, as where the input's triangles pair only into such quads (a narrow
-    /// face one triangle wide whose ends force every pair to straddle two cells). Not
-    /// given for the surfaces of a [`Warning::CoarseSurface`].
+    /// η times 90°): the run made no better quads there within the element-count rule
+    /// (the worst-quad tries, where they ran, kept none that raised them), as where the
+    /// input's triangles pair only into such quads (a narrow face one triangle wide whose
+    /// ends force every pair to straddle two cells). Not given for the surfaces of a
+    /// [`Warning::CoarseSurface`].
     PoorQuads {
         /// How many quads under η 0.2.
         count: usize,
@@ -105,7 +106,7 @@ impl std::fmt::Display for Warning {
                 let list: Vec<String> = surfaces.iter().map(i32::to_string).collect();
                 write!(
                     f,
-                    "{count} quad(s) with eta under 0.2 (worst {eta_w:.3}) on surface(s) {}, though the input's corners there allow better: the input's triangles there pair into no better quads at about one quad per two triangles (a finer or more regular mesh there, e.g. more nodes across a narrow face, gives better quads)",
+                    "{count} quad(s) with eta under 0.2 (worst {eta_w:.3}) on surface(s) {}, though the input's corners there allow better: the run made no better quads there at about one quad per two triangles (a finer or more regular mesh there, e.g. more nodes across a narrow face, gives better quads)",
                     list.join(", ")
                 )
             }
