@@ -121,7 +121,7 @@ use reporter::Reporter;
 use rounds::*;
 
 use fallback::{
-    corner_bounds, count_rule_limit, fallback_triangles, low_quad_segments, low_quads, pairs_of, quads_per_triangle, raisable,
+    corner_bounds, count_rule_limit, fallback_triangles, low_quad_segments, low_quads, low_quads_eta, pairs_of, quads_per_triangle, raisable,
     surface_elements, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
     LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE, RAISE_MIN,
 };
@@ -440,7 +440,7 @@ fn poor_quads(input: &Mesh, opts: &Options, mesh: &Mesh, report: &Report) -> Opt
     if report.rounds <= 1 && all_optimized && !low_after {
         return None;
     }
-    let (low, _) = low_quads(mesh, &skip);
+    let (low, _) = low_quads_eta(mesh, &skip);
     if low.is_empty() {
         return None;
     }
@@ -460,18 +460,12 @@ fn poor_quads(input: &Mesh, opts: &Options, mesh: &Mesh, report: &Report) -> Opt
             .collect(),
         _ => Default::default(),
     };
-    let coords = TagCoords::new(mesh);
     let etas: Vec<(i32, f64)> = low
         .iter()
-        .filter(|(s, _)| !coarse.contains(s))
-        .filter_map(|(s, q)| {
-            let p: Vec<glam::DVec3> = q
-                .iter()
-                .map(|&t| coords.get(t).map(glam::DVec3::from_array))
-                .collect::<Option<_>>()?;
-            Some((*s, crate::quality::eta(&[p[0], p[1], p[2], p[3]])))
+        .map(|&((s, _), eta)| (s, eta))
+        .filter(|(s, eta)| {
+            !coarse.contains(s) && raisable(*eta, bounds.get(s).copied().unwrap_or(1.0))
         })
-        .filter(|(s, eta)| raisable(*eta, bounds.get(s).copied().unwrap_or(1.0)))
         .collect();
     if etas.is_empty() {
         return None;

@@ -342,6 +342,15 @@ pub(super) use crate::recombine::{count_rule_limit, COUNT_RULE_FROM, MAX_QUADS_P
 /// the worst η of those quads; surfaces in `skip` (sorted: those the input meshed with quads
 /// alone, which no job changes) are left out.
 pub(super) fn low_quads(mesh: &Mesh, skip: &[i32]) -> (Vec<(i32, [u64; 4])>, f64) {
+    let (low, worst) = low_quads_eta(mesh, skip);
+    (low.into_iter().map(|(q, _)| q).collect(), worst)
+}
+
+/// A quad of a result: its surface and node tags.
+pub(super) type Spot = (i32, [u64; 4]);
+
+/// [`low_quads`] with the η of each quad.
+pub(super) fn low_quads_eta(mesh: &Mesh, skip: &[i32]) -> (Vec<(Spot, f64)>, f64) {
     let coords = TagCoords::new(mesh);
     let mut low = Vec::new();
     let mut worst = f64::INFINITY;
@@ -363,7 +372,7 @@ pub(super) fn low_quads(mesh: &Mesh, skip: &[i32]) -> (Vec<(i32, [u64; 4])>, f64
             let eta = crate::quality::eta(&[p[0], p[1], p[2], p[3]]);
             worst = worst.min(eta);
             if eta < ETA_FLOOR {
-                low.push((b.entity_tag, q));
+                low.push(((b.entity_tag, q), eta));
             }
         }
     }
