@@ -285,13 +285,11 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
 
     // periodic curve links: pair the new node of each paired segment
     let mut periodic = mesh.periodic.clone();
-    for link in periodic.iter_mut().filter(|l| l.dim == 1) {
-        let pair: HashMap<u64, u64> = link.node_pairs.iter().copied().collect();
+    // the (new node, its image) of each edge `on` accepts whose two nodes `pair` maps to
+    // the nodes of an edge
+    let image_nodes = |pair: &HashMap<u64, u64>, on: &dyn Fn(&EdgeNode) -> bool| {
         let mut added = Vec::new();
-        for (i, e) in edges.iter().enumerate() {
-            if e.owner != (1, link.tag) {
-                continue;
-            }
+        for (i, e) in edges.iter().enumerate().filter(|(_, e)| on(e)) {
             let (Some(&ma), Some(&mb)) = (pair.get(&e.edge.0), pair.get(&e.edge.1)) else {
                 continue;
             };
@@ -299,6 +297,11 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
                 added.push((first_tag + i as u64, first_tag + j as u64));
             }
         }
+        added
+    };
+    for link in periodic.iter_mut().filter(|l| l.dim == 1) {
+        let pair: HashMap<u64, u64> = link.node_pairs.iter().copied().collect();
+        let added = image_nodes(&pair, &|e| e.owner == (1, link.tag));
         link.node_pairs.extend(added);
     }
     // periodic surface links: pair the new node of each edge whose two nodes are paired,
@@ -306,15 +309,7 @@ pub fn refine(mesh: &mut Mesh) -> Result<RefineReport, RefineError> {
     // new node of the slave surface must get its image
     for link in periodic.iter_mut().filter(|l| l.dim == 2) {
         let pair: HashMap<u64, u64> = link.node_pairs.iter().copied().collect();
-        let mut added = Vec::new();
-        for (i, e) in edges.iter().enumerate() {
-            let (Some(&ma), Some(&mb)) = (pair.get(&e.edge.0), pair.get(&e.edge.1)) else {
-                continue;
-            };
-            if let Ok(j) = edges.binary_search_by_key(&key(ma, mb), |x| x.edge) {
-                added.push((first_tag + i as u64, first_tag + j as u64));
-            }
-        }
+        let mut added = image_nodes(&pair, &|_| true);
         for (&(surface, corners), &c) in &centres {
             if surface != link.tag {
                 continue;
