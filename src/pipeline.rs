@@ -67,7 +67,21 @@
 //!    with the two triangles of one fan), pricing the bad pairs one by one moves the flat
 //!    corner to the next fan, and the matching now takes extra edges instead. The better
 //!    of the two is kept, by the same order, and only it gets the worst-quad tries of
-//!    step 5. Where the fallback split triangles and the result (after
+//!    step 5, after one more job, where the fallback split triangles and broke the
+//!    element-count rule, that **peels boundary fans** before any split: after its pricing
+//!    rounds, the fans on the surfaces of the bad quads (runs of boundary nodes each with
+//!    exactly two triangles at one apex: a curve meshed finer than its face, where every
+//!    perfect matching has a pair flat at a boundary node) and the fan of each bad quad's
+//!    corner at such a node get their radial edges split ([`fallback::fan_radials`], at
+//!    most [`fallback::PEEL_ROUNDS`] rounds), each fan triangle then a quad on the boundary and a
+//!    triangle at the apex ([`crate::recombine::split_triangles`]); the matching pairs
+//!    those triangles with each other at the radial midpoints, which it does not take for
+//!    walls ([`crate::recombine::RecombineOptions::movable_nodes`]) and the optimizer
+//!    moves. The better of the two is kept by the same order, except that of two valid
+//!    results that both break the element-count rule, one with at most [`SMALLER_SHARE`]
+//!    of the other's new quads per input triangle is better unless its worst quad is under
+//!    both [`ETA_FLOOR`] and the other's by more than [`SMALLER_ETA_MARGIN`]. Where the
+//!    fallback split triangles and the result (after
 //!    those tries) breaks the element-count rule or has a quad under η [`ETA_FLOOR`], or
 //!    where no job was valid, the job runs once more with **flat pairs**: at a surface's
 //!    first ring, a bad pair flat or reflex at an end of its diagonal is split into three
@@ -164,7 +178,8 @@ const REUSE_UP_TO: usize = TRIES_UP_TO;
 /// When quads are not valid after a run, the job runs again from the input, locally: the
 /// bad quads priced out of the matching, boundary segments under fans split, then the input
 /// triangles around the bad quads split into three quads each (one ring, then two), and as
-/// a last resort every triangle of their surface; up to 10 rounds after the first run
+/// a last resort every triangle of their surface (where that cascaded, other jobs price
+/// out every hopeless pair, peel boundary fans, split flat pairs); up to 10 rounds after the first run
 /// ([`Report::rounds`]). Quads still bad then are refused ([`Error::Invalid`]).
 pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
     let input_tags =
@@ -331,7 +346,14 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
             ..FallbackStart::default()
         };
         let (hopeless, _) = run_job(base, opts, start, &mut cache);
-        keep_better(base, opts, result, hopeless)
+        let result = keep_better(base, opts, result, hopeless);
+        let start = FallbackStart {
+            global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
+            peel_fans: true,
+            ..FallbackStart::default()
+        };
+        let (peeled, _) = run_job(base, opts, start, &mut cache);
+        keep_better(base, opts, result, peeled)
     } else {
         result
     };
@@ -547,10 +569,23 @@ fn job_measures(
     )
 }
 
+/// New quads per input triangle, as a share of the other result's, at or below which a
+/// valid result that breaks the element-count rule is better than another that breaks it
+/// too, unless its worst quad is under both [`ETA_FLOOR`] and the other's by more than
+/// [`SMALLER_ETA_MARGIN`] (see [`better_job`]).
+const SMALLER_SHARE: f64 = 0.8;
+
+/// How much lower than the other's a much smaller result's worst quad η may be (see
+/// [`SMALLER_SHARE`]).
+const SMALLER_ETA_MARGIN: f64 = 0.05;
+
 /// The better of two valid results of the same input: one with no quad listed as invalid
 /// ([`Options::allow_invalid`]), then one within the element-count rule
-/// ([`count_rule_limit`]), then the higher worst quad η (by more than [`RAISE_MIN`]), then
-/// fewer quads; `a` on a tie.
+/// ([`count_rule_limit`]); of two that both break it, one with at most [`SMALLER_SHARE`]
+/// of the other's new quads per input triangle whose worst quad η is at least [`ETA_FLOOR`]
+/// or the other's, or at most [`SMALLER_ETA_MARGIN`] below the other's (a cascade of splits
+/// gives sound quads, but three per triangle); then the
+/// higher worst quad η (by more than [`RAISE_MIN`]), then fewer quads; `a` on a tie.
 fn better_job(
     input: &Mesh,
     opts: &Options,
@@ -559,8 +594,17 @@ fn better_job(
 ) -> (Mesh, Report, FallbackStart) {
     let measure = |r: &(Mesh, Report, FallbackStart)| job_measures(input, opts, r);
     let (x, y) = (measure(&a), measure(&b));
+    // of two valid results that both break the element-count rule, a much smaller one
+    // whose worst quad is not below both the floor and the other's, or not much below
+    let smaller = |a: &(bool, bool, f64, f64), b: &(bool, bool, f64, f64)| {
+        a.0 && !a.1
+            && a.3 <= SMALLER_SHARE * b.3
+            && (a.2 >= ETA_FLOOR.min(b.2) || b.2 - a.2 <= SMALLER_ETA_MARGIN)
+    };
     let b_better = if (x.0, x.1) != (y.0, y.1) {
         (y.0, y.1) > (x.0, x.1)
+    } else if smaller(&x, &y) || smaller(&y, &x) {
+        smaller(&y, &x)
     } else if (x.2 - y.2).abs() > RAISE_MIN {
         y.2 > x.2
     } else {
@@ -576,9 +620,13 @@ fn better_job(
             true => format!("{rings}, flat pairs"),
             false => rings.to_string(),
         };
-        match r.2.hopeless {
+        let hopeless = match r.2.hopeless {
             true => format!("{pairs}, every pair with a corner near 180 or 0 degrees at a wall node priced out"),
             false => pairs,
+        };
+        match r.2.peel_fans {
+            true => format!("{hopeless}, boundary fans peeled"),
+            false => hopeless,
         }
     };
     let (k, o) = if b_better { (y, x) } else { (x, y) };
@@ -692,6 +740,7 @@ fn recombine_once<'a>(
     parity_avoid: &[(u64, u64)],
     flat_halves_out: bool,
     hopeless_out: &[i32],
+    movable: &[u64],
     optimizing: bool,
     checks: &mut Option<Checks<'a>>,
     matchings: Option<&recombine::MatchMemo>,
@@ -709,6 +758,7 @@ fn recombine_once<'a>(
         parity_avoid: parity_avoid.to_vec(),
         flat_halves_out,
         hopeless_out: hopeless_out.to_vec(),
+        movable_nodes: movable.to_vec(),
         trace: opts.trace.clone(),
         progress: opts.progress.clone(),
         // `quadrangulate` removed them from `input` (the fallback's splits add none)

@@ -27,6 +27,9 @@ pub const SPLIT_RINGS: usize = 2;
 /// Fallback rounds that split new boundary segments under fans at most (see the module doc).
 pub const SEGMENT_ROUNDS: usize = 2;
 
+/// Fallback rounds that peel new boundary fans at most (see the module doc).
+pub const PEEL_ROUNDS: usize = 2;
+
 /// What the fallback does after a round with bad quads.
 pub(super) enum Next {
     /// Solve again with this many more quads priced out and parity split segments
@@ -34,6 +37,8 @@ pub(super) enum Next {
     Price(usize, usize),
     /// Solve again with this many more boundary segments split under fans.
     Segments(usize),
+    /// Solve again with this many more radial edges of boundary fans peeled.
+    Peel(usize),
     /// Solve again with the merged halves of split triangles priced out
     /// ([`LocalFallback::flat_halves_out`]): this many bad quads had their bad corner at a
     /// node the input does not have.
@@ -65,6 +70,11 @@ pub(super) struct LocalFallback {
     pub(super) segments: Vec<(u64, u64)>,
     /// No segment splits (the job's start said so).
     pub(super) no_segments: bool,
+    /// Radial edges of boundary fans peeled ([`fan_radials`]).
+    pub(super) peels: Vec<(u64, u64)>,
+    /// Peel the fans of bad quads before any split (the job's start said so).
+    pub(super) peel_fans: bool,
+    pub(super) peel_rounds: usize,
     pub(super) pricing_rounds: usize,
     pub(super) segment_rounds: usize,
     pub(super) split_rounds: usize,
@@ -104,6 +114,8 @@ impl LocalFallback {
             hopeless: self.hopeless,
             segments: self.segments,
             no_segments: self.no_segments,
+            peels: self.peels,
+            peel_fans: self.peel_fans,
             located: self.located,
             chosen,
             splits_only,
@@ -163,6 +175,15 @@ impl LocalFallback {
                 let count = new.len();
                 self.segments.extend(new);
                 return Next::Segments(count);
+            }
+        }
+        if self.peel_fans && self.peel_rounds < PEEL_ROUNDS && self.split_rounds == 0 {
+            let new = fan_radials(input, bad, &self.peels);
+            if !new.is_empty() {
+                self.peel_rounds += 1;
+                let count = new.len();
+                self.peels.extend(new);
+                return Next::Peel(count);
             }
         }
         // tight splits with a bad corner at a node of a split (the matching merged the two
@@ -304,6 +325,10 @@ pub(super) struct FallbackStart {
     pub(super) segments: Vec<(u64, u64)>,
     /// No segment splits (after a job with them failed).
     pub(super) no_segments: bool,
+    /// Radial edges of boundary fans peeled.
+    pub(super) peels: Vec<(u64, u64)>,
+    /// Peel the boundary fans of bad quads before any split ([`fan_radials`]).
+    pub(super) peel_fans: bool,
     /// Surfaces where the optimizer's corners at new nodes are held to the faces they lie
     /// on.
     pub(super) located: Vec<i32>,
@@ -602,6 +627,103 @@ pub(super) fn pairs_of(
             out.push((surface, sorted));
         }
     }
+    out
+}
+
+/// The radial edges of the boundary fans on the surfaces of bad quads, to peel
+/// ([`recombine::split_triangles`]), that `done` does not hold yet. A fan node is a
+/// boundary node `b` of a surface with exactly two triangles, `(p, b, x)` and `(b, n, x)`
+/// (`p-b` and `b-n` its boundary segments): pairing them gives a corner of the
+/// boundary's angle at `b`, flat on a straight or smooth curve, whatever the optimizer
+/// does. Consecutive fan nodes with the same apex `x` (a curve meshed finer than the face)
+/// make a fan whose middle triangles have no other neighbour, so every perfect matching has
+/// such a flat pair. Taken are the fans of two fan nodes or more, and the fan of the bad
+/// corner of each bad quad of two triangles at a fan node; a fan's radial edges are `x` to
+/// each of its fan nodes and, where they are inside the surface, to its two ends. Peeled,
+/// each triangle of the fan is a quad on the boundary and a triangle at `x`, and the
+/// triangles at `x` pair with each other at the radial edges' midpoints, which the
+/// optimizer moves.
+pub(super) fn fan_radials(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -> Vec<(u64, u64)> {
+    let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+    let triangles = SurfaceTriangles::of(input, &surfaces);
+    let boundary = Boundary::of(&triangles);
+    // the third nodes of the triangles at each edge of a surface
+    let mut third: std::collections::HashMap<(i32, u64, u64), Vec<u64>> = Default::default();
+    for &(s, t) in triangles.0.keys() {
+        for j in 0..3 {
+            let (a, c) = key(t[j], t[(j + 1) % 3]);
+            third.entry((s, a, c)).or_default().push(t[(j + 2) % 3]);
+        }
+    }
+    let inside = |s: i32, a: u64, c: u64| {
+        let (a, c) = key(a, c);
+        boundary.count.get(&(s, a, c)) == Some(&2)
+    };
+    let single = |s: i32, a: u64, c: u64| {
+        let (a, c) = key(a, c);
+        match third.get(&(s, a, c)).map(Vec::as_slice) {
+            Some(&[x]) => Some(x),
+            _ => None,
+        }
+    };
+    // a fan node's apex and its two boundary neighbours
+    let fan = |s: i32, b: u64| -> Option<(u64, [u64; 2])> {
+        let &[p, n] = boundary.at.get(&(s, b))?.as_slice() else {
+            return None;
+        };
+        let x = single(s, p, b)?;
+        (single(s, b, n)? == x && x != p && x != n && inside(s, b, x)).then_some((x, [p, n]))
+    };
+    let mut starts: Vec<(i32, u64)> = Vec::new();
+    for q in bad {
+        if fan(q.surface, q.node()).is_some() && triangles.pair(q.surface, q.nodes).is_some() {
+            starts.push((q.surface, q.node()));
+        }
+    }
+    let mut nodes: Vec<(i32, u64)> = boundary.at.keys().copied().collect();
+    nodes.sort_unstable();
+    for (s, b) in nodes {
+        if let Some((x, ends)) = fan(s, b) {
+            if ends.iter().any(|&e| fan(s, e).is_some_and(|f| f.0 == x)) {
+                starts.push((s, b));
+            }
+        }
+    }
+    let mut seen: HashSet<(i32, u64)> = HashSet::new();
+    let mut out: Vec<(u64, u64)> = Vec::new();
+    let add = |r: (u64, u64), out: &mut Vec<(u64, u64)>| {
+        if !done.contains(&r) && !out.contains(&r) {
+            out.push(r);
+        }
+    };
+    for (s, v) in starts {
+        let Some((x, ends)) = fan(s, v) else { continue };
+        if !seen.insert((s, v)) {
+            continue;
+        }
+        add(key(v, x), &mut out);
+        // along the boundary from v both ways while the nodes are fan nodes at x
+        for first in ends {
+            let (mut prev, mut cur) = (v, first);
+            loop {
+                match fan(s, cur) {
+                    Some((y, [p, n])) if y == x && cur != v && seen.insert((s, cur)) => {
+                        add(key(cur, x), &mut out);
+                        let next = if p == prev { n } else { p };
+                        (prev, cur) = (cur, next);
+                    }
+                    _ => {
+                        // the fan's end: its radial edge where it is inside the surface
+                        if cur != x && inside(s, cur, x) && fan(s, cur).is_none_or(|f| f.0 != x) {
+                            add(key(cur, x), &mut out);
+                        }
+                        break;
+                    }
+                }
+            }
+        }
+    }
+    out.sort_unstable();
     out
 }
 
@@ -1049,6 +1171,42 @@ mod tests {
             fan_segments(&m, &[bad([5, 6, 7, 2], 1)], &[(2, 3)]),
             vec![(1, 2)]
         );
+    }
+
+    #[test]
+    fn a_fan_quad_gets_the_radial_edges_of_its_whole_fan_to_peel() {
+        // boundary nodes 1-5 on y = 0 under apex 6, nodes 7 and 8 beyond the fan's ends:
+        // nodes 1 to 5 each have two triangles at 6; 6-7 and 6-8 are boundary segments
+        let coords = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [3.0, 0.0, 0.0],
+            [4.0, 0.0, 0.0],
+            [2.0, 2.0, 0.0],
+            [-1.0, 1.0, 0.0],
+            [5.0, 1.0, 0.0],
+        ];
+        let m = one_surface(
+            vec![node_block(2, (1..=8).collect(), coords)],
+            etype::TRI3,
+            &[&[1, 2, 6], &[2, 3, 6], &[3, 4, 6], &[4, 5, 6], &[7, 1, 6], &[5, 8, 6]],
+        );
+        let all = vec![(1, 6), (2, 6), (3, 6), (4, 6), (5, 6)];
+        assert_eq!(fan_radials(&m, &[bad([2, 3, 4, 6], 1)], &[]), all);
+        // the fan is found from any bad quad of its surface, and radials done are left out
+        assert_eq!(
+            fan_radials(&m, &[bad([7, 1, 2, 6], 0)], &[(3, 6)]),
+            vec![(1, 6), (2, 6), (4, 6), (5, 6)]
+        );
+        // a fan of one node: its radial edge and, inside the surface, those of its ends
+        let strip = strip();
+        assert_eq!(
+            fan_radials(&strip, &[bad([5, 6, 7, 2], 1)], &[]),
+            vec![(2, 5), (2, 6), (2, 7)]
+        );
+        // no fan node at the bad corner, and no fan of two nodes on the surface
+        assert!(fan_radials(&strip, &[bad([1, 2, 6, 5], 1)], &[]).is_empty());
     }
 
     #[test]

@@ -30,6 +30,7 @@ pub(super) fn run_rounds<'a>(
         && !start.flat_halves_out
         && start.hopeless_out.is_empty()
         && start.segments.is_empty()
+        && start.peels.is_empty()
         && start.located.is_empty()
         && start.chosen.is_empty()
         && start.pairs.is_empty();
@@ -49,6 +50,8 @@ pub(super) fn run_rounds<'a>(
             0
         },
         no_segments: start.no_segments,
+        peels: start.peels,
+        peel_fans: start.peel_fans,
         located: start.located,
         global_rings: start.global_rings,
         pairs: start.pairs,
@@ -201,6 +204,13 @@ pub(super) fn run_rounds<'a>(
                 ));
                 continue;
             }
+            Next::Peel(count) => {
+                log.push(format!(
+                    "fallback round {}: {count} radial edge(s) of boundary fans to peel",
+                    round + 1
+                ));
+                continue;
+            }
             Next::HalvesOut(count) => {
                 log.push(format!(
                     "fallback round {}: {count} quad(s) with a bad corner at a split node: the merged halves of split triangles priced out",
@@ -282,16 +292,27 @@ fn one_round<'a>(
         Some(c) => c,
         None => {
             let mut mesh = input.clone();
-            if !chosen.is_empty() || !local.segments.is_empty() || !local.pairs.is_empty() {
+            let mut movable = Vec::new();
+            if !chosen.is_empty()
+                || !local.segments.is_empty()
+                || !local.pairs.is_empty()
+                || !local.peels.is_empty()
+            {
                 let t = Instant::now();
                 let pairs: Vec<recombine::FlatPair> = local.pairs.iter().map(|p| p.1).collect();
                 let split =
-                    recombine::split_triangles(&mut mesh, chosen, &pairs, &local.segments);
+                    recombine::split_triangles(&mut mesh, chosen, &pairs, &local.segments, &local.peels);
                 let mut line = format!("fallback round {round}: ");
                 if split.segments_split > 0 {
                     line += &format!(
                         "{} boundary segment(s) split at their midpoints, ",
                         split.segments_split
+                    );
+                }
+                if split.triangles_peeled > 0 {
+                    line += &format!(
+                        "{} triangle(s) of boundary fans peeled (a quad on the boundary and a triangle at the apex each), ",
+                        split.triangles_peeled
                     );
                 }
                 if split.pairs_split > 0 {
@@ -308,6 +329,7 @@ fn one_round<'a>(
                     split.lines_split
                 );
                 log.push(line);
+                movable.clone_from(&split.peel_nodes);
                 *fallback = Some(split);
                 times.recombine += t.elapsed();
             }
@@ -323,6 +345,7 @@ fn one_round<'a>(
                 &local.avoid,
                 local.flat_halves_out,
                 &local.hopeless_out,
+                &movable,
                 optimizing,
                 &mut cache.checks,
                 memo,

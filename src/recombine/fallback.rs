@@ -5,12 +5,16 @@
 //! shared edge) becomes three quads with its two edges away from that node split, so the
 //! edges at the node (on a boundary, its curve's segments and what lies beyond them) stay
 //! whole. Chosen boundary segments are split at their midpoints too, as a parity repair's
-//! split is: the triangles on them become two each.
+//! split is: the triangles on them become two each. Chosen peel edges (the radial edges of
+//! a boundary fan) are split at their midpoints, and a triangle whose only split edges are
+//! two of them is peeled: a quad on its third edge and a triangle at the node between the
+//! two split edges, which the matching pairs.
 //!
 //! Splitting a triangle's edge at its midpoint also splits the element on the other side of
 //! that edge, whatever surface it belongs to, so the mesh stays conforming:
 //! - a triangle that would get two or three split edges joins the chosen set (its third edge
-//!   is split too), until no other triangle has more than one;
+//!   is split too), until no other triangle has more than one, unless its two split edges
+//!   are peel edges (it is peeled);
 //! - a triangle with one split edge becomes two triangles (as a parity split does);
 //! - a 2-node line element on a split edge becomes two lines;
 //! - a quad (already in the file) with a split edge gets its opposite edge split too, so the
@@ -25,7 +29,9 @@
 //! Every child of a split triangle is a convex quad (a corner of the triangle, two edge
 //! midpoints and the centroid), oriented like its parent; a flat pair's children meet at
 //! the midpoint of its shared edge (on the input surface, on both of its triangles) and are
-//! oriented like its triangles; edge midpoints are chord
+//! oriented like its triangles; a peeled triangle's quad (its third edge's ends and the two
+//! midpoints) is a convex trapezoid and its triangle a half-size copy at the node, both
+//! oriented like it; edge midpoints are chord
 //! midpoints, so planar areas and straight curves are unchanged. New edge nodes are
 //! classified like parity-split nodes: on the edge's curve (line element or node
 //! classification), else on the surface of the first triangle holding the edge; centroids on
@@ -55,6 +61,14 @@ pub struct FallbackSplit {
     pub lines_split: usize,
     /// Chosen segments split at their midpoints.
     pub segments_split: usize,
+    /// Triangles peeled: two of their edges, both chosen peel edges, split at their
+    /// midpoints, the triangle cut into a quad on its third edge and a triangle at the
+    /// node between the split edges.
+    pub triangles_peeled: usize,
+    /// The midpoints of the peeled triangles' split edges (sorted tags): inside their
+    /// surface, placed by the optimizer.
+    #[serde(skip)]
+    pub peel_nodes: Vec<u64>,
     /// New nodes.
     pub nodes_added: usize,
     /// Surfaces whose triangles were split into quads.
@@ -70,13 +84,14 @@ fn key(a: u64, b: u64) -> (u64, u64) {
 }
 
 /// Appends the quads `children` of element `i` of block `b` (a triangle) to the quad block
-/// of its surface in `quads_of`, the first with the element's tag and the others with
-/// `fresh` ones, each with the element's partitions.
+/// of its surface in `quads_of`, the first with the element's tag when `keep_tag` and the
+/// others with `fresh` ones, each with the element's partitions.
 fn push_children(
     quads_of: &mut BTreeMap<i32, ElementBlock>,
     b: &ElementBlock,
     i: usize,
     children: &[[u64; 4]],
+    keep_tag: bool,
     fresh: &mut impl FnMut() -> u64,
 ) {
     let part = b.partitions.as_ref().and_then(|p| p.get(i).cloned());
@@ -91,7 +106,7 @@ fn push_children(
             partitions: b.partitions.as_ref().map(|_| Vec::new()),
         });
     for (j, child) in children.iter().enumerate() {
-        q.tags.push(if j == 0 { b.tags[i] } else { fresh() });
+        q.tags.push(if j == 0 && keep_tag { b.tags[i] } else { fresh() });
         q.nodes.extend_from_slice(child);
         if let Some(p) = q.partitions.as_mut() {
             p.push(part.clone().unwrap_or_default());
@@ -158,12 +173,17 @@ impl PairSplit {
 /// sharing an edge at its node, one of whose triangles is chosen or gets another split edge
 /// (from the splits around it), or with an image through a `$Periodic` link (of either
 /// triangle or of an edge it splits), has its two triangles split into three quads each
-/// instead.
+/// instead. The edges `peels` (node tags, either order; those no element has are skipped)
+/// are split at their midpoints too, and a triangle whose only split edges are two of them
+/// (or their images through a periodic link) is peeled: a quad on its third edge (its two
+/// ends and the two midpoints) and a triangle at the node the two split edges share, both
+/// oriented like it, the triangle keeping its tag.
 pub fn split_triangles(
     mesh: &mut Mesh,
     chosen: &HashSet<u64>,
     pairs: &[FlatPair],
     segments: &[(u64, u64)],
+    peels: &[(u64, u64)],
 ) -> FallbackSplit {
     let mut report = FallbackSplit::default();
     let index = mesh.node_index();
@@ -325,6 +345,16 @@ pub fn split_triangles(
             report.segments_split += 1;
         }
     }
+    // the peel edges and their images through periodic links (mirrored like every split)
+    let mut peel: HashSet<(u64, u64)> = HashSet::new();
+    for &(a, b) in peels {
+        let e = key(a, b);
+        if faces_at(e).is_empty() || !peel.insert(e) {
+            continue;
+        }
+        work.push(e);
+        peel.extend(edge_images(e));
+    }
     // a pair with an image through a periodic link (of a triangle or of a far edge) is
     // split as chosen triangles, which are mirrored
     for p in pair_splits.iter_mut() {
@@ -383,7 +413,13 @@ pub fn split_triangles(
                 }
             }
             let edges = [0, 1, 2].map(|k| key(on[k], on[(k + 1) % 3]));
-            if edges.iter().filter(|x| split.contains(x)).count() >= 2 {
+            let cut = edges.iter().filter(|x| split.contains(x)).count();
+            let peeled = cut == 2
+                && edges
+                    .iter()
+                    .filter(|x| split.contains(x))
+                    .all(|x| peel.contains(x));
+            if cut >= 3 || (cut == 2 && !peeled) {
                 marked[o as usize] = true;
                 tris.push(o);
             }
@@ -523,7 +559,7 @@ pub fn split_triangles(
                     } else {
                         &[[b_, c, m2, p]]
                     };
-                    push_children(&mut quads_of, b, i, children, &mut fresh);
+                    push_children(&mut quads_of, b, i, children, true, &mut fresh);
                     if role == 0 {
                         report.pairs_split += 1;
                     }
@@ -545,8 +581,27 @@ pub fn split_triangles(
                     next_node += 1;
                     new_nodes.push((centre, (2, b.entity_tag), c / 3.0, e.to_vec()));
                     let children = [0, 1, 2].map(|j| [e[j], m[j], centre, m[(j + 2) % 3]]);
-                    push_children(&mut quads_of, b, i, &children, &mut fresh);
+                    push_children(&mut quads_of, b, i, &children, true, &mut fresh);
                     report.triangles_to_quads += 1;
+                    if !report.surfaces.contains(&b.entity_tag) {
+                        report.surfaces.push(b.entity_tag);
+                    }
+                }
+                etype::TRI3 if (0..3).filter(|&j| midpoint(e[j], e[(j + 1) % 3]).is_some()).count() == 2 => {
+                    // peeled (the closure leaves two split edges only on such triangles):
+                    // edge x-y whole, z the node between the split edges
+                    let j = (0..3)
+                        .find(|&j| midpoint(e[j], e[(j + 1) % 3]).is_none())
+                        .unwrap_or(0);
+                    let (x, y, z) = (e[j], e[(j + 1) % 3], e[(j + 2) % 3]);
+                    let (Some(myz), Some(mzx)) = (midpoint(y, z), midpoint(z, x)) else {
+                        push(&mut out, b.tags[i], e);
+                        continue;
+                    };
+                    push(&mut out, b.tags[i], &[mzx, myz, z]);
+                    push_children(&mut quads_of, b, i, &[[x, y, myz, mzx]], false, &mut fresh);
+                    report.triangles_peeled += 1;
+                    report.peel_nodes.extend([myz, mzx]);
                     if !report.surfaces.contains(&b.entity_tag) {
                         report.surfaces.push(b.entity_tag);
                     }
@@ -679,6 +734,8 @@ pub fn split_triangles(
     link_new_nodes(mesh, &new_nodes);
     mesh.invalidate_element_data();
     report.surfaces.sort_unstable();
+    report.peel_nodes.sort_unstable();
+    report.peel_nodes.dedup();
     report
 }
 
@@ -768,7 +825,7 @@ mod tests {
     fn a_chosen_segment_halves_the_triangles_on_both_sides_and_its_line() {
         let mut m = two_surfaces();
         // the curve segment 2-3 (either order); 1-5 is no edge and is ignored
-        let r = split_triangles(&mut m, &HashSet::new(), &[], &[(3, 2), (1, 5)]);
+        let r = split_triangles(&mut m, &HashSet::new(), &[], &[(3, 2), (1, 5)], &[]);
         assert_eq!(r.segments_split, 1);
         assert_eq!(r.triangles_to_quads, 0);
         assert_eq!(r.triangles_halved, 2);
@@ -797,10 +854,109 @@ mod tests {
             .all(|t| !t.contains(&2) || !t.contains(&3)));
     }
 
+    /// One planar surface: a fan of three triangles at apex 5 over the boundary nodes 1, 2,
+    /// 3, 4 on the x axis, and a triangle (1 5 6) beyond its first radial edge.
+    fn fan() -> Mesh {
+        let mut m = Mesh::default();
+        m.entities[2].push(Entity {
+            dim: 2,
+            tag: 1,
+            bbox: [0.0; 6],
+            physical_tags: Vec::new(),
+            bounding: Vec::new(),
+        });
+        m.node_blocks.push(NodeBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            tags: vec![1, 2, 3, 4, 5, 6],
+            coords: vec![
+                [0., 0., 0.],
+                [1., 0., 0.],
+                [2., 0., 0.],
+                [3., 0., 0.],
+                [1.5, 2., 0.],
+                [-1., 2., 0.],
+            ],
+            params: None,
+        });
+        m.element_blocks.push(ElementBlock {
+            entity_dim: 2,
+            entity_tag: 1,
+            element_type: etype::TRI3,
+            tags: vec![1, 2, 3, 4],
+            nodes: vec![1, 2, 5, 2, 3, 5, 3, 4, 5, 1, 5, 6],
+            partitions: None,
+        });
+        m
+    }
+
+    #[test]
+    fn a_triangle_with_two_peel_edges_becomes_a_quad_on_its_base_and_a_triangle_at_its_apex() {
+        let mut m = fan();
+        // the radial edges at the fan's two middle nodes (either order); 1-4 is no edge
+        let r = split_triangles(&mut m, &HashSet::new(), &[], &[], &[(5, 2), (3, 5), (1, 4)]);
+        assert_eq!(r.triangles_peeled, 1);
+        assert_eq!(r.triangles_halved, 2, "the fan's end triangles");
+        assert_eq!(r.triangles_to_quads, 0);
+        assert_eq!(r.nodes_added, 2);
+        assert_eq!(r.peel_nodes, vec![7, 8]);
+        let mid = |a: u64| {
+            let b = &m.node_blocks[0];
+            let i = b.tags.iter().position(|&t| t == a).expect("node");
+            b.coords[i]
+        };
+        assert_eq!(mid(7), [1.25, 1.0, 0.0], "the midpoint of 2-5");
+        assert_eq!(mid(8), [1.75, 1.0, 0.0], "the midpoint of 3-5");
+        let quads = m
+            .element_blocks
+            .iter()
+            .find(|b| b.element_type == etype::QUAD4)
+            .expect("quads");
+        assert_eq!(quads.nodes, vec![2, 3, 8, 7], "on the base, oriented like the triangle");
+        assert_ne!(quads.tags[0], 2, "the triangle keeps the tag");
+        let tris = m
+            .element_blocks
+            .iter()
+            .find(|b| b.element_type == etype::TRI3)
+            .expect("triangles");
+        let mut all: Vec<(u64, Vec<u64>)> =
+            (0..tris.len()).map(|i| (tris.tags[i], tris.element(i).to_vec())).collect();
+        all.sort();
+        assert!(all.contains(&(2, vec![7, 8, 5])), "{all:?}");
+        // every triangle and the quad keep the fan's orientation (counter-clockwise) and
+        // no element holds a split edge whole
+        let area = |n: &[u64]| {
+            let p: Vec<[f64; 3]> = n.iter().map(|&t| mid(t)).collect();
+            (0..n.len())
+                .map(|k| {
+                    let (a, b) = (p[k], p[(k + 1) % n.len()]);
+                    a[0] * b[1] - b[0] * a[1]
+                })
+                .sum::<f64>()
+        };
+        for (_, t) in &all {
+            assert!(area(t) > 0.0, "{t:?}");
+            for e in [(2, 5), (3, 5)] {
+                assert!(!(t.contains(&e.0) && t.contains(&e.1)), "{t:?} holds {e:?}");
+            }
+        }
+        assert!(area(&quads.nodes) > 0.0);
+        assert_eq!(all.len(), 2 * 2 + 1 + 1, "the fan's ends halved, the peeled one, and (1 5 6)");
+    }
+
+    #[test]
+    fn a_triangle_with_a_peel_edge_and_another_split_edge_is_split_into_three_quads() {
+        let mut m = fan();
+        // 2-5 peeled, 3-5 split as a segment: the middle triangle is chosen
+        let r = split_triangles(&mut m, &HashSet::new(), &[], &[(3, 5)], &[(2, 5)]);
+        assert_eq!(r.triangles_peeled, 0);
+        assert_eq!(r.triangles_to_quads, 1);
+    }
+
     #[test]
     fn a_chosen_triangle_becomes_three_quads_and_its_neighbours_stay_conforming() {
         let mut m = two_surfaces();
-        let r = split_triangles(&mut m, &HashSet::from([1]), &[], &[]);
+        let r = split_triangles(&mut m, &HashSet::from([1]), &[], &[], &[]);
         // triangle 1 has split edges 1-2, 2-3, 3-1; triangle 2 (1 3 4) gets one (1-3) and
         // is halved; triangle 3 (2 5 3) gets one (2-3) and is halved; the line is split
         assert_eq!(r.triangles_to_quads, 1);
@@ -847,12 +1003,12 @@ mod tests {
         let mut m = two_surfaces();
         // choosing both triangles of surface 1 splits all of their edges; the triangle of
         // surface 2 has one split edge (2-3) only
-        let r = split_triangles(&mut m, &HashSet::from([1, 2]), &[], &[]);
+        let r = split_triangles(&mut m, &HashSet::from([1, 2]), &[], &[], &[]);
         assert_eq!(r.triangles_to_quads, 2);
         assert_eq!(r.triangles_halved, 1);
         let mut m = two_surfaces();
         // a square split on its diagonal: choosing (2 5 3) splits 2-3, which triangle 1 shares
-        let r = split_triangles(&mut m, &HashSet::from([3]), &[], &[]);
+        let r = split_triangles(&mut m, &HashSet::from([3]), &[], &[], &[]);
         assert_eq!((r.triangles_to_quads, r.triangles_halved), (1, 1));
         assert_eq!(r.surfaces, vec![2]);
     }
@@ -866,7 +1022,7 @@ mod tests {
             triangles: [2, 1],
             node: 3,
         };
-        let r = split_triangles(&mut m, &HashSet::new(), &[pair], &[]);
+        let r = split_triangles(&mut m, &HashSet::new(), &[pair], &[], &[]);
         assert_eq!(r.pairs_split, 1);
         assert_eq!(
             (r.triangles_to_quads, r.triangles_halved, r.lines_split),
@@ -907,7 +1063,7 @@ mod tests {
             triangles: [1, 2],
             node: 3,
         };
-        let r = split_triangles(&mut m, &HashSet::from([3]), &[pair], &[]);
+        let r = split_triangles(&mut m, &HashSet::from([3]), &[pair], &[], &[]);
         assert_eq!((r.pairs_split, r.triangles_to_quads), (0, 3));
         // a pair that is no pair at that node (node 2 is not on the shared edge 1-3)
         let mut m = two_surfaces();
@@ -915,7 +1071,7 @@ mod tests {
             triangles: [1, 2],
             node: 2,
         };
-        let r = split_triangles(&mut m, &HashSet::new(), &[pair], &[]);
+        let r = split_triangles(&mut m, &HashSet::new(), &[pair], &[], &[]);
         assert_eq!((r.pairs_split, r.triangles_to_quads), (0, 2));
     }
 }

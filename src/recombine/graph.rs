@@ -168,6 +168,9 @@ pub(crate) fn wall_nodes(topo: &SurfaceTopo) -> Vec<u32> {
 /// [`HOPELESS_COST`].
 pub(crate) struct Pricing<'a> {
     pub split_nodes: &'a [u32],
+    /// Nodes that are no wall's though an edge at them has no graph neighbour (sorted ids:
+    /// the midpoints of a peeled fan, which the optimizer places).
+    pub movable: &'a [u32],
     pub flat_halves_out: bool,
     pub hopeless_out: bool,
 }
@@ -201,7 +204,11 @@ pub(crate) fn build(
 ) -> Graph {
     let n = topo.len();
     let mut tm = crate::profile::StageTimer::new(trace, "graph", 0);
-    let walls = NodeSet::new(&wall_nodes(topo));
+    let mut walls = wall_nodes(topo);
+    if !pricing.movable.is_empty() {
+        walls.retain(|v| pricing.movable.binary_search(v).is_err());
+    }
+    let walls = NodeSet::new(&walls);
     let walls = &walls;
     let normals = &triangle_normals(topo, coords);
     tm.lap("walls");

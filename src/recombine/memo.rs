@@ -77,7 +77,7 @@ impl Local {
         morton: bool,
         topo: &SurfaceTopo,
         coords: &[glam::DVec3],
-        split_nodes: &[u32],
+        [split_nodes, movable]: [&[u32]; 2],
         priced: &[[u32; 4]],
         opts: &RecombineOptions,
     ) -> Self {
@@ -114,7 +114,10 @@ impl Local {
         let mut split: Vec<u8> = Vec::with_capacity(global.len());
         for &v in &global {
             bits.extend(coords[v as usize].to_array().map(f64::to_bits));
-            split.push(u8::from(split_nodes.binary_search(&v).is_ok()));
+            split.push(
+                u8::from(split_nodes.binary_search(&v).is_ok())
+                    | (u8::from(movable.binary_search(&v).is_ok()) << 1),
+            );
         }
         add(&|s| {
             bits.hash(s);

@@ -253,6 +253,14 @@ pub(crate) fn recombine_with(
             }
             split_nodes.sort_unstable();
             let split_nodes = &split_nodes;
+            let mut movable: Vec<u32> = opts
+                .movable_nodes
+                .iter()
+                .filter_map(|&t| nodes.id(t))
+                .collect();
+            movable.sort_unstable();
+            movable.dedup();
+            let movable = &movable;
             // the priced-out quads as sorted node ids (quads naming an unknown node are
             // no pair's)
             let mut priced: Vec<[u32; 4]> = opts
@@ -292,6 +300,7 @@ pub(crate) fn recombine_with(
             let side = surface::MeshSide {
                 coords,
                 split_nodes,
+                movable,
                 priced,
                 n_global,
             };

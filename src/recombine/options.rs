@@ -59,6 +59,12 @@ pub struct RecombineOptions {
     /// pipeline's fallback sets it, in the job it runs where the splits cascaded, to the
     /// surfaces where a round left a quad that is not valid.
     pub hopeless_out: Vec<i32>,
+    /// New nodes inside a surface (tags, sorted) that the optimizer places: the midpoints
+    /// of the radial edges of fans the pipeline's fallback peeled
+    /// ([`split_triangles`](super::split_triangles)). A corner there is no wall's: a pair
+    /// straight at such a node costs by its η like any other (the optimizer opens the
+    /// corner), not as a hopeless pair. Tags that are not nodes are ignored.
+    pub movable_nodes: Vec<u64>,
     /// Mesh again the strips (narrow faces whose triangles lie in one row between walls)
     /// whose matching's quads are poor, in cells and midlines of new nodes (on by default;
     /// see the recombination's documentation).
@@ -91,6 +97,7 @@ impl Default for RecombineOptions {
             parity_avoid: Vec::new(),
             flat_halves_out: false,
             hopeless_out: Vec::new(),
+            movable_nodes: Vec::new(),
             two_row_strips: true,
             trace: None,
             progress: None,

@@ -157,6 +157,9 @@ pub(super) struct MeshSide<'a> {
     pub coords: &'a [glam::DVec3],
     /// The split nodes (parity and fallback splits), sorted global ids.
     pub split_nodes: &'a [u32],
+    /// The nodes a corner at which is no wall's
+    /// ([`RecombineOptions::movable_nodes`]), sorted global ids.
+    pub movable: &'a [u32],
     /// The priced-out quads as sorted global ids, sorted.
     pub priced: &'a [[u32; 4]],
     /// The number of global ids (a surface's new nodes are numbered from it).
@@ -174,6 +177,7 @@ pub(super) fn match_surface(
     let MeshSide {
         coords,
         split_nodes,
+        movable,
         priced,
         n_global,
     } = *mesh;
@@ -183,7 +187,7 @@ pub(super) fn match_surface(
     // gets that matching's quads back (not with the certificate check or a trace, which
     // want the graph and the solver)
     let local = memo.filter(|_| !opts.verify && opts.trace.is_none()).map(|m| {
-        let l = memo::Local::new(w.tag, w.morton, &w.topo, coords, split_nodes, priced, opts);
+        let l = memo::Local::new(w.tag, w.morton, &w.topo, coords, [split_nodes, movable], priced, opts);
         (m, l)
     });
     if let Some((m, l)) = &local {
@@ -207,6 +211,7 @@ pub(super) fn match_surface(
         coords,
         graph::Pricing {
             split_nodes,
+            movable,
             flat_halves_out: opts.flat_halves_out,
             hopeless_out: opts.hopeless_out.binary_search(&w.tag).is_ok(),
         },

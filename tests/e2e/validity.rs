@@ -699,3 +699,41 @@ fn an_edge_refined_box_recombines_without_a_cascade_of_splits() {
     assert_eq!(split, 0, "{log}");
     recombines_validly_by_tag(&input, &mesh);
 }
+
+/// The same box refined more steeply towards its edges (size 0.08 there, 0.5 at 0.3 away;
+/// `edge_refined_box.py steep`): runs of three and more boundary triangles share an apex,
+/// so every perfect matching pairs two of them into a quad flat at a boundary node, and
+/// neither pricing nor the job pricing every such pair out avoids it; the fallback's splits
+/// cascaded into 705 of its 722 triangles (2,103 quads, 2.9 per triangle). The boundary
+/// fans peeled (each fan triangle a quad on the curve and a triangle at the apex, those
+/// triangles paired with each other) recombine it with no triangle split into three, at
+/// about 0.6 new quads per triangle, every quad valid and the worst quad's η at least 0.2.
+#[test]
+fn a_steeply_edge_refined_box_peels_its_boundary_fans_instead_of_splitting_every_triangle() {
+    let input = common::repo_dir().join("tests/data/cad/v41_edge_refined_box_steep.msh");
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    let triangles = count_2d(&mesh, etype::TRI3, None);
+    assert_eq!(triangles, 722);
+    let mut out = mesh.clone();
+    let mut opts = Options::default();
+    opts.keep_tags = true;
+    let report = quadrangulate(&mut out, &opts).unwrap_or_else(|e| panic!("{e}"));
+    let log = report.log.join("\n");
+    assert!(validity::invalid_quads(&mesh, &out).is_empty(), "{log}");
+    assert!(log.contains("boundary fans peeled kept"), "{log}");
+    assert!(log.contains("triangle(s) of boundary fans peeled"), "{log}");
+    let fallback = report.fallback.as_ref().expect("the fallback ran");
+    assert!(fallback.triangles_peeled > 0, "{log}");
+    assert_eq!(fallback.triangles_to_quads, 0, "{log}");
+    let per_triangle = count_2d(&out, etype::QUAD4, None) as f64 / triangles as f64;
+    assert!(
+        per_triangle <= 0.65,
+        "{per_triangle:.3} quads per triangle:\n{log}"
+    );
+    let worst = blossomquad::quality::quad_etas(&out)
+        .iter()
+        .map(|e| e.1)
+        .fold(f64::INFINITY, f64::min);
+    assert!(worst >= 0.2, "eta_w {worst:.3}:\n{log}");
+    recombines_validly_by_tag(&input, &mesh);
+}

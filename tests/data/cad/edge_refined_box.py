@@ -2,9 +2,10 @@
 size grows from 0.07 at its edges to 0.35 at 0.3 from them (a Threshold field on the
 distance to the edges, sizes from the field alone). Along each edge, runs of boundary
 triangles share an interior apex, and a boundary node with two triangles of one fan gets a
-flat corner when they are paired.
+flat corner when they are paired. The variant `steep` (v41_edge_refined_box_steep.msh)
+grows from 0.08 to 0.5 over the same 0.3: longer fans, three or more triangles at one apex.
 
-Usage: python3 edge_refined_box.py OUT.msh
+Usage: python3 edge_refined_box.py [steep] OUT.msh
 """
 
 import sys
@@ -16,7 +17,7 @@ COARSE = 0.35
 REACH = 0.3
 
 
-def main(out):
+def main(out, fine=FINE, coarse=COARSE):
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("edge_refined_box")
@@ -28,8 +29,8 @@ def main(out):
     field.setNumber(1, "Sampling", 200)
     field.add("Threshold", 2)
     field.setNumber(2, "InField", 1)
-    field.setNumber(2, "SizeMin", FINE)
-    field.setNumber(2, "SizeMax", COARSE)
+    field.setNumber(2, "SizeMin", fine)
+    field.setNumber(2, "SizeMax", coarse)
     field.setNumber(2, "DistMin", 0.0)
     field.setNumber(2, "DistMax", REACH)
     field.setAsBackgroundMesh(2)
@@ -43,4 +44,7 @@ def main(out):
 
 
 if __name__ == "__main__":
-    main(sys.argv[1])
+    if len(sys.argv) == 3 and sys.argv[1] == "steep":
+        main(sys.argv[2], fine=0.08, coarse=0.5)
+    else:
+        main(sys.argv[1])
