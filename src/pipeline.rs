@@ -68,7 +68,8 @@
 //!    corner to the next fan, and the matching now takes extra edges instead. The better
 //!    of the two is kept, by the same order, and only it gets the worst-quad tries of
 //!    step 5, after one more job, where the fallback split triangles and broke the
-//!    element-count rule, that **peels boundary fans** before any split: after its pricing
+//!    element-count rule and the better result still misses a goal (the element-count rule,
+//!    or a quad under η [`ETA_FLOOR`]), that **peels boundary fans** before any split: after its pricing
 //!    rounds, the fans on the surfaces of the bad quads (runs of boundary nodes each with
 //!    exactly two triangles at one apex: a curve meshed finer than its face, where every
 //!    perfect matching has a pair flat at a boundary node) and the fan of each bad quad's
@@ -347,13 +348,18 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         };
         let (hopeless, _) = run_job(base, opts, start, &mut cache);
         let result = keep_better(base, opts, result, hopeless);
-        let start = FallbackStart {
-            global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
-            peel_fans: true,
-            ..FallbackStart::default()
-        };
-        let (peeled, _) = run_job(base, opts, start, &mut cache);
-        keep_better(base, opts, result, peeled)
+        // where that still misses a goal: the job that peels boundary fans
+        if result.as_ref().map_or(true, |r| !meets_goals(base, opts, r)) {
+            let start = FallbackStart {
+                global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
+                peel_fans: true,
+                ..FallbackStart::default()
+            };
+            let (peeled, _) = run_job(base, opts, start, &mut cache);
+            keep_better(base, opts, result, peeled)
+        } else {
+            result
+        }
     } else {
         result
     };
