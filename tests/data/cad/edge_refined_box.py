@@ -4,8 +4,9 @@ distance to the edges, sizes from the field alone). Along each edge, runs of bou
 triangles share an interior apex, and a boundary node with two triangles of one fan gets a
 flat corner when they are paired. The variant `steep` (v41_edge_refined_box_steep.msh)
 grows from 0.08 to 0.5 over the same 0.3: longer fans, three or more triangles at one apex.
+Any other sizes: FINE at the edges, COARSE at REACH from them.
 
-Usage: python3 edge_refined_box.py [steep] OUT.msh
+Usage: python3 edge_refined_box.py [steep | FINE COARSE REACH] OUT.msh
 """
 
 import sys
@@ -17,7 +18,7 @@ COARSE = 0.35
 REACH = 0.3
 
 
-def main(out, fine=FINE, coarse=COARSE):
+def main(out, fine=FINE, coarse=COARSE, reach=REACH):
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("edge_refined_box")
@@ -32,7 +33,7 @@ def main(out, fine=FINE, coarse=COARSE):
     field.setNumber(2, "SizeMin", fine)
     field.setNumber(2, "SizeMax", coarse)
     field.setNumber(2, "DistMin", 0.0)
-    field.setNumber(2, "DistMax", REACH)
+    field.setNumber(2, "DistMax", reach)
     field.setAsBackgroundMesh(2)
     gmsh.option.setNumber("Mesh.MeshSizeExtendFromBoundary", 0)
     gmsh.option.setNumber("Mesh.MeshSizeFromPoints", 0)
@@ -46,5 +47,8 @@ def main(out, fine=FINE, coarse=COARSE):
 if __name__ == "__main__":
     if len(sys.argv) == 3 and sys.argv[1] == "steep":
         main(sys.argv[2], fine=0.08, coarse=0.5)
+    elif len(sys.argv) == 5:
+        fine, coarse, reach = (float(a) for a in sys.argv[1:4])
+        main(sys.argv[4], fine, coarse, reach)
     else:
         main(sys.argv[1])
