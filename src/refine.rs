@@ -17,7 +17,7 @@
 //!   (exact on cubics, so a circle's new nodes land on the circle to O(h⁴)), the three-point
 //!   rule `3/4 a + 3/8 b − 1/8 p` when only one side continues, and the chord midpoint at a
 //!   curve with one segment. A neighbour across a turn sharper than 45°, or an estimate
-//!   more than a quarter of the segment away from the chord midpoint, is not used (chord
+//!   more than [`MAX_BULGE`] of the segment away from the chord midpoint, is not used (chord
 //!   midpoint instead). New nodes of a straight curve stay on it (affine combinations of
 //!   collinear points), so planar areas with straight boundaries are unchanged.
 //! - **Face nodes.** A quad's new centre node is the mean of its corners, a triangle's its
@@ -122,6 +122,13 @@ pub struct RefineReport {
     /// Curve nodes placed by the chord midpoint because no smooth estimate was safe.
     pub curve_midpoints: usize,
 }
+
+/// Largest distance of a curve estimate from its segment's chord midpoint, as a share of
+/// the segment's length: a tenth, which a circle meshed with the sharpest turn the estimate
+/// crosses ([`MAX_TURN`], 45° per segment) stays within (its arc is 0.0995 of the chord
+/// off it). The one-sided rule at a curve's end, an extrapolation, overshoots beyond it
+/// near that turn (0.15 of the segment measured at a 42° turn), and is not used there.
+const MAX_BULGE: f64 = 0.1;
 
 /// Sharpest turn (radians) between successive curve segments that the curve estimate
 /// crosses: 45° (a circle with 8 segments); a sharper turn inside one curve is taken as a
@@ -520,7 +527,7 @@ impl CurveChains {
             (None, Some(q)) => 0.75 * pb + 0.375 * pa - 0.125 * q,
             (None, None) => return (chord, false),
         };
-        if (est - chord).length() <= 0.25 * seg.length() {
+        if (est - chord).length() <= MAX_BULGE * seg.length() {
             (est, true)
         } else {
             (chord, false)
