@@ -73,15 +73,15 @@
 //!    rounds, the fans on the surfaces of the bad quads (runs of boundary nodes each with
 //!    exactly two triangles at one apex: a curve meshed finer than its face, where every
 //!    perfect matching has a pair flat at a boundary node) and the fan of each bad quad's
-//!    corner at such a node get their radial edges split ([`fallback::fan_radials`], at
-//!    most [`fallback::PEEL_ROUNDS`] rounds), each fan triangle then a quad on the boundary and a
+//!    corner at such a node get their radial edges split (`fallback::fan_radials`, at
+//!    most [`PEEL_ROUNDS`] rounds), each fan triangle then a quad on the boundary and a
 //!    triangle at the apex ([`crate::recombine::split_triangles`]); the matching pairs
 //!    those triangles with each other at the radial midpoints, which it does not take for
 //!    walls ([`crate::recombine::RecombineOptions::movable_nodes`]) and the optimizer
 //!    moves. The better of the two is kept by the same order, except that of two valid
-//!    results that both break the element-count rule, one with at most [`SMALLER_SHARE`]
+//!    results that both break the element-count rule, one with at most `SMALLER_SHARE`
 //!    of the other's new quads per input triangle is better unless its worst quad is under
-//!    both [`ETA_FLOOR`] and the other's by more than [`SMALLER_ETA_MARGIN`]. Where the
+//!    both [`ETA_FLOOR`] and the other's by more than `SMALLER_ETA_MARGIN`. Where the
 //!    fallback split triangles and the result (after
 //!    those tries) breaks the element-count rule or has a quad under η [`ETA_FLOOR`], or
 //!    where no job was valid, the job runs once more with **flat pairs**: at a surface's
@@ -140,7 +140,7 @@ use fallback::{
     surface_elements, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
     LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE, RAISE_MIN,
 };
-pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_TRIES};
+pub use fallback::{ETA_FLOOR, PEEL_ROUNDS, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_TRIES};
 #[cfg(feature = "testing")]
 pub use fallback::SPLIT_RINGS;
 

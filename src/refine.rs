@@ -17,7 +17,7 @@
 //!   (exact on cubics, so a circle's new nodes land on the circle to O(h⁴)), the three-point
 //!   rule `3/4 a + 3/8 b − 1/8 p` when only one side continues, and the chord midpoint at a
 //!   curve with one segment. A neighbour across a turn sharper than 45°, or an estimate
-//!   more than [`MAX_BULGE`] of the segment away from the chord midpoint, is not used (chord
+//!   more than a tenth of the segment (`MAX_BULGE`) away from the chord midpoint, is not used (chord
 //!   midpoint instead). New nodes of a straight curve stay on it (affine combinations of
 //!   collinear points), so planar areas with straight boundaries are unchanged.
 //! - **Face nodes.** A quad's new centre node is the mean of its corners, a triangle's its

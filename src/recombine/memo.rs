@@ -70,8 +70,9 @@ pub(super) struct Local {
 }
 
 impl Local {
-    /// Reads surface `tag` (its topology, the coordinates, the split nodes and priced-out
-    /// quads of the whole mesh, both sorted, and the options) in local ids.
+    /// Reads surface `tag` (its topology, the coordinates, the split nodes and the movable
+    /// nodes ([`RecombineOptions::movable_nodes`]) and priced-out quads of the whole mesh,
+    /// all sorted, and the options) in local ids.
     pub(super) fn new(
         tag: i32,
         morton: bool,
