@@ -74,7 +74,7 @@
 //!    exactly two triangles at one apex: a curve meshed finer than its face, where every
 //!    perfect matching has a pair flat at a boundary node) and the fan of each bad quad's
 //!    corner at such a node get their radial edges split (`fallback::fan_radials`, at
-//!    most [`PEEL_ROUNDS`] rounds), each fan triangle then a quad on the boundary and a
+//!    most `PEEL_ROUNDS` rounds), each fan triangle then a quad on the boundary and a
 //!    triangle at the apex ([`crate::recombine::split_triangles`]); the matching pairs
 //!    those triangles with each other at the radial midpoints, which it does not take for
 //!    walls ([`crate::recombine::RecombineOptions::movable_nodes`]) and the optimizer
@@ -140,7 +140,7 @@ use fallback::{
     surface_elements, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
     LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE, RAISE_MIN,
 };
-pub use fallback::{ETA_FLOOR, PEEL_ROUNDS, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_TRIES};
+pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_TRIES};
 #[cfg(feature = "testing")]
 pub use fallback::SPLIT_RINGS;
 
