@@ -857,37 +857,19 @@ mod tests {
     /// One planar surface: a fan of three triangles at apex 5 over the boundary nodes 1, 2,
     /// 3, 4 on the x axis, and a triangle (1 5 6) beyond its first radial edge.
     fn fan() -> Mesh {
-        let mut m = Mesh::default();
-        m.entities[2].push(Entity {
-            dim: 2,
-            tag: 1,
-            bbox: [0.0; 6],
-            physical_tags: Vec::new(),
-            bounding: Vec::new(),
-        });
-        m.node_blocks.push(NodeBlock {
-            entity_dim: 2,
-            entity_tag: 1,
-            tags: vec![1, 2, 3, 4, 5, 6],
-            coords: vec![
-                [0., 0., 0.],
-                [1., 0., 0.],
-                [2., 0., 0.],
-                [3., 0., 0.],
-                [1.5, 2., 0.],
-                [-1., 2., 0.],
-            ],
-            params: None,
-        });
-        m.element_blocks.push(ElementBlock {
-            entity_dim: 2,
-            entity_tag: 1,
-            element_type: etype::TRI3,
-            tags: vec![1, 2, 3, 4],
-            nodes: vec![1, 2, 5, 2, 3, 5, 3, 4, 5, 1, 5, 6],
-            partitions: None,
-        });
-        m
+        let coords = vec![
+            [0., 0., 0.],
+            [1., 0., 0.],
+            [2., 0., 0.],
+            [3., 0., 0.],
+            [1.5, 2., 0.],
+            [-1., 2., 0.],
+        ];
+        crate::mesh::testing::one_surface(
+            vec![crate::mesh::testing::node_block(2, (1..=6).collect(), coords)],
+            etype::TRI3,
+            &[&[1, 2, 5], &[2, 3, 5], &[3, 4, 5], &[1, 5, 6]],
+        )
     }
 
     #[test]
