@@ -38,7 +38,7 @@
 //!   the input faces the quad came from (those whose nodes are all among the quad's, else
 //!   those sharing two nodes with it, else one), where one normal stands for the quad: no
 //!   node of it wrapped, and no input face at its nodes turning 60° or more from that mean
-//!   ([`TURN_COS`]). A quad holding an input triangle and a new node far off the
+//!   (`TURN_COS`). A quad holding an input triangle and a new node far off the
 //!   triangle's plane can have a corner edge-on to that triangle and positive about every
 //!   node's normal (`tests/check_mesh.py` measures it so, and found one on a coarse
 //!   boolean part);

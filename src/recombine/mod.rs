@@ -97,8 +97,8 @@
 //!    between two cells of odd triangle counts; it keeps the best worst η, then the fewest
 //!    quads. A plan at least 0.05 better replaces the matching's quads of the strip; the
 //!    plans of all surfaces are taken worst strip first while the quads stay within
-//!    [`MAX_QUADS_PER_TRIANGLE`] of the triangles (a quarter more under
-//!    [`COUNT_RULE_FROM`]). Midline nodes are surface nodes, which optimization moves;
+//!    `MAX_QUADS_PER_TRIANGLE` of the triangles (a quarter more under
+//!    `COUNT_RULE_FROM`). Midline nodes are surface nodes, which optimization moves;
 //!    walls, curves and the other surfaces are untouched.
 //! 9. **Write back.** Each surface's tri3 blocks are replaced by one quad4 block (appended to
 //!    an existing quad4 block of that surface: quads already present are kept). **A quad
