@@ -690,32 +690,27 @@ pub(super) fn fan_radials(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) ->
         }
     }
     let mut seen: HashSet<(i32, u64)> = HashSet::new();
-    let mut out: Vec<(u64, u64)> = Vec::new();
-    let add = |r: (u64, u64), out: &mut Vec<(u64, u64)>| {
-        if !done.contains(&r) && !out.contains(&r) {
-            out.push(r);
-        }
-    };
+    let mut out: std::collections::BTreeSet<(u64, u64)> = Default::default();
     for (s, v) in starts {
         let Some((x, ends)) = fan(s, v) else { continue };
         if !seen.insert((s, v)) {
             continue;
         }
-        add(key(v, x), &mut out);
+        out.insert(key(v, x));
         // along the boundary from v both ways while the nodes are fan nodes at x
         for first in ends {
             let (mut prev, mut cur) = (v, first);
             loop {
                 match fan(s, cur) {
                     Some((y, [p, n])) if y == x && cur != v && seen.insert((s, cur)) => {
-                        add(key(cur, x), &mut out);
+                        out.insert(key(cur, x));
                         let next = if p == prev { n } else { p };
                         (prev, cur) = (cur, next);
                     }
                     _ => {
                         // the fan's end: its radial edge where it is inside the surface
                         if cur != x && inside(s, cur, x) && fan(s, cur).is_none_or(|f| f.0 != x) {
-                            add(key(cur, x), &mut out);
+                            out.insert(key(cur, x));
                         }
                         break;
                     }
@@ -723,8 +718,7 @@ pub(super) fn fan_radials(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) ->
             }
         }
     }
-    out.sort_unstable();
-    out
+    out.into_iter().filter(|r| !done.contains(r)).collect()
 }
 
 /// Boundary segments whose split lets the triangles of a bad fan quad pair otherwise, and

@@ -587,34 +587,40 @@ pub fn split_triangles(
                         report.surfaces.push(b.entity_tag);
                     }
                 }
-                etype::TRI3 if (0..3).filter(|&j| midpoint(e[j], e[(j + 1) % 3]).is_some()).count() == 2 => {
-                    // peeled (the closure leaves two split edges only on such triangles):
-                    // edge x-y whole, z the node between the split edges
-                    let j = (0..3)
-                        .find(|&j| midpoint(e[j], e[(j + 1) % 3]).is_none())
-                        .unwrap_or(0);
-                    let (x, y, z) = (e[j], e[(j + 1) % 3], e[(j + 2) % 3]);
-                    let (Some(myz), Some(mzx)) = (midpoint(y, z), midpoint(z, x)) else {
-                        push(&mut out, b.tags[i], e);
-                        continue;
-                    };
-                    push(&mut out, b.tags[i], &[mzx, myz, z]);
-                    push_children(&mut quads_of, b, i, &[[x, y, myz, mzx]], false, &mut fresh);
-                    report.triangles_peeled += 1;
-                    report.peel_nodes.extend([myz, mzx]);
-                    if !report.surfaces.contains(&b.entity_tag) {
-                        report.surfaces.push(b.entity_tag);
-                    }
-                }
                 etype::TRI3 => {
-                    match (0..3).find_map(|j| midpoint(e[j], e[(j + 1) % 3]).map(|m| (j, m))) {
-                        Some((j, m)) => {
-                            let (x, y, z) = (e[j], e[(j + 1) % 3], e[(j + 2) % 3]);
-                            push(&mut out, b.tags[i], &[x, m, z]);
-                            push(&mut out, fresh(), &[m, y, z]);
+                    // the closure leaves a triangle outside the chosen set none, one (it is
+                    // halved) or two split edges (two peel edges: it is peeled)
+                    let m = [0, 1, 2].map(|j| midpoint(e[j], e[(j + 1) % 3]));
+                    let corners = |j: usize| (e[j], e[(j + 1) % 3], e[(j + 2) % 3]);
+                    match m.iter().flatten().count() {
+                        0 => push(&mut out, b.tags[i], e),
+                        2 => {
+                            // edge x-y whole, z the node between the split edges
+                            let j = m.iter().position(Option::is_none).unwrap_or(0);
+                            let (x, y, z) = corners(j);
+                            let (Some(myz), Some(mzx)) = (m[(j + 1) % 3], m[(j + 2) % 3]) else {
+                                push(&mut out, b.tags[i], e);
+                                continue;
+                            };
+                            push(&mut out, b.tags[i], &[mzx, myz, z]);
+                            push_children(&mut quads_of, b, i, &[[x, y, myz, mzx]], false, &mut fresh);
+                            report.triangles_peeled += 1;
+                            report.peel_nodes.extend([myz, mzx]);
+                            if !report.surfaces.contains(&b.entity_tag) {
+                                report.surfaces.push(b.entity_tag);
+                            }
+                        }
+                        _ => {
+                            let j = m.iter().position(Option::is_some).unwrap_or(0);
+                            let (x, y, z) = corners(j);
+                            let Some(mid) = m[j] else {
+                                push(&mut out, b.tags[i], e);
+                                continue;
+                            };
+                            push(&mut out, b.tags[i], &[x, mid, z]);
+                            push(&mut out, fresh(), &[mid, y, z]);
                             report.triangles_halved += 1;
                         }
-                        None => push(&mut out, b.tags[i], e),
                     }
                 }
                 etype::LINE2 => match midpoint(e[0], e[1]) {
