@@ -21,7 +21,7 @@ every surface or none (then Gmsh writes no line elements). The part is meshed wi
 With `--options` the seed also picks the tool's options (the same part, other switches):
 none, or one or two of `--refine 1` (the checker then runs with `--refined=1`),
 `--keep-tags` (then without `--tag-map`), `--format msh22` or `--format msh41`, `--binary` or `--ascii`,
-`--cross-field 0`, `--cross-field 0.3 --harmonic-cross-field`, `--conformal-multigrid`,
+`--cross-field 0`, `--cross-field 0.3 --harmonic-cross-field`, `--no-conformal-multigrid`,
 `--no-topology`, `--smooth 3`, `--no-optimize` (see `tool_options`); results.tsv then
 has one more column, the options.
 
@@ -136,7 +136,7 @@ OPTION_CHOICES = [
     ["--ascii"],
     ["--cross-field", "0"],
     ["--cross-field", "0.3", "--harmonic-cross-field"],
-    ["--conformal-multigrid"],
+    ["--no-conformal-multigrid"],
     ["--no-topology"],
     ["--smooth", "3"],
     ["--no-optimize"],

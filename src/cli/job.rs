@@ -141,7 +141,7 @@ pub(super) fn recombine_main(args: RunArgs) -> Result<(), String> {
         verify: args.verify,
         cross_field_weight: args.cross_field,
         harmonic_cross_field: args.harmonic_cross_field,
-        conformal_multigrid: args.conformal_multigrid,
+        conformal_multigrid: args.conformal_multigrid || !args.no_conformal_multigrid,
         refine: args.refine,
         smooth: args.smooth,
         topology: !args.no_topology,

@@ -137,10 +137,14 @@ struct RunArgs {
     /// Smoothing iterations of the optimization.
     #[arg(long, value_name = "N")]
     smooth: Option<usize>,
-    /// Solve the optimizer's conformal step with a multigrid preconditioner: a higher mean
-    /// quality on large planar surfaces, for a longer solve.
-    #[arg(long)]
+    /// Precondition the optimizer's conformal solve on large planar surfaces (4,096 free
+    /// nodes or more) with a multigrid: the default.
+    #[arg(long, overrides_with = "no_conformal_multigrid")]
     conformal_multigrid: bool,
+    /// Precondition the optimizer's conformal solve with its diagonal instead of the
+    /// multigrid (100 iterations: a slower solve that ends further from its minimizer).
+    #[arg(long)]
+    no_conformal_multigrid: bool,
     /// Skip the topological operators (quad-vertex merge, doublet collapse, ...).
     #[arg(long)]
     no_topology: bool,

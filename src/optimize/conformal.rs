@@ -18,8 +18,10 @@
 //! a rectangle of aspect `a` then pays as one of aspect `a^(1−β)`. `w_q = 1 / h_q²` (h the
 //! target size at the quad's nodes) makes each quad's term scale-free. `E` is quadratic; with the fixed
 //! nodes (curves, points, shared nodes) as Dirichlet data its minimizer solves a Hermitian
-//! positive definite system, solved by conjugate gradients from the current positions
-//! (at most [`MAX_ITERATIONS`]). The product runs on blocks of nodes in parallel and the
+//! positive definite system, solved by conjugate gradients from the current positions,
+//! preconditioned on surfaces of [`MULTIGRID_FROM`] free nodes or more by an aggregation
+//! multigrid V-cycle ([`FineLevel`], at most [`MULTIGRID_ITERATIONS`]) and otherwise by the
+//! diagonal (at most [`MAX_ITERATIONS`]). The product runs on blocks of nodes in parallel and the
 //! vector updates are fused with the dot products; every sum is taken in a fixed order, so
 //! the result does not depend on the thread count. The start residual comes from the
 //! positions in double precision; the iterations, whose vectors are steps of about the quads'
@@ -150,15 +152,15 @@ fn accumulate<T: Real>(
 }
 
 /// Free nodes from which [`unshear`] with `multigrid` preconditions the conjugate gradients
-/// by the multigrid of `multigrid` instead of the diagonal: with the diagonal, 100
-/// iterations leave the residual of a 10^5-node solve about 20 times above [`TOLERANCE`],
-/// the multigrid reaches it in about 40 (figures in BENCHMARKS.md, "Measurements behind
-/// the defaults").
+/// by a multigrid V-cycle ([`FineLevel`]) instead of the diagonal: with the diagonal, 100
+/// iterations leave the residual of a 10^5-node solve about 20 times above [`TOLERANCE`];
+/// [`MULTIGRID_ITERATIONS`] multigrid iterations end closer to the minimizer in less time
+/// (figures in BENCHMARKS.md, "Measurements behind the defaults").
 const MULTIGRID_FROM: usize = 4096;
 
-/// Cap on the multigrid-preconditioned iterations: near the tolerance's η̄ at 10^6 nodes
-/// for a quarter of the iterations it takes to reach it.
-const MULTIGRID_ITERATIONS: usize = 25;
+/// Cap on the multigrid-preconditioned iterations: at 10^6 nodes, a higher η̄ than the
+/// diagonal's [`MAX_ITERATIONS`] for about two thirds of their time, setup included.
+const MULTIGRID_ITERATIONS: usize = 10;
 
 /// Row `j` of one quad's term as a 4 × 4 complex matrix (what [`accumulate`] adds at the
 /// quad's node `j` is `Σ_m row[m] x_m`): with the corner residuals
@@ -182,68 +184,178 @@ fn quad_row(w: f64, rho: &[f64; 4], j: usize) -> [C; 4] {
     out
 }
 
-/// The system's matrix on the free nodes `free` (`fid`: each node's index among them, or
-/// `u32::MAX`), in compressed rows of complex entries; rows in parallel by chunks.
-fn assemble(
+/// The vectors one V-cycle of a [`FineLevel`] writes: the fine residual, the coarse
+/// right-hand side and the coarse correction.
+struct CycleWork {
+    res: Vec<C<f32>>,
+    rc: Vec<[f32; 2]>,
+    xc: Vec<[f32; 2]>,
+}
+
+/// The multigrid's finest aggregates and the levels above them: the free nodes grouped
+/// with their neighbours through quads ([`super::multigrid::aggregate_with`]); the
+/// system's matrix on the fine nodes stays the quads' product [`apply`], and the coarse
+/// matrix `Pᴴ A P` (piecewise-constant prolongation) is summed from the quads' rows
+/// directly, so no fine matrix is stored.
+struct FineLevel {
+    /// Aggregate of each node (`u32::MAX` for the nodes that are not free).
+    agg: Vec<u32>,
+    members_start: Vec<u32>,
+    members: Vec<u32>,
+    coarse: super::multigrid::Multigrid,
+}
+
+impl FineLevel {
+    /// The hierarchy of the system of `l`'s quads (`weights`, `rhos`) on the nodes where
+    /// `free` holds.
+    fn new(l: &Local, free: &[bool], weights: &[f64], rhos: &[[f64; 4]]) -> Self {
+        let n = l.pos.len();
+        let nbrs = |v: usize| {
+            l.star(v as u32)
+                .iter()
+                .flat_map(|&q| l.quads[q as usize])
+                .map(|u| u as usize)
+                .filter(move |&u| u != v)
+        };
+        let (agg, count) = super::multigrid::aggregate_with(n, nbrs, |v| free[v]);
+        let (members_start, members) = super::multigrid::members_of(&agg, count);
+        let coarse = coarse_matrix(l, (&agg, &members_start, &members), weights, rhos);
+        let coarse = super::multigrid::Multigrid::new(coarse);
+        FineLevel {
+            agg,
+            members_start,
+            members,
+            coarse,
+        }
+    }
+
+    /// Work space of [`FineLevel::cycle`] on `n` nodes.
+    fn work(&self, n: usize) -> CycleWork {
+        let nc = self.members_start.len() - 1;
+        CycleWork {
+            res: vec![C::default(); n],
+            rc: vec![[0.0; 2]; nc],
+            xc: vec![[0.0; 2]; nc],
+        }
+    }
+
+    /// `x ≈ A⁻¹ b`: one V-cycle from zero, with one damped Jacobi sweep (`inv` the inverse
+    /// diagonal, 0 at the nodes that are not free) before and after the coarse correction.
+    /// Symmetric, so it preconditions conjugate gradients; `x` stays 0 where `inv` is.
+    fn cycle(
+        &self,
+        blocks: &Blocks,
+        inv: &[f32],
+        b: &[C<f32>],
+        x: &mut [C<f32>],
+        work: &mut CycleWork,
+    ) {
+        let CycleWork { res, rc, xc } = work;
+        let omega = super::multigrid::OMEGA;
+        x.par_chunks_mut(CHUNK)
+            .zip(b.par_chunks(CHUNK).zip(inv.par_chunks(CHUNK)))
+            .for_each(|(x, (b, inv))| {
+                for v in 0..x.len() {
+                    x[v] = b[v].scale(omega * inv[v]);
+                }
+            });
+        apply(blocks, x, res);
+        // restriction: b − A x summed over each aggregate
+        let ms = &self.members_start;
+        rc.par_iter_mut()
+            .with_min_len(1024)
+            .enumerate()
+            .for_each(|(c, out)| {
+                let mut s = C::<f32>::default();
+                for &v in &self.members[ms[c] as usize..ms[c + 1] as usize] {
+                    s = s.add(b[v as usize].sub(res[v as usize]));
+                }
+                *out = [s.0, s.1];
+            });
+        self.coarse.precondition(rc, xc);
+        // prolongation, then post-smoothing
+        x.par_chunks_mut(CHUNK)
+            .zip(self.agg.par_chunks(CHUNK))
+            .for_each(|(x, agg)| {
+                for v in 0..x.len() {
+                    if let Some(c) = xc.get(agg[v] as usize) {
+                        x[v] = x[v].add(C(c[0], c[1]));
+                    }
+                }
+            });
+        apply(blocks, x, res);
+        x.par_chunks_mut(CHUNK)
+            .zip(b.par_chunks(CHUNK).zip(res.par_chunks(CHUNK)))
+            .zip(inv.par_chunks(CHUNK))
+            .for_each(|((x, (b, ax)), inv)| {
+                for v in 0..x.len() {
+                    x[v] = x[v].add(b[v].sub(ax[v]).scale(omega * inv[v]));
+                }
+            });
+    }
+}
+
+/// The coarse matrix `Pᴴ A P` of the piecewise-constant prolongation from the aggregates
+/// `agg` (each node's, `u32::MAX` for none; `members_start`, `members`: each aggregate's
+/// nodes) of the system of `l`'s quads (`weights`, `rhos`): row `I`, column `J` sums the
+/// quads' rows ([`quad_row`]) from the nodes of `I` at the nodes of `J`, in a fixed order
+/// (members, their quads, the quad's corners).
+fn coarse_matrix(
     l: &Local,
-    free: &[u32],
-    fid: &[u32],
+    (agg, members_start, members): (&[u32], &[u32], &[u32]),
     weights: &[f64],
     rhos: &[[f64; 4]],
 ) -> super::multigrid::Csr {
-    // per chunk of rows: each row's length, the columns and the values
-    type Rows = (Vec<u32>, Vec<u32>, Vec<[f32; 2]>);
-    let chunks: Vec<Rows> = free
-        .par_chunks(4096)
-        .map(|rows| {
-            let mut len = Vec::with_capacity(rows.len());
-            let mut col = Vec::with_capacity(9 * rows.len());
-            let mut val = Vec::with_capacity(9 * rows.len());
-            let mut row: Vec<(u32, C)> = Vec::with_capacity(32);
-            for &v in rows {
-                row.clear();
-                for &q in l.star(v) {
-                    let quad = &l.quads[q as usize];
-                    let Some(j) = quad.iter().position(|&u| u == v) else {
-                        continue;
-                    };
-                    let m = quad_row(weights[q as usize], &rhos[q as usize], j);
-                    for (k, &u) in quad.iter().enumerate() {
-                        let c = fid[u as usize];
-                        if c != u32::MAX {
-                            row.push((c, m[k]));
+    let count = members_start.len() - 1;
+    let rows: Vec<Vec<(u32, C)>> = (0..count)
+        .into_par_iter()
+        .with_min_len(256)
+        .map_init(
+            // each aggregate's place in the row being summed (u32::MAX: not in it)
+            || vec![u32::MAX; count],
+            |slot, c| {
+                let mut row: Vec<(u32, C)> = Vec::with_capacity(16);
+                let range = members_start[c] as usize..members_start[c + 1] as usize;
+                for &v in &members[range] {
+                    for &q in l.star(v) {
+                        let quad = &l.quads[q as usize];
+                        let Some(j) = quad.iter().position(|&u| u == v) else {
+                            continue;
+                        };
+                        let m = quad_row(weights[q as usize], &rhos[q as usize], j);
+                        for (k, &u) in quad.iter().enumerate() {
+                            let a = agg[u as usize];
+                            let Some(s) = slot.get_mut(a as usize) else {
+                                continue;
+                            };
+                            if *s == u32::MAX {
+                                *s = row.len() as u32;
+                                row.push((a, m[k]));
+                            } else {
+                                let e = &mut row[*s as usize];
+                                e.1 = e.1.add(m[k]);
+                            }
                         }
                     }
                 }
-                row.sort_unstable_by_key(|&(c, _)| c);
-                let before = col.len();
-                let mut k = 0;
-                while k < row.len() {
-                    let c = row[k].0;
-                    let mut acc = C::default();
-                    while k < row.len() && row[k].0 == c {
-                        acc = acc.add(row[k].1);
-                        k += 1;
-                    }
-                    col.push(c);
-                    val.push([acc.0 as f32, acc.1 as f32]);
+                for e in &row {
+                    slot[e.0 as usize] = u32::MAX;
                 }
-                len.push((col.len() - before) as u32);
-            }
-            (len, col, val)
-        })
+                row.sort_unstable_by_key(|e| e.0);
+                row
+            },
+        )
         .collect();
-    let mut start = Vec::with_capacity(free.len() + 1);
+    let mut start = Vec::with_capacity(count + 1);
     start.push(0u32);
-    let total: usize = chunks.iter().map(|c| c.1.len()).sum();
+    let total: usize = rows.iter().map(Vec::len).sum();
     let (mut col, mut val) = (Vec::with_capacity(total), Vec::with_capacity(total));
-    for (len, c, v) in chunks {
-        for n in len {
-            let last = start[start.len() - 1];
-            start.push(last + n);
+    for row in rows {
+        for (a, v) in row {
+            col.push(a);
+            val.push([v.0 as f32, v.1 as f32]);
         }
-        col.extend_from_slice(&c);
-        val.extend_from_slice(&v);
+        start.push(col.len() as u32);
     }
     super::multigrid::Csr { start, col, val }
 }
@@ -360,33 +472,21 @@ fn pdot(a: &[C<f32>], b: &[C<f32>]) -> f64 {
 }
 
 /// Conjugate gradients on `A d = r` (`r` the start residual, `d` zero), preconditioned by
-/// one multigrid V-cycle on the free nodes `free` (the residual elsewhere is not read), to
-/// a relative residual of [`TOLERANCE`] in the preconditioner's norm or at most
-/// [`MULTIGRID_ITERATIONS`] iterations. Sums as in the diagonal version (per chunk, then in chunk
-/// order).
+/// one multigrid V-cycle ([`FineLevel::cycle`]; `inv` the inverse diagonal, 0 at the nodes
+/// that are not free), to a relative residual of [`TOLERANCE`] in the preconditioner's norm
+/// or at most [`MULTIGRID_ITERATIONS`] iterations. Sums as in the diagonal version (per
+/// chunk, then in chunk order).
 fn multigrid_cg(
     blocks: &Blocks,
-    mg: &super::multigrid::Multigrid,
-    free: &[u32],
+    mg: &FineLevel,
+    inv: &[f32],
     r: &mut [C<f32>],
     d: &mut [C<f32>],
 ) {
     let n = r.len();
-    let precondition = |r: &[C<f32>], z: &mut [C<f32>]| {
-        let rf: Vec<[f32; 2]> = free
-            .par_iter()
-            .with_min_len(4096)
-            .map(|&v| [r[v as usize].0, r[v as usize].1])
-            .collect();
-        let mut zf = vec![[0.0f32; 2]; free.len()];
-        mg.precondition(&rf, &mut zf);
-        z.par_iter_mut().with_min_len(4096).for_each(|c| *c = C::default());
-        for (&v, c) in free.iter().zip(&zf) {
-            z[v as usize] = C(c[0], c[1]);
-        }
-    };
+    let mut work = mg.work(n);
     let mut z: Vec<C<f32>> = vec![C::default(); n];
-    precondition(r, &mut z);
+    mg.cycle(blocks, inv, r, &mut z, &mut work);
     let mut p = z.clone();
     let mut ap: Vec<C<f32>> = vec![C::default(); n];
     let mut rs = pdot(r, &z);
@@ -409,7 +509,7 @@ fn multigrid_cg(
                     r[v] = r[v].sub(ap[v].scale(a));
                 }
             });
-        precondition(r, &mut z);
+        mg.cycle(blocks, inv, r, &mut z, &mut work);
         let rs_new = pdot(r, &z);
         let beta = (rs_new / rs) as f32;
         rs = rs_new;
@@ -519,18 +619,10 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64, multigrid: bool) -> usize
         .map(|(&d, &f)| if f && d > 0.0 { (1.0 / d) as f32 } else { 0.0 })
         .collect();
     // speed: on a large surface the multigrid converges where the diagonal stalls
-    let mut fid = vec![u32::MAX; n];
-    let mut free_list: Vec<u32> = Vec::new();
-    for v in 0..n {
-        if free[v] && inv[v] > 0.0 {
-            fid[v] = free_list.len() as u32;
-            free_list.push(v as u32);
-        }
-    }
-    let mg = (multigrid && free_list.len() >= MULTIGRID_FROM).then(|| {
-        super::multigrid::Multigrid::new(assemble(l, &free_list, &fid, &weights, &rhos))
-    });
-    drop(fid);
+    let grouped: Vec<bool> = (0..n).map(|v| inv[v] > 0.0).collect();
+    let mg = (multigrid && grouped.iter().filter(|&&g| g).count() >= MULTIGRID_FROM)
+        .then(|| FineLevel::new(l, &grouped, &weights, &rhos));
+    drop(grouped);
     // memory: the blocks hold what the iterations need
     drop((weights, rhos, diag));
     // the start residual in double precision (from the positions), the iterations in single
@@ -544,7 +636,7 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64, multigrid: bool) -> usize
     drop(z);
     let mut d: Vec<C<f32>> = vec![C::default(); n];
     if let Some(mg) = &mg {
-        multigrid_cg(&blocks, mg, &free_list, &mut r, &mut d);
+        multigrid_cg(&blocks, mg, &inv, &mut r, &mut d);
     }
     let mut p: Vec<C<f32>> = if mg.is_some() {
         Vec::new()
@@ -898,6 +990,146 @@ mod tests {
                 && multigrid.eta_worst >= diagonal.eta_worst - 0.01,
             "{diagonal:?} {multigrid:?}"
         );
+    }
+
+    /// A surface, its quads' weights and corner ratios, each node's freedom and inverse
+    /// diagonal.
+    struct System {
+        l: Local,
+        weights: Vec<f64>,
+        rhos: Vec<[f64; 4]>,
+        free: Vec<bool>,
+        inv: Vec<f32>,
+    }
+
+    /// A jittered 16 × 16 quad grid with random weights and corner ratios: the system
+    /// [`unshear`] solves, its boundary nodes fixed. Also each node's freedom and inverse
+    /// diagonal, as [`unshear`] computes them.
+    fn random_system() -> System {
+        let mut s = synth::quad_grid(16, 16, 1.0, 1.0);
+        synth::jitter(&mut s, 0.2, 7);
+        let (_, l) = local_of(&synth::to_mesh(&s));
+        let mut r = synth::Rng::new(3);
+        let weights: Vec<f64> = (0..l.quads.len()).map(|_| 0.5 + r.next_f64()).collect();
+        let rhos: Vec<[f64; 4]> = (0..l.quads.len())
+            .map(|_| std::array::from_fn(|_| 0.5 + 1.5 * r.next_f64()))
+            .collect();
+        let n = l.pos.len();
+        let free: Vec<bool> = (0..n)
+            .map(|v| !l.fixed[v] && !l.star(v as u32).is_empty())
+            .collect();
+        let mut diag = vec![0.0f64; n];
+        for (q, quad) in l.quads.iter().enumerate() {
+            for (j, &v) in quad.iter().enumerate() {
+                let (a, b) = (rhos[q][j], rhos[q][(j + 3) & 3]);
+                diag[v as usize] += (2.0 + a * a + b * b) * weights[q];
+            }
+        }
+        let inv = (0..n)
+            .map(|v| if free[v] { (1.0 / diag[v]) as f32 } else { 0.0 })
+            .collect();
+        assert!(free.iter().filter(|&&f| f).count() > 100);
+        System {
+            l,
+            weights,
+            rhos,
+            free,
+            inv,
+        }
+    }
+
+    /// Entry (I, J) of the coarse matrix is what the quads' product sends from the nodes of
+    /// aggregate J (all at 1) to the nodes of aggregate I, summed: `Pᴴ A P`.
+    #[test]
+    fn the_coarse_matrix_sums_the_quads_product_between_aggregates() {
+        let System {
+            l,
+            weights,
+            rhos,
+            free,
+            ..
+        } = random_system();
+        let n = l.pos.len();
+        let nbrs = |v: usize| {
+            l.star(v as u32)
+                .iter()
+                .flat_map(|&q| l.quads[q as usize])
+                .map(|u| u as usize)
+                .filter(move |&u| u != v)
+        };
+        let (agg, count) = super::super::multigrid::aggregate_with(n, nbrs, |v| free[v]);
+        assert!(count > 4 && 2 * count < free.iter().filter(|&&f| f).count());
+        let (ms, members) = super::super::multigrid::members_of(&agg, count);
+        let a = coarse_matrix(&l, (&agg, &ms, &members), &weights, &rhos);
+        let live: Vec<u32> = (0..l.quads.len() as u32).collect();
+        let blocks = Blocks::new(n, &l.quads, &live, &weights, &rhos);
+        let mut x: Vec<C> = vec![C::default(); n];
+        let mut ax: Vec<C> = vec![C::default(); n];
+        for j in 0..count {
+            x.iter_mut().for_each(|c| *c = C::default());
+            for &v in &members[ms[j] as usize..ms[j + 1] as usize] {
+                x[v as usize] = C(1.0, 0.0);
+            }
+            apply(&blocks, &x, &mut ax);
+            for i in 0..count {
+                let want: C = members[ms[i] as usize..ms[i + 1] as usize]
+                    .iter()
+                    .fold(C::default(), |s, &v| s.add(ax[v as usize]));
+                let row = a.start[i] as usize..a.start[i + 1] as usize;
+                let got = row
+                    .clone()
+                    .find(|&e| a.col[e] as usize == j)
+                    .map_or(C::default(), |e| C(f64::from(a.val[e][0]), f64::from(a.val[e][1])));
+                let tol = 1e-4 * (1.0 + want.0.abs() + want.1.abs());
+                assert!(
+                    (want.0 - got.0).abs() < tol && (want.1 - got.1).abs() < tol,
+                    "({i}, {j}): {:?} against {:?}",
+                    (want.0, want.1),
+                    (got.0, got.1)
+                );
+            }
+        }
+    }
+
+    /// The V-cycle preconditions conjugate gradients: symmetric (⟨x, B y⟩ = ⟨B x, y⟩ in the
+    /// real inner product of the complex vectors) and positive, and it leaves the nodes
+    /// that are not free at 0.
+    #[test]
+    fn the_v_cycle_is_symmetric_and_positive() {
+        let System {
+            l,
+            weights,
+            rhos,
+            free,
+            inv,
+        } = random_system();
+        let n = l.pos.len();
+        let fine = FineLevel::new(&l, &free, &weights, &rhos);
+        let live: Vec<u32> = (0..l.quads.len() as u32).collect();
+        let blocks = Blocks::new(n, &l.quads, &live, &weights, &rhos);
+        let mut r = synth::Rng::new(11);
+        let mut random = || -> Vec<C<f32>> {
+            (0..n)
+                .map(|v| match free[v] {
+                    true => C(r.sym() as f32, r.sym() as f32),
+                    false => C::default(),
+                })
+                .collect()
+        };
+        let (x, y) = (random(), random());
+        let cycle = |b: &[C<f32>]| {
+            let mut z = vec![C::default(); n];
+            fine.cycle(&blocks, &inv, b, &mut z, &mut fine.work(n));
+            z
+        };
+        let (bx, by) = (cycle(&x), cycle(&y));
+        let dot = |a: &[C<f32>], b: &[C<f32>]| a.iter().zip(b).map(|(p, q)| p.dot(*q)).sum::<f64>();
+        let (xby, bxy) = (dot(&x, &by), dot(&bx, &y));
+        assert!((xby - bxy).abs() < 1e-4 * (xby.abs() + bxy.abs()), "{xby} {bxy}");
+        assert!(dot(&x, &bx) > 0.0 && dot(&y, &by) > 0.0);
+        for v in (0..n).filter(|&v| !free[v]) {
+            assert!(bx[v].0 == 0.0 && bx[v].1 == 0.0);
+        }
     }
 
     #[test]

@@ -151,8 +151,8 @@ pub struct OptimizeOptions<'a> {
     /// Where stage times and rollbacks go (see [`crate::profile`]); `None`: nowhere.
     pub trace: Option<&'a crate::profile::Trace>,
     /// Precondition the conformal solve of surfaces of 4,096 free nodes or more by an
-    /// aggregation multigrid instead of the diagonal (off by default): closer to the
-    /// solve's minimizer, for a higher η̄ on large planar surfaces at some time.
+    /// aggregation multigrid (on by default) instead of the diagonal, which ends further
+    /// from the solve's minimizer in more time.
     pub conformal_multigrid: bool,
     /// The surfaces (sorted tags) where, if curved, the corner at a node the reference does
     /// not have (split, duplicated and refined nodes) is held to turn positively about the
@@ -178,7 +178,7 @@ impl Default for OptimizeOptions<'_> {
             progress: None,
             skip: &[],
             trace: None,
-            conformal_multigrid: false,
+            conformal_multigrid: true,
             located_surfaces: &[],
         }
     }

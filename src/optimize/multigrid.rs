@@ -1,8 +1,10 @@
 //! An aggregation multigrid preconditioner for the conformal solve's Hermitian system
-//! (`conformal`): the fine matrix in compressed rows of complex entries, coarse levels by
-//! grouping each node with its free neighbours (piecewise-constant prolongation, Galerkin
-//! coarse matrices `Pᴴ A P`), one damped Jacobi sweep before and after the coarse
-//! correction, and a dense Cholesky factorization on the coarsest level. The V-cycle is
+//! (`conformal`): levels by grouping each node with its free neighbours
+//! ([`aggregate_with`]; piecewise-constant prolongation, Galerkin coarse matrices `Pᴴ A P`
+//! in compressed rows of complex entries), one damped Jacobi sweep before and after the
+//! coarse correction, and a dense Cholesky factorization on the coarsest level. The finest
+//! level is `conformal`'s own (its matrix is the quads' product, never stored); a
+//! [`Multigrid`] holds the levels from the first coarse matrix down. The V-cycle is
 //! symmetric, so it preconditions conjugate gradients.
 //!
 //! **Invariant:** every sum runs in a fixed order (rows in parallel, each row's entries in
@@ -92,8 +94,8 @@ pub(super) struct Multigrid {
     coarse_n: usize,
 }
 
-/// Damping of the Jacobi sweeps.
-const OMEGA: f32 = 0.6;
+/// Damping of the Jacobi sweeps (the finest level's too).
+pub(super) const OMEGA: f32 = 0.6;
 
 /// Levels stop at this many nodes (or when a level does not halve), where the dense
 /// factorization takes over.
@@ -215,31 +217,47 @@ impl Multigrid {
     }
 }
 
-/// Groups the nodes of `a`: each node whose neighbours are all free starts an aggregate
-/// with them (in node order); a node left joins the aggregate of its first grouped
-/// neighbour, or makes its own. Returns each node's aggregate and the count.
+/// Groups the nodes of `a` ([`aggregate_with`] with its off-diagonal entries as neighbours).
 fn aggregate(a: &Csr) -> (Vec<u32>, usize) {
-    let n = a.rows();
+    aggregate_with(
+        a.rows(),
+        |i| {
+            a.col[a.start[i] as usize..a.start[i + 1] as usize]
+                .iter()
+                .map(|&j| j as usize)
+                .filter(move |&j| j != i)
+        },
+        |_| true,
+    )
+}
+
+/// Groups the `n` nodes for which `grouped` holds (the others get `u32::MAX` and are never
+/// anyone's neighbour): each node whose neighbours (`nbrs`, grouped ones only counted) are
+/// all free starts an aggregate with them (in node order); a node left joins the aggregate
+/// of its first grouped neighbour, or makes its own. Returns each node's aggregate and the
+/// count.
+pub(super) fn aggregate_with<I: Iterator<Item = usize>>(
+    n: usize,
+    nbrs: impl Fn(usize) -> I,
+    grouped: impl Fn(usize) -> bool,
+) -> (Vec<u32>, usize) {
     let mut agg = vec![u32::MAX; n];
     let mut count = 0u32;
-    let nbrs = |i: usize| {
-        a.col[a.start[i] as usize..a.start[i + 1] as usize]
-            .iter()
-            .map(|&j| j as usize)
-            .filter(move |&j| j != i)
-    };
     for i in 0..n {
-        if agg[i] != u32::MAX || nbrs(i).any(|j| agg[j] != u32::MAX) {
+        if !grouped(i)
+            || agg[i] != u32::MAX
+            || nbrs(i).any(|j| grouped(j) && agg[j] != u32::MAX)
+        {
             continue;
         }
         agg[i] = count;
-        for j in nbrs(i) {
+        for j in nbrs(i).filter(|&j| grouped(j)) {
             agg[j] = count;
         }
         count += 1;
     }
     for i in 0..n {
-        if agg[i] == u32::MAX {
+        if grouped(i) && agg[i] == u32::MAX {
             agg[i] = nbrs(i)
                 .map(|j| agg[j])
                 .find(|&c| c != u32::MAX)
@@ -252,18 +270,19 @@ fn aggregate(a: &Csr) -> (Vec<u32>, usize) {
     (agg, count as usize)
 }
 
-/// The nodes of each of `count` aggregates, in compressed rows (node order within each).
-fn members_of(agg: &[u32], count: usize) -> (Vec<u32>, Vec<u32>) {
+/// The nodes of each of `count` aggregates, in compressed rows (node order within each;
+/// nodes of no aggregate, `u32::MAX`, left out).
+pub(super) fn members_of(agg: &[u32], count: usize) -> (Vec<u32>, Vec<u32>) {
     let mut start = vec![0u32; count + 1];
-    for &c in agg {
+    for &c in agg.iter().filter(|&&c| c != u32::MAX) {
         start[c as usize + 1] += 1;
     }
     for c in 0..count {
         start[c + 1] += start[c];
     }
     let mut fill = start.clone();
-    let mut members = vec![0u32; agg.len()];
-    for (i, &c) in agg.iter().enumerate() {
+    let mut members = vec![0u32; start[count] as usize];
+    for (i, &c) in agg.iter().enumerate().filter(|(_, &c)| c != u32::MAX) {
         members[fill[c as usize] as usize] = i as u32;
         fill[c as usize] += 1;
     }

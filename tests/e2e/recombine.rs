@@ -198,3 +198,48 @@ fn cross_field_cost_output_is_valid() {
         );
     }
 }
+
+/// The conformal solve's multigrid (the default) against its diagonal
+/// (`--no-conformal-multigrid`) on a one-surface rectangle large enough for the multigrid:
+/// both outputs pass the checks, they differ, the multigrid's mean η is at least the
+/// diagonal's, and the last of `--conformal-multigrid` and `--no-conformal-multigrid` wins.
+#[test]
+fn the_conformal_multigrid_is_the_default_and_can_be_turned_off() {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let variant = Variant::Msh41Binary;
+    let input = generate("rectangle", variant, dir.path(), 0.35, &[]);
+    let run = |name: &str, extra: &[&str]| {
+        let output = dir.path().join(format!("{name}.msh"));
+        let (code, stderr) = recombine(&input, &output, extra);
+        assert_eq!(code, Some(0), "{name}: {stderr}");
+        output
+    };
+    let eta_mean = |output: &Path| {
+        let (code, json, stderr) =
+            blossomquad_run(["quality".as_ref(), output.as_os_str(), "--json".as_ref()]);
+        assert_eq!(code, Some(0), "{stderr}");
+        let total = &json[json.find("\"total\"").expect("a total")..];
+        common::json_number(total, "eta_mean").expect("eta_mean")
+    };
+    let multigrid = run("multigrid", &[]);
+    let diagonal = run("diagonal", &["--no-conformal-multigrid"]);
+    for output in [&multigrid, &diagonal] {
+        assert_variant(output, variant);
+        let report = check_mesh(&input, output, &[]);
+        assert!(report.ok, "{}: {}", output.display(), report.report);
+    }
+    let read = |p: &Path| std::fs::read(p).expect("output");
+    assert_ne!(read(&multigrid), read(&diagonal));
+    let (m, d) = (eta_mean(&multigrid), eta_mean(&diagonal));
+    assert!(
+        m >= d,
+        "mean eta {m} with the multigrid, {d} with the diagonal"
+    );
+    let on = run("on", &["--no-conformal-multigrid", "--conformal-multigrid"]);
+    let off = run(
+        "off",
+        &["--conformal-multigrid", "--no-conformal-multigrid"],
+    );
+    assert_eq!(read(&on), read(&multigrid));
+    assert_eq!(read(&off), read(&diagonal));
+}
