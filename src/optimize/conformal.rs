@@ -209,16 +209,7 @@ impl FineLevel {
     /// The hierarchy of the system of `l`'s quads (`weights`, `rhos`) on the nodes where
     /// `free` holds.
     fn new(l: &Local, free: &[bool], weights: &[f64], rhos: &[[f64; 4]]) -> Self {
-        let n = l.pos.len();
-        let nbrs = |v: usize| {
-            l.star(v as u32)
-                .iter()
-                .flat_map(|&q| l.quads[q as usize])
-                .map(|u| u as usize)
-                .filter(move |&u| u != v)
-        };
-        let (agg, count) = super::multigrid::aggregate_with(n, nbrs, |v| free[v]);
-        let (members_start, members) = super::multigrid::members_of(&agg, count);
+        let (agg, members_start, members) = aggregates(l, free);
         let coarse = coarse_matrix(l, (&agg, &members_start, &members), weights, rhos);
         let coarse = super::multigrid::Multigrid::new(coarse);
         FineLevel {
@@ -293,6 +284,22 @@ impl FineLevel {
                 }
             });
     }
+}
+
+/// The free nodes of `l` (where `free` holds) grouped with their neighbours through quads
+/// ([`super::multigrid::aggregate_with`]): each node's aggregate (`u32::MAX` for the nodes
+/// that are not free) and each aggregate's nodes in compressed rows.
+fn aggregates(l: &Local, free: &[bool]) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
+    let nbrs = |v: usize| {
+        l.star(v as u32)
+            .iter()
+            .flat_map(|&q| l.quads[q as usize])
+            .map(|u| u as usize)
+            .filter(move |&u| u != v)
+    };
+    let (agg, count) = super::multigrid::aggregate_with(l.pos.len(), nbrs, |v| free[v]);
+    let (members_start, members) = super::multigrid::members_of(&agg, count);
+    (agg, members_start, members)
 }
 
 /// The coarse matrix `Pᴴ A P` of the piecewise-constant prolongation from the aggregates
@@ -1050,16 +1057,9 @@ mod tests {
             ..
         } = random_system();
         let n = l.pos.len();
-        let nbrs = |v: usize| {
-            l.star(v as u32)
-                .iter()
-                .flat_map(|&q| l.quads[q as usize])
-                .map(|u| u as usize)
-                .filter(move |&u| u != v)
-        };
-        let (agg, count) = super::super::multigrid::aggregate_with(n, nbrs, |v| free[v]);
+        let (agg, ms, members) = aggregates(&l, &free);
+        let count = ms.len() - 1;
         assert!(count > 4 && 2 * count < free.iter().filter(|&&f| f).count());
-        let (ms, members) = super::super::multigrid::members_of(&agg, count);
         let a = coarse_matrix(&l, (&agg, &ms, &members), &weights, &rhos);
         let live: Vec<u32> = (0..l.quads.len() as u32).collect();
         let blocks = Blocks::new(n, &l.quads, &live, &weights, &rhos);
