@@ -138,7 +138,8 @@ struct RunArgs {
     #[arg(long, value_name = "N")]
     smooth: Option<usize>,
     /// Precondition the optimizer's conformal solve on large planar surfaces (4,096 free
-    /// nodes or more) with a multigrid: the default.
+    /// nodes or more) with a multigrid: the default (the last of this flag and
+    /// --no-conformal-multigrid wins).
     #[arg(long, overrides_with = "no_conformal_multigrid")]
     conformal_multigrid: bool,
     /// Precondition the optimizer's conformal solve with its diagonal instead of the

@@ -232,9 +232,9 @@ fn aggregate(a: &Csr) -> (Vec<u32>, usize) {
 }
 
 /// Groups the `n` nodes for which `grouped` holds (the others get `u32::MAX` and are never
-/// anyone's neighbour): each node whose neighbours (`nbrs`, grouped ones only counted) are
-/// all free starts an aggregate with them (in node order); a node left joins the aggregate
-/// of its first grouped neighbour, or makes its own. Returns each node's aggregate and the
+/// anyone's neighbour): in node order, a node none of whose grouped neighbours (`nbrs`) is
+/// in an aggregate yet starts one with them; a node left over joins the aggregate of its
+/// first neighbour that has one, or makes its own. Returns each node's aggregate and the
 /// count.
 pub(super) fn aggregate_with<I: Iterator<Item = usize>>(
     n: usize,
