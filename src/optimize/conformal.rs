@@ -207,9 +207,9 @@ struct FineLevel {
 
 impl FineLevel {
     /// The hierarchy of the system of `l`'s quads (`weights`, `rhos`) on the nodes where
-    /// `free` holds.
-    fn new(l: &Local, free: &[bool], weights: &[f64], rhos: &[[f64; 4]]) -> Self {
-        let (agg, members_start, members) = aggregates(l, free);
+    /// the inverse diagonal `inv` ([`inverse_diagonal`]) is positive.
+    fn new(l: &Local, inv: &[f32], weights: &[f64], rhos: &[[f64; 4]]) -> Self {
+        let (agg, members_start, members) = aggregates(l, |v| inv[v] > 0.0);
         let coarse = coarse_matrix(l, (&agg, &members_start, &members), weights, rhos);
         let coarse = super::multigrid::Multigrid::new(coarse);
         FineLevel {
@@ -289,7 +289,7 @@ impl FineLevel {
 /// The free nodes of `l` (where `free` holds) grouped with their neighbours through quads
 /// ([`super::multigrid::aggregate_with`]): each node's aggregate (`u32::MAX` for the nodes
 /// that are not free) and each aggregate's nodes in compressed rows.
-fn aggregates(l: &Local, free: &[bool]) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
+fn aggregates(l: &Local, free: impl Fn(usize) -> bool) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
     let nbrs = |v: usize| {
         l.star(v as u32)
             .iter()
@@ -297,7 +297,7 @@ fn aggregates(l: &Local, free: &[bool]) -> (Vec<u32>, Vec<u32>, Vec<u32>) {
             .map(|u| u as usize)
             .filter(move |&u| u != v)
     };
-    let (agg, count) = super::multigrid::aggregate_with(l.pos.len(), nbrs, |v| free[v]);
+    let (agg, count) = super::multigrid::aggregate_with(l.pos.len(), nbrs, free);
     let (members_start, members) = super::multigrid::members_of(&agg, count);
     (agg, members_start, members)
 }
@@ -530,6 +530,31 @@ fn multigrid_cg(
     }
 }
 
+/// The inverse of the system's diagonal (`Σ w_q (2 + ρ_j² + ρ_{j−1}²)` over a node's quads
+/// `live`, `4 Σ w_q` for squares) in single precision, 0 at the nodes that are not `free`
+/// or have no positive diagonal: the preconditioner of the diagonal solve and the
+/// multigrid's Jacobi sweeps, and where it is positive, the nodes the solve moves.
+fn inverse_diagonal(
+    l: &Local,
+    live: &[u32],
+    free: &[bool],
+    weights: &[f64],
+    rhos: &[[f64; 4]],
+) -> Vec<f32> {
+    let mut diag = vec![0.0f64; l.pos.len()];
+    for &q in live {
+        let rho = &rhos[q as usize];
+        for (j, &v) in l.quads[q as usize].iter().enumerate() {
+            let jm = (j + 3) & 3;
+            diag[v as usize] += (2.0 + rho[j] * rho[j] + rho[jm] * rho[jm]) * weights[q as usize];
+        }
+    }
+    diag.iter()
+        .zip(free)
+        .map(|(&d, &f)| if f && d > 0.0 { (1.0 / d) as f32 } else { 0.0 })
+        .collect()
+}
+
 /// The conformal solve (module docs) on a planar surface, keeping the share `keep_aspect`
 /// (β) of the corner aspect ratios ([`KEEP_ASPECT`] by default); returns the number of nodes moved
 /// (0 when the surface is curved, has no free node, or no step improved the mean η).
@@ -612,26 +637,12 @@ pub(crate) fn unshear(l: &mut Local, keep_aspect: f64, multigrid: bool) -> usize
     // diagonal scaling matters. Entries of A x at fixed
     // nodes are not masked: the preconditioner is zero there, so they never reach the
     // iterates (and x is zero there).
-    let mut diag = vec![0.0f64; n];
-    for &q in &live {
-        let rho = &rhos[q as usize];
-        for (j, &v) in l.quads[q as usize].iter().enumerate() {
-            let jm = (j + 3) & 3;
-            diag[v as usize] += (2.0 + rho[j] * rho[j] + rho[jm] * rho[jm]) * weights[q as usize];
-        }
-    }
-    let inv: Vec<f32> = diag
-        .iter()
-        .zip(&free)
-        .map(|(&d, &f)| if f && d > 0.0 { (1.0 / d) as f32 } else { 0.0 })
-        .collect();
+    let inv = inverse_diagonal(l, &live, &free, &weights, &rhos);
     // speed: on a large surface the multigrid converges where the diagonal stalls
-    let grouped: Vec<bool> = (0..n).map(|v| inv[v] > 0.0).collect();
-    let mg = (multigrid && grouped.iter().filter(|&&g| g).count() >= MULTIGRID_FROM)
-        .then(|| FineLevel::new(l, &grouped, &weights, &rhos));
-    drop(grouped);
+    let mg = (multigrid && inv.iter().filter(|&&d| d > 0.0).count() >= MULTIGRID_FROM)
+        .then(|| FineLevel::new(l, &inv, &weights, &rhos));
     // memory: the blocks hold what the iterations need
-    drop((weights, rhos, diag));
+    drop((weights, rhos));
     // the start residual in double precision (from the positions), the iterations in single
     // (on the step, whose values are of the size of the quads)
     let mut r: Vec<C<f32>> = {
@@ -1025,16 +1036,8 @@ mod tests {
         let free: Vec<bool> = (0..n)
             .map(|v| !l.fixed[v] && !l.star(v as u32).is_empty())
             .collect();
-        let mut diag = vec![0.0f64; n];
-        for (q, quad) in l.quads.iter().enumerate() {
-            for (j, &v) in quad.iter().enumerate() {
-                let (a, b) = (rhos[q][j], rhos[q][(j + 3) & 3]);
-                diag[v as usize] += (2.0 + a * a + b * b) * weights[q];
-            }
-        }
-        let inv = (0..n)
-            .map(|v| if free[v] { (1.0 / diag[v]) as f32 } else { 0.0 })
-            .collect();
+        let live: Vec<u32> = (0..l.quads.len() as u32).collect();
+        let inv = inverse_diagonal(&l, &live, &free, &weights, &rhos);
         assert!(free.iter().filter(|&&f| f).count() > 100);
         System {
             l,
@@ -1057,7 +1060,7 @@ mod tests {
             ..
         } = random_system();
         let n = l.pos.len();
-        let (agg, ms, members) = aggregates(&l, &free);
+        let (agg, ms, members) = aggregates(&l, |v| free[v]);
         let count = ms.len() - 1;
         assert!(count > 4 && 2 * count < free.iter().filter(|&&f| f).count());
         let a = coarse_matrix(&l, (&agg, &ms, &members), &weights, &rhos);
@@ -1104,7 +1107,7 @@ mod tests {
             inv,
         } = random_system();
         let n = l.pos.len();
-        let fine = FineLevel::new(&l, &free, &weights, &rhos);
+        let fine = FineLevel::new(&l, &inv, &weights, &rhos);
         let live: Vec<u32> = (0..l.quads.len() as u32).collect();
         let blocks = Blocks::new(n, &l.quads, &live, &weights, &rhos);
         let mut r = synth::Rng::new(11);

@@ -246,7 +246,7 @@ pub(super) fn aggregate_with<I: Iterator<Item = usize>>(
     for i in 0..n {
         if !grouped(i)
             || agg[i] != u32::MAX
-            || nbrs(i).any(|j| grouped(j) && agg[j] != u32::MAX)
+            || nbrs(i).any(|j| agg[j] != u32::MAX)
         {
             continue;
         }
