@@ -330,6 +330,24 @@ pub fn json_number(json: &str, key: &str) -> Option<f64> {
     rest[..end].parse().ok()
 }
 
+/// A number of the `"total"` object of a `quality --json` report (whole-mesh figures;
+/// per-surface objects come before it).
+pub fn total_number(json: &str, key: &str) -> f64 {
+    let total = json
+        .find("\"total\"")
+        .map(|at| &json[at..])
+        .unwrap_or_else(|| panic!("no \"total\" in {json}"));
+    json_number(total, key).unwrap_or_else(|| panic!("no number {key:?} in {json}"))
+}
+
+/// [`total_number`] of `blossomquad quality PATH --json`, which must succeed.
+pub fn quality_total(path: &Path, key: &str) -> f64 {
+    let (code, json, stderr) =
+        blossomquad_run(["quality".as_ref(), path.as_os_str(), "--json".as_ref()]);
+    assert_eq!(code, Some(0), "quality {} failed: {stderr}", path.display());
+    total_number(&json, key)
+}
+
 /// Asserts that `path` starts with the `$MeshFormat` header of `variant`.
 pub fn assert_variant(path: &Path, variant: Variant) {
     let bytes = std::fs::read(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));

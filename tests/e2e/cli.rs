@@ -4,7 +4,7 @@
 
 use crate::common;
 
-use common::{blossomquad, blossomquad_run, generate, geo_dir, json_number, Variant};
+use common::{blossomquad, blossomquad_run, generate, geo_dir, total_number, Variant};
 use std::path::Path;
 
 fn info(path: &Path) -> String {
@@ -35,16 +35,6 @@ fn stderr_without_hooks(input: &Path, out: &Path) -> String {
         .assert()
         .success();
     String::from_utf8_lossy(&run.get_output().stderr).into_owned()
-}
-
-/// A number of the `"total"` object of `quality --json` (whole-mesh figures;
-/// per-surface objects come before it).
-fn number(json: &str, key: &str) -> f64 {
-    let total = json
-        .find("\"total\"")
-        .map(|at| &json[at..])
-        .unwrap_or_else(|| panic!("no \"total\" in {json}"));
-    json_number(total, key).unwrap_or_else(|| panic!("no number {key:?} in {json}"))
 }
 
 #[test]
@@ -137,8 +127,8 @@ fn quality_of_triangle_input_and_of_our_quads() {
     let dir = tempfile::tempdir().expect("temp dir");
     let input = geo_dir().join("rectangle.msh");
     let tri = quality_json(&input, &[]);
-    assert_eq!(number(&tri, "quads"), 0.0, "{tri}");
-    assert_eq!(number(&tri, "triangles"), 1792.0, "{tri}");
+    assert_eq!(total_number(&tri, "quads"), 0.0, "{tri}");
+    assert_eq!(total_number(&tri, "triangles"), 1792.0, "{tri}");
 
     let output = dir.path().join("quads.msh");
     blossomquad()
@@ -150,16 +140,16 @@ fn quality_of_triangle_input_and_of_our_quads() {
         .success();
     for extra in [&[][..], &["--size", "0.1 + 0.08*sin(3*x)*cos(6*y)"][..]] {
         let q = quality_json(&output, extra);
-        let quads = number(&q, "quads");
+        let quads = total_number(&q, "quads");
         assert!(quads > 0.0 && quads <= 1792.0 / 2.0 + 64.0, "{q}");
-        assert_eq!(number(&q, "triangles"), 0.0, "{q}");
-        let (w, mean) = (number(&q, "eta_worst"), number(&q, "eta_mean"));
+        assert_eq!(total_number(&q, "triangles"), 0.0, "{q}");
+        let (w, mean) = (total_number(&q, "eta_worst"), total_number(&q, "eta_mean"));
         assert!(0.0 < w && w <= mean && mean <= 1.0, "{q}");
-        let tau = number(&q, "tau_percent");
+        let tau = total_number(&q, "tau_percent");
         assert!(0.0 < tau && tau <= 100.0, "{q}");
-        let d4 = number(&q, "d4_percent");
+        let d4 = total_number(&q, "d4_percent");
         assert!((0.0..=100.0).contains(&d4), "{q}");
-        let (dmin, dmax) = (number(&q, "d_min"), number(&q, "d_max"));
+        let (dmin, dmax) = (total_number(&q, "d_min"), total_number(&q, "d_max"));
         assert!((1.0..=4.0).contains(&dmin) && 4.0 <= dmax, "{q}");
     }
 }
@@ -175,8 +165,8 @@ fn quality_of_gmsh_own_quads() {
         &[("Mesh.RecombineAll", 1.0)],
     );
     let q = quality_json(&msh, &[]);
-    assert!(number(&q, "quads") > 800.0, "{q}");
-    assert!(number(&q, "eta_mean") > 0.5, "{q}");
+    assert!(total_number(&q, "quads") > 800.0, "{q}");
+    assert!(total_number(&q, "eta_mean") > 0.5, "{q}");
     let text = blossomquad().arg("quality").arg(&msh).assert().success();
     assert!(!text.get_output().stdout.is_empty());
 }
@@ -488,11 +478,11 @@ fn the_default_output_is_one_summary_line() {
     assert_eq!(lines.len(), 1, "one line expected:\n{err}");
     let line = lines[0];
     let q = quality_json(&out, &[]);
-    let quads = number(&q, "quads");
+    let quads = total_number(&q, "quads");
     let expected = format!(
         "1 surface, 1792 triangles -> {quads} quads (quality eta: worst {:.3}, mean {:.3}); written to {} in ",
-        number(&q, "eta_worst"),
-        number(&q, "eta_mean"),
+        total_number(&q, "eta_worst"),
+        total_number(&q, "eta_mean"),
         out.display()
     );
     assert!(
@@ -752,13 +742,13 @@ fn a_mesh_with_nothing_to_recombine_says_so() {
         .assert()
         .success();
     let err = main_job_stderr(&[quads.as_os_str(), "-o".as_ref(), out.as_os_str()]);
-    let n = number(&quality_json(&quads, &[]), "quads");
+    let n = total_number(&quality_json(&quads, &[]), "quads");
     let expected = format!("nothing to recombine: no triangle, the surfaces hold {n} quads already (quality eta: worst ");
     assert!(
         err.starts_with(&expected) && err.lines().count() == 1,
         "{err}"
     );
-    assert_eq!(number(&quality_json(&out, &[]), "quads"), n);
+    assert_eq!(total_number(&quality_json(&out, &[]), "quads"), n);
     let help = blossomquad().arg("--help").assert().success();
     let help = String::from_utf8_lossy(&help.get_output().stdout).into_owned();
     assert!(

@@ -214,13 +214,7 @@ fn the_conformal_multigrid_is_the_default_and_can_be_turned_off() {
         assert_eq!(code, Some(0), "{name}: {stderr}");
         output
     };
-    let eta_mean = |output: &Path| {
-        let (code, json, stderr) =
-            blossomquad_run(["quality".as_ref(), output.as_os_str(), "--json".as_ref()]);
-        assert_eq!(code, Some(0), "{stderr}");
-        let total = &json[json.find("\"total\"").expect("a total")..];
-        common::json_number(total, "eta_mean").expect("eta_mean")
-    };
+    let eta_mean = |output: &Path| common::quality_total(output, "eta_mean");
     let multigrid = run("multigrid", &[]);
     let diagonal = run("diagonal", &["--no-conformal-multigrid"]);
     for output in [&multigrid, &diagonal] {

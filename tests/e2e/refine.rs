@@ -9,15 +9,6 @@ use crate::common;
 
 use common::{blossomquad_run, check_mesh, generate, recombine, test_size, Variant};
 
-/// Quads in a mesh, from `quality --json`.
-fn quads(path: &std::path::Path) -> f64 {
-    let (code, out, err) =
-        blossomquad_run(["quality".as_ref(), path.as_os_str(), "--json".as_ref()]);
-    assert_eq!(code, Some(0), "quality failed: {err}");
-    let total = out.find("\"total\"").expect("total in quality JSON");
-    common::json_number(&out[total..], "quads").expect("quads in total")
-}
-
 /// Recombines `fixture` without optimization, without and with `--refine levels`, and with
 /// refinement and optimization; checks the last output independently and returns the quad
 /// counts of the first two.
@@ -53,6 +44,7 @@ fn refine_fixture(fixture: &str, variant: Variant, levels: u32) -> (f64, f64, bo
         "{fixture}: checker accepted --refined={} on a mesh refined {levels} time(s)",
         levels + 1
     );
+    let quads = |p: &std::path::Path| common::quality_total(p, "quads");
     (quads(&plain), quads(&split), forced)
 }
 
