@@ -885,14 +885,9 @@ fn optimize_once<'a>(
     }
     oopts.trace = opts.trace.as_ref();
     let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
-    // periodic surfaces keep the matching's quads (master and slave stay images of
-    // each other, node for node)
-    let mut skip: Vec<i32> = mesh
-        .periodic
-        .iter()
-        .filter(|p| p.dim == 2)
-        .flat_map(|p| [p.tag, p.master_tag])
-        .collect();
+    // periodic slaves are not optimized: each becomes the image of its optimized master
+    // below
+    let mut skip: Vec<i32> = recombine::periodic_slaves(mesh);
     if !opts.optimize {
         // only the surfaces in `force`
         skip.extend(
@@ -930,6 +925,7 @@ fn optimize_once<'a>(
         None => {}
     }
     let orep = orep?;
+    recombine::map_periodic_slaves(mesh)?;
     for s in &orep.surfaces {
         report.log.push(format!(
             "surface {}: optimized, eta_w {:.3} -> {:.3}, mean eta {:.3} -> {:.3}, {} quads",

@@ -110,8 +110,8 @@
 //!    of its master's through the `$Periodic` node pairs (`periodic.rs`; each slave quad
 //!    keeps the tag of the slave image of its master quad's triangle; master nodes without a
 //!    counterpart, e.g. from vertex duplication, get a slave node at their image through the
-//!    link's affine transform, and the pair is added). [`sync_periodic`] does the same after
-//!    optimization (the CLI runs it), moving the slave's interior nodes to the images of the
+//!    link's affine transform, and the pair is added). [`map_periodic_slaves`] does the same after
+//!    optimization (the pipeline runs it), moving the slave's interior nodes to the images of the
 //!    optimized master's, so the output stays periodic.
 //!
 //! **Invariant** (checked by [`check_invariants`], which shares no code with the above): no
@@ -464,9 +464,15 @@ fn choose_strips(
 /// node positions, through the `$Periodic` node pairs and affine transform): run it after
 /// anything that changed the master surfaces (the optimizer). Returns the number of slave
 /// surfaces mapped.
-#[cfg(feature = "testing")]
-pub fn sync_periodic(mesh: &mut Mesh) -> Result<usize, RecombineError> {
+pub(crate) fn map_periodic_slaves(mesh: &mut Mesh) -> Result<usize, RecombineError> {
     periodic::map_slaves(mesh, None)
+}
+
+/// The slave surfaces of the mesh's `$Periodic` surface links that have faces: the
+/// optimizer leaves them out and [`map_periodic_slaves`] makes each the image of its
+/// optimized master.
+pub(crate) fn periodic_slaves(mesh: &Mesh) -> Vec<i32> {
+    periodic::slave_surfaces(mesh)
 }
 
 /// Steps 2–3: topology of every surface, then parity repair (one round, checked).

@@ -7,10 +7,11 @@
 //! their position through the link's affine transform (or, when the file has none, the
 //! translation that all node pairs agree on), and the pair is added to the link.
 //!
-//! [`map_slaves`] is run again after optimization: the slave's elements are replaced by the
-//! image of the optimized master and its interior nodes moved to the images of the master's
-//! (the optimizer may move or rebuild the slave on its own; the master wins), so master and
-//! slave stay consistent whatever the optimizer did.
+//! [`map_slaves`] is run again after optimization, which optimizes the master and leaves
+//! the slave out: the slave's elements are replaced by the image of the optimized master,
+//! its interior nodes moved to the images of the master's, and the slave nodes of master
+//! nodes the optimizer removed dropped with their pairs, so master and slave stay
+//! consistent whatever the optimizer did to the master.
 
 use std::collections::HashMap;
 
@@ -183,6 +184,8 @@ pub(crate) fn map_slaves(
             reason: why,
         };
         let map = transform(mesh, li).map_err(&refuse)?;
+        // a master node paired with a slave node the mesh lacks gets a new one below
+        drop_missing_pairs(mesh, li);
         let link = &mesh.periodic[li];
         let s2m: HashMap<u64, u64> = link.node_pairs.iter().copied().collect();
         let mut m2s: HashMap<u64, u64> = link.node_pairs.iter().map(|&(a, b)| (b, a)).collect();
@@ -349,9 +352,31 @@ pub(crate) fn map_slaves(
     Ok(links.len())
 }
 
-/// Drops the nodes classified on surface `s` that no element uses any more (and their
-/// pairs in link `li`).
+/// Drops the nodes classified on surface `s` that no element uses any more, and their
+/// pairs in link `li` ([`drop_missing_pairs`]).
 fn remove_orphans(mesh: &mut Mesh, li: usize, s: i32) {
+    drop_unused_nodes(mesh, s);
+    drop_missing_pairs(mesh, li);
+}
+
+/// Drops every pair of link `li` that names a node the mesh does not have: one dropped
+/// with its surface's unused nodes, or missing from a surface's earlier optimized state
+/// put back by a fallback job.
+fn drop_missing_pairs(mesh: &mut Mesh, li: usize) {
+    let idx = mesh.node_index();
+    let exists = |t: u64| idx.get(t).is_some();
+    let pairs: Vec<(u64, u64)> = mesh.periodic[li]
+        .node_pairs
+        .iter()
+        .copied()
+        .filter(|&(a, b)| exists(a) && exists(b))
+        .collect();
+    drop(idx);
+    mesh.periodic[li].node_pairs = pairs;
+}
+
+/// Drops the nodes classified on surface `s` that no element uses.
+fn drop_unused_nodes(mesh: &mut Mesh, s: i32) {
     let Some(bi) = mesh
         .node_blocks
         .iter()
@@ -373,13 +398,6 @@ fn remove_orphans(mesh: &mut Mesh, li: usize, s: i32) {
     }
     let np = b.params.as_ref().map(|p| p.len() / b.tags.len().max(1));
     let keep: Vec<bool> = b.tags.iter().map(|&t| is_used(t)).collect();
-    let gone: Vec<u64> = b
-        .tags
-        .iter()
-        .zip(&keep)
-        .filter(|x| !*x.1)
-        .map(|x| *x.0)
-        .collect();
     let b = &mut mesh.node_blocks[bi];
     let mut i = 0;
     b.tags.retain(|_| {
@@ -399,9 +417,4 @@ fn remove_orphans(mesh: &mut Mesh, li: usize, s: i32) {
             }
         }
     }
-    let mut gone = gone;
-    gone.sort_unstable();
-    mesh.periodic[li]
-        .node_pairs
-        .retain(|p| gone.binary_search(&p.0).is_err());
 }
