@@ -85,13 +85,7 @@ fn periodic_surfaces_and_curves_stay_periodic() {
         ("square", 0.17),
         ("square", 0.11),
     ] {
-        let msh = dir.path().join(format!("{kind}-{s}.msh"));
-        let o = run(Command::new(python_exe())
-            .arg(models().join("periodic.py"))
-            .arg(kind)
-            .arg(s.to_string())
-            .arg(&msh));
-        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let msh = periodic_model(dir.path(), kind, s);
         check(&msh, dir.path(), true);
     }
 }
@@ -103,13 +97,7 @@ fn periodic_surfaces_and_curves_stay_periodic() {
 #[test]
 fn periodic_surfaces_stay_periodic_when_refined() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let msh = dir.path().join("rve.msh");
-    let o = run(Command::new(python_exe())
-        .arg(models().join("periodic.py"))
-        .arg("rve")
-        .arg("0.3")
-        .arg(&msh));
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let msh = periodic_model(dir.path(), "rve", 0.3);
     for levels in ["1", "2"] {
         let out = dir.path().join(format!("rve-refined-{levels}.msh"));
         let (code, stderr) = recombine(&msh, &out, &["--refine", levels]);
@@ -173,13 +161,7 @@ fn fallback_splits_on_a_periodic_master_are_mirrored_on_its_slave() {
 #[test]
 fn periodic_masters_are_optimized_and_their_slaves_follow() {
     let dir = tempfile::tempdir().expect("temp dir");
-    let msh = dir.path().join("rve.msh");
-    let o = run(Command::new(python_exe())
-        .arg(models().join("periodic.py"))
-        .arg("rve")
-        .arg("0.17")
-        .arg(&msh));
-    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let msh = periodic_model(dir.path(), "rve", 0.17);
     let input = blossomquad::msh::read_file(&msh).expect("the model reads");
     let mut periodic: Vec<i32> = input
         .periodic
@@ -230,6 +212,19 @@ fn no_periodic_pair_names_a_node_the_optimizer_removed() {
     let r = check_mesh(&msh, &out, &[]);
     assert!(r.ok, "{}", r.report);
     assert_periodic(&out, 3.0);
+}
+
+/// `tests/parity_models/periodic.py`'s model `kind` (`rve` or `square`) meshed at `size`
+/// in `dir`.
+fn periodic_model(dir: &Path, kind: &str, size: f64) -> PathBuf {
+    let msh = dir.join(format!("{kind}-{size}.msh"));
+    let o = run(Command::new(python_exe())
+        .arg(models().join("periodic.py"))
+        .arg(kind)
+        .arg(size.to_string())
+        .arg(&msh));
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    msh
 }
 
 /// The mean η of each surface's quads in the mesh at `path`.
