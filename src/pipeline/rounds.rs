@@ -468,7 +468,7 @@ fn one_round<'a>(
         // the surfaces with bad quads as they were before optimization, when that is
         // valid (with their periodic partners: a slave is the image of its master before
         // optimization as after)
-        let surfaces = with_periodic_partners(&mesh, bad_surfaces.iter().copied().collect());
+        let surfaces = recombine::with_periodic_partners(&mesh, bad_surfaces.iter().copied().collect());
         let back = revert_surfaces(&mesh, pre, &surfaces);
         let coords = TagCoords::new(&back);
         if checks
@@ -506,29 +506,6 @@ fn one_round<'a>(
         refined,
         unoptimized,
     })
-}
-
-/// `surfaces` with every surface linked to one of them by a `$Periodic` surface link of
-/// `mesh` (master or slave, through chains of links).
-fn with_periodic_partners(mesh: &Mesh, mut surfaces: HashSet<i32>) -> HashSet<i32> {
-    let links: Vec<(i32, i32)> = mesh
-        .periodic
-        .iter()
-        .filter(|p| p.dim == 2 && p.tag != p.master_tag)
-        .map(|p| (p.tag, p.master_tag))
-        .collect();
-    loop {
-        let before = surfaces.len();
-        for &(a, b) in &links {
-            if surfaces.contains(&a) || surfaces.contains(&b) {
-                surfaces.insert(a);
-                surfaces.insert(b);
-            }
-        }
-        if surfaces.len() == before {
-            return surfaces;
-        }
-    }
 }
 
 /// `mesh` with the quads and the surface-classified nodes of `surfaces` taken from `pre`

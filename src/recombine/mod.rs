@@ -475,6 +475,15 @@ pub(crate) fn periodic_slaves(mesh: &Mesh) -> Vec<i32> {
     periodic::slave_surfaces(mesh)
 }
 
+/// `surfaces` with every surface linked to one of them by `$Periodic` surface links
+/// ([`periodic_slaves`]' links; master or slave, through chains of links).
+pub(crate) fn with_periodic_partners(
+    mesh: &Mesh,
+    surfaces: std::collections::HashSet<i32>,
+) -> std::collections::HashSet<i32> {
+    periodic::with_partners(mesh, surfaces)
+}
+
 /// Steps 2–3: topology of every surface, then parity repair (one round, checked).
 /// [`crate::progress::Stage::Topology`] progress: `step` of its four steps (input checks, node table,
 /// surface topology, parity repair) done, each weighted by its usual share of the time

@@ -43,6 +43,27 @@ pub(crate) fn slave_links(mesh: &Mesh) -> Vec<(usize, i32, i32)> {
     out
 }
 
+/// `surfaces` with every surface linked to one of them by a link of [`slave_links`]
+/// (master or slave, through chains of links).
+pub(crate) fn with_partners(
+    mesh: &Mesh,
+    mut surfaces: std::collections::HashSet<i32>,
+) -> std::collections::HashSet<i32> {
+    let links = slave_links(mesh);
+    loop {
+        let before = surfaces.len();
+        for &(_, s, m) in &links {
+            if surfaces.contains(&s) || surfaces.contains(&m) {
+                surfaces.insert(s);
+                surfaces.insert(m);
+            }
+        }
+        if surfaces.len() == before {
+            return surfaces;
+        }
+    }
+}
+
 /// Slave surfaces left out of the recombination (they get the image of their master).
 pub(crate) fn slave_surfaces(mesh: &Mesh) -> Vec<i32> {
     slave_links(mesh).into_iter().map(|l| l.1).collect()
@@ -184,11 +205,17 @@ pub(crate) fn map_slaves(
             reason: why,
         };
         let map = transform(mesh, li).map_err(&refuse)?;
-        // a master node paired with a slave node the mesh lacks gets a new one below
-        drop_missing_pairs(mesh, li);
-        let link = &mesh.periodic[li];
-        let s2m: HashMap<u64, u64> = link.node_pairs.iter().copied().collect();
-        let mut m2s: HashMap<u64, u64> = link.node_pairs.iter().map(|&(a, b)| (b, a)).collect();
+        let idx = mesh.node_index();
+        // a pair naming a node the mesh lacks is left out (and dropped from the link at the
+        // end, `remove_orphans`): its master node gets a new slave node below
+        let pairs: Vec<(u64, u64)> = mesh.periodic[li]
+            .node_pairs
+            .iter()
+            .copied()
+            .filter(|&(a, b)| idx.get(a).is_some() && idx.get(b).is_some())
+            .collect();
+        let s2m: HashMap<u64, u64> = pairs.iter().copied().collect();
+        let mut m2s: HashMap<u64, u64> = pairs.iter().map(|&(a, b)| (b, a)).collect();
         let master = faces(mesh, m);
         let slave = faces(mesh, s);
         // orientation: directed boundary edges of the master against the slave's
@@ -231,7 +258,6 @@ pub(crate) fn map_slaves(
         let mut used_tags: std::collections::HashSet<u64> = std::collections::HashSet::new();
         let mut next_elem = mesh.max_element_tag() + 1;
         let mut next_node = mesh.max_node_tag() + 1;
-        let idx = mesh.node_index();
         let pos = |t: u64| {
             idx.get(t).map(|r| {
                 DVec3::from_array(mesh.node_blocks[r.block as usize].coords[r.index as usize])
