@@ -770,9 +770,6 @@ struct Nearest {
     faces: Vec<Face>,
     /// Face of each triangle of `surface`.
     face_of: Vec<u32>,
-    /// Triangles around each point of `surface` (CSR).
-    start: Vec<u32>,
-    around: Vec<u32>,
     surface: crate::quality::locate::TriSurface,
     tie: f64,
 }
@@ -782,36 +779,17 @@ impl Nearest {
         let mut points: Vec<DVec3> = Vec::new();
         let mut tris: Vec<[u32; 3]> = Vec::new();
         let mut face_of: Vec<u32> = Vec::new();
-        // points shared between faces are merged by exact position, so ties across an
-        // edge are found through the triangles around its points
-        let mut id: std::collections::HashMap<[u64; 3], u32> = Default::default();
         for (f, face) in faces.iter().enumerate() {
-            let ids: Vec<u32> = face.corners[..face.len as usize]
-                .iter()
-                .map(|c| {
-                    let key = c.to_array().map(f64::to_bits);
-                    *id.entry(key).or_insert_with(|| {
-                        points.push(*c);
-                        points.len() as u32 - 1
-                    })
-                })
-                .collect();
-            for j in 1..ids.len() - 1 {
-                tris.push([ids[0], ids[j], ids[j + 1]]);
+            let first = points.len() as u32;
+            points.extend_from_slice(&face.corners[..face.len as usize]);
+            for j in 1..face.len as u32 - 1 {
+                tris.push([first, first + j, first + j + 1]);
                 face_of.push(f as u32);
             }
         }
-        let (start, around) = grouped(
-            points.len(),
-            tris.iter()
-                .enumerate()
-                .flat_map(|(ti, t)| t.map(|v| (v as usize, ti as u32))),
-        );
         Nearest {
             faces,
             face_of,
-            start,
-            around,
             surface: crate::quality::locate::TriSurface::new(points, tris),
             tie,
         }
@@ -826,18 +804,20 @@ impl Nearest {
             .fold(f64::INFINITY, f64::min)
     }
 
-    /// The unit summed normal of the faces nearest to `p` (the faces around the corners
-    /// of the triangle the closest point is on, by [`Nearest::distance`]): `None` when the
-    /// surface has no face, zero when the nearest faces cancel out.
+    /// The unit summed normal of the faces nearest to `p` (every face within the ties of
+    /// the nearest, by [`Nearest::distance`], wherever it is on the surface: where the
+    /// surface lies over itself, the faces of both layers at `p` count, as the fuzz check
+    /// and `tests/check_mesh.py` count them): `None` when the surface has no face, zero
+    /// when the nearest faces cancel out.
     fn normal(&self, p: DVec3) -> Option<DVec3> {
         let hit = self.surface.closest(p)?;
-        // speed: the faces around a triangle's corners are a few dozen at most
+        // every triangle that can be within the ties of the nearest face: the closest point
+        // found is within rounding (far below this margin) of the nearest face's distance
+        let reach = hit.point.distance(p) + 1e3 * self.tie;
         let mut near: Vec<u32> = Vec::with_capacity(32);
-        for &v in &self.surface.triangle(hit.tri) {
-            let (a, b) = (self.start[v as usize], self.start[v as usize + 1]);
-            for &t in &self.around[a as usize..b as usize] {
-                near.push(self.face_of[t as usize]);
-            }
+        self.surface.near(p, reach, &mut near);
+        for t in near.iter_mut() {
+            *t = self.face_of[*t as usize];
         }
         near.sort_unstable();
         near.dedup();
@@ -1007,6 +987,30 @@ mod tests {
         let e = (t[2] - t[1]).normalize();
         let to_edge = (out - t[1]) - e * (out - t[1]).dot(e);
         assert!((triangle_distance(out, t) - to_edge.length()).abs() < 1e-12);
+    }
+
+    #[test]
+    fn a_point_over_two_layers_of_a_surface_counts_the_faces_of_both() {
+        // a small triangle in z = 0 and, lying over it with no node in common, a larger one
+        // turned over; a point inside both is on both, and the larger's normal outweighs
+        let face = |c: [DVec3; 3]| Face {
+            corners: [c[0], c[1], c[2], DVec3::ZERO],
+            len: 3,
+            normal: face_normal(&[c[0], c[1], c[2], DVec3::ZERO], 3),
+        };
+        let small = face([DVec3::ZERO, DVec3::X, DVec3::Y]);
+        // 1e-12 below the small one: within the ties, though the small one is the closest
+        let large = face([
+            DVec3::new(-1.0, -1.0, -1e-12),
+            DVec3::new(-1.0, 3.0, -1e-12),
+            DVec3::new(3.0, -1.0, -1e-12),
+        ]);
+        let near = Nearest::new(vec![small, large], 1e-9);
+        let n = near.normal(DVec3::new(0.2, 0.2, 0.0)).expect("faces");
+        assert!((n - DVec3::NEG_Z).length() < 1e-12, "{n}");
+        let lone = Nearest::new(vec![face([DVec3::ZERO, DVec3::X, DVec3::Y])], 1e-9);
+        let n = lone.normal(DVec3::new(0.2, 0.2, 0.0)).expect("a face");
+        assert!((n - DVec3::Z).length() < 1e-12, "{n}");
     }
 
     #[test]

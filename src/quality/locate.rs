@@ -147,6 +147,29 @@ impl TriSurface {
         }
     }
 
+    /// Adds to `out` every triangle whose bounding box comes within `r` of `p`, each once
+    /// (sorted): a superset of the triangles within distance `r` of `p`, wherever they are
+    /// on the surface, joined to each other or not. `out` is cleared first.
+    pub fn near(&self, p: DVec3, r: f64, out: &mut Vec<u32>) {
+        out.clear();
+        let g = &self.grid;
+        if self.tris.is_empty() || r.is_nan() {
+            return;
+        }
+        let (a, b) = (g.cell_of(p - DVec3::splat(r)), g.cell_of(p + DVec3::splat(r)));
+        g.each_cell(a, b, |i| {
+            for &t in &g.items[g.start[i] as usize..g.start[i + 1] as usize] {
+                let (lo, hi) = corner_box(self.corners(t));
+                let gap = (lo - p).max(p - hi).max(DVec3::ZERO);
+                if gap.length() <= r {
+                    out.push(t);
+                }
+            }
+        });
+        out.sort_unstable();
+        out.dedup();
+    }
+
     /// Closest point on the whole surface, or `None` when there is no triangle.
     pub fn closest(&self, p: DVec3) -> Option<Hit> {
         if self.tris.is_empty() {
@@ -554,6 +577,35 @@ mod tests {
         assert_eq!(touching(DVec3::new(0.0, 0.0, 0.0), 1e-9).len(), 2);
         assert_eq!(touching(DVec3::new(4.0, 0.0, 0.0), 1e-9).len(), 1);
         assert_eq!(touching(DVec3::new(2.0, 0.0, 0.0), 1e-9).len(), 3);
+    }
+
+    #[test]
+    fn near_finds_every_triangle_within_reach_joined_or_not() {
+        // a grid in z = 0 and one triangle lying over it, 1e-3 above, joined to nothing
+        let mut s = grid_surface(6);
+        let (mut points, mut tris) = (s.points.clone(), s.tris.clone());
+        let first = points.len() as u32;
+        points.extend([
+            DVec3::new(0.3, 0.3, 1e-3),
+            DVec3::new(0.5, 0.3, 1e-3),
+            DVec3::new(0.3, 0.5, 1e-3),
+        ]);
+        tris.push([first, first + 1, first + 2]);
+        s = TriSurface::new(points, tris);
+        let p = DVec3::new(0.35, 0.35, 0.0);
+        let mut out = Vec::new();
+        s.near(p, 2e-3, &mut out);
+        let corners = |t: u32| s.corners(t);
+        let within: Vec<u32> = (0..s.tris.len() as u32)
+            .filter(|&t| closest_on_triangle(p, corners(t)).0.distance(p) <= 2e-3)
+            .collect();
+        assert!(within.contains(&(s.tris.len() as u32 - 1)), "{within:?}");
+        assert!(within.iter().all(|t| out.contains(t)), "{within:?} in {out:?}");
+        assert!(out.windows(2).all(|w| w[0] < w[1]), "sorted, each once: {out:?}");
+        // beneath the loose triangle's reach, only the grid's
+        s.near(p, 5e-4, &mut out);
+        assert!(!out.contains(&(s.tris.len() as u32 - 1)), "{out:?}");
+        assert!(!out.is_empty());
     }
 
     #[test]

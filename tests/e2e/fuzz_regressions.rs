@@ -607,3 +607,18 @@ fn the_ties_of_the_nearest_faces_do_not_move_with_the_output() {
         &["surface 7, element 315", "folded over triangle 338"],
     );
 }
+
+/// Fuzz finding (pipeline target, from its seeds, after about 57,000 runs): a ring of three
+/// surfaces whose surface 5 has a node moved to z = 5 and a triangle (element 253) turned
+/// over beside it, lying over other triangles of the same surface without sharing a node
+/// with them. The fallback split the triangles there, and a quad of split nodes had a
+/// corner at a point inside which both layers lie. The gate measured the corner about the
+/// faces around the triangle its closest point was on (one layer) and passed it; the fuzz
+/// check and `tests/check_mesh.py` counted every face within the ties of the nearest,
+/// wherever on the surface, where the turned-over one outweighs, and found it turned over.
+/// The gate now counts the faces of every layer there too, and the run writes quads all
+/// three find valid.
+#[test]
+fn a_corner_over_two_layers_of_a_surface_counts_the_faces_of_both() {
+    assert_valid_recombination("turned-over-triangle-beside-a-spike.msh");
+}

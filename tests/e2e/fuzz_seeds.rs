@@ -88,19 +88,3 @@ fn the_pipeline_check_catches_a_mesh_compared_by_the_wrong_tags() {
     // ...and the check through the tag map passes
     assert_eq!(pipeline_check::check(&data), Ok(()));
 }
-
-/// An open finding of the pipeline target (from its seeds, after about 57,000 runs), kept
-/// here until it is fixed: a ring of three surfaces whose surface 5 has a node moved to
-/// z = 5 and a triangle (element 253) turned over beside it. The fallback splits the
-/// triangles at that wrapped node, and a quad made of split nodes alone (surface 5, near
-/// node 875 of the fuzz target's numbering) passes the validity gate, which measures its
-/// corner about the input faces nearest to it (the turned-over one among them), while the
-/// fuzz check and `tests/check_mesh.py` find it turned over (sine −1 about the surface's
-/// normal there). The run exits 0 with that quad.
-#[test]
-#[ignore = "open finding: exit 0 with a quad the fuzz check and the checker find turned over"]
-fn open_finding_a_quad_of_split_nodes_beside_a_turned_over_triangle() {
-    let path = root().join("tests/data/fuzz-open/turned-over-triangle-beside-a-spike.msh");
-    let data = std::fs::read(&path).expect("read the finding");
-    assert_eq!(pipeline_check::check(&data), Ok(()));
-}
