@@ -300,6 +300,10 @@ fn check_surface(
         let problem = match run {
             [_, _, _, ..] => EdgeProblem::NonManifold {
                 tris: run.iter().map(|x| x.3 as usize).collect(),
+                sheets: run.iter().any(|x| {
+                    run.iter()
+                        .any(|y| dot(tris[x.3 as usize].2, tris[y.3 as usize].2) < 0.0)
+                }),
             },
             [a, b] if a.2 == b.2 => EdgeProblem::SameDirection {
                 first: a.3 as usize,

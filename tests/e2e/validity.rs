@@ -428,8 +428,9 @@ fn a_thin_pin_is_recombined_with_its_corners_measured_on_their_own_side() {
 /// cylinder's radius (`tests/data/cad/thin_cylinder.py folded`): around the cylinder triangles fold
 /// over their neighbours, and the mesh overlaps itself: an edge of four triangles. Folds
 /// alone would be walled off (no quad across them); the non-manifold edge is refused, in
-/// one line naming it (surface, element, the edge, the triangles), not the fold on a
-/// smaller edge, and nothing is written.
+/// one line naming it (surface, element, the edge, the triangles, which face opposite
+/// ways, and the finer mesh that separates them), not the fold on a smaller edge, and
+/// nothing is written.
 #[test]
 fn a_thin_cylinder_folded_by_gmsh_is_refused_naming_its_non_manifold_edge() {
     let input = common::repo_dir().join("tests/data/cad/v41_thin_cylinder_folded.msh");
@@ -469,6 +470,8 @@ fn a_thin_cylinder_folded_by_gmsh_is_refused_naming_its_non_manifold_edge() {
         "element 704",
         "its edge 86-316 is shared by 4 triangles",
         "(non-manifold; triangles 712, 732",
+        "facing opposite ways",
+        "Mesh.MeshSizeFromCurvature",
     ] {
         assert!(msg.contains(w), "{w:?} not in {msg}");
     }

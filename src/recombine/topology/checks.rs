@@ -10,8 +10,10 @@ pub(crate) const FOLDED: f64 = -0.99;
 /// Why an edge of a surface is refused (see [`SurfaceTopo::new`]); triangles are indices
 /// into the surface's triangle list.
 pub(crate) enum EdgeProblem {
-    /// Three or more triangles, ordered by (first node tag of their half-edge, index).
-    NonManifold { tris: Vec<usize> },
+    /// Three or more triangles, ordered by (first node tag of their half-edge, index);
+    /// `sheets` when two of them turn more than 90° from each other (sheets of the surface
+    /// lying on each other, as Gmsh meshes a thin part coarser than its radius).
+    NonManifold { tris: Vec<usize>, sheets: bool },
     /// Two triangles running the edge `from → to` (node tags) both.
     SameDirection {
         first: usize,
@@ -33,13 +35,18 @@ pub(crate) fn edge_refusal(
     tag: impl Fn(usize) -> u64,
 ) -> RecombineError {
     let (element, problem) = match problem {
-        EdgeProblem::NonManifold { tris } => (
+        EdgeProblem::NonManifold { tris, sheets } => (
             tag(tris[2]),
             format!(
-                "its edge {lo}-{hi} is shared by {} triangles of the surface (non-manifold; triangles {}, {}, ...)",
+                "its edge {lo}-{hi} is shared by {} triangles of the surface (non-manifold; triangles {}, {}, ...){}",
                 tris.len(),
                 tag(tris[0]),
-                tag(tris[1])
+                tag(tris[1]),
+                if sheets {
+                    ", facing opposite ways: sheets of the surface lie on each other there, as where a thin part is meshed coarser than its radius (a finer mesh there, e.g. with Mesh.MeshSizeFromCurvature, separates them)"
+                } else {
+                    ""
+                }
             ),
         ),
         EdgeProblem::SameDirection {
@@ -70,10 +77,12 @@ pub(crate) fn edge_refusal(
 }
 
 /// The problem of the edge whose half-edges are `run`: three or more of them, or two
-/// running the edge the same way; with the edge's node tags (lower, higher).
+/// running the edge the same way; with the edge's node tags (lower, higher). `normals`:
+/// the triangles' unit normals.
 pub(super) fn structural_problem(
     run: &[u32],
     tris: &[[u32; 3]],
+    normals: &[glam::DVec3],
     nodes: &NodeTable,
 ) -> ((u64, u64), EdgeProblem) {
     // (first node, second node) of the half-edge, as tags, and its triangle
@@ -87,8 +96,11 @@ pub(super) fn structural_problem(
     if run.len() > 2 {
         let mut ts: Vec<(u64, usize)> = run.iter().map(|&h| half(h)).map(|x| (x.0, x.2)).collect();
         ts.sort_unstable();
-        let tris = ts.into_iter().map(|x| x.1).collect();
-        return (key, EdgeProblem::NonManifold { tris });
+        let tris: Vec<usize> = ts.into_iter().map(|x| x.1).collect();
+        let sheets = tris
+            .iter()
+            .any(|&t| tris.iter().any(|&u| normals[t].dot(normals[u]) < 0.0));
+        return (key, EdgeProblem::NonManifold { tris, sheets });
     }
     let t1 = run[1] as usize / 3;
     let (first, second) = (t0.min(t1), t0.max(t1));

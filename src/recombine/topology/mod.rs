@@ -267,7 +267,7 @@ impl SurfaceTopo {
             |(refused, walled): &mut Piece, run| {
                 if run.len() > 2 {
                     // non-manifold: a wall (nbr stays NONE)
-                    keep_first(refused, structural_problem(run, &tris, nodes));
+                    keep_first(refused, structural_problem(run, &tris, normals, nodes));
                 }
                 if let [h0, h1] = run {
                     let (h0, h1) = (*h0 as usize, *h1 as usize);
@@ -277,7 +277,7 @@ impl SurfaceTopo {
                     let b = tris[t0][(k0 + 1) % 3];
                     // consistent orientation: t1 runs the edge b -> a (else refused)
                     if tris[t1][k1] != b || tris[t1][(k1 + 1) % 3] != a {
-                        keep_first(refused, structural_problem(run, &tris, nodes));
+                        keep_first(refused, structural_problem(run, &tris, normals, nodes));
                         return;
                     }
                     // an edge on a model curve (embedded curve, seam) is a wall, not a
