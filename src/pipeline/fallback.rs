@@ -14,6 +14,17 @@ use crate::validity::BadQuad;
 /// worst quad (up to 3 + [`SPLIT_TRIES`] more jobs after the fallback, see the module doc).
 pub const ETA_FLOOR: f64 = 0.2;
 
+/// Quads whose η is below this are priced out of the matching in the worst-quad try that
+/// adds no quad (the surface solved again without their pairs, kept only when that raises
+/// the worst quad) where no quad is under [`ETA_FLOOR`] (those are priced out then): above
+/// [`ETA_FLOOR`], where the tries that split triangles do not go.
+pub(crate) const PRICE_FLOOR: f64 = 0.35;
+
+/// Input triangles on the surfaces of the quads under [`PRICE_FLOOR`] up to which they are
+/// priced out (the try solves and optimizes those surfaces again: a few hundredths of a
+/// second at this size).
+pub(crate) const PRICE_TRY_UP_TO: usize = 5000;
+
 /// Tries at most that split the input triangles around the quads under [`ETA_FLOOR`] after
 /// the fallback, each after the one before it raised the worst quad.
 pub const SPLIT_TRIES: usize = 3;
@@ -367,15 +378,20 @@ pub(super) use crate::recombine::{count_rule_limit, COUNT_RULE_FROM, MAX_QUADS_P
 /// the worst η of those quads; surfaces in `skip` (sorted: those the input meshed with quads
 /// alone, which no job changes) are left out.
 pub(super) fn low_quads(mesh: &Mesh, skip: &[i32]) -> (Vec<(i32, [u64; 4])>, f64) {
-    let (low, worst) = low_quads_eta(mesh, skip);
+    quads_under(mesh, skip, ETA_FLOOR)
+}
+
+/// [`low_quads`] with η below `floor` instead of [`ETA_FLOOR`].
+pub(super) fn quads_under(mesh: &Mesh, skip: &[i32], floor: f64) -> (Vec<Spot>, f64) {
+    let (low, worst) = low_quads_eta(mesh, skip, floor);
     (low.into_iter().map(|(q, _)| q).collect(), worst)
 }
 
 /// A quad of a result: its surface and node tags.
 pub(super) type Spot = (i32, [u64; 4]);
 
-/// [`low_quads`] with the η of each quad.
-pub(super) fn low_quads_eta(mesh: &Mesh, skip: &[i32]) -> (Vec<(Spot, f64)>, f64) {
+/// [`quads_under`] with the η of each quad.
+pub(super) fn low_quads_eta(mesh: &Mesh, skip: &[i32], floor: f64) -> (Vec<(Spot, f64)>, f64) {
     let coords = TagCoords::new(mesh);
     let mut low = Vec::new();
     let mut worst = f64::INFINITY;
@@ -396,7 +412,7 @@ pub(super) fn low_quads_eta(mesh: &Mesh, skip: &[i32]) -> (Vec<(Spot, f64)>, f64
             };
             let eta = crate::quality::eta(&[p[0], p[1], p[2], p[3]]);
             worst = worst.min(eta);
-            if eta < ETA_FLOOR {
+            if eta < floor {
                 low.push(((b.entity_tag, q), eta));
             }
         }

@@ -558,7 +558,9 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 /// 1. when the fallback priced quads out, the fallback with splits only (triangles split
 ///    into quads around a bad quad may give better quads than the matching's way around
 ///    it);
-/// 2. quads with η below [`ETA_FLOOR`] priced out;
+/// 2. quads with η below [`ETA_FLOOR`] priced out, or where there is none, those below
+///    [`PRICE_FLOOR`] where their surfaces hold [`PRICE_TRY_UP_TO`] input triangles at
+///    most (this try adds no quad);
 /// 3. the boundary segments under flat wall corners of those quads split
 ///    ([`low_quad_segments`]): a pair whose only partners give a corner near 180° at a wall
 ///    node gets its halves paired with one neighbour each;
@@ -615,13 +617,20 @@ pub(super) fn raise_worst_quad<'a>(
                 "the fallback with splits only".to_string()
             }
             1 => {
-                let new = pairs_of(input, &low, &start.priced);
+                // where no quad is under ETA_FLOOR, those under PRICE_FLOOR, on surfaces
+                // small enough that solving them again costs little
+                let floor = if low.is_empty() { PRICE_FLOOR } else { ETA_FLOOR };
+                let (under, _) = quads_under(&best.0, &skip, floor);
+                if low.is_empty() && triangles_on(input, &under) > PRICE_TRY_UP_TO {
+                    continue;
+                }
+                let new = pairs_of(input, &under, &start.priced);
                 if new.is_empty() {
                     continue;
                 }
                 let n = new.len();
                 start.priced.extend(new);
-                format!("{n} quad(s) under eta {ETA_FLOOR} priced out")
+                format!("{n} quad(s) under eta {floor} priced out")
             }
             2 => {
                 let new = low_quad_segments(input, &best.0, &low, &start.segments);
@@ -729,3 +738,18 @@ pub(super) fn add_times(a: &Times, b: &Times) -> Times {
         second_order: a.second_order + b.second_order,
     }
 }
+
+/// The input triangles of the surfaces of `quads`.
+fn triangles_on(input: &Mesh, quads: &[fallback::Spot]) -> usize {
+    let mut surfaces: Vec<i32> = quads.iter().map(|q| q.0).collect();
+    surfaces.sort_unstable();
+    surfaces.dedup();
+    input
+        .element_blocks
+        .iter()
+        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
+        .filter(|b| surfaces.binary_search(&b.entity_tag).is_ok())
+        .map(|b| b.len())
+        .sum()
+}
+
