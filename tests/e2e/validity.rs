@@ -568,17 +568,25 @@ fn a_surface_meshed_coarser_than_its_curvature_is_recombined_by_splitting_its_tr
         "{stderr}"
     );
     assert!(stderr.contains("Mesh.MeshSizeFromCurvature"), "{stderr}");
-    let report = check_mesh(&input, &output, &[]);
-    assert!(report.ok, "{}", report.report);
-    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
-    let out = blossomquad::msh::read_file(&output).unwrap_or_else(|e| panic!("{e}"));
-    let triangles = count_2d(&mesh, etype::TRI3, None);
-    let quads = count_2d(&out, etype::QUAD4, None);
-    assert_eq!(count_2d(&out, etype::TRI3, None), 0);
+    let (triangles, quads) = checked_counts(&input, &output);
     assert!(
         2 * quads > triangles,
         "{quads} quads of {triangles} triangles"
     );
+}
+
+/// Asserts that `output` passes `tests/check_mesh.py` against `input` and holds no triangle;
+/// returns the input's triangles and the output's quads.
+fn checked_counts(input: &Path, output: &Path) -> (usize, usize) {
+    let report = check_mesh(input, output, &[]);
+    assert!(report.ok, "{}", report.report);
+    let mesh = blossomquad::msh::read_file(input).unwrap_or_else(|e| panic!("{e}"));
+    let out = blossomquad::msh::read_file(output).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(count_2d(&out, etype::TRI3, None), 0);
+    (
+        count_2d(&mesh, etype::TRI3, None),
+        count_2d(&out, etype::QUAD4, None),
+    )
 }
 
 /// The 2D elements of type `t` of `mesh`, on surface `surface` or on all.
@@ -750,12 +758,7 @@ fn quads_under_eta_0_35_are_priced_out_when_that_raises_the_worst_quad() {
         .find(|l| l.starts_with("worst quad: ") && l.contains("quad(s) under eta 0.35 priced out"))
         .unwrap_or_else(|| panic!("no pricing try at eta 0.35 in {stderr}"));
     assert!(line.contains(": eta_w 0."), "kept: {line}");
-    let report = check_mesh(&input, &output, &[]);
-    assert!(report.ok, "{}", report.report);
-    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
-    let out = blossomquad::msh::read_file(&output).unwrap_or_else(|e| panic!("{e}"));
-    let triangles = count_2d(&mesh, etype::TRI3, None);
-    let quads = count_2d(&out, etype::QUAD4, None);
+    let (triangles, quads) = checked_counts(&input, &output);
     assert!(
         2 * quads <= triangles,
         "{quads} quads of {triangles} triangles"
