@@ -5,6 +5,8 @@
 //! point, no prior knowledge), [`TriSurface::walk`] starts from a known triangle and walks
 //! across edges towards the point (a node that moved a fraction of an edge needs one or two
 //! steps). Both return the triangle, the closest point on it and its barycentric coordinates.
+//! [`TriSurface::near`] lists every triangle within a distance of a point, joined to the
+//! others or not (where a surface lies over itself, both layers).
 //!
 //! **Invariant:** indices only; the structure never looks at mesh tags.
 
