@@ -94,18 +94,19 @@
 //! 5. **The worst quad.** A valid optimized result gets more tries: where the fallback
 //!    priced quads out, the fallback with splits only; quads under η [`ETA_FLOOR`] priced
 //!    out, or where there is none, those under η [`PRICE_FLOOR`] on surfaces of at most
-//!    [`PRICE_TRY_UP_TO`] triangles in all (this try adds no quad); the boundary segments under the quads under η [`ETA_FLOOR`] with a flat
-//!    wall corner split (the segment of the quad's two input triangles that does not end
-//!    at that corner's node, so the triangles pair otherwise); up to [`SPLIT_TRIES`] times, the input triangles around those still
-//!    under it split (one ring, or two where the first is split already), each ring try
-//!    after the first only when the one before was kept; last, where a ring try raised
-//!    the worst quad but broke the element-count rule, only the input triangles inside
-//!    those still under it split (a parity split's node standing for its segment's ends).
-//!    Each is kept only when it raises the worst quad without breaking the element-count
-//!    rule. (A mesh of more than [`TRIES_UP_TO`] elements gets them only after a
-//!    fallback.) A result whose worst quad is at the input's wall-corner bound (an acute
-//!    corner of a planar surface, which bounds the worst quad of every result) gets no
-//!    more tries.
+//!    [`PRICE_TRY_UP_TO`] triangles in all (this try adds no quad); the boundary segments
+//!    under the quads under η [`ETA_FLOOR`] with a flat wall corner split (the segment of
+//!    the quad's two input triangles that does not end at that corner's node, so the
+//!    triangles pair otherwise); up to [`SPLIT_TRIES`] times, the input triangles around
+//!    those still under it split (one ring, or two where the first is split already),
+//!    each ring try after the first only when the one before was kept; last, where a ring
+//!    try raised the worst quad but broke the element-count rule, only the input
+//!    triangles inside those still under it split (a parity split's node standing for its
+//!    segment's ends). Each is kept only when it raises the worst quad without breaking
+//!    the element-count rule. (A mesh of more than [`TRIES_UP_TO`] elements gets them
+//!    only after a fallback.) A result whose worst quad is at the input's wall-corner
+//!    bound (an acute corner of a planar surface, which bounds the worst quad of every
+//!    result) gets no more tries.
 //!
 //! Quads still bad after the fallback are refused (or listed with
 //! [`Options::allow_invalid`]). A run whose quads are all valid the first time, with no
@@ -139,7 +140,7 @@ use rounds::*;
 
 use fallback::{
     corner_bounds, count_rule_limit, fallback_triangles, low_quad_segments, low_quads, low_quads_eta, pairs_of, quads_per_triangle, quads_under, raisable,
-    surface_elements, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
+    surface_elements, surface_elements_where, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
     LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE, PRICE_FLOOR, PRICE_TRY_UP_TO, RAISE_MIN,
 };
 pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_TRIES};

@@ -542,9 +542,14 @@ pub(super) fn quads_per_triangle(input: &Mesh, out: &Mesh) -> f64 {
 
 /// Elements of type `t` on the surfaces of `m`.
 pub(super) fn surface_elements(m: &Mesh, t: u32) -> usize {
+    surface_elements_where(m, t, |_| true)
+}
+
+/// [`surface_elements`] on the surfaces for which `keep` (of the surface tag) is true.
+pub(super) fn surface_elements_where(m: &Mesh, t: u32, keep: impl Fn(i32) -> bool) -> usize {
     m.element_blocks
         .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == t)
+        .filter(|b| b.entity_dim == 2 && b.element_type == t && keep(b.entity_tag))
         .map(|b| b.len())
         .sum()
 }

@@ -619,11 +619,17 @@ pub(super) fn raise_worst_quad<'a>(
             1 => {
                 // where no quad is under ETA_FLOOR, those under PRICE_FLOOR, on surfaces
                 // small enough that solving them again costs little
-                let floor = if low.is_empty() { PRICE_FLOOR } else { ETA_FLOOR };
-                let (under, _) = quads_under(&best.0, &skip, floor);
-                if low.is_empty() && triangles_on(input, &under) > PRICE_TRY_UP_TO {
-                    continue;
-                }
+                let (floor, under) = if low.is_empty() {
+                    let (under, _) = quads_under(&best.0, &skip, PRICE_FLOOR);
+                    let surfaces: HashSet<i32> = under.iter().map(|q| q.0).collect();
+                    let on = |s| surfaces.contains(&s);
+                    if surface_elements_where(input, etype::TRI3, on) > PRICE_TRY_UP_TO {
+                        continue;
+                    }
+                    (PRICE_FLOOR, under)
+                } else {
+                    (ETA_FLOOR, low.clone())
+                };
                 let new = pairs_of(input, &under, &start.priced);
                 if new.is_empty() {
                     continue;
@@ -738,18 +744,3 @@ pub(super) fn add_times(a: &Times, b: &Times) -> Times {
         second_order: a.second_order + b.second_order,
     }
 }
-
-/// The input triangles of the surfaces of `quads`.
-fn triangles_on(input: &Mesh, quads: &[fallback::Spot]) -> usize {
-    let mut surfaces: Vec<i32> = quads.iter().map(|q| q.0).collect();
-    surfaces.sort_unstable();
-    surfaces.dedup();
-    input
-        .element_blocks
-        .iter()
-        .filter(|b| b.entity_dim == 2 && b.element_type == etype::TRI3)
-        .filter(|b| surfaces.binary_search(&b.entity_tag).is_ok())
-        .map(|b| b.len())
-        .sum()
-}
-

@@ -298,13 +298,10 @@ fn check_surface(
     // runs of one edge, in (edge, first node, triangle) order: the first refused one
     for run in half.chunk_by(|x, y| (x.0, x.1) == (y.0, y.1)) {
         let problem = match run {
-            [_, _, _, ..] => EdgeProblem::NonManifold {
-                tris: run.iter().map(|x| x.3 as usize).collect(),
-                sheets: run.iter().any(|x| {
-                    run.iter()
-                        .any(|y| dot(tris[x.3 as usize].2, tris[y.3 as usize].2) < 0.0)
-                }),
-            },
+            [_, _, _, ..] => EdgeProblem::non_manifold(
+                run.iter().map(|x| x.3 as usize).collect(),
+                |t, u| dot(tris[t].2, tris[u].2),
+            ),
             [a, b] if a.2 == b.2 => EdgeProblem::SameDirection {
                 first: a.3 as usize,
                 second: b.3 as usize,

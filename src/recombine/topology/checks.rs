@@ -26,6 +26,15 @@ pub(crate) enum EdgeProblem {
     Folded { first: usize, second: usize },
 }
 
+impl EdgeProblem {
+    /// [`EdgeProblem::NonManifold`] of `tris`, with `sheets` when the dot product of the
+    /// normals of two of them (`dot`, of two triangle indices) is negative.
+    pub(crate) fn non_manifold(tris: Vec<usize>, dot: impl Fn(usize, usize) -> f64) -> Self {
+        let sheets = tris.iter().any(|&t| tris.iter().any(|&u| dot(t, u) < 0.0));
+        EdgeProblem::NonManifold { tris, sheets }
+    }
+}
+
 /// The refusal of surface `surface` for `problem` on its edge `lo-hi` (node tags), with
 /// `tag` giving the element tag of a triangle index.
 pub(crate) fn edge_refusal(
@@ -96,11 +105,9 @@ pub(super) fn structural_problem(
     if run.len() > 2 {
         let mut ts: Vec<(u64, usize)> = run.iter().map(|&h| half(h)).map(|x| (x.0, x.2)).collect();
         ts.sort_unstable();
-        let tris: Vec<usize> = ts.into_iter().map(|x| x.1).collect();
-        let sheets = tris
-            .iter()
-            .any(|&t| tris.iter().any(|&u| normals[t].dot(normals[u]) < 0.0));
-        return (key, EdgeProblem::NonManifold { tris, sheets });
+        let tris = ts.into_iter().map(|x| x.1).collect();
+        let problem = EdgeProblem::non_manifold(tris, |t, u| normals[t].dot(normals[u]));
+        return (key, problem);
     }
     let t1 = run[1] as usize / 3;
     let (first, second) = (t0.min(t1), t0.max(t1));
