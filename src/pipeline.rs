@@ -90,7 +90,14 @@
 //!    two triangles are split as chosen ones from the surface's second ring on), so a
 //!    boundary fan's split does not halve the triangles of the face beyond the curve; with
 //!    its own worst-quad tries, the better of the two results is kept, by the same order
-//!    (where neither is valid, the refusal is the first job's).
+//!    (where neither is valid, the refusal is the first job's). Where the fallback split
+//!    triangles and the kept result still breaks the element-count rule, or no job was
+//!    valid, the job runs once more accepting **quads bent across sharp turns**
+//!    ([`crate::validity::Bent`]): every other job's rounds also refuse a quad with a
+//!    corner that turns positively about its own node's normal but not about the normal at
+//!    another node of the quad, which on a surface meshed coarser than its curvature (a
+//!    pair across a turn of 90° or more) leaves no valid pair and cascades into splits;
+//!    with its own worst-quad tries, the better of the two is kept, by the same order.
 //! 5. **The worst quad.** A valid optimized result gets more tries: where the fallback
 //!    priced quads out, the fallback with splits only; quads under η [`ETA_FLOOR`] priced
 //!    out, or where there is none, those under η [`PRICE_FLOOR`] on surfaces of at most
@@ -183,7 +190,8 @@ const REUSE_UP_TO: usize = TRIES_UP_TO;
 /// bad quads priced out of the matching, boundary segments under fans split, then the input
 /// triangles around the bad quads split into three quads each (one ring, then two), and as
 /// a last resort every triangle of their surface (where that cascaded, other jobs price
-/// out every hopeless pair, peel boundary fans, split flat pairs); up to 10 rounds after the first run
+/// out every hopeless pair, peel boundary fans, split flat pairs, accept quads bent across
+/// sharp turns); up to 10 rounds after the first run
 /// ([`Report::rounds`]). Quads still bad then are refused ([`Error::Invalid`]).
 pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
     let input_tags =
@@ -382,6 +390,27 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         let (pairs, _) = run_job(base, opts, start, &mut cache);
         let pairs = pairs.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
         keep_better(base, opts, result, pairs)
+    } else {
+        result
+    };
+    // where the fallback split triangles and the result still breaks the element-count
+    // rule (on a surface meshed coarser than its curvature, pairs across its sharp turns
+    // fail at the other nodes' normals, and the splits cascade), or nothing was valid: the
+    // job that accepts quads bent across a sharp turn (`validity::Bent`), with its
+    // worst-quad tries, and the better of the two
+    let cascaded = split
+        && result
+            .as_ref()
+            .map_or(true, |r| !job_measures(base, opts, r).1);
+    let result = if cascaded {
+        let start = FallbackStart {
+            global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
+            bent: true,
+            ..FallbackStart::default()
+        };
+        let (bent, _) = run_job(base, opts, start, &mut cache);
+        let bent = bent.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
+        keep_better(base, opts, result, bent)
     } else {
         result
     };
@@ -633,9 +662,13 @@ fn better_job(
             true => format!("{pairs}, every pair with a corner near 180 or 0 degrees at a wall node priced out"),
             false => pairs,
         };
-        match r.2.peel_fans {
+        let peeled = match r.2.peel_fans {
             true => format!("{hopeless}, boundary fans peeled"),
             false => hopeless,
+        };
+        match r.2.bent {
+            true => format!("{peeled}, quads bent across sharp turns accepted"),
+            false => peeled,
         }
     };
     let (k, o) = if b_better { (y, x) } else { (x, y) };

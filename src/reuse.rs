@@ -131,7 +131,7 @@ struct Entry {
     quad_blocks: Vec<ElementBlock>,
     /// The validity check's key (`crate::validity::check_key`) of the output in which
     /// every quad of this state passed the check, if it did.
-    passed: Option<u64>,
+    passed: Option<crate::validity::CheckKey>,
 }
 
 /// The optimized surfaces of earlier jobs (see the module doc).
@@ -217,7 +217,12 @@ impl SurfaceCache {
     /// `fp`, those whose state passed the validity check in an output with check key
     /// `key`, sorted: the same quads at the same coordinates pass it again (the validity
     /// check reads no tag the job made, `crate::validity::check_key`).
-    pub(crate) fn passed(&self, fp: &Fingerprints, reused: &[i32], key: u64) -> Vec<i32> {
+    pub(crate) fn passed(
+        &self,
+        fp: &Fingerprints,
+        reused: &[i32],
+        key: crate::validity::CheckKey,
+    ) -> Vec<i32> {
         let mut out: Vec<i32> = reused
             .iter()
             .copied()
@@ -240,7 +245,7 @@ impl SurfaceCache {
         &mut self,
         mesh: &Mesh,
         fp: &Fingerprints,
-        passed: Option<(u64, &dyn Fn(i32) -> bool)>,
+        passed: Option<(crate::validity::CheckKey, &dyn Fn(i32) -> bool)>,
     ) {
         // the surface whose node block holds each node
         let mut block_of: HashMap<u64, i32> = HashMap::new();
@@ -352,7 +357,8 @@ mod tests {
         optimize(&mut optimized, &input, &OptimizeOptions::default()).expect("optimizes");
         let reference = crate::validity::Reference::new(&input);
         let bad = reference.invalid_quads(&optimized);
-        let key = crate::validity::check_key(&optimized);
+        let bent = crate::validity::Bent::Accepted;
+        let key = crate::validity::check_key(&optimized, bent);
         // every surface passed but the first, recorded as not checked
         let first = *made.0.keys().min().expect("a surface");
         let ok = |s: i32| s != first && !bad.iter().any(|b| b.surface == s);
@@ -363,7 +369,7 @@ mod tests {
         let fp = Fingerprints::of(&other, nodes, elements);
         let mut put = other.clone();
         let reused = cache.put_back(&mut put, &fp);
-        assert_eq!(crate::validity::check_key(&put), key);
+        assert_eq!(crate::validity::check_key(&put, bent), key);
         let passed = cache.passed(&fp, &reused, key);
         assert!(!passed.is_empty() && !passed.contains(&first), "{passed:?}");
         // the check left out on them finds what the whole check finds
@@ -372,9 +378,21 @@ mod tests {
             .iter()
             .all(|b| passed.binary_search(&b.surface).is_err()));
         let coords = TagCoords::new(&put);
-        assert_eq!(reference.invalid_quads_except(&put, &coords, &passed), all);
-        // in an output of another check key, nothing is known to pass
-        assert!(cache.passed(&fp, &reused, key ^ 1).is_empty());
+        assert_eq!(
+            reference.invalid_quads_except(&put, &coords, &passed, bent),
+            all
+        );
+        // in an output of another check key (another extent, or bent quads judged
+        // otherwise), nothing is known to pass
+        let mut bigger = put.clone();
+        bigger.node_blocks[0].coords[0][0] += 1e3;
+        assert!(cache
+            .passed(&fp, &reused, crate::validity::check_key(&bigger, bent))
+            .is_empty());
+        let refused = crate::validity::Bent::Refused;
+        assert!(cache
+            .passed(&fp, &reused, crate::validity::check_key(&put, refused))
+            .is_empty());
     }
 
     #[test]

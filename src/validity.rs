@@ -28,12 +28,6 @@
 //!   side it is on;
 //! - no corner is seen edge-on from the surface (its sine about that normal above
 //!   [`MIN_SINE`] of its edges' lengths);
-//! - each corner also turns positively (sine above [`MIN_SINE`] of its edges' lengths) about
-//!   the input normal at every node of the quad the input has and does not wrap round: on
-//!   a coarse curved face whose normal turns sharply within one quad, a corner can be fine
-//!   about its own node's normal and reflex about the surface a neighbouring corner sees
-//!   (`tests/check_mesh.py`, which measures a quad's corners about one normal of the input
-//!   faces around it, found such quads on the corpus's many-bosses model);
 //! - on a curved surface, each corner also turns positively about the mean unit normal of
 //!   the input faces the quad came from (those whose nodes are all among the quad's, else
 //!   those sharing two nodes with it, else one), where one normal stands for the quad: no
@@ -42,6 +36,9 @@
 //!   triangle's plane can have a corner edge-on to that triangle and positive about every
 //!   node's normal (`tests/check_mesh.py` measures it so, and found one on a coarse
 //!   boolean part);
+//! - where no one normal stands for it so, the quad faces the input's way: its own normal
+//!   turns less than 90° from the sum of the normals its corners are measured about
+//!   ([`Defect::TurnedOver`]; `tests/check_mesh.py` asks the same);
 //! - the quad holds to its own geometry: its scaled Jacobian at each corner about its *own*
 //!   normal (the cross product of its diagonals, the normal of the bilinear map at the
 //!   quad's centre) is above `tan ε`, ε the angle of [`MIN_CORNER_ETA`]. The Jacobian
@@ -50,6 +47,13 @@
 //!   what Gmsh's `minSJ`/`minSICN` measure (their sign). A quad strongly bent across a
 //!   coarse curved face (a fillet of a few triangles) can turn positively about every
 //!   input normal and still fold about its own.
+//!
+//! A quad bent across a sharp turn of a coarse curved surface (a pair of triangles turning
+//! far apart) can be valid with a corner that turns positively about its own node's normal
+//! and is reflex about the normal at another node of the quad. The pipeline's rounds ask
+//! that too ([`Bent::Refused`]: every corner turns positively, sine above [`MIN_SINE`],
+//! about the input normal at every node of the quad the input has and does not wrap
+//! round), and accept bent quads only in the job it runs where the others cascaded.
 //!
 //! [`invalid_quads`] lists every quad that is not valid; it shares no code with the
 //! recombination or the optimizer, which it checks, except the closest-point grid of
@@ -119,6 +123,10 @@ pub enum Defect {
         /// Index 0–3 of the corner.
         corner: usize,
     },
+    /// The quad faces away from the input surface: its own normal (the cross product of its
+    /// diagonals) turns 90° or more from the sum of the normals its corners are measured
+    /// about, where no one normal of the input faces it came from stands for it.
+    TurnedOver,
 }
 
 /// One quad that is not valid.
@@ -144,6 +152,7 @@ impl BadQuad {
             | Defect::Corner { corner, .. }
             | Defect::OwnJacobian { corner, .. }
             | Defect::NoNormal { corner } => self.nodes[corner],
+            Defect::TurnedOver => self.nodes[0],
         }
     }
 }
@@ -184,6 +193,11 @@ impl std::fmt::Display for BadQuad {
                  faces nearest to it face opposite ways: the surface folds back onto itself \
                  there)",
                 self.nodes[*corner]
+            ),
+            Defect::TurnedOver => write!(
+                f,
+                "the quad faces away from the input surface (its own normal turns 90 degrees \
+                 or more from the input normals its corners are measured about)"
             ),
         }
     }
@@ -247,19 +261,20 @@ impl<'a> Reference<'a> {
     /// [`invalid_quads`] of `output` against this input.
     #[cfg(any(test, feature = "testing"))]
     pub fn invalid_quads(&self, output: &Mesh) -> Vec<BadQuad> {
-        self.invalid_quads_on(output, &TagCoords::new(output), |_| true)
+        self.invalid_quads_on(output, &TagCoords::new(output), |_| true, Bent::Accepted)
     }
 
     /// [`Reference::invalid_quads`] on every surface of `output` but those of `except`
     /// (sorted tags): surfaces known to pass, with the same quads at the same coordinates
-    /// and the same [`check_key`], in an output checked before.
+    /// and the same [`check_key`], in an output checked before; `bent` as in the key.
     pub(crate) fn invalid_quads_except(
         &self,
         output: &Mesh,
         out_coords: &TagCoords,
         except: &[i32],
+        bent: Bent,
     ) -> Vec<BadQuad> {
-        self.invalid_quads_on(output, out_coords, |s| except.binary_search(&s).is_err())
+        self.invalid_quads_on(output, out_coords, |s| except.binary_search(&s).is_err(), bent)
     }
 
     /// A node the input surface `surface` wraps round (one of its faces there turns 90° or
@@ -285,12 +300,14 @@ impl<'a> Reference<'a> {
     }
 
     /// [`Reference::invalid_quads`] on the surfaces `on` accepts, with `out_coords`, the
-    /// coordinates of `output`'s nodes by tag.
+    /// coordinates of `output`'s nodes by tag, and quads bent across a sharp turn of a
+    /// curved surface accepted or refused ([`Bent`]).
     pub(crate) fn invalid_quads_on(
         &self,
         output: &Mesh,
         out_coords: &TagCoords,
         on: impl Fn(i32) -> bool,
+        bent: Bent,
     ) -> Vec<BadQuad> {
         let extent = extent(output);
         let min_edge = MIN_EDGE * extent;
@@ -328,7 +345,7 @@ impl<'a> Reference<'a> {
                         .filter_map(|i| {
                             let e = b.element(i);
                             let nodes = [e[0], e[1], e[2], e[3]];
-                            check_quad(out_coords, &sr.normals, &nearest, &source, nodes, min_edge)
+                            check_quad(out_coords, &sr.normals, &nearest, &source, nodes, min_edge, bent)
                                 .map(
                                 |defect| BadQuad {
                                     surface: s,
@@ -365,12 +382,22 @@ impl SurfaceReference {
     }
 }
 
-/// What the check of one surface's quads reads of the rest of `output`: the same quads over
-/// the same input nodes at the same coordinates (nodes the input lacks under any tag) give
-/// the same result in two outputs with the same key (the length under which an edge is
-/// too short scales with the output's extent).
-pub(crate) fn check_key(output: &Mesh) -> u64 {
-    extent(output).to_bits()
+/// What the check of one surface's quads reads of the rest of `output`, and how it judges
+/// bent quads: the same quads over the same input nodes at the same coordinates (nodes the
+/// input lacks under any tag) give the same result in two outputs with the same key (the
+/// length under which an edge is too short scales with the output's extent).
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) struct CheckKey {
+    extent: u64,
+    bent: Bent,
+}
+
+/// The [`CheckKey`] of `output` checked with bent quads accepted or refused.
+pub(crate) fn check_key(output: &Mesh, bent: Bent) -> CheckKey {
+    CheckKey {
+        extent: extent(output).to_bits(),
+        bent,
+    }
 }
 
 /// The diagonal of the bounding box of all nodes (1 for an empty mesh).
@@ -850,6 +877,19 @@ fn triangle_distance(p: DVec3, t: [DVec3; 3]) -> f64 {
         .fold(f64::INFINITY, f64::min)
 }
 
+/// Whether a quad bent across a sharp turn of a coarse curved surface passes the check
+/// when it is valid (see the module doc), or the check also asks what the pipeline asks
+/// of its quads first: every corner turning positively about the input normal at each of
+/// the quad's other nodes too.
+#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+pub(crate) enum Bent {
+    /// Valid quads pass, bent or not (the definition the output keeps).
+    Accepted,
+    /// A bent quad fails: each corner must also turn positively about the input normal at
+    /// every node of the quad the input has and does not wrap round.
+    Refused,
+}
+
 /// The first defect of quad `q`, if any.
 fn check_quad<'n>(
     coords: &TagCoords,
@@ -858,6 +898,7 @@ fn check_quad<'n>(
     source: &(dyn Fn() -> &'n SourceFaces + Sync),
     q: [u64; 4],
     min_edge: f64,
+    bent: Bent,
 ) -> Option<Defect> {
     let mut p = [DVec3::ZERO; 4];
     for k in 0..4 {
@@ -885,6 +926,8 @@ fn check_quad<'n>(
         let b = p[(k + 3) % 4] - p[k];
         (a, b, a.cross(b), MIN_SINE * a.length() * b.length())
     });
+    // the normal each corner is measured about
+    let mut about = [DVec3::ZERO; 4];
     for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
         // a node the input lacks, or whose faces cancel out: the faces nearest to a point
         // inside the corner (the faces the quad lies on there); a wrapped node: the input
@@ -900,6 +943,7 @@ fn check_quad<'n>(
                 }
             }
         };
+        about[k] = n;
         let s = n.dot(ab);
         let c = a.dot(b);
         // α = atan2(s, c) is inside (ε, π − ε) exactly when s > |c| tan ε; and the corner
@@ -913,10 +957,11 @@ fn check_quad<'n>(
             });
         }
     }
-    // and about the input normals at the quad's other nodes: a quad across a sharp turn of
-    // a coarse curved surface can have every corner positive about its own node's normal
-    // and one of them reflex about the surface a neighbouring node sees
-    for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
+    // with bent quads refused, also about the input normals at the quad's other nodes: a
+    // quad across a sharp turn of a coarse curved surface can have every corner positive
+    // about its own node's normal and one of them reflex about the surface a neighbouring
+    // node sees
+    for (k, &(a, b, ab, floor)) in corners.iter().enumerate().filter(|_| bent == Bent::Refused) {
         for n in at.iter().zip(wraps).filter(|x| !x.1).filter_map(|x| *x.0) {
             let s = n.dot(ab);
             if s.is_nan() || s <= floor {
@@ -931,16 +976,18 @@ fn check_quad<'n>(
     // for it (no wrapped node, no face at its nodes turning sharply from it): on a coarse
     // curved face, a quad holding an input triangle and a node far off its plane can have
     // a corner edge-on to that triangle and positive about every node's normal
-    if !normals.planar && !wraps.contains(&true) {
-        if let Some(n) = source().normal(&q) {
-            for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
-                let s = n.dot(ab);
-                if s.is_nan() || s <= floor {
-                    return Some(Defect::Corner {
-                        corner: k,
-                        degrees: s.atan2(a.dot(b)).to_degrees(),
-                    });
-                }
+    let from = match normals.planar || wraps.contains(&true) {
+        true => None,
+        false => source().normal(&q),
+    };
+    if let Some(n) = from {
+        for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
+            let s = n.dot(ab);
+            if s.is_nan() || s <= floor {
+                return Some(Defect::Corner {
+                    corner: k,
+                    degrees: s.atan2(a.dot(b)).to_degrees(),
+                });
             }
         }
     }
@@ -950,6 +997,16 @@ fn check_quad<'n>(
         let scaled = own.dot(ab) / d;
         if scaled.is_nan() || scaled <= *MIN_TAN {
             return Some(Defect::OwnJacobian { corner: k, scaled });
+        }
+    }
+    // and, where no one normal of the faces it came from stands for it, its own normal
+    // turns less than 90 degrees from the sum of those its corners are measured about: it
+    // faces the input's way
+    if from.is_none() {
+        let s = own.dot(about.iter().sum::<DVec3>());
+        // NaN fails too
+        if s.is_nan() || s <= 0.0 {
+            return Some(Defect::TurnedOver);
         }
     }
     None
@@ -1236,23 +1293,67 @@ mod tests {
         );
     }
 
+    /// The quads of `out` that fail the check with bent quads refused.
+    fn bent_refused(input: &Mesh, out: &Mesh) -> Vec<BadQuad> {
+        Reference::new(input).invalid_quads_on(out, &TagCoords::new(out), |_| true, Bent::Refused)
+    }
+
     #[test]
-    fn a_quad_across_a_sharp_turn_is_caught_by_the_normal_at_another_node() {
+    fn a_quad_bent_across_a_sharp_turn_is_valid_and_refused_only_where_bent_quads_are() {
         // two triangles hinged along 1-3, the second turned 120 degrees out of the first's
         // plane (a coarse curved face): every corner of the quad 1 2 3 4 turns positively
-        // about its own node's normal, but the corner at node 2 (in the first triangle's
-        // plane) is reflex about node 4's (the second triangle's) normal
+        // about its own node's normal, it faces the input's way and does not fold about
+        // its own normal, so it is valid; but the corner at node 2 (in the first
+        // triangle's plane) is reflex about node 4's (the second triangle's) normal, which
+        // the check with bent quads refused catches
         let hinged = |fourth: [f64; 3]| {
             let c = [[0., 0., 0.], [1., 0., 0.], [1., 1., 0.], fourth];
             let input = mesh(&c, etype::TRI3, &[&[1, 2, 3], &[1, 3, 4]]);
-            invalid_quads(&input, &mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]]))
+            let out = mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]]);
+            (invalid_quads(&input, &out), bent_refused(&input, &out))
         };
-        let bad = hinged([0.75, 0.25, 0.612]);
-        assert_eq!(bad.len(), 1);
-        assert_eq!(bad[0].node(), 2);
-        assert!(matches!(bad[0].defect, Defect::Corner { degrees, .. } if degrees < 0.0));
-        // a gentle turn (30 degrees) passes
-        assert!(hinged([0.0670, 0.9330, 0.3536]).is_empty());
+        let (valid, refused) = hinged([0.75, 0.25, 0.612]);
+        assert_eq!(valid, vec![]);
+        assert_eq!(refused.len(), 1);
+        assert_eq!(refused[0].node(), 2);
+        assert!(matches!(refused[0].defect, Defect::Corner { degrees, .. } if degrees < 0.0));
+        // a gentle turn (30 degrees) passes both
+        assert_eq!(hinged([0.0670, 0.9330, 0.3536]), (vec![], vec![]));
+    }
+
+    #[test]
+    fn a_saddle_quad_facing_away_from_the_input_normals_is_caught() {
+        // a saddle quad 1 2 3 4 (its own normal +z), each node with a small input triangle
+        // of its own whose normal points into the saddle and down: every corner turns
+        // positively about its own node's normal and about the quad's own normal, but the
+        // input normals sum to a downward normal (no one normal of the faces it came from
+        // stands for it: they turn 60 degrees or more from their mean)
+        let (h, e) = (1.0, 0.1);
+        let mut c = vec![[1., 0., h], [0., 1., -h], [-1., 0., h], [0., -1., -h]];
+        // per node, two edge vectors whose cross product is the wanted normal
+        let sides = [
+            ([0., e, 0.], [0.2 * e, 0., -e]),  // (-1, 0, -0.2)
+            ([0., 0.2 * e, e], [e, 0., 0.]),   // (0, 1, -0.2)
+            ([-0.2 * e, 0., -e], [0., e, 0.]), // (1, 0, -0.2)
+            ([e, 0., 0.], [0., -0.2 * e, e]),  // (0, -1, -0.2)
+        ];
+        let mut tris: Vec<[u64; 3]> = Vec::new();
+        for (k, (u, v)) in sides.iter().enumerate() {
+            let p = c[k];
+            let first = c.len() as u64 + 1;
+            c.push([p[0] + u[0], p[1] + u[1], p[2] + u[2]]);
+            c.push([p[0] + v[0], p[1] + v[1], p[2] + v[2]]);
+            tris.push([k as u64 + 1, first, first + 1]);
+        }
+        let tris: Vec<&[u64]> = tris.iter().map(|t| &t[..]).collect();
+        let input = mesh(&c, etype::TRI3, &tris);
+        let out = mesh(&c, etype::QUAD4, &[&[1, 2, 3, 4]]);
+        let normals = &Reference::new(&input).surfaces[0].1.normals;
+        assert!((1..=4).all(|t| normals.get(t).is_some_and(|n| n.z < 0.0)));
+        let bad = invalid_quads(&input, &out);
+        assert_eq!(bad.len(), 1, "{bad:?}");
+        assert_eq!(bad[0].defect, Defect::TurnedOver);
+        assert!(bad[0].to_string().contains("faces away from the input surface"));
     }
 
     #[test]

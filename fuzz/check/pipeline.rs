@@ -14,11 +14,12 @@
 //! like them), or, at a wrapped node (a face there turns 90° or more from the node's
 //! normal: a fold, a pin a few triangles round), on its own side: the mean unit normal of
 //! the input faces there the quad holds (all their nodes among its own), else the input
-//! faces nearest to that point inside the corner; and about the normal at each of the
-//! quad's nodes the input has and does not wrap round; and, where no node wraps and no input face at its nodes turns 60° or more from
-//! the mean unit normal of the input faces it came from (all their nodes among the quad's,
-//! else two, else one), about that mean; and its scaled Jacobian at every corner about its
-//! own normal (the cross product of its diagonals) is positive. That is the definition of
+//! faces nearest to that point inside the corner; and, where no node wraps and no input
+//! face at its nodes turns 60° or more from the mean unit normal of the input faces it came
+//! from (all their nodes among the quad's, else two, else one), about that mean, and
+//! elsewhere its own normal turns less than 90° from the sum of the unit normals its
+//! corners are measured about; and its scaled Jacobian at every corner about its own normal
+//! (the cross product of its diagonals) is positive. That is the definition of
 //! `blossomquad::validity`, written again here independently so that the gate itself is
 //! checked. The output must also be numbered 1..N (nodes and elements) unless the
 //! renumbering said why not. Anything else is a finding.
@@ -329,34 +330,7 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                         q[k]
                     ));
                 }
-                // and about the input's normal at each of the quad's nodes the input has
-                for j in 0..4 {
-                    let Some(m) = normal.get(&(s, q[j])).filter(|m| norm(**m) > 0.0) else {
-                        continue;
-                    };
-                    if wraps(j) {
-                        continue;
-                    }
-                    let sj = dot(cross(a, c), *m) / (norm(a) * norm(c) * norm(*m));
-                    if !(sj > 1e-12) {
-                        return Err(format!(
-                            "surface {s}: quad {tag} {q:?} has a corner at node {} that is reflex about the input normal at node {} (sine {sj:e})",
-                            q[k], q[j]
-                        ));
-                    }
-                }
             }
-            // and about the mean unit normal of the input faces it came from (all their
-            // nodes among the quad's, else two, else one), where one stands for it: no
-            // wrapped node and no face at its nodes turning 60 degrees or more from it
-            if (0..4).any(wraps) {
-                continue;
-            }
-            let shared: Vec<(&Face, usize)> = surface_faces
-                .iter()
-                .map(|f| (f, f.nodes.iter().filter(|v| q.contains(v)).count()))
-                .filter(|x| x.1 > 0)
-                .collect();
             let unit = |v: V| {
                 let l = norm(v);
                 if l > 0.0 {
@@ -365,6 +339,32 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                     [0.0; 3]
                 }
             };
+            // where no one normal of the input faces it came from stands for the quad, it
+            // faces the input's way: its own normal turns less than 90 degrees from the sum
+            // of the unit normals its corners are measured about
+            let faces_the_input_way = || {
+                let own = cross(sub(p[2], p[0]), sub(p[3], p[1]));
+                let sum = known.iter().fold([0.0; 3], |m, n| add(m, unit(*n)));
+                if dot(own, sum) > 0.0 {
+                    Ok(())
+                } else {
+                    Err(format!(
+                        "surface {s}: quad {tag} {q:?} faces away from the input surface (its own normal against the sum of its corners' input normals)"
+                    ))
+                }
+            };
+            // and about the mean unit normal of the input faces it came from (all their
+            // nodes among the quad's, else two, else one), where one stands for it: no
+            // wrapped node and no face at its nodes turning 60 degrees or more from it
+            if (0..4).any(wraps) {
+                faces_the_input_way()?;
+                continue;
+            }
+            let shared: Vec<(&Face, usize)> = surface_faces
+                .iter()
+                .map(|f| (f, f.nodes.iter().filter(|v| q.contains(v)).count()))
+                .filter(|x| x.1 > 0)
+                .collect();
             let Some(mean) = [
                 |f: &Face, c: usize| c == f.nodes.len(),
                 |_: &Face, c: usize| c >= 2,
@@ -378,10 +378,12 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                     .fold([0.0; 3], |m, (f, _)| add(m, unit(f.normal)))
             })
             .find(|m| norm(*m) > 0.0) else {
+                faces_the_input_way()?;
                 continue;
             };
             let mean = unit(mean);
             if shared.iter().any(|(f, _)| dot(unit(f.normal), mean) <= 0.5) {
+                faces_the_input_way()?;
                 continue;
             }
             for k in 0..4 {

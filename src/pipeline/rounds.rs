@@ -33,7 +33,8 @@ pub(super) fn run_rounds<'a>(
         && start.peels.is_empty()
         && start.located.is_empty()
         && start.chosen.is_empty()
-        && start.pairs.is_empty();
+        && start.pairs.is_empty()
+        && !start.bent;
     let mut chosen: HashSet<u64> = start.chosen;
     let splits_only = start.splits_only;
     let mut local = LocalFallback {
@@ -56,6 +57,7 @@ pub(super) fn run_rounds<'a>(
         global_rings: start.global_rings,
         pairs: start.pairs,
         flat_pairs: start.flat_pairs,
+        bent: start.bent,
         ..Default::default()
     };
     let mut fallback = None;
@@ -415,7 +417,8 @@ fn one_round<'a>(
     let coords = TagCoords::new(&mesh);
     // speed: a surface given back as an earlier job left it, where it passed the validity
     // check in an output of the same check key, passes it again (`SurfaceCache::passed`)
-    let key = crate::validity::check_key(&mesh);
+    let bent = local.bent();
+    let key = crate::validity::check_key(&mesh, bent);
     let passed = match &fingerprints {
         Some(fp) => cache.surfaces.passed(fp, &reused, key),
         None => Vec::new(),
@@ -424,7 +427,7 @@ fn one_round<'a>(
     // failure still comes first)
     let (invariants, mut bad) = rayon::join(
         || invariants_of(&mesh, &coords),
-        || checks.validity.invalid_quads_except(&mesh, &coords, &passed),
+        || checks.validity.invalid_quads_except(&mesh, &coords, &passed, bent),
     );
     drop(coords);
     invariants.map_err(|violation| Error::Invariant {
@@ -448,7 +451,7 @@ fn one_round<'a>(
         let was = TagCoords::new(pre);
         let before: HashSet<[u64; 4]> = checks
             .validity
-            .invalid_quads_on(pre, &was, |s| bad_surfaces.binary_search(&s).is_ok())
+            .invalid_quads_on(pre, &was, |s| bad_surfaces.binary_search(&s).is_ok(), bent)
             .into_iter()
             .map(|b| sorted4(b.nodes))
             .collect();
@@ -473,7 +476,7 @@ fn one_round<'a>(
         let coords = TagCoords::new(&back);
         if checks
             .validity
-            .invalid_quads_on(&back, &coords, |s| surfaces.contains(&s))
+            .invalid_quads_on(&back, &coords, |s| surfaces.contains(&s), bent)
             .is_empty()
             && invariants_of(&back, &coords).is_ok()
         {
@@ -492,7 +495,7 @@ fn one_round<'a>(
         // when undoing an optimization changed its check key)
         let bad_on: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
         let ok = |s: i32| !bad_on.contains(&s);
-        let checked = crate::validity::check_key(&mesh) == key;
+        let checked = crate::validity::check_key(&mesh, bent) == key;
         cache
             .surfaces
             .record(&mesh, fp, checked.then_some((key, &ok as &dyn Fn(i32) -> bool)));
@@ -612,6 +615,7 @@ pub(super) fn raise_worst_quad<'a>(
                     splits_only: true,
                     global_rings: start.global_rings,
                     flat_pairs: start.flat_pairs,
+                    bent: start.bent,
                     ..FallbackStart::default()
                 };
                 "the fallback with splits only".to_string()

@@ -647,6 +647,41 @@ fn coarse_cylinders_get_valid_quads_from_a_local_fallback() {
     assert!(split > 0 && 4 * split < lateral, "{split} split:\n{log}");
 }
 
+/// A random boolean part meshed coarse (`scripts/stress_parts.py --generate 611`: size 0.6,
+/// MSH 4.1): on its curved surfaces 12 and 22 neighbouring triangles turn up to about 130°
+/// apart, and a pair across such a turn makes a quad whose corners turn positively about
+/// their own nodes' normals but not about the normal at the quad's other nodes. Refused as
+/// bent, those pairs made the fallback split 176 triangles into 1.26 new quads per input
+/// triangle; the job that accepts quads bent across sharp turns (valid: each corner about
+/// its own node's normal, facing the input's way, no fold about its own normal) meets the
+/// footprint goals, every quad valid to the gate and to the independent checker.
+#[test]
+fn a_coarse_boolean_part_accepts_quads_bent_across_sharp_turns_instead_of_cascading() {
+    let input = common::repo_dir().join("tests/data/cad/v41_boolean_coarse_curved.msh");
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(count_2d(&mesh, etype::TRI3, None), 610);
+    let (_, log) = quadrangulated_within_goals(&mesh);
+    assert!(
+        log.contains("quads bent across sharp turns accepted kept"),
+        "{log}"
+    );
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("out.msh");
+    let mut args = vec![
+        input.clone().into_os_string(),
+        "-o".into(),
+        output.clone().into_os_string(),
+    ];
+    args.extend(common::tag_map_args(&output));
+    let (code, _, stderr) = blossomquad_run(args);
+    assert_eq!(code, Some(0), "{stderr}");
+    let (triangles, quads) = checked_counts(&input, &output);
+    assert!(
+        10 * quads <= 6 * triangles,
+        "{quads} quads of {triangles} triangles"
+    );
+}
+
 /// Gmsh's mesh of a plate with an octagonal hole whose bottom edge lies 0.03 above the
 /// curve the plate shares with a strip below it, at size 0.3
 /// (`tests/data/cad/octagon_hole.py`): at the hole's two bottom corners (reflex, 225°) the
