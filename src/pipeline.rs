@@ -347,27 +347,21 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
     // splits cascaded), or nothing was valid: the job that prices out every pair with a
     // hopeless corner at a wall node on the surfaces of the bad quads, and the better of the
     // two (before the worst-quad tries, which only the kept one gets)
-    let cascaded = split
-        && result
-            .as_ref()
-            .map_or(true, |r| !job_measures(base, opts, r).1);
-    let result = if cascaded {
+    let breaks_count_rule =
+        |r: &JobResult| r.as_ref().map_or(true, |r| !job_measures(base, opts, r).1);
+    let result = if split && breaks_count_rule(&result) {
         let start = FallbackStart {
-            global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
             hopeless: true,
             ..FallbackStart::default()
         };
-        let (hopeless, _) = run_job(base, opts, start, &mut cache);
-        let result = keep_better(base, opts, result, hopeless);
+        let result = with_job(base, opts, result, start, false, &mut cache);
         // where that still misses a goal: the job that peels boundary fans
         if result.as_ref().map_or(true, |r| !meets_goals(base, opts, r)) {
             let start = FallbackStart {
-                global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
                 peel_fans: true,
                 ..FallbackStart::default()
             };
-            let (peeled, _) = run_job(base, opts, start, &mut cache);
-            keep_better(base, opts, result, peeled)
+            with_job(base, opts, result, start, false, &mut cache)
         } else {
             result
         }
@@ -383,13 +377,10 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         .map_or(true, |r| !meets_goals(base, opts, r));
     let result = if split && missed {
         let start = FallbackStart {
-            global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
             flat_pairs: true,
             ..FallbackStart::default()
         };
-        let (pairs, _) = run_job(base, opts, start, &mut cache);
-        let pairs = pairs.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
-        keep_better(base, opts, result, pairs)
+        with_job(base, opts, result, start, true, &mut cache)
     } else {
         result
     };
@@ -398,19 +389,12 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
     // fail at the other nodes' normals, and the splits cascade), or nothing was valid: the
     // job that accepts quads bent across a sharp turn (`validity::Bent`), with its
     // worst-quad tries, and the better of the two
-    let cascaded = split
-        && result
-            .as_ref()
-            .map_or(true, |r| !job_measures(base, opts, r).1);
-    let result = if cascaded {
+    let result = if split && breaks_count_rule(&result) {
         let start = FallbackStart {
-            global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
             bent: true,
             ..FallbackStart::default()
         };
-        let (bent, _) = run_job(base, opts, start, &mut cache);
-        let bent = bent.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
-        keep_better(base, opts, result, bent)
+        with_job(base, opts, result, start, true, &mut cache)
     } else {
         result
     };
@@ -540,6 +524,31 @@ fn poor_quads(input: &Mesh, opts: &Options, mesh: &Mesh, report: &Report) -> Opt
     })
 }
 
+/// A job's result: the output, its report and the fallback's state at its end.
+type JobResult = Result<(Mesh, Report, FallbackStart), Error>;
+
+/// The better of `result` and another job from `start` (its split rings counted as
+/// `result`'s), that job with its worst-quad tries when `tries` ([`keep_better`]).
+fn with_job<'a>(
+    base: &'a Mesh,
+    opts: &Options,
+    result: JobResult,
+    start: FallbackStart,
+    tries: bool,
+    cache: &mut Shared<'a>,
+) -> JobResult {
+    let start = FallbackStart {
+        global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
+        ..start
+    };
+    let (other, _) = run_job(base, opts, start, cache);
+    let other = match tries {
+        true => other.and_then(|first| raise_worst_quad(base, opts, first, cache)),
+        false => other,
+    };
+    keep_better(base, opts, result, other)
+}
+
 /// One job's rounds from `start`; a job that split boundary segments under fans and still
 /// failed runs again without them (on strips that share curves, a segment split moves one
 /// strip's imbalance to the next). Returns the result and whether per-surface rings made a
@@ -549,7 +558,7 @@ fn run_job<'a>(
     opts: &Options,
     start: FallbackStart,
     cache: &mut Shared<'a>,
-) -> (Result<(Mesh, Report, FallbackStart), Error>, bool) {
+) -> (JobResult, bool) {
     let mut notes = JobNotes::default();
     let again = FallbackStart {
         no_segments: true,
@@ -570,9 +579,9 @@ fn run_job<'a>(
 fn keep_better(
     base: &Mesh,
     opts: &Options,
-    a: Result<(Mesh, Report, FallbackStart), Error>,
-    b: Result<(Mesh, Report, FallbackStart), Error>,
-) -> Result<(Mesh, Report, FallbackStart), Error> {
+    a: JobResult,
+    b: JobResult,
+) -> JobResult {
     match (a, b) {
         (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
         (Ok(a), Err(_)) => Ok(a),

@@ -551,16 +551,7 @@ fn quads_under_eta_0_2_that_the_input_allows_better_are_named_in_a_warning() {
 #[test]
 fn a_surface_meshed_coarser_than_its_curvature_is_recombined_by_splitting_its_triangles() {
     let input = common::repo_dir().join("tests/data/cad/v41_coarse_torus.msh");
-    let dir = tempfile::tempdir().expect("temp dir");
-    let output = dir.path().join("out.msh");
-    let mut args = vec![
-        input.clone().into_os_string(),
-        "-o".into(),
-        output.clone().into_os_string(),
-    ];
-    args.extend(common::tag_map_args(&output));
-    let (code, _, stderr) = blossomquad_run(args);
-    assert_eq!(code, Some(0), "{stderr}");
+    let (_dir, output, stderr) = run_with_tag_map(&input);
     assert!(stderr.contains("into three quads each"), "{stderr}");
     // a warning says why, naming the surface and a node it wraps round
     assert!(
@@ -573,6 +564,23 @@ fn a_surface_meshed_coarser_than_its_curvature_is_recombined_by_splitting_its_tr
         2 * quads > triangles,
         "{quads} quads of {triangles} triangles"
     );
+}
+
+/// Runs the tool on `input`, writing the output and its tag map into a new temporary
+/// directory, and asserts it succeeds; returns the directory (kept while the output is
+/// read), the output's path and the tool's log.
+fn run_with_tag_map(input: &Path) -> (tempfile::TempDir, std::path::PathBuf, String) {
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("out.msh");
+    let mut args = vec![
+        input.as_os_str().to_owned(),
+        "-o".into(),
+        output.clone().into_os_string(),
+    ];
+    args.extend(common::tag_map_args(&output));
+    let (code, _, stderr) = blossomquad_run(args);
+    assert_eq!(code, Some(0), "{stderr}");
+    (dir, output, stderr)
 }
 
 /// Asserts that `output` passes `tests/check_mesh.py` against `input` and holds no triangle;
@@ -665,16 +673,7 @@ fn a_coarse_boolean_part_accepts_quads_bent_across_sharp_turns_instead_of_cascad
         log.contains("quads bent across sharp turns accepted kept"),
         "{log}"
     );
-    let dir = tempfile::tempdir().expect("temp dir");
-    let output = dir.path().join("out.msh");
-    let mut args = vec![
-        input.clone().into_os_string(),
-        "-o".into(),
-        output.clone().into_os_string(),
-    ];
-    args.extend(common::tag_map_args(&output));
-    let (code, _, stderr) = blossomquad_run(args);
-    assert_eq!(code, Some(0), "{stderr}");
+    let (_dir, output, _) = run_with_tag_map(&input);
     let (triangles, quads) = checked_counts(&input, &output);
     assert!(
         10 * quads <= 6 * triangles,
