@@ -44,9 +44,9 @@
 //!   quad's centre) is above `tan ε`, ε the angle of [`MIN_CORNER_ETA`]. The Jacobian
 //!   determinant of a 4-node quad about that normal is linear over the reference square,
 //!   so positive corners mean it is positive everywhere: what a solver integrates on and
-//!   the sign of Gmsh's `minSJ` (Gmsh's `minSICN` takes its sign about another normal,
-//!   and can be negative on a quad bent across a coarse curved face whose `minSJ` is
-//!   positive). A quad strongly bent across a
+//!   the sign of Gmsh's `minSJ` (Gmsh's `minSICN`, a bound of another measure, can be
+//!   negative on a quad bent across a coarse curved face whose `minSJ` is positive). A
+//!   quad strongly bent across a
 //!   coarse curved face (a fillet of a few triangles) can turn positively about every
 //!   input normal and still fold about its own.
 //!
