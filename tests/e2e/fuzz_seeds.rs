@@ -88,3 +88,68 @@ fn the_pipeline_check_catches_a_mesh_compared_by_the_wrong_tags() {
     // ...and the check through the tag map passes
     assert_eq!(pipeline_check::check(&data), Ok(()));
 }
+
+/// An MSH 2.2 mesh of `nodes` (tags 1, 2, ...) and `elements` (type, node tags) on surface 1.
+fn msh22(nodes: &[[f64; 3]], elements: &[(u32, &[u64])]) -> blossomquad::Mesh {
+    let mut text = format!(
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$Nodes\n{}\n",
+        nodes.len()
+    );
+    for (i, p) in nodes.iter().enumerate() {
+        text += &format!("{} {} {} {}\n", i + 1, p[0], p[1], p[2]);
+    }
+    text += &format!("$EndNodes\n$Elements\n{}\n", elements.len());
+    for (i, (t, e)) in elements.iter().enumerate() {
+        let tags: Vec<String> = e.iter().map(|n| n.to_string()).collect();
+        text += &format!("{} {t} 2 0 1 {}\n", i + 1, tags.join(" "));
+    }
+    text += "$EndElements\n";
+    blossomquad::msh::read_bytes(text.as_bytes(), "test.msh").unwrap_or_else(|e| panic!("{e}"))
+}
+
+#[test]
+fn the_pipeline_check_passes_a_bent_quad_and_catches_one_facing_away_from_the_input() {
+    // two triangles hinged along 1-3, the second turned 120 degrees out of the first's
+    // plane: the quad 1 2 3 4 is valid (each corner about its own node's normal, facing
+    // the input's way, no fold about its own normal), though bent
+    let hinged = [
+        [0., 0., 0.],
+        [1., 0., 0.],
+        [1., 1., 0.],
+        [0.75, 0.25, 0.612],
+    ];
+    let before = msh22(&hinged, &[(2, &[1, 2, 3]), (2, &[1, 3, 4])]);
+    let after = msh22(&hinged, &[(3, &[1, 2, 3, 4])]);
+    assert_eq!(pipeline_check::check_quads(&before, &after), Ok(()));
+    // a saddle quad (its own normal +z) whose nodes each have a small input triangle of
+    // their own, normal pointing into the saddle and down: every corner turns positively
+    // about its own node's normal and about the quad's own normal, but the quad faces
+    // away from the sum of its corners' normals
+    let nodes = [
+        [1., 0., 1.],
+        [0., 1., -1.],
+        [-1., 0., 1.],
+        [0., -1., -1.],
+        [1., 0.1, 1.],
+        [1.02, 0., 0.9],
+        [0., 1.02, -0.9],
+        [0.1, 1., -1.],
+        [-1.02, 0., 0.9],
+        [-1., 0.1, 1.],
+        [0.1, -1., -1.],
+        [0., -1.02, -0.9],
+    ];
+    let tris: [(u32, &[u64]); 4] = [
+        (2, &[1, 5, 6]),
+        (2, &[2, 7, 8]),
+        (2, &[3, 9, 10]),
+        (2, &[4, 11, 12]),
+    ];
+    let before = msh22(&nodes, &tris);
+    let after = msh22(&nodes, &[(3, &[1, 2, 3, 4])]);
+    let finding = pipeline_check::check_quads(&before, &after).expect_err("a finding");
+    assert!(
+        finding.contains("faces away from the input surface"),
+        "{finding}"
+    );
+}
