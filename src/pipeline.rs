@@ -97,7 +97,8 @@
 //!    corner that turns positively about its own node's normal but not about the normal at
 //!    another node of the quad, which on a surface meshed coarser than its curvature (a
 //!    pair across a turn of 90° or more) leaves no valid pair and cascades into splits;
-//!    with its own worst-quad tries, the better of the two is kept, by the same order.
+//!    with its own worst-quad tries, the better of the two is kept, by the same order
+//!    (not with `--refine`, whose quads per input triangle break the rule anyway).
 //! 5. **The worst quad.** A valid optimized result gets more tries: where the fallback
 //!    priced quads out, the fallback with splits only; quads under η [`ETA_FLOOR`] priced
 //!    out, or where there is none, those under η [`PRICE_FLOOR`] on surfaces of at most
@@ -388,8 +389,9 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
     // rule (on a surface meshed coarser than its curvature, pairs across its sharp turns
     // fail at the other nodes' normals, and the splits cascade), or nothing was valid: the
     // job that accepts quads bent across a sharp turn (`validity::Bent`), with its
-    // worst-quad tries, and the better of the two
-    let result = if split && breaks_count_rule(&result) {
+    // worst-quad tries, and the better of the two; not with refinement, whose quads per
+    // input triangle break the rule whatever the fallback did
+    let result = if split && opts.refine == 0 && breaks_count_rule(&result) {
         let start = FallbackStart {
             bent: true,
             ..FallbackStart::default()
