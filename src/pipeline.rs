@@ -393,7 +393,7 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
     // input triangle break the rule whatever the fallback did
     let result = if split && opts.refine == 0 && breaks_count_rule(&result) {
         let start = FallbackStart {
-            bent: true,
+            bent: crate::validity::Bent::Accepted,
             ..FallbackStart::default()
         };
         with_job(base, opts, result, start, true, &mut cache)
@@ -678,8 +678,10 @@ fn better_job(
             false => hopeless,
         };
         match r.2.bent {
-            true => format!("{peeled}, quads bent across sharp turns accepted"),
-            false => peeled,
+            crate::validity::Bent::Accepted => {
+                format!("{peeled}, quads bent across sharp turns accepted")
+            }
+            crate::validity::Bent::Refused => peeled,
         }
     };
     let (k, o) = if b_better { (y, x) } else { (x, y) };

@@ -145,8 +145,8 @@ pub struct BadQuad {
 }
 
 impl BadQuad {
-    /// The node tag the defect is at (the bad corner, the first node of a zero edge, or the
-    /// missing or repeated node).
+    /// The node tag the defect is at (the bad corner, the first node of a zero edge, the
+    /// missing or repeated node, or the first node of a quad turned over as a whole).
     pub fn node(&self) -> u64 {
         match self.defect {
             Defect::MissingNode(t) | Defect::RepeatedNode(t) => t,
@@ -883,12 +883,14 @@ fn triangle_distance(p: DVec3, t: [DVec3; 3]) -> f64 {
 /// when it is valid (see the module doc), or the check also asks what the pipeline asks
 /// of its quads first: every corner turning positively about the input normal at each of
 /// the quad's other nodes too.
-#[derive(Clone, Copy, PartialEq, Eq, Debug)]
+#[derive(Clone, Copy, PartialEq, Eq, Debug, Default)]
 pub(crate) enum Bent {
     /// Valid quads pass, bent or not (the definition the output keeps).
     Accepted,
     /// A bent quad fails: each corner must also turn positively about the input normal at
-    /// every node of the quad the input has and does not wrap round.
+    /// every node of the quad the input has and does not wrap round (what the pipeline's
+    /// rounds ask unless a job says otherwise).
+    #[default]
     Refused,
 }
 
@@ -963,14 +965,16 @@ fn check_quad<'n>(
     // quad across a sharp turn of a coarse curved surface can have every corner positive
     // about its own node's normal and one of them reflex about the surface a neighbouring
     // node sees
-    for (k, &(a, b, ab, floor)) in corners.iter().enumerate().filter(|_| bent == Bent::Refused) {
-        for n in at.iter().zip(wraps).filter(|x| !x.1).filter_map(|x| *x.0) {
-            let s = n.dot(ab);
-            if s.is_nan() || s <= floor {
-                return Some(Defect::Corner {
-                    corner: k,
-                    degrees: s.atan2(a.dot(b)).to_degrees(),
-                });
+    if bent == Bent::Refused {
+        for (k, &(a, b, ab, floor)) in corners.iter().enumerate() {
+            for n in at.iter().zip(wraps).filter(|x| !x.1).filter_map(|x| *x.0) {
+                let s = n.dot(ab);
+                if s.is_nan() || s <= floor {
+                    return Some(Defect::Corner {
+                        corner: k,
+                        degrees: s.atan2(a.dot(b)).to_degrees(),
+                    });
+                }
             }
         }
     }

@@ -339,53 +339,48 @@ pub fn check_quads(before: &Mesh, after: &Mesh) -> Result<(), String> {
                     [0.0; 3]
                 }
             };
-            // where no one normal of the input faces it came from stands for the quad, it
-            // faces the input's way: its own normal turns less than 90 degrees from the sum
-            // of the unit normals its corners are measured about
-            let faces_the_input_way = || {
+            // the mean unit normal of the input faces it came from (all their nodes among
+            // the quad's, else two, else one), where one stands for it: no wrapped node and
+            // no face at its nodes turning 60 degrees or more from it
+            let came_from = || -> Option<V> {
+                if (0..4).any(wraps) {
+                    return None;
+                }
+                let shared: Vec<(&Face, usize)> = surface_faces
+                    .iter()
+                    .map(|f| (f, f.nodes.iter().filter(|v| q.contains(v)).count()))
+                    .filter(|x| x.1 > 0)
+                    .collect();
+                let mean = [
+                    |f: &Face, c: usize| c == f.nodes.len(),
+                    |_: &Face, c: usize| c >= 2,
+                    |_: &Face, c: usize| c >= 1,
+                ]
+                .iter()
+                .map(|keep| {
+                    shared
+                        .iter()
+                        .filter(|(f, c)| keep(f, *c))
+                        .fold([0.0; 3], |m, (f, _)| add(m, unit(f.normal)))
+                })
+                .find(|m| norm(*m) > 0.0)
+                .map(unit)?;
+                let turns = shared.iter().any(|(f, _)| dot(unit(f.normal), mean) <= 0.5);
+                (!turns).then_some(mean)
+            };
+            // every corner about that mean; elsewhere the quad faces the input's way: its
+            // own normal turns less than 90 degrees from the sum of the unit normals its
+            // corners are measured about
+            let Some(mean) = came_from() else {
                 let own = cross(sub(p[2], p[0]), sub(p[3], p[1]));
                 let sum = known.iter().fold([0.0; 3], |m, n| add(m, unit(*n)));
-                if dot(own, sum) > 0.0 {
-                    Ok(())
-                } else {
-                    Err(format!(
+                if !(dot(own, sum) > 0.0) {
+                    return Err(format!(
                         "surface {s}: quad {tag} {q:?} faces away from the input surface (its own normal against the sum of its corners' input normals)"
-                    ))
+                    ));
                 }
-            };
-            // and about the mean unit normal of the input faces it came from (all their
-            // nodes among the quad's, else two, else one), where one stands for it: no
-            // wrapped node and no face at its nodes turning 60 degrees or more from it
-            if (0..4).any(wraps) {
-                faces_the_input_way()?;
-                continue;
-            }
-            let shared: Vec<(&Face, usize)> = surface_faces
-                .iter()
-                .map(|f| (f, f.nodes.iter().filter(|v| q.contains(v)).count()))
-                .filter(|x| x.1 > 0)
-                .collect();
-            let Some(mean) = [
-                |f: &Face, c: usize| c == f.nodes.len(),
-                |_: &Face, c: usize| c >= 2,
-                |_: &Face, c: usize| c >= 1,
-            ]
-            .iter()
-            .map(|keep| {
-                shared
-                    .iter()
-                    .filter(|(f, c)| keep(f, *c))
-                    .fold([0.0; 3], |m, (f, _)| add(m, unit(f.normal)))
-            })
-            .find(|m| norm(*m) > 0.0) else {
-                faces_the_input_way()?;
                 continue;
             };
-            let mean = unit(mean);
-            if shared.iter().any(|(f, _)| dot(unit(f.normal), mean) <= 0.5) {
-                faces_the_input_way()?;
-                continue;
-            }
             for k in 0..4 {
                 let a = sub(p[(k + 1) % 4], p[k]);
                 let c = sub(p[(k + 3) % 4], p[k]);

@@ -106,8 +106,8 @@ pub(super) struct LocalFallback {
     pub(super) pairs: Vec<(i32, recombine::FlatPair)>,
     /// Split bad pairs as flat pairs at the first ring.
     pub(super) flat_pairs: bool,
-    /// Quads bent across a sharp turn are accepted ([`FallbackStart::bent`]).
-    pub(super) bent: bool,
+    /// How the rounds judge quads bent across a sharp turn ([`FallbackStart::bent`]).
+    pub(super) bent: crate::validity::Bent,
     /// Surfaces (sorted tags) where the optimizer holds the corners at the job's new nodes
     /// to the faces the validity gate measures them about
     /// ([`crate::optimize::OptimizeOptions::located_surfaces`]): it turned a quad bad at
@@ -116,14 +116,6 @@ pub(super) struct LocalFallback {
 }
 
 impl LocalFallback {
-    /// How the rounds' validity check judges quads bent across a sharp turn.
-    pub(super) fn bent(&self) -> crate::validity::Bent {
-        match self.bent {
-            true => crate::validity::Bent::Accepted,
-            false => crate::validity::Bent::Refused,
-        }
-    }
-
     /// The state at the end of a job (`chosen` the triangles split, `splits_only` as the
     /// job started): what another job of the same input starts from.
     pub(super) fn finish(self, chosen: HashSet<u64>, splits_only: bool) -> FallbackStart {
@@ -369,10 +361,10 @@ pub(super) struct FallbackStart {
     /// At the first ring, a bad pair whose bad corner is at an end of its diagonal is split
     /// as a flat pair ([`recombine::FlatPair`]) instead of as two chosen triangles.
     pub(super) flat_pairs: bool,
-    /// The rounds accept quads bent across a sharp turn of a curved surface
-    /// ([`crate::validity::Bent::Accepted`]; the job the pipeline runs last where the
-    /// others broke the element-count rule or were refused).
-    pub(super) bent: bool,
+    /// How the rounds judge quads bent across a sharp turn of a curved surface: refused,
+    /// except in the job the pipeline runs last where the others broke the element-count
+    /// rule or were refused ([`crate::validity::Bent::Accepted`]).
+    pub(super) bent: crate::validity::Bent,
 }
 
 /// What a job's rounds did that decides whether another job runs (see the module doc of

@@ -34,7 +34,7 @@ pub(super) fn run_rounds<'a>(
         && start.located.is_empty()
         && start.chosen.is_empty()
         && start.pairs.is_empty()
-        && !start.bent;
+        && start.bent == crate::validity::Bent::Refused;
     let mut chosen: HashSet<u64> = start.chosen;
     let splits_only = start.splits_only;
     let mut local = LocalFallback {
@@ -417,7 +417,7 @@ fn one_round<'a>(
     let coords = TagCoords::new(&mesh);
     // speed: a surface given back as an earlier job left it, where it passed the validity
     // check in an output of the same check key, passes it again (`SurfaceCache::passed`)
-    let bent = local.bent();
+    let bent = local.bent;
     let key = crate::validity::check_key(&mesh, bent);
     let passed = match &fingerprints {
         Some(fp) => cache.surfaces.passed(fp, &reused, key),
