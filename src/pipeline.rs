@@ -97,8 +97,17 @@
 //!    corner that turns positively about its own node's normal but not about the normal at
 //!    another node of the quad, which on a surface meshed coarser than its curvature (a
 //!    pair across a turn of 90° or more) leaves no valid pair and cascades into splits;
-//!    with its own worst-quad tries, the better of the two is kept, by the same order
-//!    (not with `--refine`, whose quads per input triangle break the rule anyway).
+//!    with its own worst-quad tries, the better of the two is kept, by the same order.
+//!    Every count of new quads per input triangle is taken before refinement
+//!    (`--refine`): a refined result's quads divided by 4 per level. On a refined run the
+//!    fallback works on the recombination's quads (each bad quad traced back through the
+//!    levels to the quad whose refinement made it, `refine::parent_of`), and the jobs
+//!    that price out hopeless pairs and that split flat pairs run wherever the fallback
+//!    ran, whatever the count and the worst quad: the quads judged there are those
+//!    refinement made, whose corners at curved walls turn bad after the matching, and a
+//!    first result within the goals may still be the worse one. Where the fallback ran and
+//!    the kept result still misses a goal, the jobs run once more handing the fallback the
+//!    refined quads and mesh themselves, and the better result is kept.
 //! 5. **The worst quad.** A valid optimized result gets more tries: where the fallback
 //!    priced quads out, the fallback with splits only; quads under η [`ETA_FLOOR`] priced
 //!    out, or where there is none, those under η [`PRICE_FLOOR`] on surfaces of at most
@@ -317,86 +326,22 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
         None => (&input, Vec::new()),
     };
     let mut cache = Shared::default();
-    // the rings counted per surface first; where that made a difference, the rings
-    // counted over the job too, and the better of the two
-    let (local, diverged) = run_job(base, opts, FallbackStart::default(), &mut cache);
-    let result = if diverged {
-        let start = FallbackStart {
-            global_rings: true,
-            ..FallbackStart::default()
-        };
-        let (global, _) = run_job(base, opts, start, &mut cache);
-        match (local, global) {
-            (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
-            (Ok(a), Err(_)) => Ok(a),
-            (Err(_), global) => global,
+    // on a refined run, the fallback works on the recombination's quads (each bad quad
+    // traced back to the quad whose refinement made it)
+    let refined = opts.refine > 0;
+    let result = jobs(base, opts, refined, &mut cache);
+    // where the fallback ran and that misses a goal: the jobs again with the refined quads
+    // themselves, and the better of the two
+    let missed = match &result {
+        Ok(r) => {
+            let ran = r.1.rounds > 1 || !r.2.chosen.is_empty() || !r.2.priced.is_empty();
+            ran && !meets_goals(base, opts, r)
         }
-    } else {
-        // the same job either way: the worst-quad tries count their rings over the job
-        local.map(|mut r| {
-            r.2.global_rings = true;
-            r
-        })
-    };
-    // whether the fallback split triangles (or nothing was valid), before the worst-quad
-    // tries
-    let split = match &result {
-        Ok(r) => !r.2.chosen.is_empty(),
         Err(e) => matches!(e, Error::Invalid { .. } | Error::FallbackExhausted),
     };
-    // where the fallback split triangles and the result breaks the element-count rule (the
-    // splits cascaded), or nothing was valid: the job that prices out every pair with a
-    // hopeless corner at a wall node on the surfaces of the bad quads, and the better of the
-    // two (before the worst-quad tries, which only the kept one gets)
-    let breaks_count_rule =
-        |r: &JobResult| r.as_ref().map_or(true, |r| !job_measures(base, opts, r).1);
-    let result = if split && breaks_count_rule(&result) {
-        let start = FallbackStart {
-            hopeless: true,
-            ..FallbackStart::default()
-        };
-        let result = with_job(base, opts, result, start, false, &mut cache);
-        // where that still misses a goal: the job that peels boundary fans
-        if result.as_ref().map_or(true, |r| !meets_goals(base, opts, r)) {
-            let start = FallbackStart {
-                peel_fans: true,
-                ..FallbackStart::default()
-            };
-            with_job(base, opts, result, start, false, &mut cache)
-        } else {
-            result
-        }
-    } else {
-        result
-    };
-    let result = result.and_then(|first| raise_worst_quad(base, opts, first, &mut cache));
-    // where the fallback split triangles and the result misses a goal (above the
-    // element-count rule, or a quad under η ETA_FLOOR), or where nothing was valid: the
-    // same with flat pairs, with its worst-quad tries, and the better of the two
-    let missed = result
-        .as_ref()
-        .map_or(true, |r| !meets_goals(base, opts, r));
-    let result = if split && missed {
-        let start = FallbackStart {
-            flat_pairs: true,
-            ..FallbackStart::default()
-        };
-        with_job(base, opts, result, start, true, &mut cache)
-    } else {
-        result
-    };
-    // where the fallback split triangles and the result still breaks the element-count
-    // rule (on a surface meshed coarser than its curvature, pairs across its sharp turns
-    // fail at the other nodes' normals, and the splits cascade), or nothing was valid: the
-    // job that accepts quads bent across a sharp turn (`validity::Bent`), with its
-    // worst-quad tries, and the better of the two; not with refinement, whose quads per
-    // input triangle break the rule whatever the fallback did
-    let result = if split && opts.refine == 0 && breaks_count_rule(&result) {
-        let start = FallbackStart {
-            bent: crate::validity::Bent::Accepted,
-            ..FallbackStart::default()
-        };
-        with_job(base, opts, result, start, true, &mut cache)
+    let result = if refined && missed {
+        let other = jobs(base, opts, false, &mut cache);
+        keep_better(base, opts, result, other)
     } else {
         result
     };
@@ -422,6 +367,109 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
             *mesh = input;
             Err(e)
         }
+    }
+}
+
+/// The jobs of a run, in order (see the module doc): the first one, and the others where
+/// it split triangles and misses a goal, each kept where better; `traced`: on a refined run,
+/// the fallback works on the recombination's quads, each bad quad traced back to the quad
+/// whose refinement made it ([`FallbackStart::traced`]).
+fn jobs<'a>(base: &'a Mesh, opts: &Options, traced: bool, cache: &mut Shared<'a>) -> JobResult {
+    let from = FallbackStart {
+        traced,
+        ..FallbackStart::default()
+    };
+    // the rings counted per surface first; where that made a difference, the rings
+    // counted over the job too, and the better of the two
+    let (local, diverged) = run_job(base, opts, from.clone(), cache);
+    let result = if diverged {
+        let start = FallbackStart {
+            global_rings: true,
+            ..from.clone()
+        };
+        let (global, _) = run_job(base, opts, start, cache);
+        match (local, global) {
+            (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
+            (Ok(a), Err(_)) => Ok(a),
+            (Err(_), global) => global,
+        }
+    } else {
+        // the same job either way: the worst-quad tries count their rings over the job
+        local.map(|mut r| {
+            r.2.global_rings = true;
+            r
+        })
+    };
+    // whether the fallback split triangles (or nothing was valid), before the worst-quad
+    // tries
+    let split = match &result {
+        Ok(r) => !r.2.chosen.is_empty(),
+        Err(e) => matches!(e, Error::Invalid { .. } | Error::FallbackExhausted),
+    };
+    // where the fallback split triangles and the result breaks the element-count rule (the
+    // splits cascaded), or nothing was valid: the job that prices out every pair with a
+    // hopeless corner at a wall node on the surfaces of the bad quads, and the better of the
+    // two (before the worst-quad tries, which only the kept one gets). On a refined run,
+    // wherever the fallback ran: the quads it judges there are those refinement made,
+    // whose corners at curved walls turn bad after the matching, and a first result within
+    // the goals may still be the worse one
+    let breaks_count_rule =
+        |r: &JobResult| r.as_ref().map_or(true, |r| !job_measures(base, opts, r).1);
+    // on a refined run: whether the fallback ran at all (priced out or split)
+    let refined_fallback = opts.refine > 0
+        && match &result {
+            Ok(r) => r.1.rounds > 1,
+            Err(_) => split,
+        };
+    let result = if refined_fallback || (split && breaks_count_rule(&result)) {
+        let start = FallbackStart {
+            hopeless: true,
+            ..from.clone()
+        };
+        let result = with_job(base, opts, result, start, false, cache);
+        // where that still misses a goal: the job that peels boundary fans
+        if result.as_ref().map_or(true, |r| !meets_goals(base, opts, r)) {
+            let start = FallbackStart {
+                peel_fans: true,
+                ..from.clone()
+            };
+            with_job(base, opts, result, start, false, cache)
+        } else {
+            result
+        }
+    } else {
+        result
+    };
+    let result = result.and_then(|first| raise_worst_quad(base, opts, first, cache));
+    // where the fallback split triangles and the result misses a goal (above the
+    // element-count rule, or a quad under η ETA_FLOOR), or where nothing was valid (and on
+    // a refined run wherever the fallback ran): the same with flat pairs, with its
+    // worst-quad tries, and the better of the two
+    let missed = result
+        .as_ref()
+        .map_or(true, |r| !meets_goals(base, opts, r));
+    let result = if refined_fallback || (split && missed) {
+        let start = FallbackStart {
+            flat_pairs: true,
+            ..from.clone()
+        };
+        with_job(base, opts, result, start, true, cache)
+    } else {
+        result
+    };
+    // where the fallback split triangles and the result still breaks the element-count
+    // rule (on a surface meshed coarser than its curvature, pairs across its sharp turns
+    // fail at the other nodes' normals, and the splits cascade), or nothing was valid: the
+    // job that accepts quads bent across a sharp turn (`validity::Bent`), with its
+    // worst-quad tries, and the better of the two
+    if split && breaks_count_rule(&result) {
+        let start = FallbackStart {
+            bent: crate::validity::Bent::Accepted,
+            ..from
+        };
+        with_job(base, opts, result, start, true, cache)
+    } else {
+        result
     }
 }
 
@@ -565,6 +613,7 @@ fn run_job<'a>(
     let again = FallbackStart {
         no_segments: true,
         global_rings: start.global_rings,
+        traced: start.traced,
         ..FallbackStart::default()
     };
     let result = run_rounds(base, opts, start, cache, &mut notes).or_else(|e| match e {
@@ -609,7 +658,7 @@ fn job_measures(
     r: &(Mesh, Report, FallbackStart),
 ) -> (bool, bool, f64, f64) {
     let limit = count_rule_limit(surface_elements(input, etype::TRI3));
-    let per_triangle = quads_per_triangle(input, &r.0);
+    let per_triangle = quads_per_triangle(input, &r.0, opts.refine);
     (
         r.1.invalid.is_empty(),
         per_triangle <= limit,
@@ -677,11 +726,15 @@ fn better_job(
             true => format!("{hopeless}, boundary fans peeled"),
             false => hopeless,
         };
-        match r.2.bent {
+        let bent = match r.2.bent {
             crate::validity::Bent::Accepted => {
                 format!("{peeled}, quads bent across sharp turns accepted")
             }
             crate::validity::Bent::Refused => peeled,
+        };
+        match r.2.traced {
+            true => format!("{bent}, bad quads traced back to the recombination's"),
+            false => bent,
         }
     };
     let (k, o) = if b_better { (y, x) } else { (x, y) };
@@ -738,8 +791,8 @@ struct Outcome {
     turned_bad: Vec<i32>,
     /// The recombination and refinement reports alone.
     recombined: Report,
-    /// After a refinement, the refined mesh.
-    refined: Option<Mesh>,
+    /// After a refinement, its meshes.
+    refined: Option<Refinement>,
     /// After a first invalid round, the mesh before optimization.
     unoptimized: Option<Mesh>,
 }
@@ -776,10 +829,21 @@ struct Recombined {
     mesh: Mesh,
     /// The recombination and refinement reports (no optimization yet).
     report: Report,
-    /// After a refinement, the refined mesh (the invariants' baseline).
-    refined: Option<Mesh>,
+    /// After a refinement, its meshes.
+    refined: Option<Refinement>,
     /// The optimizer's reference, when it was prepared beside the recombination.
     prepared: Option<optimize::PreparedReference>,
+}
+
+/// A refined round's meshes before optimization.
+#[derive(Clone)]
+struct Refinement {
+    /// The mesh each level refined, the recombination's first (element `i` of a block of
+    /// one level is the parent of elements `k·i .. k·i + k` of the same block of the next,
+    /// [`refine::parent_of`]).
+    levels: Vec<Mesh>,
+    /// The refined mesh (the invariants' baseline).
+    mesh: Mesh,
 }
 
 /// The first half of a run: recombine `mesh` (the input, with the fallback's splits) and
@@ -861,7 +925,9 @@ fn recombine_once<'a>(
     };
 
     let t = Instant::now();
+    let mut levels = Vec::with_capacity(usize::from(opts.refine));
     for level in 1..=opts.refine {
+        levels.push(mesh.clone());
         progress(
             opts,
             Stage::Refine,
@@ -884,7 +950,10 @@ fn recombine_once<'a>(
         );
     }
     times.refine += t.elapsed();
-    let refined = (opts.refine > 0).then(|| mesh.clone());
+    let refined = (opts.refine > 0).then(|| Refinement {
+        levels,
+        mesh: mesh.clone(),
+    });
     Ok(Recombined {
         mesh,
         report,

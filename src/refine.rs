@@ -123,6 +123,24 @@ pub struct RefineReport {
     pub curve_midpoints: usize,
 }
 
+/// The element that refining `before` once ([`refine`]) made element `index` of block
+/// `block` of the refined mesh a child of, as its index in the same block of `before` and
+/// the corner the child holds: the children of element `i` are elements `k·i .. k·i + k` of
+/// the block (`k` = 2 for a line, 3 for a triangle, 4 for a quad), child `j` holding the
+/// parent's corner `j` (a triangle's or quad's child as its first node), since refinement
+/// keeps the blocks in order, one for one. None when `before` has no such block or
+/// element, or the block is of another type.
+pub(crate) fn parent_of(before: &Mesh, block: usize, index: usize) -> Option<(usize, usize)> {
+    let b = before.element_blocks.get(block)?;
+    let k = match b.element_type {
+        etype::LINE2 => 2,
+        etype::TRI3 => 3,
+        etype::QUAD4 => 4,
+        _ => return None,
+    };
+    (index / k < b.len()).then_some((index / k, index % k))
+}
+
 /// Largest distance of a curve estimate from its segment's chord midpoint, as a share of
 /// the segment's length: a tenth, which a circle meshed with the sharpest turn the estimate
 /// crosses ([`MAX_TURN`], 45° per segment) stays within (its arc is 0.0995 of the chord
@@ -773,6 +791,49 @@ mod tests {
             }
         }
         assert_eq!(valence.values().filter(|&&v| v == 4).count(), 9);
+    }
+
+    /// Every child of a refined mesh, refined twice, leads back through `parent_of` to the
+    /// element of the mesh before it that holds it: the child holds the parent's corner it
+    /// names (a face's child as its first node), its other nodes are new, and a face
+    /// child's third node is the mean of the parent's corners.
+    #[test]
+    fn every_child_leads_back_to_its_parent_and_the_corner_it_holds() {
+        let mut levels = vec![square()];
+        for _ in 0..2 {
+            let mut next = levels[levels.len() - 1].clone();
+            refine(&mut next).expect("refine");
+            levels.push(next);
+        }
+        for pair in levels.windows(2) {
+            let (before, after) = (&pair[0], &pair[1]);
+            let at = coords(after);
+            let old = before.max_node_tag();
+            let mut children = 0;
+            for (b, blk) in after.element_blocks.iter().enumerate() {
+                if ![etype::LINE2, etype::QUAD4].contains(&blk.element_type) {
+                    assert_eq!(parent_of(before, b, 0), None, "block {b}");
+                    continue;
+                }
+                for i in 0..blk.len() {
+                    let (p, j) = parent_of(before, b, i).expect("a parent");
+                    let parent = before.element_blocks[b].element(p);
+                    let child = blk.element(i);
+                    // a face's child starts at the corner, a line's holds its end
+                    let held = if child.len() == 2 { j } else { 0 };
+                    assert_eq!(child[held], parent[j], "block {b} child {i}");
+                    assert_eq!(child.iter().filter(|&&t| t > old).count(), child.len() - 1);
+                    if child.len() == 4 {
+                        let mean = parent.iter().map(|t| at[t]).sum::<DVec3>() / parent.len() as f64;
+                        assert!((at[&child[2]] - mean).length() < 1e-12);
+                    }
+                    children += 1;
+                }
+                let k = blk.len() / before.element_blocks[b].len();
+                assert_eq!(parent_of(before, b, k * before.element_blocks[b].len()), None);
+            }
+            assert!(children > 0);
+        }
     }
 
     /// A disc: a closed curve of `n` nodes on the unit circle and a fan of triangles.

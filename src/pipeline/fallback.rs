@@ -108,6 +108,8 @@ pub(super) struct LocalFallback {
     pub(super) flat_pairs: bool,
     /// How the rounds judge quads bent across a sharp turn ([`FallbackStart::bent`]).
     pub(super) bent: crate::validity::Bent,
+    /// Bad quads traced back to the recombination's ([`FallbackStart::traced`]).
+    pub(super) traced: bool,
     /// Surfaces (sorted tags) where the optimizer holds the corners at the job's new nodes
     /// to the faces the validity gate measures them about
     /// ([`crate::optimize::OptimizeOptions::located_surfaces`]): it turned a quad bad at
@@ -136,11 +138,13 @@ impl LocalFallback {
             pairs: self.pairs,
             flat_pairs: self.flat_pairs,
             bent: self.bent,
+            traced: self.traced,
         }
     }
 
     /// The next step after a round whose quads `bad` are not valid (`mesh` the round's
-    /// result, `chosen` the triangles split so far).
+    /// result, or on a refined round its recombination, with `bad` the quads refinement
+    /// made them of; `chosen` the triangles split so far).
     pub(super) fn next(
         &mut self,
         input: &Mesh,
@@ -309,14 +313,14 @@ impl LocalFallback {
 }
 
 /// True when splitting `more` input triangles of `input` into three quads each, on top of
-/// `mesh` (a round's result), would take the new quads per input triangle above the
+/// `mesh` (a round's recombination), would take the new quads per input triangle above the
 /// element-count rule: [`MAX_QUADS_PER_TRIANGLE`] from [`COUNT_RULE_FROM`] triangles, a
 /// quarter more below (a split triangle makes three quads where a pair made one between
 /// two triangles: 2.5 more quads each, its halved neighbours not counted).
 pub(super) fn breaks_count_rule(input: &Mesh, mesh: &Mesh, more: usize) -> bool {
     let triangles = surface_elements(input, etype::TRI3);
     let limit = count_rule_limit(triangles);
-    let quads = quads_per_triangle(input, mesh) * triangles as f64;
+    let quads = quads_per_triangle(input, mesh, 0) * triangles as f64;
     quads + 2.5 * more as f64 > limit * triangles as f64
 }
 
@@ -365,6 +369,10 @@ pub(super) struct FallbackStart {
     /// except in the job the pipeline runs last where the others broke the element-count
     /// rule or were refused ([`crate::validity::Bent::Accepted`]).
     pub(super) bent: crate::validity::Bent,
+    /// On a refined run, the rounds hand the fallback the bad quads traced back to the
+    /// recombination's quads whose refinement made them, and the recombination
+    /// ([`crate::refine::parent_of`]); otherwise the refined quads and mesh themselves.
+    pub(super) traced: bool,
 }
 
 /// What a job's rounds did that decides whether another job runs (see the module doc of
@@ -540,11 +548,12 @@ pub(super) fn raisable(worst: f64, bound: f64) -> bool {
 }
 
 /// New quads per input triangle of `out` against `input` (quads already in the input do
-/// not count).
-pub(super) fn quads_per_triangle(input: &Mesh, out: &Mesh) -> f64 {
+/// not count), `out` refined `refine` times: each refinement makes four quads of one, so
+/// the count is taken before refinement, the one the element-count rule bounds.
+pub(super) fn quads_per_triangle(input: &Mesh, out: &Mesh, refine: u8) -> f64 {
     let triangles = surface_elements(input, etype::TRI3).max(1);
-    (surface_elements(out, etype::QUAD4) as f64 - surface_elements(input, etype::QUAD4) as f64)
-        / triangles as f64
+    let quads = surface_elements(out, etype::QUAD4) as f64 / 4f64.powi(i32::from(refine));
+    (quads - surface_elements(input, etype::QUAD4) as f64) / triangles as f64
 }
 
 /// Elements of type `t` on the surfaces of `m`.

@@ -2,6 +2,8 @@
 //! doc of [`super`]).
 
 use super::*;
+use crate::validity::Defect;
+use std::collections::HashMap;
 
 /// True when a node of `tags` is not where `input` has it in `output` (or is gone).
 pub(super) fn moved_any(input: &Mesh, output: &Mesh, tags: &[u64]) -> bool {
@@ -58,6 +60,7 @@ pub(super) fn run_rounds<'a>(
         pairs: start.pairs,
         flat_pairs: start.flat_pairs,
         bent: start.bent,
+        traced: start.traced,
         ..Default::default()
     };
     let mut fallback = None;
@@ -171,9 +174,14 @@ pub(super) fn run_rounds<'a>(
         let next = if round == FALLBACK_ROUNDS {
             Next::GiveUp
         } else {
+            // a refined round's bad quads as the recombination's quads they came from
+            let (at, bad) = match &refined {
+                Some(r) if local.traced => (&r.levels[0], parents_of(r, &bad)),
+                _ => (&mesh, bad.clone()),
+            };
             local.next(
                 input,
-                &mesh,
+                at,
                 &bad,
                 &chosen,
                 &recombine_report.recombine.parity_splits,
@@ -407,7 +415,7 @@ fn one_round<'a>(
         .checks
         .get_or_insert_with(|| Checks::new(input, opts.refine == 0));
     // after a refinement the refined mesh is the baseline of the invariants
-    let refined_before = refined.as_ref().map(recombine::Before::new);
+    let refined_before = refined.as_ref().map(|r| recombine::Before::new(&r.mesh));
     let before = refined_before.as_ref().or(checks.invariants.as_ref());
     let invariants_of = |m: &Mesh, coords: &TagCoords| match before {
         Some(b) => b.check_at(m, coords),
@@ -509,6 +517,60 @@ fn one_round<'a>(
         refined,
         unoptimized,
     })
+}
+
+/// The bad quads `bad` of a refined round as quads of its recombination (`refinement`'s
+/// first level), each the quad whose refinement made the bad one, so that the fallback
+/// prices, peels and splits the recombination's pairs as on a round without refinement.
+/// The defect's corner becomes the parent's corner at the same node, or else the corner
+/// whose child holds the bad quad. A quad the optimizer's topology passes made (not a quad
+/// of the refined mesh) stays as it is; each parent once, in the order of `bad`.
+fn parents_of(refinement: &Refinement, bad: &[BadQuad]) -> Vec<BadQuad> {
+    let sorted = |mut q: [u64; 4]| {
+        q.sort_unstable();
+        q
+    };
+    let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+    // the refined mesh's quads on those surfaces: block and index by sorted nodes
+    let mut at: HashMap<(i32, [u64; 4]), (usize, usize)> = HashMap::new();
+    for (k, b) in refinement.mesh.element_blocks.iter().enumerate() {
+        if b.entity_dim != 2 || b.element_type != etype::QUAD4 || !surfaces.contains(&b.entity_tag) {
+            continue;
+        }
+        for i in 0..b.len() {
+            if let Ok(q) = <[u64; 4]>::try_from(b.element(i)) {
+                at.insert((b.entity_tag, sorted(q)), (k, i));
+            }
+        }
+    }
+    let parent = |q: &BadQuad| -> Option<BadQuad> {
+        let &(block, mut i) = at.get(&(q.surface, sorted(q.nodes)))?;
+        let mut corner = 0;
+        for level in refinement.levels.iter().rev() {
+            (i, corner) = crate::refine::parent_of(level, block, i)?;
+        }
+        let first = refinement.levels.first()?.element_blocks.get(block)?;
+        let nodes = <[u64; 4]>::try_from(first.element(i)).ok()?;
+        let c = nodes.iter().position(|&n| n == q.node()).unwrap_or(corner);
+        let defect = match q.defect.clone() {
+            Defect::ZeroLengthEdge { .. } => Defect::ZeroLengthEdge { corner: c },
+            Defect::Corner { degrees, .. } => Defect::Corner { corner: c, degrees },
+            Defect::OwnJacobian { scaled, .. } => Defect::OwnJacobian { corner: c, scaled },
+            Defect::NoNormal { .. } => Defect::NoNormal { corner: c },
+            other => other,
+        };
+        Some(BadQuad {
+            surface: q.surface,
+            element: first.tags[i],
+            nodes,
+            defect,
+        })
+    };
+    let mut seen = HashSet::new();
+    bad.iter()
+        .map(|q| parent(q).unwrap_or_else(|| q.clone()))
+        .filter(|q| seen.insert((q.surface, sorted(q.nodes))))
+        .collect()
 }
 
 /// `mesh` with the quads and the surface-classified nodes of `surfaces` taken from `pre`
@@ -706,14 +768,14 @@ pub(super) fn raise_worst_quad<'a>(
         let (_, new_worst) = low_quads(&candidate.0, &skip);
         // a result above the element-count rule already, or of a small mesh (where the
         // rule does not apply), may grow by a quarter
-        let before = quads_per_triangle(input, &best.0);
+        let before = quads_per_triangle(input, &best.0, opts.refine);
         let limit = if before > MAX_QUADS_PER_TRIANGLE || triangles < COUNT_RULE_FROM {
             1.25 * before.max(MAX_QUADS_PER_TRIANGLE)
         } else {
             MAX_QUADS_PER_TRIANGLE
         };
         let raised = new_worst > worst + RAISE_MIN;
-        let within = quads_per_triangle(input, &candidate.0) <= limit;
+        let within = quads_per_triangle(input, &candidate.0, opts.refine) <= limit;
         ring_over_count |= raised && !within && ring_try;
         if raised && within {
             let mut kept = candidate;
@@ -730,7 +792,7 @@ pub(super) fn raise_worst_quad<'a>(
         } else {
             best.1.log.push(format!(
                 "worst quad: {what}: not kept (eta_w {new_worst:.3}, {:.3} new quads per input triangle)",
-                quads_per_triangle(input, &candidate.0)
+                quads_per_triangle(input, &candidate.0, opts.refine)
             ));
             best.1.times = add_times(&best.1.times, &candidate.1.times);
         }

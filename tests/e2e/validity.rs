@@ -768,6 +768,54 @@ fn a_steeply_edge_refined_box_peels_its_boundary_fans_instead_of_splitting_every
     recombines_validly_by_tag(&input, &mesh);
 }
 
+/// The same steep box with `--refine 1`: refinement keeps each quad's corners, so the
+/// recombination's pairs flat at a fan's boundary node come out as refined quads flat
+/// there. Handed to the fallback as they are, those quads name no pair of input triangles
+/// (their other nodes are new): nothing could be priced out or peeled, and the splits
+/// cascaded into 2.9 new quads per input triangle before refinement (8,316 quads from 722
+/// triangles). Traced back to the recombination's quads they came from, they are priced
+/// out and their fans peeled as without refinement: no triangle split into three, at most
+/// 0.7 new quads per input triangle before refinement, every quad valid and the output
+/// passing the independent checker's refined mode.
+#[test]
+fn a_refined_run_hands_the_fallback_the_recombinations_quads_and_does_not_cascade() {
+    let input = common::repo_dir().join("tests/data/cad/v41_edge_refined_box_steep.msh");
+    let dir = tempfile::tempdir().expect("temp dir");
+    let output = dir.path().join("out.msh");
+    let (code, _, stderr) = blossomquad_run(vec![
+        input.clone().into_os_string(),
+        "-o".into(),
+        output.clone().into_os_string(),
+        "--refine".into(),
+        "1".into(),
+        "-v".into(),
+    ]);
+    assert_eq!(code, Some(0), "{stderr}");
+    assert!(
+        stderr.contains("bad quads traced back to the recombination's kept"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("triangle(s) of boundary fans peeled"),
+        "{stderr}"
+    );
+    assert!(
+        stderr.contains("the fallback split 0 triangle(s) into three quads each"),
+        "{stderr}"
+    );
+    let report = check_mesh(&input, &output, &["--refined=1"]);
+    assert!(report.ok, "{}", report.report);
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    let out = blossomquad::msh::read_file(&output).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(count_2d(&out, etype::TRI3, None), 0);
+    let triangles = count_2d(&mesh, etype::TRI3, None);
+    let per_triangle = count_2d(&out, etype::QUAD4, None) as f64 / 4.0 / triangles as f64;
+    assert!(
+        per_triangle <= 0.7,
+        "{per_triangle:.3} new quads per input triangle"
+    );
+}
+
 /// The corpus gear at its coarse size (`corpus/gear.geo`, 1,746 triangles): after the
 /// optimizer its worst quads are at η 0.34, above the 0.2 under which the tries that split
 /// triangles go. Their pairs priced out of the matching, the triangles pair otherwise and
