@@ -68,6 +68,7 @@ fn eta_of_cot(c: f64) -> f64 {
 /// reference triangle of `v`, if better. Stars holding an invalid quad are left alone (e.g.
 /// the two quads of a doublet): raising such a quad's key can still turn it over (measured:
 /// a doublet node pushed out of its star); so are trial positions that make one invalid.
+#[inline]
 fn mean_node(l: &Local, v: u32, size_weight: f64) -> Option<(DVec3, u32)> {
     let vi = v as usize;
     let x0 = l.pos[vi];
