@@ -332,13 +332,10 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
     let result = jobs(base, opts, refined, &mut cache);
     // where the fallback ran and that misses a goal: the jobs again with the refined quads
     // themselves, and the better of the two
-    let missed = match &result {
-        Ok(r) => {
-            let ran = r.1.rounds > 1 || !r.2.chosen.is_empty() || !r.2.priced.is_empty();
-            ran && !meets_goals(base, opts, r)
-        }
-        Err(e) => matches!(e, Error::Invalid { .. } | Error::FallbackExhausted),
-    };
+    let missed = fallback_ran(&result)
+        && result
+            .as_ref()
+            .map_or(true, |r| !meets_goals(base, opts, r));
     let result = if refined && missed {
         let other = jobs(base, opts, false, &mut cache);
         keep_better(base, opts, result, other)
@@ -367,6 +364,15 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
             *mesh = input;
             Err(e)
         }
+    }
+}
+
+/// True when the fallback did anything for `r`: more than one round, triangles split or
+/// pairs priced out (by the rounds or the worst-quad tries), or nothing was valid.
+fn fallback_ran(r: &JobResult) -> bool {
+    match r {
+        Ok(r) => r.1.rounds > 1 || !r.2.chosen.is_empty() || !r.2.priced.is_empty(),
+        Err(e) => matches!(e, Error::Invalid { .. } | Error::FallbackExhausted),
     }
 }
 
@@ -415,12 +421,7 @@ fn jobs<'a>(base: &'a Mesh, opts: &Options, traced: bool, cache: &mut Shared<'a>
     // the goals may still be the worse one
     let breaks_count_rule =
         |r: &JobResult| r.as_ref().map_or(true, |r| !job_measures(base, opts, r).1);
-    // on a refined run: whether the fallback ran at all (priced out or split)
-    let refined_fallback = opts.refine > 0
-        && match &result {
-            Ok(r) => r.1.rounds > 1,
-            Err(_) => split,
-        };
+    let refined_fallback = opts.refine > 0 && fallback_ran(&result);
     let result = if refined_fallback || (split && breaks_count_rule(&result)) {
         let start = FallbackStart {
             hopeless: true,
@@ -835,15 +836,29 @@ struct Recombined {
     prepared: Option<optimize::PreparedReference>,
 }
 
-/// A refined round's meshes before optimization.
+/// A refined round before optimization: the refined mesh, and what traces its elements
+/// back to the recombination's.
 #[derive(Clone)]
 struct Refinement {
-    /// The mesh each level refined, the recombination's first (element `i` of a block of
-    /// one level is the parent of elements `k·i .. k·i + k` of the same block of the next,
-    /// [`refine::parent_of`]).
-    levels: Vec<Mesh>,
+    /// The recombination's element blocks (its nodes are all in `mesh`, where refinement
+    /// left them).
+    recombined: Vec<crate::mesh::ElementBlock>,
+    /// The element type and length of each block each level refined, the recombination's
+    /// first (element `i` of a block is the parent of elements `k·i .. k·i + k` of the same
+    /// block one level on, [`refine::parent_of`]).
+    shapes: Vec<Vec<(u32, usize)>>,
     /// The refined mesh (the invariants' baseline).
     mesh: Mesh,
+}
+
+impl Refinement {
+    /// The recombination as a mesh: its elements on the refined mesh's nodes.
+    fn recombination(&self) -> Mesh {
+        Mesh {
+            element_blocks: self.recombined.clone(),
+            ..self.mesh.clone()
+        }
+    }
 }
 
 /// The first half of a run: recombine `mesh` (the input, with the fallback's splits) and
@@ -925,9 +940,15 @@ fn recombine_once<'a>(
     };
 
     let t = Instant::now();
-    let mut levels = Vec::with_capacity(usize::from(opts.refine));
+    let recombined = (opts.refine > 0).then(|| mesh.element_blocks.clone());
+    let mut shapes = Vec::with_capacity(usize::from(opts.refine));
     for level in 1..=opts.refine {
-        levels.push(mesh.clone());
+        shapes.push(
+            mesh.element_blocks
+                .iter()
+                .map(|b| (b.element_type, b.len()))
+                .collect(),
+        );
         progress(
             opts,
             Stage::Refine,
@@ -950,8 +971,9 @@ fn recombine_once<'a>(
         );
     }
     times.refine += t.elapsed();
-    let refined = (opts.refine > 0).then(|| Refinement {
-        levels,
+    let refined = recombined.map(|recombined| Refinement {
+        recombined,
+        shapes,
         mesh: mesh.clone(),
     });
     Ok(Recombined {

@@ -123,22 +123,21 @@ pub struct RefineReport {
     pub curve_midpoints: usize,
 }
 
-/// The element that refining `before` once ([`refine`]) made element `index` of block
-/// `block` of the refined mesh a child of, as its index in the same block of `before` and
-/// the corner the child holds: the children of element `i` are elements `k·i .. k·i + k` of
-/// the block (`k` = 2 for a line, 3 for a triangle, 4 for a quad), child `j` holding the
-/// parent's corner `j` (a triangle's or quad's child as its first node), since refinement
-/// keeps the blocks in order, one for one. None when `before` has no such block or
-/// element, or the block is of another type.
-pub(crate) fn parent_of(before: &Mesh, block: usize, index: usize) -> Option<(usize, usize)> {
-    let b = before.element_blocks.get(block)?;
-    let k = match b.element_type {
+/// The element that refining a block once ([`refine`]) made element `index` of the refined
+/// block a child of, as its index in the block before (`parent`: that block's element type
+/// and length) and the corner the child holds: the children of element `i` are elements
+/// `k·i .. k·i + k` of the refined block (`k` = 2 for a line, 3 for a triangle, 4 for a
+/// quad), child `j` holding the parent's corner `j` (a triangle's or quad's child as its
+/// first node), since refinement keeps the blocks in order, one for one. None when the
+/// block before has no such element, or is of another type.
+pub(crate) fn parent_of(parent: (u32, usize), index: usize) -> Option<(usize, usize)> {
+    let k = match parent.0 {
         etype::LINE2 => 2,
         etype::TRI3 => 3,
         etype::QUAD4 => 4,
         _ => return None,
     };
-    (index / k < b.len()).then_some((index / k, index % k))
+    (index / k < parent.1).then_some((index / k, index % k))
 }
 
 /// Largest distance of a curve estimate from its segment's chord midpoint, as a share of
@@ -811,12 +810,13 @@ mod tests {
             let old = before.max_node_tag();
             let mut children = 0;
             for (b, blk) in after.element_blocks.iter().enumerate() {
+                let shape = (before.element_blocks[b].element_type, before.element_blocks[b].len());
                 if ![etype::LINE2, etype::QUAD4].contains(&blk.element_type) {
-                    assert_eq!(parent_of(before, b, 0), None, "block {b}");
+                    assert_eq!(parent_of(shape, 0), None, "block {b}");
                     continue;
                 }
                 for i in 0..blk.len() {
-                    let (p, j) = parent_of(before, b, i).expect("a parent");
+                    let (p, j) = parent_of(shape, i).expect("a parent");
                     let parent = before.element_blocks[b].element(p);
                     let child = blk.element(i);
                     // a face's child starts at the corner, a line's holds its end
@@ -829,8 +829,7 @@ mod tests {
                     }
                     children += 1;
                 }
-                let k = blk.len() / before.element_blocks[b].len();
-                assert_eq!(parent_of(before, b, k * before.element_blocks[b].len()), None);
+                assert_eq!(parent_of(shape, blk.len()), None);
             }
             assert!(children > 0);
         }

@@ -144,6 +144,19 @@ pub struct BadQuad {
     pub defect: Defect,
 }
 
+impl Defect {
+    /// The same defect at corner `corner` (a defect at no corner as it is).
+    pub(crate) fn at_corner(self, corner: usize) -> Defect {
+        match self {
+            Defect::ZeroLengthEdge { .. } => Defect::ZeroLengthEdge { corner },
+            Defect::Corner { degrees, .. } => Defect::Corner { corner, degrees },
+            Defect::OwnJacobian { scaled, .. } => Defect::OwnJacobian { corner, scaled },
+            Defect::NoNormal { .. } => Defect::NoNormal { corner },
+            other => other,
+        }
+    }
+}
+
 impl BadQuad {
     /// The node tag the defect is at (the bad corner, the first node of a zero edge, the
     /// missing or repeated node, or the first node of a quad turned over as a whole).

@@ -2,7 +2,6 @@
 //! doc of [`super`]).
 
 use super::*;
-use crate::validity::Defect;
 use std::collections::HashMap;
 
 /// True when a node of `tags` is not where `input` has it in `output` (or is gone).
@@ -175,14 +174,13 @@ pub(super) fn run_rounds<'a>(
             Next::GiveUp
         } else {
             // a refined round's bad quads as the recombination's quads they came from
-            let (at, bad) = match &refined {
-                Some(r) if local.traced => (&r.levels[0], parents_of(r, &bad)),
-                _ => (&mesh, bad.clone()),
-            };
+            let traced = refined.as_ref().filter(|_| local.traced);
+            let recombination = traced.map(Refinement::recombination);
+            let parents = traced.map(|r| parents_of(r, &bad));
             local.next(
                 input,
-                at,
-                &bad,
+                recombination.as_ref().unwrap_or(&mesh),
+                parents.as_deref().unwrap_or(&bad),
                 &chosen,
                 &recombine_report.recombine.parity_splits,
             )
@@ -519,8 +517,7 @@ fn one_round<'a>(
     })
 }
 
-/// The bad quads `bad` of a refined round as quads of its recombination (`refinement`'s
-/// first level), each the quad whose refinement made the bad one, so that the fallback
+/// The bad quads `bad` of a refined round as quads of its recombination, each the quad whose refinement made the bad one, so that the fallback
 /// prices, peels and splits the recombination's pairs as on a round without refinement.
 /// The defect's corner becomes the parent's corner at the same node, or else the corner
 /// whose child holds the bad quad. A quad the optimizer's topology passes made (not a quad
@@ -546,24 +543,17 @@ fn parents_of(refinement: &Refinement, bad: &[BadQuad]) -> Vec<BadQuad> {
     let parent = |q: &BadQuad| -> Option<BadQuad> {
         let &(block, mut i) = at.get(&(q.surface, sorted(q.nodes)))?;
         let mut corner = 0;
-        for level in refinement.levels.iter().rev() {
-            (i, corner) = crate::refine::parent_of(level, block, i)?;
+        for level in refinement.shapes.iter().rev() {
+            (i, corner) = crate::refine::parent_of(*level.get(block)?, i)?;
         }
-        let first = refinement.levels.first()?.element_blocks.get(block)?;
+        let first = refinement.recombined.get(block)?;
         let nodes = <[u64; 4]>::try_from(first.element(i)).ok()?;
         let c = nodes.iter().position(|&n| n == q.node()).unwrap_or(corner);
-        let defect = match q.defect.clone() {
-            Defect::ZeroLengthEdge { .. } => Defect::ZeroLengthEdge { corner: c },
-            Defect::Corner { degrees, .. } => Defect::Corner { corner: c, degrees },
-            Defect::OwnJacobian { scaled, .. } => Defect::OwnJacobian { corner: c, scaled },
-            Defect::NoNormal { .. } => Defect::NoNormal { corner: c },
-            other => other,
-        };
         Some(BadQuad {
             surface: q.surface,
             element: first.tags[i],
             nodes,
-            defect,
+            defect: q.defect.clone().at_corner(c),
         })
     };
     let mut seen = HashSet::new();
