@@ -26,7 +26,13 @@
 //!    boundary node, its diagonal's other end on the other side) gets a boundary segment
 //!    at that other end split at its midpoint, with every triangle on it
 //!    ([`crate::recombine::split_triangles`]), so the fan's triangles find partners on
-//!    that side; at most [`SEGMENT_ROUNDS`] rounds, before any triangle is split. A job
+//!    that side. When no fan is left to split under (nor, in a job that peels fans, to
+//!    peel), a bad quad flat at a boundary node where its diagonal ends gets the boundary
+//!    segment opposite that node split, the longer of its triangles' two, when the
+//!    triangle over it is wide there (120° or more): two curves side by side a fraction of
+//!    a segment apart, the triangle between a node of one and a segment of the other makes
+//!    a flat corner with either neighbour, and its halves pair with one neighbour each.
+//!    At most [`SEGMENT_ROUNDS`] rounds split segments, before any triangle is split. A job
 //!    that still fails with such splits runs again without them.
 //! 3. **Splits.** When no bad quad is left to price, the input triangles around each bad
 //!    quad (those holding one of its input nodes, or the nearest one to a quad of new

@@ -35,7 +35,8 @@ pub const PRICING_ROUNDS: usize = 2;
 /// Rings of input triangles around a bad quad that the fallback splits at most.
 pub const SPLIT_RINGS: usize = 2;
 
-/// Fallback rounds that split new boundary segments under fans at most (see the module doc).
+/// Fallback rounds that split new boundary segments under fans or flat wall corners at most
+/// (see the module doc).
 pub const SEGMENT_ROUNDS: usize = 2;
 
 /// Fallback rounds that peel new boundary fans at most (see the module doc).
@@ -46,7 +47,8 @@ pub(super) enum Next {
     /// Solve again with this many more quads priced out and parity split segments
     /// avoided.
     Price(usize, usize),
-    /// Solve again with this many more boundary segments split under fans.
+    /// Solve again with this many more boundary segments split under fans or flat wall
+    /// corners.
     Segments(usize),
     /// Solve again with this many more radial edges of boundary fans peeled.
     Peel(usize),
@@ -202,6 +204,16 @@ impl LocalFallback {
                 let count = new.len();
                 self.peels.extend(new);
                 return Next::Peel(count);
+            }
+        }
+        // no fan left to split under or peel: the segments opposite flat wall corners
+        if self.segment_rounds < SEGMENT_ROUNDS && self.split_rounds == 0 {
+            let new = wall_corner_segments(input, bad, &self.segments);
+            if !new.is_empty() {
+                self.segment_rounds += 1;
+                let count = new.len();
+                self.segments.extend(new);
+                return Next::Segments(count);
             }
         }
         // tight splits with a bad corner at a node of a split (the matching merged the two
@@ -903,24 +915,97 @@ pub(super) fn low_quad_segments(
         let Some(k) = (0..4).max_by(|&a, &b| angle(a).total_cmp(&angle(b))) else {
             continue;
         };
-        let (u, v, w, x) = (n[(k + 3) % 4], n[k], n[(k + 1) % 4], n[(k + 2) % 4]);
-        if angle(k).to_degrees() < FLAT_WALL_CORNER_DEG || !boundary.at.contains_key(&(s, v)) {
+        if angle(k).to_degrees() < FLAT_WALL_CORNER_DEG {
             continue;
         }
-        if !triangles.has(s, u, v, x) || !triangles.has(s, v, w, x) {
-            continue;
-        }
-        let candidates = [(u, x), (w, x)]
-            .into_iter()
-            .filter(|&(a, b)| boundary.is_segment(s, a, b))
-            .map(|(a, b)| key(a, b))
-            .filter(|seg| !done.contains(seg) && !out.contains(seg));
-        if let Some(seg) = longest(candidates, &|t| at(&inputs, t)) {
+        let at = |t| at(&inputs, t);
+        if let Some(seg) = segment_under(&triangles, &boundary, &at, s, n, k, done, &out) {
             out.push(seg);
         }
     }
     out.sort_unstable();
     out
+}
+
+/// Boundary segments whose split lets the triangles of a bad quad pair otherwise, and
+/// that `done` does not hold yet: as [`low_quad_segments`], for the quads of `bad` whose
+/// corner is flat, reflex or turned over about the input surface's normal at a boundary
+/// node, that corner taken as `v` whatever its angle in space (on a curved face a corner
+/// the gate finds flat can measure well under [`FLAT_WALL_CORNER_DEG`] between its edges),
+/// where the triangle over the segment has an angle of at least [`WIDE_AT_WALL_DEG`] at `v`.
+/// Typically two curves of a face run side by side a fraction of a segment apart, and the
+/// triangle between a node of one and a segment of the other has a wide angle at the node:
+/// with either neighbour it makes a corner near 180° there.
+pub(super) fn wall_corner_segments(
+    input: &Mesh,
+    bad: &[BadQuad],
+    done: &[(u64, u64)],
+) -> Vec<(u64, u64)> {
+    let corners: Vec<(i32, [u64; 4], usize)> = bad
+        .iter()
+        .filter_map(|b| match b.defect {
+            crate::validity::Defect::Corner { corner, .. } => Some((b.surface, b.nodes, corner)),
+            _ => None,
+        })
+        .collect();
+    if corners.is_empty() {
+        return Vec::new();
+    }
+    let surfaces: HashSet<i32> = corners.iter().map(|c| c.0).collect();
+    let triangles = SurfaceTriangles::of(input, &surfaces);
+    let boundary = Boundary::of(&triangles);
+    let coords = TagCoords::new(input);
+    let at = |t: u64| coords.get(t).map(glam::DVec3::from_array);
+    let mut out: Vec<(u64, u64)> = Vec::new();
+    for &(s, n, k) in &corners {
+        let Some(seg) = segment_under(&triangles, &boundary, &at, s, n, k, done, &out) else {
+            continue;
+        };
+        // the angle its triangle has at the corner's node
+        let (Some(v), Some(a), Some(b)) = (at(n[k]), at(seg.0), at(seg.1)) else {
+            continue;
+        };
+        if (a - v).angle_between(b - v).to_degrees() >= WIDE_AT_WALL_DEG {
+            out.push(seg);
+        }
+    }
+    out.sort_unstable();
+    out
+}
+
+/// Smallest angle, in degrees, of the input triangle at a bad quad's wall corner for which
+/// [`wall_corner_segments`] splits the boundary segment opposite it: halved, that angle
+/// leaves each half's partner room for a corner under 180° there; a narrower one is not
+/// what made the corner flat.
+const WIDE_AT_WALL_DEG: f64 = 120.0;
+
+/// The longer boundary segment, not in `done` or `taken`, of the two input triangles
+/// `(u, v, x)` and `(v, w, x)` of surface `s` that quad `n` is made of, with `v` its corner
+/// `k`, a boundary node of `s`: a side of a triangle opposite `v`.
+#[allow(clippy::too_many_arguments)]
+fn segment_under(
+    triangles: &SurfaceTriangles,
+    boundary: &Boundary,
+    at: &impl Fn(u64) -> Option<glam::DVec3>,
+    s: i32,
+    n: [u64; 4],
+    k: usize,
+    done: &[(u64, u64)],
+    taken: &[(u64, u64)],
+) -> Option<(u64, u64)> {
+    let (u, v, w, x) = (n[(k + 3) % 4], n[k], n[(k + 1) % 4], n[(k + 2) % 4]);
+    if !boundary.at.contains_key(&(s, v)) {
+        return None;
+    }
+    if !triangles.has(s, u, v, x) || !triangles.has(s, v, w, x) {
+        return None;
+    }
+    let candidates = [(u, x), (w, x)]
+        .into_iter()
+        .filter(|&(a, b)| boundary.is_segment(s, a, b))
+        .map(|(a, b)| key(a, b))
+        .filter(|seg| !done.contains(seg) && !taken.contains(seg));
+    longest(candidates, at)
 }
 
 /// The input triangles of `input` that lie inside the quads `spots` (surface, node tags),
@@ -1202,6 +1287,44 @@ mod tests {
             fan_segments(&m, &[bad([5, 6, 7, 2], 1)], &[(2, 3)]),
             vec![(1, 2)]
         );
+    }
+
+    #[test]
+    fn a_quad_flat_at_a_wall_node_gets_the_segment_across_the_neck_split() {
+        // two curves 0.15 apart: nodes 1-2-3 on y = 0, nodes 4 and 5 on y = 0.15; the
+        // middle triangle 2-5-4 has a 163 degree angle at node 2, so either pair it makes
+        // is flat there, and neither of its sides at node 2 is a boundary segment (no fan)
+        let coords = vec![
+            [0.0, 0.0, 0.0],
+            [1.0, 0.0, 0.0],
+            [2.0, 0.0, 0.0],
+            [0.0, 0.15, 0.0],
+            [2.0, 0.15, 0.0],
+        ];
+        let m = one_surface(
+            vec![node_block(2, (1..=5).collect(), coords)],
+            etype::TRI3,
+            &[&[1, 2, 4], &[2, 5, 4], &[2, 3, 5]],
+        );
+        let flat = bad([1, 2, 5, 4], 1);
+        assert!(fan_segments(&m, std::slice::from_ref(&flat), &[]).is_empty());
+        // of the pair's boundary segments opposite node 2 (1-4 and 4-5), the longer, whose
+        // triangle is wide at node 2
+        assert_eq!(wall_corner_segments(&m, std::slice::from_ref(&flat), &[]), vec![(4, 5)]);
+        // with 4-5 split already, not 1-4: its triangle has 8.5 degrees at node 2
+        assert!(wall_corner_segments(&m, std::slice::from_ref(&flat), &[(4, 5)]).is_empty());
+        // the same quad bad at node 5, off the pair's diagonal 2-4: not two triangles
+        // meeting there
+        assert!(wall_corner_segments(&m, &[bad([1, 2, 5, 4], 2)], &[]).is_empty());
+        // a quad folded about its own normal names no flat wall corner
+        let folded = BadQuad {
+            defect: Defect::OwnJacobian {
+                corner: 1,
+                scaled: -0.5,
+            },
+            ..flat
+        };
+        assert!(wall_corner_segments(&m, &[folded], &[]).is_empty());
     }
 
     #[test]

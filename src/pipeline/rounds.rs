@@ -207,7 +207,7 @@ pub(super) fn run_rounds<'a>(
             Next::Segments(count) => {
                 notes.segments_used = true;
                 log.push(format!(
-                    "fallback round {}: {count} boundary segment(s) under fan quads to split",
+                    "fallback round {}: {count} boundary segment(s) under fan quads or flat wall corners to split",
                     round + 1
                 ));
                 continue;

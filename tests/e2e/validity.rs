@@ -551,7 +551,7 @@ fn quads_under_eta_0_2_that_the_input_allows_better_are_named_in_a_warning() {
 #[test]
 fn a_surface_meshed_coarser_than_its_curvature_is_recombined_by_splitting_its_triangles() {
     let input = common::repo_dir().join("tests/data/cad/v41_coarse_torus.msh");
-    let (_dir, output, stderr) = run_with_tag_map(&input);
+    let (_dir, output, stderr) = run_with_tag_map(&input, &[]);
     assert!(stderr.contains("into three quads each"), "{stderr}");
     // a warning says why, naming the surface and a node it wraps round
     assert!(
@@ -566,10 +566,13 @@ fn a_surface_meshed_coarser_than_its_curvature_is_recombined_by_splitting_its_tr
     );
 }
 
-/// Runs the tool on `input`, writing the output and its tag map into a new temporary
-/// directory, and asserts it succeeds; returns the directory (kept while the output is
-/// read), the output's path and the tool's log.
-fn run_with_tag_map(input: &Path) -> (tempfile::TempDir, std::path::PathBuf, String) {
+/// Runs the tool on `input` with the `extra` arguments, writing the output and its tag map
+/// into a new temporary directory, and asserts it succeeds; returns the directory (kept
+/// while the output is read), the output's path and the tool's log.
+fn run_with_tag_map(
+    input: &Path,
+    extra: &[&str],
+) -> (tempfile::TempDir, std::path::PathBuf, String) {
     let dir = tempfile::tempdir().expect("temp dir");
     let output = dir.path().join("out.msh");
     let mut args = vec![
@@ -577,6 +580,7 @@ fn run_with_tag_map(input: &Path) -> (tempfile::TempDir, std::path::PathBuf, Str
         "-o".into(),
         output.clone().into_os_string(),
     ];
+    args.extend(extra.iter().map(std::ffi::OsString::from));
     args.extend(common::tag_map_args(&output));
     let (code, _, stderr) = blossomquad_run(args);
     assert_eq!(code, Some(0), "{stderr}");
@@ -673,11 +677,44 @@ fn a_coarse_boolean_part_accepts_quads_bent_across_sharp_turns_instead_of_cascad
         log.contains("quads bent across sharp turns accepted kept"),
         "{log}"
     );
-    let (_dir, output, _) = run_with_tag_map(&input);
+    let (_dir, output, _) = run_with_tag_map(&input, &[]);
     let (triangles, quads) = checked_counts(&input, &output);
     assert!(
         10 * quads <= 6 * triangles,
         "{quads} quads of {triangles} triangles"
+    );
+}
+
+/// A random boolean part (`scripts/stress_parts.py --generate 707`: size 0.3, MSH 2.2
+/// binary) whose surface 9 has two curves running side by side about 0.08 apart (curve 43
+/// through node 156, curve 45 through nodes 25 and 162): triangle 795 joins node 156 to
+/// the segment 25-162 of the other curve, with a 157° angle at node 156, so pairing it with
+/// either neighbour gives a quad flat at that wall node. Neither of its sides at node 156 is
+/// a boundary segment (it is no fan). Splitting the segment 25-162 opposite the corner lets
+/// its halves pair with one neighbour each; before, the fallback split rings of triangles
+/// around it, which turned quads bad on five more surfaces, and ended at 0.71 new quads per
+/// input triangle with 61 triangles split into three.
+#[test]
+fn a_quad_flat_where_two_curves_run_close_gets_the_segment_opposite_it_split() {
+    let input = common::repo_dir().join("tests/data/cad/v22_boolean_close_curves.msh");
+    let (_dir, output, stderr) = run_with_tag_map(&input, &["-v"]);
+    assert!(
+        stderr.contains("boundary segment(s) under fan quads or flat wall corners to split"),
+        "{stderr}"
+    );
+    // the summary's count of triangles split into three quads
+    let split: usize = stderr
+        .split("the fallback split ")
+        .nth(1)
+        .and_then(|rest| rest.split(' ').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no split count in:\n{stderr}"));
+    assert!(split <= 20, "{split} triangles split:\n{stderr}");
+    let (triangles, quads) = checked_counts(&input, &output);
+    assert_eq!(triangles, 904);
+    assert!(
+        10 * quads <= 6 * triangles,
+        "{quads} quads of {triangles} triangles:\n{stderr}"
     );
 }
 
