@@ -364,6 +364,7 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
             }
             let poor = poor_quads(base, opts, mesh, &report);
             report.warnings.extend(poor);
+            report.warnings.extend(fine_curves(base, opts, mesh, &report));
             Ok(report)
         }
         Err(e) => {
@@ -371,6 +372,20 @@ fn quadrangulate_linear(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error
             Err(e)
         }
     }
+}
+
+/// Where the fallback peeled boundary fans and the result has more new quads per input
+/// triangle than the element-count rule ([`count_rule_limit`]): a warning naming the
+/// surfaces with peeled triangles.
+fn fine_curves(input: &Mesh, opts: &Options, out: &Mesh, report: &Report) -> Option<Warning> {
+    let split = report.fallback.as_ref().filter(|f| f.triangles_peeled > 0)?;
+    let per_triangle = quads_per_triangle(input, out, opts.refine);
+    let limit = count_rule_limit(surface_elements(input, etype::TRI3));
+    (per_triangle > limit).then(|| Warning::FineCurves {
+        surfaces: split.peeled_surfaces.clone(),
+        peeled: split.triangles_peeled,
+        quads_per_triangle: per_triangle,
+    })
 }
 
 /// True when the fallback did anything for `r`: more than one round, triangles split or

@@ -52,6 +52,19 @@ pub enum Warning {
         /// The worst of them.
         eta_w: f64,
     },
+    /// Boundary fans peeled on surfaces whose curves are meshed much finer than the face
+    /// beside them (runs of triangles each with a segment on a curve and one apex inside),
+    /// and the result above the element-count rule: a valid quad holds at most one segment
+    /// where a curve runs straight, so each such triangle became a quad on the curve and a
+    /// triangle at the apex.
+    FineCurves {
+        /// The surfaces with peeled triangles, increasing.
+        surfaces: Vec<i32>,
+        /// Triangles peeled.
+        peeled: usize,
+        /// New quads per input triangle (before refinement).
+        quads_per_triangle: f64,
+    },
     /// Second-order elements written although their Jacobian is not positive everywhere
     /// (only when invalid elements are allowed).
     InvalidSecondOrder {
@@ -72,6 +85,7 @@ impl Warning {
             Warning::InvalidQuads { .. } => "invalid_quads",
             Warning::CoarseSurface { .. } => "coarse_surface",
             Warning::PoorQuads { .. } => "poor_quads",
+            Warning::FineCurves { .. } => "fine_curves",
             Warning::InvalidSecondOrder { .. } => "invalid_second_order",
         }
     }
@@ -107,6 +121,18 @@ impl std::fmt::Display for Warning {
                 write!(
                     f,
                     "{count} quad(s) with eta under 0.2 (worst {eta_w:.3}) on surface(s) {}, though the input's corners there allow better: the run made no better quads there at about one quad per two triangles (a finer or more regular mesh there, e.g. more nodes across a narrow face, gives better quads)",
+                    list.join(", ")
+                )
+            }
+            Warning::FineCurves {
+                surfaces,
+                peeled,
+                quads_per_triangle,
+            } => {
+                let list: Vec<String> = surfaces.iter().map(i32::to_string).collect();
+                write!(
+                    f,
+                    "surface(s) {} are meshed much finer along their curves than inside: {peeled} triangle(s) with a segment on a curve share their apex with the next, and a valid quad holds only one segment where a curve runs straight, so each became a quad on the curve and a triangle at the apex, {quads_per_triangle:.2} new quads per input triangle in all (sizes that grow more gently away from the curves give about one quad per two triangles)",
                     list.join(", ")
                 )
             }
@@ -153,6 +179,20 @@ mod tests {
         };
         assert!(!r.is_invalid_written());
         assert_eq!(r.to_string(), "node tags kept");
+        let fine = Warning::FineCurves {
+            surfaces: vec![1, 2],
+            peeled: 116,
+            quads_per_triangle: 0.651,
+        };
+        assert_eq!(fine.kind(), "fine_curves");
+        let text = fine.to_string();
+        assert!(
+            text.starts_with("surface(s) 1, 2 are meshed much finer along their curves")
+                && text.contains("116 triangle(s)")
+                && text.contains("0.65 new quads per input triangle"),
+            "{text}"
+        );
+        assert!(!fine.is_invalid_written());
         let c = Warning::CoarseSurface {
             surface: 4,
             node: 17,

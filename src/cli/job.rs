@@ -307,6 +307,24 @@ pub(super) fn summary_line(
             "the fallback split {} triangle(s) into three quads each",
             f.triangles_to_quads
         ));
+        if f.pairs_split > 0 {
+            notes.push(format!(
+                "{} flat pair(s) of triangles into three quads each",
+                f.pairs_split
+            ));
+        }
+        if f.triangles_peeled > 0 {
+            notes.push(format!(
+                "peeled {} boundary fan triangle(s) into a quad on the curve and a triangle at the apex each",
+                f.triangles_peeled
+            ));
+        }
+        if f.segments_split > 0 {
+            notes.push(format!(
+                "split {} boundary segment(s) under bad quads",
+                f.segments_split
+            ));
+        }
     }
     if !report.refine.is_empty() {
         notes.push(format!("refined {} time(s)", report.refine.len()));

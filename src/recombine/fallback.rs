@@ -69,6 +69,8 @@ pub struct FallbackSplit {
     /// surface, placed by the optimizer.
     #[serde(skip)]
     pub peel_nodes: Vec<u64>,
+    /// Surfaces with peeled triangles (sorted).
+    pub peeled_surfaces: Vec<i32>,
     /// New nodes.
     pub nodes_added: usize,
     /// Surfaces whose triangles were split into quads.
@@ -606,6 +608,9 @@ pub fn split_triangles(
                             push_children(&mut quads_of, b, i, &[[x, y, myz, mzx]], false, &mut fresh);
                             report.triangles_peeled += 1;
                             report.peel_nodes.extend([myz, mzx]);
+                            if !report.peeled_surfaces.contains(&b.entity_tag) {
+                                report.peeled_surfaces.push(b.entity_tag);
+                            }
                             if !report.surfaces.contains(&b.entity_tag) {
                                 report.surfaces.push(b.entity_tag);
                             }
@@ -740,6 +745,7 @@ pub fn split_triangles(
     link_new_nodes(mesh, &new_nodes);
     mesh.invalidate_element_data();
     report.surfaces.sort_unstable();
+    report.peeled_surfaces.sort_unstable();
     report.peel_nodes.sort_unstable();
     report.peel_nodes.dedup();
     report

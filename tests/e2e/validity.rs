@@ -801,7 +801,20 @@ fn a_steeply_edge_refined_box_peels_its_boundary_fans_instead_of_splitting_every
     assert!(log.contains("triangle(s) of boundary fans peeled"), "{log}");
     let fallback = report.fallback.as_ref().expect("the fallback ran");
     assert!(fallback.triangles_peeled > 0, "{log}");
+    assert!(
+        !fallback.peeled_surfaces.is_empty()
+            && fallback.peeled_surfaces.windows(2).all(|w| w[0] < w[1])
+            && fallback.peeled_surfaces.iter().all(|s| (1..=6).contains(s)),
+        "{:?}",
+        fallback.peeled_surfaces
+    );
     assert_eq!(fallback.triangles_to_quads, 0, "{log}");
+    // within the element-count rule: no warning about the curves
+    assert!(
+        !report.warnings.iter().any(|w| w.kind() == "fine_curves"),
+        "{:?}",
+        report.warnings
+    );
     recombines_validly_by_tag(&input, &mesh);
 }
 
@@ -837,7 +850,12 @@ fn a_refined_run_hands_the_fallback_the_recombinations_quads_and_does_not_cascad
         "{stderr}"
     );
     assert!(
-        stderr.contains("the fallback split 0 triangle(s) into three quads each"),
+        stderr.contains("the fallback split 0 triangle(s) into three quads each, peeled "),
+        "{stderr}"
+    );
+    // above 0.6 new quads per input triangle with fans peeled: the warning says why
+    assert!(
+        stderr.contains("warning: surface(s) 1, 2, 3, 4, 5, 6 are meshed much finer along their curves than inside"),
         "{stderr}"
     );
     let report = check_mesh(&input, &output, &["--refined=1"]);
