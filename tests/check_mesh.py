@@ -79,10 +79,16 @@ code. Checks (names as in the JSON report):
                     and likewise the kept input elements 1..K'; except that the nodes no
                     element of a physical group uses (no element at all, without groups)
                     come last (still in input order among themselves); every output tag
-                    the map names exists (a dropped volume's nodes, which Gmsh does not
-                    show, excepted). OUTPUT is then read back into the input's numbering
+                    the map names exists (a dropped volume's nodes, and the nodes the
+                    input repair below leaves in no element, which Gmsh does not show,
+                    excepted). OUTPUT is then read back into the input's numbering
                     through the map (new nodes and elements above every input tag), so
                     every check above compares tags with INPUT as without renumbering.
+
+Every check compares OUTPUT with the surfaces the tool works on: INPUT's triangles that
+repeat another's three nodes on the same surface (zero-area pockets, such as Gmsh writes
+at a degenerate apex or seam) are first removed as the tool's own input repair removes
+them (`drop_repeated_triangles` below).
 
 Prints one JSON line and exits 0 when every check passes, 1 on any violation,
 2 on usage errors or when INPUT cannot be read.
@@ -141,6 +147,79 @@ class Mesh:
         self.physical_nodes = None  # nodes of the physical groups' elements (None: no group)
         self.min_sj = {}  # (surface tag, quad element tag) -> Gmsh's minSJ of the element
         self.element_nodes = set()  # nodes of any element
+        self.orphaned = set()  # nodes only triangles removed by the input repair used
+
+
+def drop_repeated_triangles(faces):
+    """The tool's first repair of an input surface (`recombine::drop_repeated_triangles`),
+    on its faces [(type, nodes)] in file order: of the 3-node triangles on the same three
+    nodes, a set with as many running one way as the other is removed whole (a zero-area
+    pocket), except that one copy is put back where it fills the hole that leaves (each of
+    its edges then has at most two triangles, run in opposite directions, and one at least
+    is shared with a remaining triangle; sets in file order); any other set keeps its first
+    copy running the way of the majority. Returns the faces kept, in order, and those
+    removed."""
+    def sign(t):
+        k = t.index(min(t))
+        return 1 if t[(k + 1) % 3] < t[(k + 2) % 3] else -1
+
+    def oriented(n, g):
+        return n if g > 0 else (n[0], n[2], n[1])
+
+    sets = {}
+    for i, (etype, f) in enumerate(faces):
+        if etype == 2 and len(set(f)) == 3:
+            sets.setdefault(tuple(sorted(f)), []).append(i)
+    runs = [idx for idx in sets.values() if len(idx) > 1]
+    if not runs:
+        return faces, []
+    removed, cancelled = set(), []
+    for idx in runs:
+        net = sum(sign(faces[i][1]) for i in idx)
+        keep = next((i for i in idx if sign(faces[i][1]) == (1 if net > 0 else -1)), None) if net else None
+        removed.update(i for i in idx if i != keep)
+        if net == 0:
+            cancelled.append(idx)
+    cancelled.sort(key=lambda idx: idx[0])
+    uses = {}  # undirected edge of a cancelled set -> directed uses by remaining triangles
+    for idx in cancelled:
+        n = tuple(sorted(faces[idx[0]][1]))
+        for k in range(3):
+            uses.setdefault(key(n[k], n[(k + 1) % 3]), [])
+    for i, (etype, f) in enumerate(faces):
+        if i in removed or etype != 2 or len(set(f)) != 3:
+            continue
+        for k in range(3):
+            a, b = f[k], f[(k + 1) % 3]
+            if key(a, b) in uses:
+                uses[key(a, b)].append((a, b))
+
+    def fits(n, g):
+        t, shared = oriented(n, g), 0
+        for k in range(3):
+            a, b = t[k], t[(k + 1) % 3]
+            u = uses.get(key(a, b), [])
+            if not u:
+                continue
+            if len(u) == 1 and u[0] == (b, a):
+                shared += 1
+            else:
+                return False
+        return shared > 0
+
+    for idx in cancelled:
+        n = tuple(sorted(faces[idx[0]][1]))
+        first = sign(faces[idx[0]][1])
+        g = next((g for g in (first, -first) if fits(n, g)), None)
+        k = next((i for i in idx if g is not None and sign(faces[i][1]) == g), None)
+        if k is not None:
+            removed.discard(k)
+            t = oriented(n, g)
+            for m in range(3):
+                a, b = t[m], t[(m + 1) % 3]
+                uses[key(a, b)].append((a, b))
+    return ([e for i, e in enumerate(faces) if i not in removed],
+            [e for i, e in enumerate(faces) if i in removed])
 
 
 def _dedup(elements):
@@ -205,8 +284,9 @@ def read_periodic_section(path):
     return links
 
 
-def load(path):
-    """Reads PATH with Gmsh; returns a Mesh (with .errors filled on failure)."""
+def load(path, repair=False):
+    """Reads PATH with Gmsh; returns a Mesh (with .errors filled on failure). With
+    `repair`, the faces are those the tool works on (`drop_repeated_triangles`)."""
     mesh = Mesh()
     gmsh.clear()
     gmsh.logger.start()
@@ -277,6 +357,18 @@ def load(path):
                 links[(dim, tag)] = (int(master), pairs, [float(x) for x in plain(affine)])
     mesh.periodic = links
     mesh.msh2 = is_msh2(path)
+    if repair:
+        # the tool's first repair of its input: triangles repeating another's three nodes
+        # on the same surface; the nodes only those used are then in no element, and Gmsh
+        # shows no such node of the output
+        removed_nodes = set()
+        for tag in mesh.faces:
+            mesh.faces[tag], removed = drop_repeated_triangles(mesh.faces[tag])
+            removed_nodes.update(n for _, f in removed for n in f)
+        if removed_nodes:
+            kept = {n for faces in mesh.faces.values() for _, f in faces for n in f}
+            kept.update(n for segs in mesh.lines.values() for seg in segs for n in seg)
+            mesh.orphaned = removed_nodes - kept
     if mesh.msh2:
         # MSH 2 writes an element once per physical group of its entity and Gmsh's
         # reader keeps the copies: merge them (only there, so that a duplicated
@@ -317,6 +409,8 @@ def check_numbering(rep, out, tag_map, inp=None, allow_dropped_volumes=False):
         # a dropped volume's nodes stay in the file, but Gmsh shows none used by no element
         gone = {a for a, _ in pairs if kind == "node" and allow_dropped_volumes and inp is not None
                 and inp.node_dim.get(a) == 3}
+        # nodes the input repair left in no element: in the file, but Gmsh shows none
+        gone |= {a for a, _ in pairs if kind == "node" and inp is not None and a in inp.orphaned}
         for group in (False, True):
             news = [b for a, b in pairs if (b in last) == group and a not in gone]
             start = 1 if not group else len(present) - len(last) + 1
@@ -1087,7 +1181,7 @@ def main(argv):
         return 2
     gmsh.initialize(["check_mesh"], readConfigFiles=False)
     gmsh.option.setNumber("General.Terminal", 0)
-    inp = load(args[0])
+    inp = load(args[0], repair=True)
     if inp.errors:
         print(_dumps({"ok": False, "input": args[0], "error": "cannot read input", "messages": inp.errors[:5]}))
         return 2
