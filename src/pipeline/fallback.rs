@@ -144,6 +144,17 @@ impl LocalFallback {
         }
     }
 
+    /// A segment round that splits `new` boundary segments, when there are any.
+    fn split_segments(&mut self, new: Vec<(u64, u64)>) -> Option<Next> {
+        if new.is_empty() {
+            return None;
+        }
+        self.segment_rounds += 1;
+        let count = new.len();
+        self.segments.extend(new);
+        Some(Next::Segments(count))
+    }
+
     /// The next step after a round whose quads `bad` are not valid (`mesh` the round's
     /// result, or on a refined round its recombination, with `bad` the quads refinement
     /// made them of; `chosen` the triangles split so far).
@@ -189,12 +200,8 @@ impl LocalFallback {
             }
         }
         if self.segment_rounds < SEGMENT_ROUNDS && self.split_rounds == 0 {
-            let new = fan_segments(input, bad, &self.segments);
-            if !new.is_empty() {
-                self.segment_rounds += 1;
-                let count = new.len();
-                self.segments.extend(new);
-                return Next::Segments(count);
+            if let Some(next) = self.split_segments(fan_segments(input, bad, &self.segments)) {
+                return next;
             }
         }
         if self.peel_fans && self.peel_rounds < PEEL_ROUNDS && self.split_rounds == 0 {
@@ -209,11 +216,8 @@ impl LocalFallback {
         // no fan left to split under or peel: the segments opposite flat wall corners
         if self.segment_rounds < SEGMENT_ROUNDS && self.split_rounds == 0 {
             let new = wall_corner_segments(input, bad, &self.segments);
-            if !new.is_empty() {
-                self.segment_rounds += 1;
-                let count = new.len();
-                self.segments.extend(new);
-                return Next::Segments(count);
+            if let Some(next) = self.split_segments(new) {
+                return next;
             }
         }
         // tight splits with a bad corner at a node of a split (the matching merged the two
@@ -901,30 +905,25 @@ pub(super) fn low_quad_segments(
     low: &[(i32, [u64; 4])],
     done: &[(u64, u64)],
 ) -> Vec<(u64, u64)> {
-    let surfaces: HashSet<i32> = low.iter().map(|l| l.0).collect();
-    let triangles = SurfaceTriangles::of(input, &surfaces);
-    let boundary = Boundary::of(&triangles);
-    let (inputs, results) = (TagCoords::new(input), TagCoords::new(result));
-    let at = |c: &TagCoords, t: u64| c.get(t).map(glam::DVec3::from_array);
-    let mut out: Vec<(u64, u64)> = Vec::new();
+    let results = TagCoords::new(result);
+    let mut corners: Vec<(i32, [u64; 4], usize)> = Vec::new();
     for &(s, n) in low {
-        let Some(p) = n.iter().map(|&t| at(&results, t)).collect::<Option<Vec<_>>>() else {
+        let Some(p) = n
+            .iter()
+            .map(|&t| results.get(t).map(glam::DVec3::from_array))
+            .collect::<Option<Vec<_>>>()
+        else {
             continue;
         };
         let angle = |k: usize| (p[(k + 1) % 4] - p[k]).angle_between(p[(k + 3) % 4] - p[k]);
         let Some(k) = (0..4).max_by(|&a, &b| angle(a).total_cmp(&angle(b))) else {
             continue;
         };
-        if angle(k).to_degrees() < FLAT_WALL_CORNER_DEG {
-            continue;
-        }
-        let at = |t| at(&inputs, t);
-        if let Some(seg) = segment_under(&triangles, &boundary, &at, s, n, k, done, &out) {
-            out.push(seg);
+        if angle(k).to_degrees() >= FLAT_WALL_CORNER_DEG {
+            corners.push((s, n, k));
         }
     }
-    out.sort_unstable();
-    out
+    segments_opposite(input, &corners, done, None)
 }
 
 /// Boundary segments whose split lets the triangles of a bad quad pair otherwise, and
@@ -948,6 +947,18 @@ pub(super) fn wall_corner_segments(
             _ => None,
         })
         .collect();
+    segments_opposite(input, &corners, done, Some(WIDE_AT_WALL_DEG))
+}
+
+/// The segments [`segment_under`] gives for the quads `corners` (surface, node tags, the
+/// corner `v`), each not in `done` nor given for an earlier quad, sorted; with `wide`, only
+/// those whose triangle has an angle of at least `wide` degrees at `v`.
+fn segments_opposite(
+    input: &Mesh,
+    corners: &[(i32, [u64; 4], usize)],
+    done: &[(u64, u64)],
+    wide: Option<f64>,
+) -> Vec<(u64, u64)> {
     if corners.is_empty() {
         return Vec::new();
     }
@@ -957,17 +968,20 @@ pub(super) fn wall_corner_segments(
     let coords = TagCoords::new(input);
     let at = |t: u64| coords.get(t).map(glam::DVec3::from_array);
     let mut out: Vec<(u64, u64)> = Vec::new();
-    for &(s, n, k) in &corners {
+    for &(s, n, k) in corners {
         let Some(seg) = segment_under(&triangles, &boundary, &at, s, n, k, done, &out) else {
             continue;
         };
-        // the angle its triangle has at the corner's node
-        let (Some(v), Some(a), Some(b)) = (at(n[k]), at(seg.0), at(seg.1)) else {
-            continue;
-        };
-        if (a - v).angle_between(b - v).to_degrees() >= WIDE_AT_WALL_DEG {
-            out.push(seg);
+        if let Some(wide) = wide {
+            // the angle its triangle has at the corner's node
+            let (Some(v), Some(a), Some(b)) = (at(n[k]), at(seg.0), at(seg.1)) else {
+                continue;
+            };
+            if (a - v).angle_between(b - v).to_degrees() < wide {
+                continue;
+            }
         }
+        out.push(seg);
     }
     out.sort_unstable();
     out

@@ -517,8 +517,9 @@ fn one_round<'a>(
     })
 }
 
-/// The bad quads `bad` of a refined round as quads of its recombination, each the quad whose refinement made the bad one, so that the fallback
-/// prices, peels and splits the recombination's pairs as on a round without refinement.
+/// The bad quads `bad` of a refined round as quads of its recombination, each the quad
+/// whose refinement made the bad one, so that the fallback prices, peels and splits the
+/// recombination's pairs as on a round without refinement.
 /// The defect's corner becomes the parent's corner at the same node, or else the corner
 /// whose child holds the bad quad. A quad the optimizer's topology passes made (not a quad
 /// of the refined mesh) stays as it is; each parent once, in the order of `bad`.
