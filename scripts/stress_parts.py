@@ -26,10 +26,11 @@ none, or one or two of `--refine 1` (the checker then runs with `--refined=1`),
 has one more column, the options.
 
 Every run is one line of WORKDIR/results.tsv: seed, family, size, triangles, status (ok,
-refused, checker, crash, timeout), new quads per input triangle (counted before
-refinement on a refined run), worst and mean η, seconds, and the tool's last line. The
-summary at the end counts each status and lists the runs of 500 triangles or more above
-0.6 quads per triangle, the refusals and anything worse.
+refused, checker, crash, timeout; genfail where Gmsh could not mesh the part, e.g. made no
+surface element), new quads per input triangle (counted before refinement on a refined
+run), worst and mean η, seconds, and the tool's last line. The summary at the end counts
+each status and lists the runs of 500 triangles or more above 0.6 quads per triangle, the
+refusals and anything worse.
 Inputs are kept in WORKDIR (in-SEED.msh) and generated once, so a second tool can be run
 on the same parts. Needs the `gmsh` Python module (`source scripts/ensure_gmsh.sh`).
 """
@@ -122,6 +123,11 @@ def generate(seed, out):
     if rng.random() < 0.5:
         gmsh.model.addPhysicalGroup(2, [t for _, t in gmsh.model.getEntities(2)], name="skin")
     gmsh.model.mesh.generate(2)
+    # a part Gmsh failed to mesh (no surface element) is the generator's failure, not a
+    # refusal of the tool
+    if not any(len(tags) for tags in gmsh.model.mesh.getElements(2)[1]):
+        gmsh.finalize()
+        sys.exit(f"seed {seed}: Gmsh made no surface element ({FAMILIES[family]}, size {size})")
     gmsh.write(out)
     gmsh.finalize()
     print(f"{FAMILIES[family]} {size}")
