@@ -131,6 +131,13 @@
 //!    bound (an acute corner of a planar surface, which bounds the worst quad of every
 //!    result) gets no more tries.
 //!
+//! A job that could only be kept within a count of new quads per input triangle (a
+//! worst-quad try other than a ring, against the count it must keep; any job after the
+//! first, against the element-count rule, where the result it competes with is valid and
+//! within the rule) stops before a round whose split triangles alone would put it above
+//! that count (`fallback::splits_exceed`), and counts as refused: it could not have been
+//! kept.
+//!
 //! Quads still bad after the fallback are refused (or listed with
 //! [`Options::allow_invalid`]). A run whose quads are all valid the first time, with no
 //! quad under η [`PRICE_FLOOR`], pays only for the check.
@@ -163,7 +170,7 @@ use rounds::*;
 
 use fallback::{
     corner_bounds, count_rule_limit, fallback_triangles, low_quad_segments, low_quads, low_quads_eta, pairs_of, quads_per_triangle, quads_under, raisable,
-    surface_elements, surface_elements_where, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
+    splits_exceed, surface_elements, surface_elements_where, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
     LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE, PRICE_FLOOR, PRICE_TRY_UP_TO, RAISE_MIN,
 };
 pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_TRIES};
@@ -408,13 +415,14 @@ fn jobs<'a>(base: &'a Mesh, opts: &Options, traced: bool, cache: &mut Shared<'a>
     };
     // the rings counted per surface first; where that made a difference, the rings
     // counted over the job too, and the better of the two
-    let (local, diverged) = run_job(base, opts, from.clone(), cache);
+    let (local, diverged) = run_job(base, opts, from.clone(), None, cache);
     let result = if diverged {
         let start = FallbackStart {
             global_rings: true,
             ..from.clone()
         };
-        let (global, _) = run_job(base, opts, start, cache);
+        let cap = count_cap(base, opts, &local);
+        let (global, _) = run_job(base, opts, start, cap, cache);
         match (local, global) {
             (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
             (Ok(a), Err(_)) => Ok(a),
@@ -613,7 +621,8 @@ fn with_job<'a>(
         global_rings: result.as_ref().is_ok_and(|r| r.2.global_rings),
         ..start
     };
-    let (other, _) = run_job(base, opts, start, cache);
+    let cap = count_cap(base, opts, &result);
+    let (other, _) = run_job(base, opts, start, cap, cache);
     let other = match tries {
         true => other.and_then(|first| raise_worst_quad(base, opts, first, cache)),
         false => other,
@@ -621,14 +630,26 @@ fn with_job<'a>(
     keep_better(base, opts, result, other)
 }
 
+/// The most new quads per input triangle another job's result may have and still be the
+/// better one against `result` ([`better_job`]): where `result` is valid and within the
+/// element-count rule, the rule's limit; otherwise none.
+fn count_cap(base: &Mesh, opts: &Options, result: &JobResult) -> Option<f64> {
+    let r = result.as_ref().ok()?;
+    let (valid, within, _, _) = job_measures(base, opts, r);
+    (valid && within).then(|| count_rule_limit(surface_elements(base, etype::TRI3)))
+}
+
 /// One job's rounds from `start`; a job that split boundary segments under fans and still
 /// failed runs again without them (on strips that share curves, a segment split moves one
 /// strip's imbalance to the next). Returns the result and whether per-surface rings made a
-/// difference in either run ([`FallbackStart::global_rings`]).
+/// difference in either run ([`FallbackStart::global_rings`]). With `cap`, a job whose split
+/// triangles alone put it above `cap` new quads per input triangle stops there, refused
+/// ([`run_rounds`]).
 fn run_job<'a>(
     base: &'a Mesh,
     opts: &Options,
     start: FallbackStart,
+    cap: Option<f64>,
     cache: &mut Shared<'a>,
 ) -> (JobResult, bool) {
     let mut notes = JobNotes::default();
@@ -638,9 +659,11 @@ fn run_job<'a>(
         traced: start.traced,
         ..FallbackStart::default()
     };
-    let result = run_rounds(base, opts, start, cache, &mut notes).or_else(|e| match e {
-        Error::Invalid { .. } | Error::FallbackExhausted if notes.segments_used => {
-            run_rounds(base, opts, again, cache, &mut notes)
+    let result = run_rounds(base, opts, start, cap, cache, &mut notes).or_else(|e| match e {
+        Error::Invalid { .. } | Error::FallbackExhausted
+            if notes.segments_used && !notes.over_count =>
+        {
+            run_rounds(base, opts, again, cap, cache, &mut notes)
         }
         e => Err(e),
     });
@@ -1134,6 +1157,34 @@ mod tests {
         reports_of("geo/rectangle.msh", opts)
     }
 
+    /// The least count of [`splits_exceed`] holds on every result of the fallback: a job
+    /// that ends with `c` triangles split into three quads has at least half of
+    /// `3 c + (t - c) / 2` new quads (the optimizer removes far fewer), so a job stopped for
+    /// its splits could not have ended within the cap it broke.
+    #[test]
+    fn no_result_of_the_fallback_has_fewer_quads_than_its_splits_make_at_least() {
+        for path in [
+            "tests/data/cad/v41_coarse_torus.msh",
+            "tests/data/cad/v41_thin_pin_own_side.msh",
+            "tests/data/cad/v41_boolean_embedded_curve.msh",
+            "tests/data/cad/v22_boolean_close_curves.msh",
+        ] {
+            let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
+            let input = crate::msh::read_file(&path).expect("a mesh of the repository");
+            let mut mesh = input.clone();
+            let report = quadrangulate(&mut mesh, &Options::default()).expect("quadrangulate");
+            let split = report.fallback.as_ref().map_or(0, |f| f.triangles_to_quads);
+            assert!(split > 0, "{}: the fallback splits triangles", path.display());
+            let triangles = surface_elements(&input, etype::TRI3);
+            let per_triangle = quads_per_triangle(&input, &mesh, 0);
+            assert!(
+                !splits_exceed(triangles, split, per_triangle),
+                "{}: {split} of {triangles} triangles split, {per_triangle:.3} new quads per triangle",
+                path.display()
+            );
+        }
+    }
+
     /// Every report of one `quadrangulate` of the repository's file `path`.
     fn reports_of(path: &str, opts: Options) -> (Vec<Progress>, Report) {
         let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join(path);
@@ -1360,7 +1411,7 @@ mod tests {
         let mut notes = JobNotes::default();
         // a job whose first round has quads that are not valid keeps that round
         let mut shared = Shared::default();
-        let first = run_rounds(&input, &opts, FallbackStart::default(), &mut shared, &mut notes)
+        let first = run_rounds(&input, &opts, FallbackStart::default(), None, &mut shared, &mut notes)
             .expect("a valid result");
         assert!(first.1.rounds > 1, "{} round(s)", first.1.rounds);
         assert!(shared.first_round.is_some());
@@ -1370,11 +1421,11 @@ mod tests {
             splits_only: true,
             ..FallbackStart::default()
         };
-        let replayed = run_rounds(&input, &opts, start.clone(), &mut shared, &mut notes)
+        let replayed = run_rounds(&input, &opts, start.clone(), None, &mut shared, &mut notes)
             .expect("a valid result");
         let mut alone = Shared::default();
         let again =
-            run_rounds(&input, &opts, start, &mut alone, &mut notes).expect("a valid result");
+            run_rounds(&input, &opts, start, None, &mut alone, &mut notes).expect("a valid result");
         assert_eq!(replayed.0, again.0);
         assert_eq!(replayed.1.rounds, again.1.rounds);
         assert_eq!(replayed.2.chosen, again.2.chosen);

@@ -399,6 +399,28 @@ pub(super) struct JobNotes {
     pub(super) segments_used: bool,
     /// Per-surface rings differed from the job's count (see [`FallbackStart::global_rings`]).
     pub(super) rings_diverged: bool,
+    /// The job stopped before a round whose split triangles alone put every result above
+    /// the count its caller can use ([`splits_exceed`]).
+    pub(super) over_count: bool,
+}
+
+/// Share of a job's quads that the optimizer's topological operations (doublet collapses,
+/// quad-vertex merges) are taken to remove at most, in [`splits_exceed`]: a few percent on
+/// most meshes, at most about a fifth on the coarsest measured (BENCHMARKS.md,
+/// "Measurements behind the defaults").
+const REMOVED_SHARE_MAX: f64 = 0.5;
+
+/// True when splitting `chosen` input triangles into three quads each puts every result of
+/// a job above `cap` new quads per input triangle (the count [`quads_per_triangle`] takes):
+/// each split triangle gives three quads and each other triangle of the input's
+/// `triangles` lies in a quad of at most two triangles (its halves, where a neighbour's
+/// split halves it, in two such quads), so a result holds at least `3 c + (t - c) / 2` new
+/// quads before optimization, of which the optimizer removes at most
+/// [`REMOVED_SHARE_MAX`].
+pub(super) fn splits_exceed(triangles: usize, chosen: usize, cap: f64) -> bool {
+    let (t, c) = (triangles.max(1) as f64, chosen.min(triangles) as f64);
+    let least = 3.0 * c + 0.5 * (t - c);
+    (1.0 - REMOVED_SHARE_MAX) * least > cap * t
 }
 
 /// The element-count rule that the repair of the worst quad keeps, as the recombination's
@@ -1301,6 +1323,23 @@ mod tests {
             fan_segments(&m, &[bad([5, 6, 7, 2], 1)], &[(2, 3)]),
             vec![(1, 2)]
         );
+    }
+
+    #[test]
+    fn splits_exceed_a_cap_only_past_the_least_count_the_optimizer_may_lower() {
+        // 100 triangles, cap 0.6: at least 3 c + (100 - c) / 2 new quads, of which the
+        // optimizer may remove half: past the cap from 29 split triangles on
+        assert!(!splits_exceed(100, 0, 0.6));
+        assert!(!splits_exceed(100, 28, 0.6));
+        assert!(splits_exceed(100, 29, 0.6));
+        assert!(splits_exceed(100, 100, 0.6));
+        // a larger cap takes more splits; more split triangles than the input has count
+        // as all of them
+        assert!(!splits_exceed(100, 29, 0.75));
+        assert!(splits_exceed(100, 500, 1.4));
+        assert!(!splits_exceed(100, 500, 1.5));
+        // no triangle: no split exceeds anything
+        assert!(!splits_exceed(0, 0, 0.6));
     }
 
     #[test]

@@ -15,10 +15,14 @@ pub(super) fn moved_any(input: &Mesh, output: &Mesh, tags: &[u64]) -> bool {
 
 /// The rounds of one job on `input` (see the module doc), starting from `start`'s priced-out
 /// quads and split triangles; returns the result with the fallback's state at its end.
+/// With `cap`, the job stops before a round whose split triangles alone put its result
+/// above `cap` new quads per input triangle ([`splits_exceed`]), which its caller would not
+/// keep: an [`Error::FallbackExhausted`] with [`JobNotes::over_count`] set.
 pub(super) fn run_rounds<'a>(
     input: &'a Mesh,
     opts: &Options,
     start: FallbackStart,
+    cap: Option<f64>,
     cache: &mut Shared<'a>,
     notes: &mut JobNotes,
 ) -> Result<(Mesh, Report, FallbackStart), Error> {
@@ -70,7 +74,15 @@ pub(super) fn run_rounds<'a>(
     // without optimization: the last round's mesh before optimization, when the next round
     // only optimizes more surfaces of the same recombination
     let mut carried: Option<Recombined> = None;
+    // speed: the input's triangles, for the cap on the job's splits
+    let triangles = cap.map(|_| surface_elements(input, etype::TRI3));
     for round in 0..=FALLBACK_ROUNDS {
+        if let (Some(cap), Some(t)) = (cap, triangles) {
+            if splits_exceed(t, chosen.len(), cap) {
+                notes.over_count = true;
+                return Err(Error::FallbackExhausted);
+            }
+        }
         let optimizing = opts.optimize || !force.is_empty();
         // speed: a first round from nothing is the one an earlier job of the run had
         let replay = (round == 0 && from_nothing)
@@ -648,6 +660,16 @@ pub(super) fn raise_worst_quad<'a>(
     let skip = unmeasured_surfaces(input, opts);
     let (mut low, mut worst) = low_quads(&best.0, &skip);
     let triangles = surface_elements(input, etype::TRI3);
+    // the new quads per input triangle a try may end with, against the kept result's
+    // `before`: a result above the element-count rule already, or of a small mesh (where
+    // the rule does not apply), may grow by a quarter
+    let count_limit = |before: f64| {
+        if before > MAX_QUADS_PER_TRIANGLE || triangles < COUNT_RULE_FROM {
+            1.25 * before.max(MAX_QUADS_PER_TRIANGLE)
+        } else {
+            MAX_QUADS_PER_TRIANGLE
+        }
+    };
     // whether the last ring try was kept, and whether one raised the worst quad but broke
     // the element-count rule
     let mut split_kept = false;
@@ -747,8 +769,18 @@ pub(super) fn raise_worst_quad<'a>(
             break;
         }
         split_kept = false;
-        let Ok(candidate) = run_rounds(input, opts, start, cache, &mut JobNotes::default()) else {
-            best.1.log.push(format!("worst quad: {what}: not kept (refused)"));
+        // speed: a try that adds no ring stops as soon as its splits alone break the rule
+        // it must keep (a ring try runs to its end: whether it raised the worst quad
+        // decides the last try)
+        let cap = (!ring_try).then(|| count_limit(quads_per_triangle(input, &best.0, opts.refine)));
+        let mut notes = JobNotes::default();
+        let Ok(candidate) = run_rounds(input, opts, start, cap, cache, &mut notes) else {
+            let why = if notes.over_count {
+                "its splits alone break the element-count rule"
+            } else {
+                "refused"
+            };
+            best.1.log.push(format!("worst quad: {what}: not kept ({why})"));
             continue;
         };
         if !candidate.1.invalid.is_empty() {
@@ -757,14 +789,7 @@ pub(super) fn raise_worst_quad<'a>(
             continue;
         }
         let (_, new_worst) = low_quads(&candidate.0, &skip);
-        // a result above the element-count rule already, or of a small mesh (where the
-        // rule does not apply), may grow by a quarter
-        let before = quads_per_triangle(input, &best.0, opts.refine);
-        let limit = if before > MAX_QUADS_PER_TRIANGLE || triangles < COUNT_RULE_FROM {
-            1.25 * before.max(MAX_QUADS_PER_TRIANGLE)
-        } else {
-            MAX_QUADS_PER_TRIANGLE
-        };
+        let limit = count_limit(quads_per_triangle(input, &best.0, opts.refine));
         let raised = new_worst > worst + RAISE_MIN;
         let within = quads_per_triangle(input, &candidate.0, opts.refine) <= limit;
         ring_over_count |= raised && !within && ring_try;
