@@ -66,35 +66,17 @@ pub(super) enum Next {
 /// matching and the rounds spent.
 #[derive(Default)]
 pub(super) struct LocalFallback {
-    /// Quads priced out: surface and sorted node tags.
-    pub(super) priced: Vec<(i32, [u64; 4])>,
-    /// Boundary segments the parity repair avoids (node tags).
-    pub(super) avoid: Vec<(u64, u64)>,
-    /// Merged halves of split triangles priced out
-    /// ([`crate::recombine::RecombineOptions::flat_halves_out`]).
-    pub(super) flat_halves_out: bool,
-    /// Surfaces (sorted tags) whose pairs with a hopeless corner at a wall node are priced
-    /// out ([`crate::recombine::RecombineOptions::hopeless_out`]).
-    pub(super) hopeless_out: Vec<i32>,
-    /// Price out such pairs on the surfaces of the bad quads in a pricing round (the job's
-    /// start said so).
-    pub(super) hopeless: bool,
-    /// Boundary segments split at their midpoints (node tags).
-    pub(super) segments: Vec<(u64, u64)>,
-    /// No segment splits (the job's start said so).
-    pub(super) no_segments: bool,
-    /// Radial edges of boundary fans peeled ([`fan_radials`]).
-    pub(super) peels: Vec<(u64, u64)>,
-    /// Peel the fans of bad quads before any split (the job's start said so).
-    pub(super) peel_fans: bool,
+    /// What the job started from, with what its rounds have added since (quads priced out,
+    /// segments avoided and split, fans peeled, flat pairs, surfaces located); the rounds keep
+    /// its split triangles (`chosen`) and `splits_only` themselves.
+    pub(super) state: FallbackStart,
+    /// Rounds spent peeling fans, pricing, splitting segments and splitting triangles.
     pub(super) peel_rounds: usize,
     pub(super) pricing_rounds: usize,
     pub(super) segment_rounds: usize,
     pub(super) split_rounds: usize,
     /// Rings split so far around the bad quads of each surface.
     pub(super) rings: BTreeMap<i32, usize>,
-    /// The rings are counted over the job, not per surface (see [`FallbackStart`]).
-    pub(super) global_rings: bool,
     /// A split round's rings differed from the job's count on some surface (per-surface
     /// rings only).
     pub(super) diverged: bool,
@@ -102,21 +84,6 @@ pub(super) struct LocalFallback {
     /// would break it, so it holds only the triangles of the bad pairs, and a bad corner
     /// at a split node gets merged halves priced out before another ring.
     pub(super) tight: bool,
-    /// Flat pairs split into three quads ([`recombine::FlatPair`]), with their surfaces: at
-    /// the first ring, a bad pair whose bad corner is at an end of its diagonal, with
-    /// [`LocalFallback::flat_pairs`].
-    pub(super) pairs: Vec<(i32, recombine::FlatPair)>,
-    /// Split bad pairs as flat pairs at the first ring.
-    pub(super) flat_pairs: bool,
-    /// How the rounds judge quads bent across a sharp turn ([`FallbackStart::bent`]).
-    pub(super) bent: crate::validity::Bent,
-    /// Bad quads traced back to the recombination's ([`FallbackStart::traced`]).
-    pub(super) traced: bool,
-    /// Surfaces (sorted tags) where the optimizer holds the corners at the job's new nodes
-    /// to the faces the validity gate measures them about
-    /// ([`crate::optimize::OptimizeOptions::located_surfaces`]): it turned a quad bad at
-    /// such a node there in an earlier round.
-    pub(super) located: Vec<i32>,
 }
 
 impl LocalFallback {
@@ -124,23 +91,9 @@ impl LocalFallback {
     /// job started): what another job of the same input starts from.
     pub(super) fn finish(self, chosen: HashSet<u64>, splits_only: bool) -> FallbackStart {
         FallbackStart {
-            priced: self.priced,
-            avoid: self.avoid,
-            flat_halves_out: self.flat_halves_out,
-            hopeless_out: self.hopeless_out,
-            hopeless: self.hopeless,
-            segments: self.segments,
-            no_segments: self.no_segments,
-            peels: self.peels,
-            peel_fans: self.peel_fans,
-            located: self.located,
             chosen,
             splits_only,
-            global_rings: self.global_rings,
-            pairs: self.pairs,
-            flat_pairs: self.flat_pairs,
-            bent: self.bent,
-            traced: self.traced,
+            ..self.state
         }
     }
 
@@ -151,7 +104,7 @@ impl LocalFallback {
         }
         self.segment_rounds += 1;
         let count = new.len();
-        self.segments.extend(new);
+        self.state.segments.extend(new);
         Some(Next::Segments(count))
     }
 
@@ -168,54 +121,54 @@ impl LocalFallback {
     ) -> Next {
         let spots: Vec<(i32, [u64; 4])> = bad.iter().map(|b| (b.surface, b.nodes)).collect();
         if self.pricing_rounds < PRICING_ROUNDS {
-            let new = pairs_of(input, &spots, &self.priced);
+            let new = pairs_of(input, &spots, &self.state.priced);
             // the parity splits whose node is a corner of a bad quad
             let mut segments: Vec<(u64, u64)> = splits
                 .iter()
                 .filter(|s| bad.iter().any(|b| b.nodes.contains(&s.new_node)))
                 .map(|s| s.segment)
-                .filter(|s| !self.avoid.contains(s))
+                .filter(|s| !self.state.avoid.contains(s))
                 .collect();
             segments.sort_unstable();
             segments.dedup();
             if !segments.is_empty() {
-                self.flat_halves_out = true;
+                self.state.flat_halves_out = true;
             }
             // the surfaces of the bad quads: every pair with a hopeless corner at a wall
             // node priced out there too (pricing the bad pairs alone moves a flat corner
             // that the surface's structure forces to the next such pair)
-            let before = self.hopeless_out.len();
-            if self.hopeless {
-                self.hopeless_out.extend(spots.iter().map(|s| s.0));
+            let before = self.state.hopeless_out.len();
+            if self.state.hopeless {
+                self.state.hopeless_out.extend(spots.iter().map(|s| s.0));
             }
-            self.hopeless_out.sort_unstable();
-            self.hopeless_out.dedup();
-            let surfaces = self.hopeless_out.len() - before;
+            self.state.hopeless_out.sort_unstable();
+            self.state.hopeless_out.dedup();
+            let surfaces = self.state.hopeless_out.len() - before;
             if !new.is_empty() || !segments.is_empty() || surfaces > 0 {
                 self.pricing_rounds += 1;
                 let count = (new.len(), segments.len());
-                self.priced.extend(new);
-                self.avoid.extend(segments);
+                self.state.priced.extend(new);
+                self.state.avoid.extend(segments);
                 return Next::Price(count.0, count.1);
             }
         }
         if self.segment_rounds < SEGMENT_ROUNDS && self.split_rounds == 0 {
-            if let Some(next) = self.split_segments(fan_segments(input, bad, &self.segments)) {
+            if let Some(next) = self.split_segments(fan_segments(input, bad, &self.state.segments)) {
                 return next;
             }
         }
-        if self.peel_fans && self.peel_rounds < PEEL_ROUNDS && self.split_rounds == 0 {
-            let new = fan_radials(input, bad, &self.peels);
+        if self.state.peel_fans && self.peel_rounds < PEEL_ROUNDS && self.split_rounds == 0 {
+            let new = fan_radials(input, bad, &self.state.peels);
             if !new.is_empty() {
                 self.peel_rounds += 1;
                 let count = new.len();
-                self.peels.extend(new);
+                self.state.peels.extend(new);
                 return Next::Peel(count);
             }
         }
         // no fan left to split under or peel: the segments opposite flat wall corners
         if self.segment_rounds < SEGMENT_ROUNDS && self.split_rounds == 0 {
-            let new = wall_corner_segments(input, bad, &self.segments);
+            let new = wall_corner_segments(input, bad, &self.state.segments);
             if let Some(next) = self.split_segments(new) {
                 return next;
             }
@@ -227,12 +180,12 @@ impl LocalFallback {
             .iter()
             .filter(|b| b.node() > input.max_node_tag())
             .count();
-        if self.tight && !self.flat_halves_out && at_split > 0 {
-            self.flat_halves_out = true;
+        if self.tight && !self.state.flat_halves_out && at_split > 0 {
+            self.state.flat_halves_out = true;
             return Next::HalvesOut(at_split);
         }
         self.split_rounds += 1;
-        let pairs_before = self.pairs.len();
+        let pairs_before = self.state.pairs.len();
         // each surface's ring: one more than it had
         let mut surfaces: Vec<i32> = spots.iter().map(|s| s.0).collect();
         surfaces.sort_unstable();
@@ -241,10 +194,10 @@ impl LocalFallback {
             *self.rings.entry(s).or_default() += 1;
         }
         let rounds = self.split_rounds;
-        if !self.global_rings && surfaces.iter().any(|s| self.rings.get(s) != Some(&rounds)) {
+        if !self.state.global_rings && surfaces.iter().any(|s| self.rings.get(s) != Some(&rounds)) {
             self.diverged = true;
         }
-        let ring_of = |s: i32| match self.global_rings {
+        let ring_of = |s: i32| match self.state.global_rings {
             true => rounds,
             false => self.rings.get(&s).copied().unwrap_or(1),
         };
@@ -262,13 +215,13 @@ impl LocalFallback {
             .collect();
         let mut out = HashSet::new();
         if !last.is_empty() {
-            self.segments.clear();
+            self.state.segments.clear();
             out.extend(surface_triangles(input, &last, chosen));
         }
         let mut first = at_ring(1);
         // a bad pair flat or reflex at an end of its diagonal: split as a flat pair, which
         // leaves the edges at that node whole
-        if self.flat_pairs && !first.is_empty() {
+        if self.state.flat_pairs && !first.is_empty() {
             let on: HashSet<i32> = first.iter().map(|s| s.0).collect();
             let triangles = SurfaceTriangles::of(input, &on);
             for b in bad.iter().filter(|b| {
@@ -280,14 +233,14 @@ impl LocalFallback {
                 if chosen.contains(&t) || chosen.contains(&u) {
                     continue;
                 }
-                if self.pairs.iter().any(|(_, p)| p.triangles.contains(&t) || p.triangles.contains(&u)) {
+                if self.state.pairs.iter().any(|(_, p)| p.triangles.contains(&t) || p.triangles.contains(&u)) {
                     continue;
                 }
                 let pair = recombine::FlatPair {
                     triangles: [t, u],
                     node: b.node(),
                 };
-                self.pairs.push((b.surface, pair));
+                self.state.pairs.push((b.surface, pair));
                 first.retain(|s| s != &(b.surface, b.nodes));
             }
         }
@@ -297,7 +250,7 @@ impl LocalFallback {
             .filter(|s| ring_of(s.0) >= 2)
             .map(|s| s.0)
             .collect();
-        self.pairs.retain(|(s, p)| {
+        self.state.pairs.retain(|(s, p)| {
             let ours = later.contains(s);
             if ours {
                 out.extend(p.triangles);
@@ -319,9 +272,9 @@ impl LocalFallback {
                 out.extend(fallback_triangles(input, mesh, &spots, chosen, r, self.tight));
             }
         }
-        if out.is_empty() && self.pairs.len() == pairs_before && last.len() < spots.len() {
+        if out.is_empty() && self.state.pairs.len() == pairs_before && last.len() < spots.len() {
             // nothing new within the rings: the last resort at once
-            self.segments.clear();
+            self.state.segments.clear();
             out = surface_triangles(input, &spots, chosen);
         }
         Next::Split(out)
@@ -344,6 +297,7 @@ pub(super) fn breaks_count_rule(input: &Mesh, mesh: &Mesh, more: usize) -> bool 
 /// of the matching (sorted node tags, sorted) and the input triangles split into quads.
 #[derive(Debug, Clone, Default)]
 pub(super) struct FallbackStart {
+    /// Quads priced out of the matching: surface and sorted node tags.
     pub(super) priced: Vec<(i32, [u64; 4])>,
     /// Boundary segments the parity repair avoids (node tags).
     pub(super) avoid: Vec<(u64, u64)>,
@@ -366,6 +320,7 @@ pub(super) struct FallbackStart {
     /// Surfaces where the optimizer's corners at new nodes are held to the faces they lie
     /// on.
     pub(super) located: Vec<i32>,
+    /// Input triangles split into three quads each (element tags).
     pub(super) chosen: HashSet<u64>,
     /// Split only, never price (the fallback of the other result that
     /// [`super::raise_worst_quad`] tries).
@@ -1503,8 +1458,11 @@ mod tests {
             split_rounds: SPLIT_RINGS,
             rings: BTreeMap::from([(1, SPLIT_RINGS)]),
             tight: true,
-            flat_halves_out: true,
-            global_rings,
+            state: FallbackStart {
+                flat_halves_out: true,
+                global_rings,
+                ..Default::default()
+            },
             ..Default::default()
         };
         let mut quad = bad([5, 6, 7, 10], 1);
@@ -1539,7 +1497,10 @@ mod tests {
         let state = LocalFallback {
             pricing_rounds: PRICING_ROUNDS,
             segment_rounds: SEGMENT_ROUNDS,
-            flat_pairs: true,
+            state: FallbackStart {
+                flat_pairs: true,
+                ..Default::default()
+            },
             ..Default::default()
         };
         let mut f = state;
@@ -1551,7 +1512,7 @@ mod tests {
             _ => panic!("a split round expected"),
         }
         assert_eq!(
-            f.pairs,
+            f.state.pairs,
             vec![(
                 1,
                 recombine::FlatPair {
@@ -1566,20 +1527,23 @@ mod tests {
             Next::Split(t) => assert_eq!(t, (1..=6).collect::<HashSet<u64>>()),
             _ => panic!("a split round expected"),
         }
-        assert!(f.pairs.is_empty());
+        assert!(f.state.pairs.is_empty());
         // flat at node 5, not an end of the diagonal 2-6: the pair's own triangles (tight)
         let mut f = LocalFallback {
             pricing_rounds: PRICING_ROUNDS,
             segment_rounds: SEGMENT_ROUNDS,
-            flat_pairs: true,
             tight: true,
+            state: FallbackStart {
+                flat_pairs: true,
+                ..Default::default()
+            },
             ..Default::default()
         };
         match f.next(&m, &m, &[bad([5, 6, 7, 2], 0)], &none, &[]) {
             Next::Split(t) => assert_eq!(t, HashSet::from([3, 4])),
             _ => panic!("a split round expected"),
         }
-        assert!(f.pairs.is_empty());
+        assert!(f.state.pairs.is_empty());
     }
 
     #[test]

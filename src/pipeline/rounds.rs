@@ -40,30 +40,17 @@ pub(super) fn run_rounds<'a>(
         && start.chosen.is_empty()
         && start.pairs.is_empty()
         && start.bent == crate::validity::Bent::Refused;
-    let mut chosen: HashSet<u64> = start.chosen;
+    let mut start = start;
+    let mut chosen: HashSet<u64> = std::mem::take(&mut start.chosen);
     let splits_only = start.splits_only;
     let mut local = LocalFallback {
-        priced: start.priced,
-        avoid: start.avoid,
-        flat_halves_out: start.flat_halves_out,
-        hopeless_out: start.hopeless_out,
-        hopeless: start.hopeless,
-        segments: start.segments,
         pricing_rounds: if splits_only { PRICING_ROUNDS } else { 0 },
         segment_rounds: if splits_only || start.no_segments {
             SEGMENT_ROUNDS
         } else {
             0
         },
-        no_segments: start.no_segments,
-        peels: start.peels,
-        peel_fans: start.peel_fans,
-        located: start.located,
-        global_rings: start.global_rings,
-        pairs: start.pairs,
-        flat_pairs: start.flat_pairs,
-        bent: start.bent,
-        traced: start.traced,
+        state: start,
         ..Default::default()
     };
     let mut fallback = None;
@@ -128,7 +115,7 @@ pub(super) fn run_rounds<'a>(
         }
         report.log.splice(0..0, log.iter().cloned());
         report.fallback = fallback.clone();
-        report.priced_out = local.priced.len();
+        report.priced_out = local.state.priced.len();
         report.rounds = round + 1;
         if bad.is_empty() {
             // the nodes of walled-off folds bound walls: a result that moved one (the
@@ -153,13 +140,13 @@ pub(super) fn run_rounds<'a>(
         ));
         if !turned_bad.is_empty() {
             let count = turned_bad.len();
-            local.located.extend(turned_bad);
-            local.located.sort_unstable();
-            local.located.dedup();
+            local.state.located.extend(turned_bad);
+            local.state.located.sort_unstable();
+            local.state.located.dedup();
             log.push(format!(
                 "fallback round {}: the optimizer turned {count} quad(s) at new nodes bad: it now holds their corners to the faces they lie on (surface(s) {})",
                 round + 1,
-                sorted_list(&local.located)
+                sorted_list(&local.state.located)
             ));
         }
         if !opts.optimize && round < FALLBACK_ROUNDS {
@@ -181,12 +168,12 @@ pub(super) fn run_rounds<'a>(
                 continue;
             }
         }
-        let pairs_before = local.pairs.len();
+        let pairs_before = local.state.pairs.len();
         let next = if round == FALLBACK_ROUNDS {
             Next::GiveUp
         } else {
             // a refined round's bad quads as the recombination's quads they came from
-            let traced = refined.as_ref().filter(|_| local.traced);
+            let traced = refined.as_ref().filter(|_| local.state.traced);
             let recombination = traced.map(Refinement::recombination);
             let parents = traced.map(|r| parents_of(r, &bad));
             local.next(
@@ -207,10 +194,10 @@ pub(super) fn run_rounds<'a>(
                 if segments > 0 {
                     line += &format!(", {segments} parity split segment(s) avoided");
                 }
-                if !local.hopeless_out.is_empty() {
+                if !local.state.hopeless_out.is_empty() {
                     line += &format!(
                         ", and every pair with a corner near 180 or 0 degrees at a wall node on surface(s) {}",
-                        sorted_list(&local.hopeless_out)
+                        sorted_list(&local.state.hopeless_out)
                     );
                 }
                 log.push(line);
@@ -240,7 +227,7 @@ pub(super) fn run_rounds<'a>(
             }
             Next::Split(more) => {
                 notes.rings_diverged |= local.diverged;
-                if more.is_empty() && local.pairs.len() > pairs_before {
+                if more.is_empty() && local.state.pairs.len() > pairs_before {
                     continue;
                 }
                 more
@@ -314,14 +301,14 @@ fn one_round<'a>(
             let mut mesh = input.clone();
             let mut movable = Vec::new();
             if !chosen.is_empty()
-                || !local.segments.is_empty()
-                || !local.pairs.is_empty()
-                || !local.peels.is_empty()
+                || !local.state.segments.is_empty()
+                || !local.state.pairs.is_empty()
+                || !local.state.peels.is_empty()
             {
                 let t = Instant::now();
-                let pairs: Vec<recombine::FlatPair> = local.pairs.iter().map(|p| p.1).collect();
+                let pairs: Vec<recombine::FlatPair> = local.state.pairs.iter().map(|p| p.1).collect();
                 let split =
-                    recombine::split_triangles(&mut mesh, chosen, &pairs, &local.segments, &local.peels);
+                    recombine::split_triangles(&mut mesh, chosen, &pairs, &local.state.segments, &local.state.peels);
                 let mut line = format!("fallback round {round}: ");
                 if split.segments_split > 0 {
                     line += &format!(
@@ -361,10 +348,10 @@ fn one_round<'a>(
                 input,
                 mesh,
                 opts,
-                &local.priced.iter().map(|p| p.1).collect::<Vec<_>>(),
-                &local.avoid,
-                local.flat_halves_out,
-                &local.hopeless_out,
+                &local.state.priced.iter().map(|p| p.1).collect::<Vec<_>>(),
+                &local.state.avoid,
+                local.state.flat_halves_out,
+                &local.state.hopeless_out,
                 &movable,
                 optimizing,
                 &mut cache.checks,
@@ -390,7 +377,7 @@ fn one_round<'a>(
         && (round > 0 || !cache.surfaces.is_empty() || mesh.element_count() <= REUSE_UP_TO))
         .then(|| {
             Fingerprints::of(&mesh, input_tags.0, input_tags.1)
-                .with_variant(1, |s| local.located.binary_search(&s).is_ok())
+                .with_variant(1, |s| local.state.located.binary_search(&s).is_ok())
         });
     let reused = match &fingerprints {
         Some(fp) => cache.surfaces.put_back(&mut mesh, fp),
@@ -410,7 +397,7 @@ fn one_round<'a>(
         opts,
         force,
         &reused,
-        &local.located,
+        &local.state.located,
         prepared,
         &mut cache.checks,
         times,
@@ -435,7 +422,7 @@ fn one_round<'a>(
     let coords = TagCoords::new(&mesh);
     // speed: a surface given back as an earlier job left it, where it passed the validity
     // check in an output of the same check key, passes it again (`SurfaceCache::passed`)
-    let bent = local.bent;
+    let bent = local.state.bent;
     let key = crate::validity::check_key(&mesh, bent);
     let passed = match &fingerprints {
         Some(fp) => cache.surfaces.passed(fp, &reused, key),
@@ -476,7 +463,7 @@ fn one_round<'a>(
         let is = TagCoords::new(&mesh);
         turned_bad = bad
             .iter()
-            .filter(|b| local.located.binary_search(&b.surface).is_err())
+            .filter(|b| local.state.located.binary_search(&b.surface).is_err())
             .filter(|b| {
                 let n = b.node();
                 (n > input_tags.0 && was.get(n) != is.get(n))
