@@ -171,7 +171,7 @@ use rounds::*;
 use fallback::{
     corner_bounds, count_rule_limit, fallback_triangles, low_quad_segments, low_quads, low_quads_eta, pairs_of, quads_per_triangle, quads_under, raisable,
     splits_exceed, surface_elements, surface_elements_where, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
-    LocalFallback, Next, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE, PRICE_FLOOR, PRICE_TRY_UP_TO, RAISE_MIN,
+    LocalFallback, Next, MAX_QUADS_PER_TRIANGLE, PRICE_FLOOR, PRICE_TRY_UP_TO, RAISE_MIN,
 };
 pub use fallback::{ETA_FLOOR, PRICING_ROUNDS, SEGMENT_ROUNDS, SPLIT_TRIES};
 #[cfg(feature = "testing")]
@@ -635,7 +635,7 @@ fn with_job<'a>(
 /// element-count rule, the rule's limit; otherwise none.
 fn count_cap(base: &Mesh, opts: &Options, result: &JobResult) -> Option<f64> {
     let r = result.as_ref().ok()?;
-    let (valid, within, _, _) = job_measures(base, opts, r);
+    let (valid, within, _) = count_measures(base, opts, r);
     (valid && within).then(|| count_rule_limit(surface_elements(base, etype::TRI3)))
 }
 
@@ -702,14 +702,25 @@ fn job_measures(
     opts: &Options,
     r: &(Mesh, Report, FallbackStart),
 ) -> (bool, bool, f64, f64) {
-    let limit = count_rule_limit(surface_elements(input, etype::TRI3));
-    let per_triangle = quads_per_triangle(input, &r.0, opts.refine);
+    let (valid, within, per_triangle) = count_measures(input, opts, r);
     (
-        r.1.invalid.is_empty(),
-        per_triangle <= limit,
+        valid,
+        within,
         low_quads(&r.0, &unmeasured_surfaces(input, opts)).1,
         per_triangle,
     )
+}
+
+/// The measures of [`job_measures`] that need no quality pass: no quad listed as invalid,
+/// within the element-count rule, and the new quads per input triangle.
+fn count_measures(
+    input: &Mesh,
+    opts: &Options,
+    r: &(Mesh, Report, FallbackStart),
+) -> (bool, bool, f64) {
+    let limit = count_rule_limit(surface_elements(input, etype::TRI3));
+    let per_triangle = quads_per_triangle(input, &r.0, opts.refine);
+    (r.1.invalid.is_empty(), per_triangle <= limit, per_triangle)
 }
 
 /// New quads per input triangle, as a share of the other result's, at or below which a

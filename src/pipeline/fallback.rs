@@ -283,9 +283,10 @@ impl LocalFallback {
 
 /// True when splitting `more` input triangles of `input` into three quads each, on top of
 /// `mesh` (a round's recombination), would take the new quads per input triangle above the
-/// element-count rule: [`MAX_QUADS_PER_TRIANGLE`] from [`COUNT_RULE_FROM`] triangles, a
-/// quarter more below (a split triangle makes three quads where a pair made one between
-/// two triangles: 2.5 more quads each, its halved neighbours not counted).
+/// element-count rule: [`MAX_QUADS_PER_TRIANGLE`] from
+/// [`COUNT_RULE_FROM`](crate::recombine::COUNT_RULE_FROM) triangles, a quarter more below
+/// (a split triangle makes three quads where a pair made one between two triangles: 2.5
+/// more quads each, its halved neighbours not counted).
 pub(super) fn breaks_count_rule(input: &Mesh, mesh: &Mesh, more: usize) -> bool {
     let triangles = surface_elements(input, etype::TRI3);
     let limit = count_rule_limit(triangles);
@@ -380,7 +381,7 @@ pub(super) fn splits_exceed(triangles: usize, chosen: usize, cap: f64) -> bool {
 
 /// The element-count rule that the repair of the worst quad keeps, as the recombination's
 /// strips do.
-pub(super) use crate::recombine::{count_rule_limit, COUNT_RULE_FROM, MAX_QUADS_PER_TRIANGLE};
+pub(super) use crate::recombine::{count_rule_limit, MAX_QUADS_PER_TRIANGLE};
 
 /// The quads of `mesh`'s surfaces with η below [`ETA_FLOOR`], as (surface, node tags), and
 /// the worst η of those quads; surfaces in `skip` (sorted: those the input meshed with quads

@@ -608,8 +608,8 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 /// After the fallback, with optimization, other results that may have a better worst
 /// quad, each a new job kept only when it is valid, raises the worst quad's η and keeps the
 /// new quads per input triangle at most [`MAX_QUADS_PER_TRIANGLE`] (a result above it
-/// already, or a mesh of fewer than [`COUNT_RULE_FROM`] triangles: at most a quarter more
-/// than the larger of the two):
+/// already, or a mesh of fewer than [`COUNT_RULE_FROM`](crate::recombine::COUNT_RULE_FROM)
+/// triangles: at most a quarter more than the larger of the two):
 /// 1. when the fallback priced quads out, the fallback with splits only (triangles split
 ///    into quads around a bad quad may give better quads than the matching's way around
 ///    it);
@@ -648,13 +648,13 @@ pub(super) fn raise_worst_quad<'a>(
     let (mut low, mut worst) = low_quads(&best.0, &skip);
     let triangles = surface_elements(input, etype::TRI3);
     // the new quads per input triangle a try may end with, against the kept result's
-    // `before`: a result above the element-count rule already, or of a small mesh (where
-    // the rule does not apply), may grow by a quarter
+    // `before`: the element-count rule (a quarter more on a small mesh), or a quarter more
+    // than a result above the rule already
     let count_limit = |before: f64| {
-        if before > MAX_QUADS_PER_TRIANGLE || triangles < COUNT_RULE_FROM {
-            1.25 * before.max(MAX_QUADS_PER_TRIANGLE)
+        if before > MAX_QUADS_PER_TRIANGLE {
+            1.25 * before
         } else {
-            MAX_QUADS_PER_TRIANGLE
+            count_rule_limit(triangles)
         }
     };
     // whether the last ring try was kept, and whether one raised the worst quad but broke
@@ -756,10 +756,11 @@ pub(super) fn raise_worst_quad<'a>(
             break;
         }
         split_kept = false;
+        let limit = count_limit(quads_per_triangle(input, &best.0, opts.refine));
         // speed: a try that adds no ring stops as soon as its splits alone break the rule
         // it must keep (a ring try runs to its end: whether it raised the worst quad
         // decides the last try)
-        let cap = (!ring_try).then(|| count_limit(quads_per_triangle(input, &best.0, opts.refine)));
+        let cap = (!ring_try).then_some(limit);
         let mut notes = JobNotes::default();
         let Ok(candidate) = run_rounds(input, opts, start, cap, cache, &mut notes) else {
             let why = if notes.over_count {
@@ -776,7 +777,6 @@ pub(super) fn raise_worst_quad<'a>(
             continue;
         }
         let (_, new_worst) = low_quads(&candidate.0, &skip);
-        let limit = count_limit(quads_per_triangle(input, &best.0, opts.refine));
         let raised = new_worst > worst + RAISE_MIN;
         let within = quads_per_triangle(input, &candidate.0, opts.refine) <= limit;
         ring_over_count |= raised && !within && ring_try;
