@@ -830,6 +830,10 @@ struct Shared<'a> {
     /// located), once one ended with quads that are not valid: every such round of the run
     /// has this outcome.
     first_round: Option<Outcome>,
+    /// The worst quad η after the first schedules of the run's first optimization
+    /// ([`optimize::OptimizeReport::trial_worst`]), which every later one is given: a
+    /// surface optimized from the same quads ends the same in every job.
+    trial_worst: Option<f64>,
 }
 
 /// A round's outcome, as the rest of its job reads it.
@@ -1052,7 +1056,7 @@ fn optimize_once<'a>(
     reused: &[i32],
     located: &[i32],
     prepared: Option<optimize::PreparedReference>,
-    checks: &mut Option<Checks<'a>>,
+    (checks, trial_worst): (&mut Option<Checks<'a>>, &mut Option<f64>),
     times: &mut Times,
     report: &mut Report,
 ) -> Result<(), Error> {
@@ -1079,6 +1083,7 @@ fn optimize_once<'a>(
         oopts.progress = Some(&cb);
     }
     oopts.trace = opts.trace.as_ref();
+    oopts.trial_worst = *trial_worst;
     let prepared = prepared.unwrap_or_else(|| optimize::PreparedReference::new(input));
     // periodic slaves are not optimized: each becomes the image of its optimized master
     // below
@@ -1120,6 +1125,9 @@ fn optimize_once<'a>(
         None => {}
     }
     let orep = orep?;
+    if trial_worst.is_none() {
+        *trial_worst = orep.trial_worst;
+    }
     recombine::map_periodic_slaves(mesh)?;
     for s in &orep.surfaces {
         report.log.push(format!(

@@ -15,7 +15,10 @@
 //! This is exact, not an approximation: the optimizer of a surface reads only that
 //! surface's quads, the nodes they use, the input (its reference) and its options, in block
 //! order, and moves only the nodes that no other element uses; so the same recombined
-//! surface gives the same optimized surface. A surface is kept only when its node blocks
+//! surface gives the same optimized surface. Its options include the mesh's worst quad
+//! after the first schedules (`OptimizeOptions::trial_worst`, which decides whether a small
+//! planar surface tries three schedules): the pipeline measures it in the run's first
+//! optimization and gives that value to every later one. A surface is kept only when its node blocks
 //! hold no node that another entity's elements use and its quads use no node of another
 //! surface's node block, so that putting back its node blocks and quad blocks changes
 //! nothing else; except a node that the quads of both surfaces use (a fallback split's node

@@ -702,6 +702,20 @@ pub(crate) mod tests {
         (flat, l)
     }
 
+    /// The Delaunay square `synth::delaunay_square(n, 1.0, 0.3, seed)` optimally paired, as
+    /// a [`Local`] whose sizes come from its quads' own edges (as for a surface without
+    /// reference triangles); `None` when its triangles have no perfect matching.
+    pub(crate) fn square_local(n: usize, seed: u64) -> Option<Local> {
+        use crate::optimize::synth;
+        let quads = synth::pair_optimal(&synth::delaunay_square(n, 1.0, 0.3, seed))?;
+        let (_, mut l) = local_of(&synth::to_mesh(&quads));
+        l.h = crate::quality::size::mean_incident_edge_length(
+            &l.pos,
+            l.quads.iter().map(|q| &q[..]),
+        );
+        Some(l)
+    }
+
     /// Total defect energy E (see the module docs) of `l`.
     pub(crate) fn energy(l: &mut Local) -> i32 {
         let t = Topo::new(l);

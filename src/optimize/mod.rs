@@ -36,11 +36,18 @@
 //! and only the kept one runs the pattern and mean-η sweeps; the one with the conformal
 //! solve after each round starts from the plain one's first pass and smoothing, which are
 //! the same); other such surfaces run one of them, chosen by their mean η after the first
-//! smoothing. Only the surfaces that may try the three keep a planar reference (for the τ
+//! smoothing. On a mesh of 2,000 reference triangles or more, a surface under 1,000 quads
+//! that is not the main one first runs only the schedule its mean η chooses, keeping the
+//! states the other two start from; once every surface has run, those whose worst quad is
+//! within 0.02 of the mesh's worst (over the surfaces left with no invalid quad) run the
+//! other two and keep the best of three, exactly as side by side
+//! (`schedule::finish_deferred`); the others keep the chosen one. That worst quad comes
+//! with the options when an earlier call measured it ([`OptimizeOptions::trial_worst`]).
+//! Only the surfaces that may try the three keep a planar reference (for the τ
 //! estimates), and a τ is estimated only when the η terms of a comparison hold. The
-//! choice reads the surface and the reference alone, and each schedule is deterministic,
-//! so the result does not depend on the thread count or on the other surfaces. Surfaces
-//! are started largest first, each on the next idle thread. On large surfaces the topology passes after the first only look near what the previous pass
+//! choices read the surface, the reference and that worst quad, and each schedule is
+//! deterministic, so the result does not depend on the thread count. Surfaces are started
+//! largest first, each on the next idle thread. On large surfaces the topology passes after the first only look near what the previous pass
 //! changed, and the rounds stop after a pass that changed under 1 % of the quads; from 2^15
 //! quads each pass runs on the two halves of the quads side by side, then on a band along
 //! their seam (deterministic, but not the serial pass's result). Quads are
@@ -116,7 +123,10 @@ use crate::profile::StageTimer;
 use extract::{extract, node_owners, write_back, NodePlaces, PendingNodes};
 use local::{Local, NONE};
 use reference::{attach_reference, SurfaceReference};
+use rayon::prelude::*;
+#[cfg(test)]
 use schedule::run_surface;
+use schedule::{finish_deferred, run_surface_deferring};
 
 use std::sync::atomic::{AtomicU64, AtomicUsize, Ordering};
 
@@ -160,6 +170,14 @@ pub struct OptimizeOptions<'a> {
     /// (none by default; the pipeline's fallback names a surface once the optimizer turned
     /// a quad there that the validity gate refuses: see `valid`).
     pub located_surfaces: &'a [i32],
+    /// The mesh's worst quad η after every surface's first schedule, as an earlier call
+    /// for the same input reported it ([`OptimizeReport::trial_worst`]); `None`: measured
+    /// in this call. Small planar surfaces that may try three schedules run the one their
+    /// mean η chooses, and the other two only where it leaves a worst quad within 0.02
+    /// (`schedule::TRIAL_MARGIN`) of this (`schedule::finish_deferred`). A
+    /// run passes every call after its first the first one's, so that a surface
+    /// optimized from the same quads in two calls ends the same.
+    pub trial_worst: Option<f64>,
 }
 
 impl Default for OptimizeOptions<'_> {
@@ -180,6 +198,7 @@ impl Default for OptimizeOptions<'_> {
             trace: None,
             conformal_multigrid: true,
             located_surfaces: &[],
+            trial_worst: None,
         }
     }
 }
@@ -195,6 +214,7 @@ impl std::fmt::Debug for OptimizeOptions<'_> {
             .field("reference_size_scale", &self.reference_size_scale)
             .field("progress", &self.progress.is_some())
             .field("skip", &self.skip)
+            .field("trial_worst", &self.trial_worst)
             .finish()
     }
 }
@@ -251,6 +271,12 @@ pub struct OptimizeReport {
     pub nodes_removed: usize,
     /// Quads removed from the mesh.
     pub quads_removed: usize,
+    /// The worst quad η after every optimized surface's first schedule, over the surfaces
+    /// with no invalid quad (infinite when there is none), with which this call chose the
+    /// surfaces that try three schedules (the options' `trial_worst`, or measured here
+    /// when that was `None`); `None` on a mesh of under 2,000 reference triangles
+    /// (`schedule::TRIAL_BUDGET_FROM`), where every such surface tries them.
+    pub trial_worst: Option<f64>,
 }
 
 /// Optimizes the 4-node quads of every surface of `mesh` in place (paper section 6).
@@ -370,10 +396,16 @@ pub fn optimize_prepared(
         })
         .collect();
     let refnodes = &refnodes;
+    // the trials of small planar surfaces wait for the mesh's worst quad
+    // (`schedule::finish_deferred`) on meshes large enough for them to cost
+    let budget = triangles >= schedule::TRIAL_BUDGET_FROM;
     // speed: the largest surfaces first (each surface's result does not depend on the
     // order; the results come back in tag order)
     let jobs: Vec<(Local, Option<SurfaceReference>)> = locals.into_iter().zip(refs).collect();
-    let results: Vec<(Local, SurfaceOptimizeReport)> = crate::par::largest_first(
+    // the surfaces that put off their trial, with the mesh's worst quad after the first
+    // schedules still to measure (`schedule::finish_deferred`)
+    type Done = (Local, SurfaceOptimizeReport, Option<schedule::Deferred>);
+    let results: Vec<Done> = crate::par::largest_first(
         jobs,
         |j| j.0.quads.len(),
         |(mut l, sref)| {
@@ -389,13 +421,46 @@ pub fn optimize_prepared(
             tr.lap("attach_reference");
             tr.done();
             let w = weight(&l);
-            let rep = run_surface(&mut l, opts, main, &|k| tick(k as u64 * w, false));
+            let steps = |k: usize| tick(k as u64 * w, false);
+            let (rep, deferred) = run_surface_deferring(&mut l, opts, main, budget, &steps);
+            // with the mesh's worst quad known from an earlier call, the trial now
+            let (rep, deferred) = match (deferred, opts.trial_worst) {
+                (Some(d), Some(worst)) => (finish_deferred(&mut l, opts, rep, d, worst), None),
+                (d, _) => (rep, d),
+            };
             tick(0, true);
-            (l, rep)
+            (l, rep, deferred)
         },
     );
     tm.lap("surfaces");
-    let mut report = OptimizeReport::default();
+    // the mesh's worst quad after the first schedules, over the surfaces left with no
+    // invalid quad (in a fallback's first round, those the fallback will rework are not
+    // the mesh's last word); with none such, every put-off trial runs
+    let trial_worst = opts.trial_worst.or_else(|| {
+        budget.then(|| {
+            results
+                .iter()
+                .map(|r| r.1.after.eta_worst)
+                .filter(|&w| w >= local::VALID_ETA)
+                .fold(f64::INFINITY, f64::min)
+        })
+    });
+    // the put-off trials of the surfaces near the mesh's worst quad, side by side
+    let results: Vec<(Local, SurfaceOptimizeReport)> = results
+        .into_par_iter()
+        .map(|(mut l, rep, d)| match (d, trial_worst) {
+            (Some(d), Some(worst)) => {
+                let rep = finish_deferred(&mut l, opts, rep, d, worst);
+                (l, rep)
+            }
+            _ => (l, rep),
+        })
+        .collect();
+    tm.lap("deferred trials");
+    let mut report = OptimizeReport {
+        trial_worst,
+        ..OptimizeReport::default()
+    };
     let mut pending = PendingNodes::new(mesh);
     for (l, rep) in results {
         write_back(mesh, &places, &l, &mut report, &mut pending);
@@ -421,4 +486,93 @@ pub fn optimize_prepared(
         }
     }
     Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `k` disjoint recombined Delaunay squares side by side, surface (and boundary curve)
+    /// `i + 1` each: the quads and the triangles they came from.
+    fn squares(k: usize) -> (Mesh, Mesh) {
+        const OFFSET: u64 = 1_000_000;
+        let mut pairs = Vec::new();
+        let mut seed = 1u64;
+        while pairs.len() < k {
+            let tris = synth::delaunay_square(16, 1.0, 0.3, seed);
+            if let Some(quads) = synth::pair_optimal(&tris) {
+                pairs.push((synth::to_mesh(&quads), synth::to_mesh(&tris)));
+            }
+            seed += 1;
+        }
+        let merge = |meshes: Vec<&Mesh>| {
+            let mut out = Mesh {
+                has_entities_section: true,
+                ..Mesh::default()
+            };
+            for (i, m) in meshes.into_iter().enumerate() {
+                let (tag, shift) = (i as i32 + 1, i as u64 * OFFSET);
+                for (dim, entities) in m.entities.iter().enumerate() {
+                    for e in entities {
+                        let mut e = e.clone();
+                        e.tag = tag;
+                        e.bounding = e.bounding.iter().map(|_| tag).collect();
+                        out.entities[dim].push(e);
+                    }
+                }
+                for b in &m.node_blocks {
+                    let mut b = b.clone();
+                    b.entity_tag = tag;
+                    b.tags.iter_mut().for_each(|t| *t += shift);
+                    b.coords.iter_mut().for_each(|c| c[0] += 2.0 * i as f64);
+                    out.node_blocks.push(b);
+                }
+                for b in &m.element_blocks {
+                    let mut b = b.clone();
+                    b.entity_tag = tag;
+                    b.tags.iter_mut().for_each(|t| *t += shift);
+                    b.nodes.iter_mut().for_each(|t| *t += shift);
+                    out.element_blocks.push(b);
+                }
+            }
+            out
+        };
+        (
+            merge(pairs.iter().map(|p| &p.0).collect()),
+            merge(pairs.iter().map(|p| &p.1).collect()),
+        )
+    }
+
+    /// The optimization of a mesh large enough for the trials to wait for its worst quad
+    /// reports that worst quad, and a second call given it ends with the same mesh (as the
+    /// pipeline's later calls, and `reuse`, rely on).
+    #[test]
+    fn a_call_given_the_reported_worst_quad_ends_as_the_call_that_measured_it() {
+        let (quads, tris) = squares(6);
+        let triangles: usize = tris
+            .element_blocks
+            .iter()
+            .filter(|b| b.element_type == etype::TRI3)
+            .map(|b| b.len())
+            .sum();
+        assert!(triangles >= schedule::TRIAL_BUDGET_FROM, "{triangles} triangles");
+        let opts = OptimizeOptions::default();
+        let mut a = quads.clone();
+        let ra = optimize(&mut a, &tris, &opts).expect("optimized");
+        let worst = ra.trial_worst.expect("measured");
+        assert!(worst.is_finite() && worst > 0.0, "{worst}");
+        let given = OptimizeOptions {
+            trial_worst: Some(worst),
+            ..opts
+        };
+        let mut b = quads.clone();
+        let rb = optimize(&mut b, &tris, &given).expect("optimized");
+        assert!(a == b, "the meshes differ");
+        assert_eq!(ra, rb);
+        // below the budget's size, no worst quad is measured
+        let (small, small_tris) = squares(1);
+        let mut c = small.clone();
+        let rc = optimize(&mut c, &small_tris, &opts).expect("optimized");
+        assert_eq!(rc.trial_worst, None);
+    }
 }

@@ -309,16 +309,9 @@ mod tests {
     fn the_size_term_raises_tau_at_a_small_cost_in_mean_eta() {
         let (mut tau, mut eta, mut runs) = ([0.0; 2], [0.0; 2], 0);
         for seed in 1u64..40 {
-            let Some(quads) = synth::pair_optimal(&synth::delaunay_square(14, 1.0, 0.3, seed))
-            else {
+            let Some(mut l) = crate::optimize::cleanup::tests::square_local(14, seed) else {
                 continue;
             };
-            let (_, mut l) = local_of(&synth::to_mesh(&quads));
-            // sizes from the quads' own edges, as for a surface without reference triangles
-            l.h = crate::quality::size::mean_incident_edge_length(
-                &l.pos,
-                l.quads.iter().map(|q| &q[..]),
-            );
             let opts = crate::optimize::OptimizeOptions::default();
             crate::optimize::schedule::after_topology_rounds(&mut l, &opts);
             for (k, w) in [0.0, SIZE_WEIGHT].into_iter().enumerate() {

@@ -10,12 +10,28 @@ use glam::DVec3;
 
 /// Optimizes one surface (see the module docs for the schedule).
 /// `main`: the surface holds half of the reference's triangles or more (see [`plan`]).
+#[cfg(test)]
 pub(super) fn run_surface(
     l: &mut Local,
     opts: &OptimizeOptions,
     main: bool,
     tick: &(dyn Fn(usize) + Sync),
 ) -> SurfaceOptimizeReport {
+    run_surface_deferring(l, opts, main, false, tick).0
+}
+
+/// [`run_surface`], except that with `defer` a small planar surface that would try the
+/// three schedules side by side ([`trial`]), not being the mesh's main surface, runs only
+/// the one its mean η chooses and returns, with that result, what the other two need
+/// ([`Deferred`]): whether they run depends on the worst quad of the whole mesh
+/// ([`finish_deferred`]).
+pub(super) fn run_surface_deferring(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    main: bool,
+    defer: bool,
+    tick: &(dyn Fn(usize) + Sync),
+) -> (SurfaceOptimizeReport, Option<Deferred>) {
     let mut tm = StageTimer::new(opts.trace, "optimize", l.surface);
     l.build_adjacency();
     let before = l.stats();
@@ -37,7 +53,11 @@ pub(super) fn run_surface(
     let tick = &tick;
     tick(1);
     let polish = opts.angle_sweeps > 0 && opts.smooth_iterations > 0;
+    let mut deferred = None;
     match plan(l, opts, polish, main) {
+        Plan::Trial if defer && defers(l, opts, main) => {
+            deferred = Some(chosen_keeping_starts(l, opts, &mut ops, &mut tm, tick, &mut gate));
+        }
         Plan::One => {
             if opts.topology {
                 topology_rounds(l, opts, &mut ops, &mut tm, tick, false, &mut gate);
@@ -52,6 +72,11 @@ pub(super) fn run_surface(
             finish_ticking(l, opts, &mut ops, &mut tm, keep, &mut gate, tick);
         }
     }
+    // a deferred trial completes from the chosen schedule's state before the last check
+    let deferred = deferred.map(|starts| Deferred {
+        chosen: (l.clone(), ops, gate.clone()),
+        starts,
+    });
     // validity: every schedule ends in a state its gate passed; check the kept one against
     // the start (rolls back to the start, the matching's quads, if it does not pass)
     gate.check(l, false, "optimization");
@@ -59,12 +84,139 @@ pub(super) fn run_surface(
     let after = l.stats();
     tm.lap("stats");
     tm.done();
-    SurfaceOptimizeReport {
+    let report = SurfaceOptimizeReport {
         surface: l.surface,
         before,
         after,
         operations: ops,
+    };
+    (report, deferred)
+}
+
+/// A surface's trial put off ([`run_surface_deferring`]): the schedule its mean η chose,
+/// before its last validity check, and the states the other two start from.
+pub(super) struct Deferred {
+    chosen: Branch,
+    starts: Starts,
+}
+
+/// The states the two schedules a surface did not run start from ([`chosen_keeping_starts`]).
+struct Starts {
+    /// The plain schedule's state after its first topology pass and smoothing, with its
+    /// rounds; none when that pass changed nothing (the unsheared schedule would then be the
+    /// plain one, and [`trial`] does not run it).
+    first: Option<(Branch, Rounds)>,
+    /// The plain schedule's state after its topology rounds (the square finish's start),
+    /// when the chosen schedule is the plain one.
+    rounds_done: Option<Branch>,
+}
+
+/// Reference triangles from which a mesh puts off the trials of its small planar surfaces
+/// ([`run_surface_deferring`]): on smaller meshes every such surface tries the three
+/// schedules, which cost little there and each of which moves η̄ (a few surfaces of a few
+/// dozen quads each make the whole mesh; figures in BENCHMARKS.md, "Measurements behind
+/// the defaults").
+pub(super) const TRIAL_BUDGET_FROM: usize = 2000;
+
+/// Extra η over the mesh's worst quad below which a surface's chosen schedule leaves its
+/// worst quad for the surface to try the other two ([`finish_deferred`]): where the
+/// surface holds the mesh's worst quad or nearly, the trial can raise the mesh's η_w;
+/// elsewhere it changes η̄ by little. On the corpus runs this skips about three trials in
+/// four, at about the CPU of one schedule per surface (figures in BENCHMARKS.md,
+/// "Measurements behind the defaults").
+pub(super) const TRIAL_MARGIN: f64 = 0.02;
+
+/// True when the trial of a small planar surface is put off until the mesh's worst quad
+/// after every surface's chosen schedule is known: with topology rounds (whose first pass
+/// the schedules share), not the mesh's main surface (whose choice is the mesh's), and
+/// compared only at the end ([`CUT_TRIAL_FROM`]).
+fn defers(l: &Local, opts: &OptimizeOptions, main: bool) -> bool {
+    opts.topology && !main && l.quads.len() < CUT_TRIAL_FROM
+}
+
+/// The schedule a small planar surface's mean η after its first smoothing chooses
+/// ([`Plan::Single`]'s choice), run on `l` with `ops`, `gate` and progress ticks, keeping
+/// the states [`trial`]'s other schedules start from: each schedule is deterministic, so
+/// completing the trial from them ([`finish_deferred`]) gives [`trial`]'s result.
+fn chosen_keeping_starts(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    ops: &mut OperationCounts,
+    tm: &mut StageTimer<'_>,
+    tick: &(dyn Fn(usize) + Sync),
+    gate: &mut valid::Gate,
+) -> Starts {
+    let mean = l.stats().eta_mean;
+    let mut rounds = Rounds::new(opts);
+    let first = rounds
+        .pass_and_smooth(l, opts, ops, tm)
+        .then(|| ((l.clone(), *ops, gate.clone()), rounds.clone()));
+    let unshear = first.is_some() && mean < UNSHEAR_BELOW;
+    rounds.run(l, opts, ops, tm, tick, unshear, gate);
+    let rounds_done = (!unshear).then(|| (l.clone(), *ops, gate.clone()));
+    finish_ticking(l, opts, ops, tm, conformal::KEEP_ASPECT, gate, tick);
+    Starts { first, rounds_done }
+}
+
+/// Completes a deferred trial ([`run_surface_deferring`]) when the chosen schedule left
+/// the surface's worst quad within [`TRIAL_MARGIN`] of `worst` (the mesh's worst quad
+/// after every surface's chosen schedule): the other two schedules run from their starts
+/// and `l` gets [`trial`]'s result, checked against the start; otherwise `l` and `report`
+/// stay the chosen schedule's.
+pub(super) fn finish_deferred(
+    l: &mut Local,
+    opts: &OptimizeOptions,
+    mut report: SurfaceOptimizeReport,
+    d: Deferred,
+    worst: f64,
+) -> SurfaceOptimizeReport {
+    if report.after.eta_worst >= worst + TRIAL_MARGIN {
+        return report;
     }
+    let mut tm = StageTimer::new(opts.trace, "optimize (deferred trial)", l.surface);
+    let Deferred { chosen, starts } = d;
+    let keep = conformal::KEEP_ASPECT;
+    let ((mut k, mut ops, mut gate), square, unsheared) = match starts.rounds_done {
+        // the chosen one is the plain schedule: the square finish from its rounds, the
+        // unsheared schedule from its first pass
+        Some(done) => {
+            let (square, unsheared) = rayon::join(
+                || square_finish(opts, done, false),
+                || {
+                    starts.first.map(|(mut u, mut r)| {
+                        unsheared_schedule(opts, &mut u, &mut r, false);
+                        u
+                    })
+                },
+            );
+            (chosen, square, unsheared)
+        }
+        // the chosen one is the unsheared schedule: the plain one from the first pass,
+        // and the square finish from its rounds
+        None => {
+            let Some(((mut p, mut p_ops, mut p_gate), mut rounds)) = starts.first else {
+                return report;
+            };
+            rounds.run(&mut p, opts, &mut p_ops, &mut tm, &|_| {}, false, &mut p_gate);
+            let fork = (p.clone(), p_ops, p_gate.clone());
+            let (square, ()) = rayon::join(
+                || square_finish(opts, fork, false),
+                || {
+                    finish_head(&mut p, opts, &mut p_ops, &mut tm, keep, &mut p_gate, &|_| {});
+                    finish_tail(&mut p, opts, &mut p_ops, &mut tm, &mut p_gate, &|_| {});
+                },
+            );
+            ((p, p_ops, p_gate), square, Some(chosen))
+        }
+    };
+    keep_best(&mut k, &mut ops, &mut gate, square, unsheared);
+    gate.check(&mut k, false, "optimization");
+    *l = k;
+    report.after = l.stats();
+    report.operations = ops;
+    tm.lap("stats");
+    tm.done();
+    report
 }
 
 /// How a surface's optimization goes on after its first smoothing.
@@ -719,15 +871,9 @@ mod tests {
     /// A surface of [`SINGLE_FROM`] quads or more with a low mean η, its sizes from its own
     /// edges (as without reference triangles), after nothing but the extraction.
     fn larger_square() -> Local {
-        let quads = (1u64..20)
-            .find_map(|seed| synth::pair_optimal(&synth::delaunay_square(36, 1.0, 0.3, seed)))
-            .expect("an even, matchable square");
-        let (_, mut l) = local_of(&synth::to_mesh(&quads));
-        l.h = crate::quality::size::mean_incident_edge_length(
-            &l.pos,
-            l.quads.iter().map(|q| &q[..]),
-        );
-        l
+        (1u64..20)
+            .find_map(|seed| crate::optimize::cleanup::tests::square_local(36, seed))
+            .expect("an even, matchable square")
     }
 
     /// The unsheared schedule's rounds run from a copy after the first round's pass and
@@ -755,6 +901,66 @@ mod tests {
         assert_eq!((&a.quads, &a.alive), (&u.quads, &u.alive));
         assert_eq!(a_ops.smoothing_moves, u_ops.smoothing_moves);
         assert!(a.quads.len() >= CUT_TRIAL_FROM, "{} quads", a.quads.len());
+    }
+
+    /// A small planar surface's trial put off ([`run_surface_deferring`]) and completed
+    /// near the mesh's worst quad ends exactly as the trial run at once; far above it, the
+    /// surface keeps the schedule its mean η chose ([`Plan::Single`]'s). Both choices (the
+    /// plain schedule and the unsheared one) occur among the seeds.
+    #[test]
+    fn a_put_off_trial_ends_as_the_trial_or_as_the_chosen_schedule() {
+        let opts = OptimizeOptions::default();
+        let mut chosen = [0usize; 2];
+        for seed in 1u64..40 {
+            let Some(l) = crate::optimize::cleanup::tests::square_local(16, seed) else {
+                continue;
+            };
+            // the plan after the first smoothing must be the trial
+            let mut probe = l.clone();
+            probe.build_adjacency();
+            let sweeps = first_sweeps(&probe, &opts);
+            smooth::smooth(&mut probe, sweeps, opts.diagonal_weight);
+            if plan(&probe, &opts, true, false) != Plan::Trial {
+                continue;
+            }
+            let state = |m: &Local| {
+                use crate::optimize::test_util::bits;
+                (bits(&m.pos), m.quads.clone(), m.alive.clone())
+            };
+            // the trial at once
+            let mut a = l.clone();
+            let a_rep = run_surface(&mut a, &opts, false, &|_| {});
+            // put off, then completed at the surface's own worst quad
+            let mut b = l.clone();
+            let (b_rep, d) = run_surface_deferring(&mut b, &opts, false, true, &|_| {});
+            let d = d.expect("a small planar surface that is not the main one defers");
+            chosen[usize::from(d.starts.rounds_done.is_none())] += 1;
+            let worst = b_rep.after.eta_worst;
+            let b_rep = finish_deferred(&mut b, &opts, b_rep, d, worst);
+            assert!(state(&a) == state(&b), "seed {seed}: the completed trial differs");
+            assert_eq!(a_rep, b_rep, "seed {seed}");
+            // far above the mesh's worst quad: the chosen schedule, as Plan::Single runs it
+            let mut e = l.clone();
+            e.build_adjacency();
+            let mut gate = valid::Gate::new(&e);
+            let sweeps = first_sweeps(&e, &opts);
+            let mut ops = OperationCounts {
+                smoothing_moves: smooth::smooth(&mut e, sweeps, opts.diagonal_weight),
+                ..Default::default()
+            };
+            gate.check(&mut e, true, "smoothing");
+            let unshear = e.stats().eta_mean < UNSHEAR_BELOW;
+            let mut tm = StageTimer::new(None, "optimize", 0);
+            topology_rounds(&mut e, &opts, &mut ops, &mut tm, &|_| {}, unshear, &mut gate);
+            finish(&mut e, &opts, &mut ops, &mut tm, conformal::KEEP_ASPECT, &mut gate);
+            gate.check(&mut e, false, "optimization");
+            let mut c = l.clone();
+            let (c_rep, d) = run_surface_deferring(&mut c, &opts, false, true, &|_| {});
+            let kept = finish_deferred(&mut c, &opts, c_rep, d.expect("deferred"), worst - 1.0);
+            assert!(state(&c) == state(&e), "seed {seed}: not the chosen schedule's result");
+            assert_eq!(kept.after, e.stats(), "seed {seed}");
+        }
+        assert!(chosen[0] > 0 && chosen[1] > 0, "plain, unsheared chosen: {chosen:?}");
     }
 
     /// The trial of a main surface of [`CUT_TRIAL_FROM`] quads or more (the schedules

@@ -399,7 +399,7 @@ fn one_round<'a>(
         &reused,
         &local.state.located,
         prepared,
-        &mut cache.checks,
+        (&mut cache.checks, &mut cache.trial_worst),
         times,
         &mut run,
     )?;
