@@ -402,8 +402,8 @@ pub fn optimize_prepared(
     // speed: the largest surfaces first (each surface's result does not depend on the
     // order; the results come back in tag order)
     let jobs: Vec<(Local, Option<SurfaceReference>)> = locals.into_iter().zip(refs).collect();
-    // the surfaces that put off their trial, with the mesh's worst quad after the first
-    // schedules still to measure (`schedule::finish_deferred`)
+    // the surfaces that put off their trial, until the mesh's worst quad after the first
+    // schedules is known (`schedule::finish_deferred`)
     type Done = (Local, SurfaceOptimizeReport, Option<schedule::Deferred>);
     let results: Vec<Done> = crate::par::largest_first(
         jobs,
@@ -423,19 +423,15 @@ pub fn optimize_prepared(
             let w = weight(&l);
             let steps = |k: usize| tick(k as u64 * w, false);
             let (rep, deferred) = run_surface_deferring(&mut l, opts, main, budget, &steps);
-            // with the mesh's worst quad known from an earlier call, the trial now
-            let (rep, deferred) = match (deferred, opts.trial_worst) {
-                (Some(d), Some(worst)) => (finish_deferred(&mut l, opts, rep, d, worst), None),
-                (d, _) => (rep, d),
-            };
             tick(0, true);
             (l, rep, deferred)
         },
     );
     tm.lap("surfaces");
-    // the mesh's worst quad after the first schedules, over the surfaces left with no
-    // invalid quad (in a fallback's first round, those the fallback will rework are not
-    // the mesh's last word); with none such, every put-off trial runs
+    // the mesh's worst quad after the first schedules, as an earlier call measured it or
+    // over the surfaces left with no invalid quad (in a fallback's first round, those the
+    // fallback will rework are not the mesh's last word); with none such, every put-off
+    // trial runs
     let trial_worst = opts.trial_worst.or_else(|| {
         budget.then(|| {
             results

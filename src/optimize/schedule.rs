@@ -55,8 +55,9 @@ pub(super) fn run_surface_deferring(
     let polish = opts.angle_sweeps > 0 && opts.smooth_iterations > 0;
     let mut deferred = None;
     match plan(l, opts, polish, main) {
-        Plan::Trial if defer && defers(l, opts, main) => {
-            deferred = Some(chosen_keeping_starts(l, opts, &mut ops, &mut tm, tick, &mut gate));
+        Plan::Trial { unshear } if defer && defers(l, opts, main) => {
+            let (ops, tm, gate) = (&mut ops, &mut tm, &mut gate);
+            deferred = Some(chosen_keeping_starts(l, opts, unshear, ops, tm, tick, gate));
         }
         Plan::One => {
             if opts.topology {
@@ -65,7 +66,7 @@ pub(super) fn run_surface_deferring(
             let keep = conformal::KEEP_ASPECT;
             finish_ticking(l, opts, &mut ops, &mut tm, keep, &mut gate, tick);
         }
-        Plan::Trial => trial(l, opts, &mut ops, &mut tm, tick, &mut gate),
+        Plan::Trial { .. } => trial(l, opts, &mut ops, &mut tm, tick, &mut gate),
         Plan::Single { unshear } => {
             topology_rounds(l, opts, &mut ops, &mut tm, tick, unshear, &mut gate);
             let keep = conformal::KEEP_ASPECT;
@@ -101,14 +102,23 @@ pub(super) struct Deferred {
 }
 
 /// The states the two schedules a surface did not run start from ([`chosen_keeping_starts`]).
-struct Starts {
-    /// The plain schedule's state after its first topology pass and smoothing, with its
-    /// rounds; none when that pass changed nothing (the unsheared schedule would then be the
-    /// plain one, and [`trial`] does not run it).
-    first: Option<(Branch, Rounds)>,
-    /// The plain schedule's state after its topology rounds (the square finish's start),
-    /// when the chosen schedule is the plain one.
-    rounds_done: Option<Branch>,
+enum Starts {
+    /// The chosen schedule is the plain one.
+    Plain {
+        /// Its state after its first topology pass and smoothing, with its rounds: the
+        /// unsheared schedule's start; none when that pass changed nothing (the unsheared
+        /// schedule would then be the plain one, and [`trial`] does not run it).
+        first: Option<(Branch, Rounds)>,
+        /// Its state after its topology rounds: the square finish's start (boxed: a variant
+        /// holding two states beside one).
+        rounds_done: Box<Branch>,
+    },
+    /// The chosen schedule is the unsheared one (its first pass changed something).
+    Unsheared {
+        /// The plain schedule's state after its first topology pass and smoothing, with its
+        /// rounds: the plain schedule's start (and through it the square finish's).
+        first: (Branch, Rounds),
+    },
 }
 
 /// Reference triangles from which a mesh puts off the trials of its small planar surfaces
@@ -134,28 +144,37 @@ fn defers(l: &Local, opts: &OptimizeOptions, main: bool) -> bool {
     opts.topology && !main && l.quads.len() < CUT_TRIAL_FROM
 }
 
-/// The schedule a small planar surface's mean η after its first smoothing chooses
-/// ([`Plan::Single`]'s choice), run on `l` with `ops`, `gate` and progress ticks, keeping
+/// The schedule the plan chose for a small planar surface (`unshear`, [`Plan::Trial`]:
+/// [`Plan::Single`]'s choice), run on `l` with `ops`, `gate` and progress ticks, keeping
 /// the states [`trial`]'s other schedules start from: each schedule is deterministic, so
-/// completing the trial from them ([`finish_deferred`]) gives [`trial`]'s result.
+/// completing the trial from them ([`finish_deferred`]) gives [`trial`]'s result. Where
+/// the first topology pass changes nothing, the unsheared schedule is the plain one.
 fn chosen_keeping_starts(
     l: &mut Local,
     opts: &OptimizeOptions,
+    unshear: bool,
     ops: &mut OperationCounts,
     tm: &mut StageTimer<'_>,
     tick: &(dyn Fn(usize) + Sync),
     gate: &mut valid::Gate,
 ) -> Starts {
-    let mean = l.stats().eta_mean;
     let mut rounds = Rounds::new(opts);
     let first = rounds
         .pass_and_smooth(l, opts, ops, tm)
         .then(|| ((l.clone(), *ops, gate.clone()), rounds.clone()));
-    let unshear = first.is_some() && mean < UNSHEAR_BELOW;
-    rounds.run(l, opts, ops, tm, tick, unshear, gate);
-    let rounds_done = (!unshear).then(|| (l.clone(), *ops, gate.clone()));
+    let starts = match first {
+        Some(first) if unshear => {
+            rounds.run(l, opts, ops, tm, tick, true, gate);
+            Starts::Unsheared { first }
+        }
+        first => {
+            rounds.run(l, opts, ops, tm, tick, false, gate);
+            let rounds_done = Box::new((l.clone(), *ops, gate.clone()));
+            Starts::Plain { first, rounds_done }
+        }
+    };
     finish_ticking(l, opts, ops, tm, conformal::KEEP_ASPECT, gate, tick);
-    Starts { first, rounds_done }
+    starts
 }
 
 /// Completes a deferred trial ([`run_surface_deferring`]) when the chosen schedule left
@@ -176,14 +195,14 @@ pub(super) fn finish_deferred(
     let mut tm = StageTimer::new(opts.trace, "optimize (deferred trial)", l.surface);
     let Deferred { chosen, starts } = d;
     let keep = conformal::KEEP_ASPECT;
-    let ((mut k, mut ops, mut gate), square, unsheared) = match starts.rounds_done {
+    let ((mut k, mut ops, mut gate), square, unsheared) = match starts {
         // the chosen one is the plain schedule: the square finish from its rounds, the
         // unsheared schedule from its first pass
-        Some(done) => {
+        Starts::Plain { first, rounds_done } => {
             let (square, unsheared) = rayon::join(
-                || square_finish(opts, done, false),
+                || square_finish(opts, *rounds_done, false),
                 || {
-                    starts.first.map(|(mut u, mut r)| {
+                    first.map(|(mut u, mut r)| {
                         unsheared_schedule(opts, &mut u, &mut r, false);
                         u
                     })
@@ -193,10 +212,8 @@ pub(super) fn finish_deferred(
         }
         // the chosen one is the unsheared schedule: the plain one from the first pass,
         // and the square finish from its rounds
-        None => {
-            let Some(((mut p, mut p_ops, mut p_gate), mut rounds)) = starts.first else {
-                return report;
-            };
+        Starts::Unsheared { first } => {
+            let ((mut p, mut p_ops, mut p_gate), mut rounds) = first;
             rounds.run(&mut p, opts, &mut p_ops, &mut tm, &|_| {}, false, &mut p_gate);
             let fork = (p.clone(), p_ops, p_gate.clone());
             let (square, ()) = rayon::join(
@@ -224,8 +241,13 @@ pub(super) fn finish_deferred(
 enum Plan {
     /// One schedule: topology rounds, then the aspect-keeping finish.
     One,
-    /// The three schedules side by side, the best kept (see [`trial`]).
-    Trial,
+    /// The three schedules side by side, the best kept (see [`trial`]); `unshear` is the
+    /// one [`Plan::Single`] would run, which a put-off trial runs first
+    /// ([`run_surface_deferring`]).
+    Trial {
+        /// The topology rounds each followed by the conformal solve.
+        unshear: bool,
+    },
     /// One of the trial's schedules, chosen from the first smoothing: the topology rounds
     /// each followed by the conformal solve (`unshear`), or the plain one.
     Single {
@@ -244,14 +266,13 @@ fn plan(l: &Local, opts: &OptimizeOptions, polish: bool, main: bool) -> Plan {
         return Plan::One;
     }
     let mean = l.stats().eta_mean;
+    let unshear = mean < UNSHEAR_BELOW;
     if mean >= ALTERNATIVES_BELOW {
         Plan::One
     } else if tries(l, opts, main) {
-        Plan::Trial
+        Plan::Trial { unshear }
     } else {
-        Plan::Single {
-            unshear: mean < UNSHEAR_BELOW,
-        }
+        Plan::Single { unshear }
     }
 }
 
@@ -864,7 +885,7 @@ mod tests {
             unshear: mean < UNSHEAR_BELOW,
         };
         assert_eq!(plan(&l, &opts, true, false), single);
-        assert_eq!(plan(&l, &opts, true, true), Plan::Trial);
+        assert_eq!(plan(&l, &opts, true, true), Plan::Trial { unshear: mean < UNSHEAR_BELOW });
         assert_eq!(plan(&l, &opts, false, false), Plan::One);
     }
 
@@ -920,7 +941,7 @@ mod tests {
             probe.build_adjacency();
             let sweeps = first_sweeps(&probe, &opts);
             smooth::smooth(&mut probe, sweeps, opts.diagonal_weight);
-            if plan(&probe, &opts, true, false) != Plan::Trial {
+            if !matches!(plan(&probe, &opts, true, false), Plan::Trial { .. }) {
                 continue;
             }
             let state = |m: &Local| {
@@ -934,7 +955,7 @@ mod tests {
             let mut b = l.clone();
             let (b_rep, d) = run_surface_deferring(&mut b, &opts, false, true, &|_| {});
             let d = d.expect("a small planar surface that is not the main one defers");
-            chosen[usize::from(d.starts.rounds_done.is_none())] += 1;
+            chosen[usize::from(matches!(d.starts, Starts::Unsheared { .. }))] += 1;
             let worst = b_rep.after.eta_worst;
             let b_rep = finish_deferred(&mut b, &opts, b_rep, d, worst);
             assert!(state(&a) == state(&b), "seed {seed}: the completed trial differs");
