@@ -254,6 +254,7 @@ fn quadrangulate_second_order(mesh: &mut Mesh, opts: &Options) -> Result<Report,
         quality_view: false,
         keep_tags: true,
         tag_map: false,
+        keep_curve_nodes: true,
         ..opts.clone()
     };
     let mut report = quadrangulate_linear(&mut linear, &linear_opts)?;
@@ -957,6 +958,7 @@ fn recombine_once<'a>(
         // `quadrangulate` removed them from `input` (the fallback's splits add none)
         repeated_dropped: true,
         split_matching: opts.split_matching,
+        turn_strip_ends: !opts.keep_curve_nodes,
         ..Default::default()
     };
     let t = Instant::now();

@@ -292,9 +292,21 @@ pub(super) fn summary_line(
         String::new()
     };
     let mut notes = Vec::new();
-    let splits = report.recombine.parity_splits.len();
+    let turns = report
+        .recombine
+        .parity_splits
+        .iter()
+        .filter(|s| s.turn)
+        .count();
+    let splits = report.recombine.parity_splits.len() - turns;
     if splits > 0 {
         notes.push(format!("parity repair split {splits} boundary segment(s)"));
+    }
+    if turns > 0 {
+        notes.push(format!(
+            "{} narrow face end(s) turned across {turns} shared curve segment(s)",
+            2 * turns
+        ));
     }
     if report.priced_out > 0 {
         notes.push(format!(

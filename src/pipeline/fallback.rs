@@ -1407,6 +1407,7 @@ mod tests {
             surfaces: vec![1],
             segment: (2, 3),
             new_node: 9,
+            turn: false,
         };
         let half = [(1, [9, 3, 8, 7])];
         assert_eq!(

@@ -68,6 +68,11 @@ pub struct Options {
     /// default: faster only when a core is idle during the matching (figures in
     /// BENCHMARKS.md).
     pub split_matching: bool,
+    /// Every input curve node stays where it is (the linear copy of a second-order mesh,
+    /// whose mid-edge nodes come back on its curves): no strip end turns, whose node on a
+    /// curve is not at a segment's midpoint.
+    #[serde(skip)]
+    pub(crate) keep_curve_nodes: bool,
 }
 
 impl Default for Options {
@@ -92,6 +97,7 @@ impl Default for Options {
             progress: None,
             trace: None,
             split_matching: false,
+            keep_curve_nodes: false,
         }
     }
 }

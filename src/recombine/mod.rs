@@ -28,7 +28,15 @@
 //! 3. **Parity** (eq. 5–6). Every region needs an even number of triangles: odd regions are
 //!    made even by splitting wall segments (a T-join over the groups of segments that flip
 //!    the same regions, splits placed where thin strips still pair soundly, periodic images
-//!    and quad chords split along); the design is in the documentation of `parity`.
+//!    and quad chords split along); the design is in the documentation of `parity`. Before
+//!    the plan, the ends of narrow faces one row of two triangles wide whose end curve has a
+//!    node in its middle (a thin wire's quarter faces meshed with three nodes per arc) are
+//!    *turned* (`parity::turn`, with [`RecombineOptions::turn_strip_ends`] and
+//!    [`RecombineOptions::two_row_strips`], not on a periodic mesh nor with
+//!    `ParityMode::Error`): two faces that share a side segment at the same
+//!    end node get a node on it near the end row's far node (recorded as a parity split,
+//!    [`ParitySplit::turn`]) and a node inside each, and each end row's three triangles
+//!    become the six of three sound quads, both ends of a face or neither (parity kept).
 //! 4. **Graph** (section 4.2). Cost of a graph edge = `1 − η_s` of the quad formed by its two
 //!    triangles (eq. 4), η_s the signed quality of [`crate::quality::eta_signed`] with angles
 //!    measured in 3D about the sum of the two triangles' normals, so a non-convex or folded
@@ -510,13 +518,45 @@ fn parity_stage(
     report: &mut RecombineReport,
 ) -> Result<(NodeTable, Vec<SurfaceWork>), RecombineError> {
     let mut tm = StageTimer::new(opts.trace.as_ref(), "parity stage", 0);
-    let nodes = NodeTable::new(mesh);
+    let mut nodes = NodeTable::new(mesh);
     tm.lap("node table");
     topology_progress(opts, 2);
     let curves = CurveInfo::new(mesh, &nodes)?;
     tm.lap("curves");
-    let work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref())?;
+    let mut work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref())?;
     tm.lap("surface work");
+    // strip ends turned across the curves they share (before the parity plan, which sees
+    // their triangles)
+    if opts.turn_strip_ends
+        && opts.two_row_strips
+        && opts.parity != ParityMode::Error
+        && mesh.periodic.is_empty()
+    {
+        let turns = parity::turns(mesh, &nodes, &work);
+        if !turns.is_empty() {
+            let splits = parity::apply_turns(mesh, &nodes, &work, &turns);
+            for s in &splits {
+                let place = match s.curve {
+                    Some(c) => format!("curve {c}"),
+                    None => "their shared boundary".into(),
+                };
+                report.log.push(format!(
+                    "the ends of surfaces {} turned across {place}: segment {}-{} split near node {} (new node {})",
+                    list_tags(&s.surfaces),
+                    s.segment.0,
+                    s.segment.1,
+                    s.segment.1,
+                    s.new_node
+                ));
+            }
+            report.parity_splits.extend(splits);
+            mesh.invalidate_element_data();
+            nodes = NodeTable::new(mesh);
+            let curves = CurveInfo::new(mesh, &nodes)?;
+            work = surface_work(mesh, &nodes, &curves, opts.trace.as_ref())?;
+            tm.lap("strip end turns");
+        }
+    }
     topology_progress(opts, 3);
     // the segments to avoid, as edge keys of node ids (sorted)
     let mut avoid: Vec<u64> = opts

@@ -69,6 +69,11 @@ pub struct RecombineOptions {
     /// whose matching's quads are poor, in cells and midlines of new nodes (on by default;
     /// see the recombination's documentation).
     pub two_row_strips: bool,
+    /// Turn the ends of narrow faces one row wide whose end curve has a middle node across
+    /// the side curves they share (on by default; see the recombination's step 3). Off,
+    /// every curve node stays where it is and a curve segment is only split at its
+    /// midpoint (parity).
+    pub turn_strip_ends: bool,
     /// Where stage times and matching graphs go (see [`crate::profile`]); `None`: nowhere.
     pub trace: Option<crate::profile::Trace>,
     /// Where the progress of the stages [`crate::progress::Stage::Topology`], [`crate::progress::Stage::Graph`]
@@ -99,6 +104,7 @@ impl Default for RecombineOptions {
             hopeless_out: Vec::new(),
             movable_nodes: Vec::new(),
             two_row_strips: true,
+            turn_strip_ends: true,
             trace: None,
             progress: None,
             repeated_dropped: false,

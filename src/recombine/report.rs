@@ -13,6 +13,10 @@ pub struct ParitySplit {
     pub segment: (u64, u64),
     /// Tag of the new midpoint node.
     pub new_node: u64,
+    /// True when the split is the node where the ends of two narrow faces turn across the
+    /// curve they share (the recombination's step 3): near the segment's end rather than at
+    /// its midpoint, and not a repair of an odd surface.
+    pub turn: bool,
 }
 
 /// Figures for one surface.

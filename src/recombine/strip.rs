@@ -179,10 +179,10 @@ const MIN_TRIANGLES: usize = 4;
 
 /// A strip whose quads from the matching have a worst η (eq. 3) below this is meshed again
 /// when [`plans`] finds a better worst quad.
-const REMESH_BELOW: f64 = 0.3;
+pub(super) const REMESH_BELOW: f64 = 0.3;
 
 /// How much better (in η) the remeshed strip's worst quad must be than the matching's.
-const MIN_GAIN: f64 = 0.05;
+pub(super) const MIN_GAIN: f64 = 0.05;
 
 /// A vertex of a cell: a node id, or the midline node of rung `k` ([`MID`] + k).
 type Vertex = u64;
@@ -703,4 +703,47 @@ fn shared_edge(a: &[[u32; 3]], b: &[[u32; 3]]) -> Option<(u32, u32)> {
             })
         })
     })
+}
+
+/// The worst η (eq. 3, signed) of the best plan of the open strip `strip` of `topo` without
+/// a midline (cells of even triangle counts, one quad per two triangles); `None` when there
+/// is none. `coords` are the positions of `topo`'s node ids.
+pub(super) fn no_midline_worst(topo: &SurfaceTopo, strip: &Strip, coords: &[DVec3]) -> Option<f64> {
+    if strip.closed {
+        return None;
+    }
+    let units: Vec<Vec<[u32; 3]>> = strip
+        .units
+        .iter()
+        .map(|u| u.iter().map(|&t| topo.tris[t]).collect())
+        .collect();
+    let rung: Option<Vec<(u32, u32)>> = units.windows(2).map(|w| shared_edge(&w[0], &w[1])).collect();
+    let unit_normal = |t: &[u32; 3]| {
+        let p = t.map(|v| coords[v as usize]);
+        (p[1] - p[0]).cross(p[2] - p[0]).normalize_or_zero()
+    };
+    let g = StripGeometry {
+        normal: units.iter().map(|u| u.iter().map(unit_normal).sum()).collect(),
+        units,
+        rung: rung?,
+        coords,
+        closed: false,
+    };
+    // best[k]: the best worst η of the first k units cut into cells of even counts
+    let n = g.len();
+    let mut best = vec![f64::NEG_INFINITY; n + 1];
+    best[0] = f64::INFINITY;
+    for k in 0..n {
+        if best[k] == f64::NEG_INFINITY {
+            continue;
+        }
+        for size in 1..=MAX_CELL.min(n - k) {
+            if g.triangles(k, size).is_multiple_of(2) {
+                if let Some((_, eta)) = g.cell(k, size, false, false) {
+                    best[k + size] = best[k + size].max(best[k].min(eta));
+                }
+            }
+        }
+    }
+    (best[n] > f64::NEG_INFINITY).then_some(best[n])
 }

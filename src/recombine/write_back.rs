@@ -21,7 +21,7 @@ pub(super) fn write_back(
             .map(|nn| {
                 let tag = next_node;
                 next_node += 1;
-                parity::add_node(mesh, nodes, 2, w.tag, tag, nn.pos, &nn.near);
+                parity::add_node(mesh, nodes, 2, w.tag, tag, nn.pos, &nn.near, None);
                 tag
             })
             .collect();

@@ -42,10 +42,6 @@ const EXCEEDING: &[(&str, &str)] = &[
         "thin_annulus",
         "302 triangles, 0.50 quads/triangle, eta_w 0.103, bound 1.00",
     ),
-    (
-        "thin_wires",
-        "932 triangles, 0.59 quads/triangle, eta_w 0.032, bound 0.90",
-    ),
 ];
 
 /// One model's run: its footprint, None when refused as the robust test expects, or what

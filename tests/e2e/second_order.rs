@@ -207,6 +207,22 @@ fn a_parity_split_segment_keeps_its_mid_edge_node_as_the_new_corner() {
 }
 
 #[test]
+fn a_thin_wire_keeps_every_mid_edge_node_of_its_curves_without_turning_its_faces_ends() {
+    // the linear run turns the ends of a thin wire's quarter faces across their side curves
+    // (a node on a side segment near its end); on a second-order input every curve node
+    // stays where it is instead
+    if !gmsh_gate::require_gmsh() {
+        return;
+    }
+    let dir = tempfile::tempdir().expect("temp dir");
+    let geo = repo_dir().join("corpus/thin_wires.geo");
+    let input = mesh_order2(&geo, dir.path(), Variant::Msh41Ascii, 0.25, &[]);
+    let (report, log) = recombine_and_check(&input, &[], &[]);
+    assert!(!log.contains("turned across"), "{log}");
+    assert!(report.contains("\"boundary_mid_nodes\": true"), "{report}");
+}
+
+#[test]
 fn third_order_input_is_refused_in_plain_words() {
     if !gmsh_gate::require_gmsh() {
         return;

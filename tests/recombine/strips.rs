@@ -245,3 +245,103 @@ fn a_band_whose_circles_differ_in_segments_gets_a_midline_where_its_pairs_shear(
     }
     assert!(gained >= 2, "{gained} bands remeshed");
 }
+
+/// A thin wire along z: a cylinder of radius `r` made of four quarter faces (surfaces
+/// 1 … 4, quarter `k` between the side lines `10 + k` and `11 + k`, bottom and top arcs
+/// `20 + k` and `30 + k`), each with three nodes on its end arcs and `n` segments of
+/// length `h` on its sides: one row of two triangles per segment, the first and last rows
+/// three triangles round the arc's middle node, as Gmsh meshes a wire coarser than its
+/// radius.
+fn wire(r: f64, n: usize, h: f64) -> Mesh {
+    let mut b = Builder::new();
+    for k in 0..4 {
+        for c in [10 + k, 20 + k, 30 + k] {
+            b.entity(1, c, &[], &[]);
+        }
+    }
+    for k in 0..4 {
+        b.entity(2, 1 + k, &[10 + k, 20 + k, 10 + (k + 1) % 4, 30 + k], &[]);
+    }
+    let at = |deg: f64, z: f64| {
+        let t = deg.to_radians();
+        [r * t.cos(), r * t.sin(), z]
+    };
+    let sides: Vec<Vec<u64>> = (0..4)
+        .map(|k| {
+            (0..=n)
+                .map(|i| b.node(1, 10 + k, at(90.0 * k as f64, i as f64 * h)))
+                .collect()
+        })
+        .collect();
+    for k in 0..4 {
+        let (a, c) = (&sides[k as usize], &sides[(k as usize + 1) % 4]);
+        let mid = 90.0 * k as f64 + 45.0;
+        let m = b.node(1, 20 + k, at(mid, 0.0));
+        let t = b.node(1, 30 + k, at(mid, n as f64 * h));
+        // counter-clockwise in (angle, z): the normals point outwards
+        for tri in [[a[0], m, a[1]], [m, c[1], a[1]], [m, c[0], c[1]]] {
+            b.tri(1 + k, tri);
+        }
+        for i in 1..n - 1 {
+            b.tri(1 + k, [a[i], c[i], c[i + 1]]);
+            b.tri(1 + k, [a[i], c[i + 1], a[i + 1]]);
+        }
+        let (a1, c1, an, cn) = (a[n - 1], c[n - 1], a[n], c[n]);
+        for tri in [[t, an, a1], [t, a1, c1], [t, c1, cn]] {
+            b.tri(1 + k, tri);
+        }
+        b.line(20 + k, a[0], m);
+        b.line(20 + k, m, c[0]);
+        b.line(30 + k, an, t);
+        b.line(30 + k, t, cn);
+        for i in 0..n {
+            b.line(10 + k, a[i], a[i + 1]);
+        }
+    }
+    b.mesh
+}
+
+#[test]
+fn the_quarter_faces_of_a_thin_wire_turn_their_ends_across_the_side_lines_they_share() {
+    // without the turns each quarter pairs every row across its long diagonal (a quad as
+    // thin as the quarter is narrow) or needs a midline from end to end
+    let (r, n, h) = (0.03, 12, 0.25);
+    let before = wire(r, n, h);
+    let mut m = before.clone();
+    let report = recombine(&mut m, &verify_opts()).unwrap();
+    check_invariants(&before, &m).unwrap();
+    assert_eq!(count(&m, etype::TRI3), 0);
+    let turns: Vec<_> = report.parity_splits.iter().filter(|s| s.turn).collect();
+    // two turns at each end, across two opposite side lines
+    assert_eq!(turns.len(), 4, "{:?}", report.log);
+    for s in &turns {
+        assert_eq!(s.surfaces.len(), 2);
+        assert!((10..14).contains(&s.curve.unwrap_or(0)));
+    }
+    // each quarter: its 2n + 2 triangles, three more at each end, one quad per two
+    assert_eq!(count(&m, etype::QUAD4), 4 * (n + 4));
+    let worst = quad_coords(&m)
+        .iter()
+        .map(|(_, q)| {
+            let q: [glam::DVec3; 4] = std::array::from_fn(|k| glam::DVec3::from_array(q[k]));
+            blossomquad::quality::eta(&q)
+        })
+        .fold(f64::INFINITY, f64::min);
+    assert!(worst >= 0.3, "worst quad eta {worst:.3}");
+    // with the turns off (or the strips' plans), every curve node stays where it is
+    for opts in [
+        RecombineOptions {
+            turn_strip_ends: false,
+            ..verify_opts()
+        },
+        RecombineOptions {
+            two_row_strips: false,
+            ..verify_opts()
+        },
+    ] {
+        let mut off = before.clone();
+        let r_off = recombine(&mut off, &opts).unwrap();
+        assert!(r_off.parity_splits.is_empty());
+        assert_eq!(count(&off, etype::TRI3), 0);
+    }
+}

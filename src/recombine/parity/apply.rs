@@ -62,7 +62,7 @@ pub(crate) fn apply(
                     }
                 }
             };
-            add_node(mesh, nodes, dim, ent, tag, pos, &[a, b]);
+            add_node(mesh, nodes, dim, ent, tag, pos, &[a, b], None);
             mids.push(((ta.min(tb), ta.max(tb)), tag));
             set.push(((ta, tb), tag));
             report.push(ParitySplit {
@@ -74,6 +74,7 @@ pub(crate) fn apply(
                 },
                 segment: (ta, tb),
                 new_node: tag,
+                turn: false,
             });
             tag += 1;
         }
@@ -161,8 +162,10 @@ pub(crate) fn apply(
 
 /// Adds node `tag` at `pos` to the node block of entity (`dim`, `ent`) (a new block when the
 /// entity has none). When the block is parametric, the new node's parametric coordinates
-/// are the mean of those of the `refs` nodes that are in that block (a warning says so when
-/// some are not; 0 when none is).
+/// are interpolated from those of the `refs` nodes that are in that block: their mean, or
+/// with `weights` (one per ref) their weighted mean, the weights of those in the block
+/// scaled to sum 1 (a warning says so when some are not; 0 when none is).
+#[allow(clippy::too_many_arguments)]
 pub(crate) fn add_node(
     mesh: &mut Mesh,
     nodes: &NodeTable,
@@ -171,6 +174,7 @@ pub(crate) fn add_node(
     tag: u64,
     pos: DVec3,
     refs: &[u32],
+    weights: Option<&[f64]>,
 ) {
     let bi = mesh
         .node_blocks
@@ -200,7 +204,15 @@ pub(crate) fn add_node(
     };
     let has_params = mesh.node_blocks[bi].params.is_some();
     let uv = if has_params {
-        let known: Vec<Vec<f64>> = refs.iter().filter_map(|&n| param_of(n, mesh)).collect();
+        let known: Vec<(Vec<f64>, f64)> = refs
+            .iter()
+            .enumerate()
+            .filter_map(|(i, &n)| {
+                let w = weights.and_then(|w| w.get(i).copied()).unwrap_or(1.0);
+                Some((param_of(n, mesh)?, w))
+            })
+            .collect();
+        let total: f64 = known.iter().map(|k| k.1).sum();
         if known.len() < refs.len() {
             mesh.warnings.push(format!(
                 "node {tag}: parametric coordinates on entity ({dim}, {ent}) averaged from {} of {} neighbouring nodes (the others are not on that entity)",
@@ -209,9 +221,12 @@ pub(crate) fn add_node(
             ));
         }
         let mut uv = vec![0.0; np];
-        for k in &known {
+        for (k, wt) in &known {
             for (u, x) in uv.iter_mut().zip(k) {
-                *u += x / known.len() as f64;
+                *u += match weights {
+                    Some(_) if total > 0.0 => x * wt / total,
+                    _ => x / known.len() as f64,
+                };
             }
         }
         uv

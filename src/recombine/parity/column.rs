@@ -267,7 +267,7 @@ fn split_scores(
 
 /// Signed η ([`crate::quality::eta_signed`]) of the quad made of two oriented triangles
 /// sharing an edge, given as (node, position); −1 when they share no edge.
-fn pair_eta(a: &[(u32, DVec3); 3], b: &[(u32, DVec3); 3]) -> f64 {
+pub(super) fn pair_eta(a: &[(u32, DVec3); 3], b: &[(u32, DVec3); 3]) -> f64 {
     for k in 0..3 {
         let (p, q, r) = (a[k], a[(k + 1) % 3], a[(k + 2) % 3]);
         for j in 0..3 {

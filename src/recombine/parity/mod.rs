@@ -69,6 +69,9 @@
 //! [`super::ParityMode::Error`] nothing is changed and [`RecombineError::OddParity`] lists the odd
 //! surfaces, the curves to fix and how to fix them in the .geo.
 //!
+//! *Strip end turns* (`turn`) run before the plan: they add three triangles at each end of
+//! a narrow face that turns, so they keep every region's parity (see that module).
+//!
 //! *Mixed surfaces.* Quads already present are kept and only the triangles recombined.
 //! When a surface's triangles are enclosed by quads so that they cannot be made even (no
 //! splittable segment) or have no perfect matching — typically the isolated triangles a
@@ -89,8 +92,10 @@ mod column;
 mod periodic;
 mod plan;
 mod tjoin;
+mod turn;
 
 pub(crate) use apply::{add_node, apply};
+pub(crate) use turn::{apply_turns, turns};
 pub(crate) use plan::plan;
 pub(crate) use tjoin::solve_groups;
 

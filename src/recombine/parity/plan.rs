@@ -61,24 +61,7 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork], avoid: 
     walls.sort_unstable();
     let blocked = blocked_edges(mesh, nodes);
     let line_curve = line_curves(mesh, nodes);
-    let curve_of = |key: u64| -> Option<i32> {
-        let (a, b) = ((key >> 32) as u32, key as u32);
-        match line_curve.binary_search_by_key(&key, |x| x.0) {
-            Ok(p) => Some(line_curve[p].1),
-            Err(_) => match (nodes.entity(mesh, a), nodes.entity(mesh, b)) {
-                ((1, c), _) | (_, (1, c)) => Some(c),
-                // a curve meshed with one segment: the curve bounded by both points
-                ((0, p), (0, q)) => mesh.entities[1]
-                    .iter()
-                    .find(|c| {
-                        let pts: Vec<i32> = c.bounding.iter().map(|x| x.abs()).collect();
-                        pts.len() == 2 && pts.contains(&p) && pts.contains(&q)
-                    })
-                    .map(|c| c.tag),
-                _ => None,
-            },
-        }
-    };
+    let curve_of = |key: u64| segment_curve(mesh, nodes, &line_curve, key);
     // regions flipped by splitting the segment `key` (odd number of triangles on it)
     let sig_of = |key: u64| -> Vec<u32> {
         let lo = walls.partition_point(|x| x.0 < key);
@@ -280,6 +263,33 @@ pub(crate) fn plan(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork], avoid: 
         columns,
         unsolved,
         isolated,
+    }
+}
+
+/// The curve of the wall segment `key` (an edge key of node ids): the curve of its line
+/// element (`line_curve`, from [`line_curves`]), else of a node classified on a curve, else
+/// the curve bounded by both its nodes' points (a curve meshed with one segment).
+pub(super) fn segment_curve(
+    mesh: &Mesh,
+    nodes: &NodeTable,
+    line_curve: &[(u64, i32)],
+    key: u64,
+) -> Option<i32> {
+    let (a, b) = ((key >> 32) as u32, key as u32);
+    match line_curve.binary_search_by_key(&key, |x| x.0) {
+        Ok(p) => Some(line_curve[p].1),
+        Err(_) => match (nodes.entity(mesh, a), nodes.entity(mesh, b)) {
+            ((1, c), _) | (_, (1, c)) => Some(c),
+            // a curve meshed with one segment: the curve bounded by both points
+            ((0, p), (0, q)) => mesh.entities[1]
+                .iter()
+                .find(|c| {
+                    let pts: Vec<i32> = c.bounding.iter().map(|x| x.abs()).collect();
+                    pts.len() == 2 && pts.contains(&p) && pts.contains(&q)
+                })
+                .map(|c| c.tag),
+            _ => None,
+        },
     }
 }
 
