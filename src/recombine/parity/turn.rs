@@ -56,7 +56,8 @@ pub(crate) struct Turn {
     ends: [(End, usize); 2],
 }
 
-/// How far from `A1` a turn puts `P`, as a share of the strip's width at its first rung.
+/// How far from `A1` a turn puts `P`, as a share of the strip's width at its first rung
+/// (measured against 0.3 and 0.8 in BENCHMARKS.md, "Measurements behind the defaults").
 const TURN_DEPTH: f64 = 0.5;
 
 /// `P`'s place along the side segment at most (a share of the segment from `A1`): beyond,
