@@ -51,9 +51,19 @@ pub(crate) struct Turn {
     curve: Option<i32>,
     /// `P`'s fraction of the way from `A1` to `A0`.
     at: f64,
-    /// The two ends, each with the side of its pentagon that holds the segment (0: the
-    /// `A` side, 1: the `B` side).
-    ends: [(End, usize); 2],
+    /// The two ends, each turned as [`TurnEnd`] says.
+    ends: [TurnEnd; 2],
+}
+
+/// One end of a [`Turn`]: the strip end, the side of its pentagon that holds the segment
+/// (0: the `A` side, 1: the `B` side), and its three quads and `X`'s position as
+/// [`template`] gave them when the turn was weighed.
+#[derive(Debug, Clone, Copy)]
+struct TurnEnd {
+    end: End,
+    side: usize,
+    quads: [[u32; 4]; 3],
+    x: DVec3,
 }
 
 /// How far from `A1` a turn puts `P`, as a share of the strip's width at its first rung
@@ -130,8 +140,12 @@ pub(crate) fn turns(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Vec
                 let len = (nodes.coords[a0 as usize] - nodes.coords[a1 as usize]).length();
                 let width = |m: [u32; 5]| (nodes.coords[m[0] as usize] - nodes.coords[m[4] as usize]).length();
                 let at = (TURN_DEPTH * width(ma).min(width(mb)) / len).min(MAX_AT);
-                let eta = |e: &End, m: [u32; 5]| template(nodes, m, at, e.floor).map(|t| t.0);
-                let (Some(x), Some(y)) = (eta(&ends[a], ma), eta(&ends[b], mb)) else {
+                let end = |i: usize, side: usize, m: [u32; 5]| {
+                    let (eta, quads, x) = template(nodes, m, at, ends[i].floor)?;
+                    let end = ends[i];
+                    Some((eta, TurnEnd { end, side, quads, x }))
+                };
+                let (Some((x, ea)), Some((y, eb))) = (end(a, sa, ma), end(b, sb, mb)) else {
                     continue;
                 };
                 let curve = segment_curve(mesh, nodes, &line_curve, key);
@@ -140,7 +154,7 @@ pub(crate) fn turns(mesh: &Mesh, nodes: &NodeTable, work: &[SurfaceWork]) -> Vec
                     a1,
                     curve,
                     at,
-                    ends: [(ends[a], sa), (ends[b], sb)],
+                    ends: [ea, eb],
                 };
                 pairs.push((x.min(y), turn, [a, b]));
             }
@@ -320,7 +334,7 @@ pub(crate) fn apply_turns(
         next_node += 1;
         let (dim, ent) = match t.curve {
             Some(c) => (1, c),
-            None => (2, work[t.ends[0].0.work].tag),
+            None => (2, work[t.ends[0].end.work].tag),
         };
         add_node(
             mesh,
@@ -334,13 +348,15 @@ pub(crate) fn apply_turns(
         );
         split_line(mesh, (tag(t.a0), tag(t.a1)), p_tag, &mut next_elem);
         let mut surfaces = Vec::new();
-        for &(e, side) in &t.ends {
+        for &TurnEnd {
+            end: e,
+            side,
+            quads,
+            x,
+        } in &t.ends
+        {
             let w = &work[e.work];
             surfaces.push(w.tag);
-            let m = mirrored(e.cycle, side);
-            let Some((_, quads, x)) = template(nodes, m, t.at, f64::NEG_INFINITY) else {
-                continue;
-            };
             let x_tag = next_node;
             next_node += 1;
             add_node(mesh, nodes, 2, w.tag, x_tag, x, &[], None);
