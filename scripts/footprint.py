@@ -155,11 +155,17 @@ def gmsh_mesh(name, size, out, extra=()):
     """Meshes one model in MSH 4.1 with Gmsh's log on; returns (ok, (wall, CPU) seconds
     of the 2D meshing by Gmsh's own clock, or None)."""
     cmd = corpus.mesh_command(name, size, corpus.VARIANTS["msh41"] + list(extra), out)
+    return gmsh_run(cmd, out, env=dict(os.environ, CORPUS_VERBOSE="1"))
+
+
+def gmsh_run(cmd, out, env=None, cwd=None):
+    """Runs a Gmsh meshing command that writes `out`; returns (ok, (wall, CPU) seconds of
+    the 2D meshing by Gmsh's own clock, or None): not ok when Gmsh fails, times out, logs
+    an error or writes no file."""
     if os.path.exists(out):
         os.remove(out)
-    env = dict(os.environ, CORPUS_VERBOSE="1")
     try:
-        p = subprocess.run(cmd, capture_output=True, timeout=corpus.TIMEOUT, env=env)
+        p = subprocess.run(cmd, capture_output=True, timeout=corpus.TIMEOUT, env=env, cwd=cwd)
     except subprocess.TimeoutExpired:
         return False, None
     log = p.stdout.decode("utf-8", "replace") + p.stderr.decode("utf-8", "replace")
@@ -215,14 +221,15 @@ def goal_failures(row):
     return fails
 
 
-def one(name, cls, level, size, workdir, tool, repeat):
-    base = os.path.join(workdir, f"{name}-{level}")
+def one(name, cls, level, size, workdir, tool, repeat, mesh=gmsh_mesh):
+    """One row: `mesh(name, size, out, extra)` meshes the model (`gmsh_mesh`'s contract)."""
+    base = os.path.join(workdir, f"{name.replace('/', '_')}-{level}")
     tri, out, gq = base + ".msh", base + ".quads.msh", base + ".gmsh-quads.msh"
     tag_map = base + ".tag-map.json"
     row = {"model": name, "class": cls, "size": level, "size_value": size}
     plain = []
     for _ in range(repeat):
-        ok, secs = gmsh_mesh(name, size, tri)
+        ok, secs = mesh(name, size, tri)
         if not ok:
             row["status"] = "mesh-fail"
             return row
@@ -263,7 +270,7 @@ def one(name, cls, level, size, workdir, tool, repeat):
             row["quads_per_triangle"] = (q["quads"] - row["input_quads"]) / row["triangles"]
     recombined = []
     for _ in range(repeat):
-        ok, gsecs = gmsh_mesh(name, size, gq, extra=GMSH_RECOMBINE)
+        ok, gsecs = mesh(name, size, gq, extra=GMSH_RECOMBINE)
         if not ok:
             row["gmsh_fail"] = True
             break
@@ -329,18 +336,24 @@ def summary(rows):
     return " ".join(text)
 
 
-def table(rows, jobs, repeat, load, date):
+def table(rows, jobs, repeat, load, date, heading=None):
+    """The Markdown section; `heading` = (begin marker, end marker, title, regenerate
+    sentence, input sentence), the corpus's by default."""
     cmd = "scripts/footprint.py" + (f" --jobs {jobs}" if jobs != 1 else "") + (f" --repeat {repeat}" if repeat != 1 else "")
+    begin, end, title, regenerate, source = heading or (
+        BEGIN, END, "Fallback footprint on the robustness corpus",
+        f"Regenerate: `{cmd}` (needs `cargo build --release`; `--sizes coarse` for the coarse half).",
+        "Input: `gmsh -2` in MSH 4.1.")
     timing = "single run" if repeat == 1 else f"median of {repeat} runs"
     lines = [
-        BEGIN,
+        begin,
         "",
-        "## Fallback footprint on the robustness corpus",
+        f"## {title}",
         "",
-        f"Regenerate: `{cmd}` (needs `cargo build --release`; `--sizes coarse` for the coarse half).",
+        regenerate,
         "",
         f"Generated on {date}, {len(rows)} runs, {jobs} job(s) at once, "
-        f"times are a {timing} (load average {load:.1f} at the start). Input: `gmsh -2` in MSH 4.1. "
+        f"times are a {timing} (load average {load:.1f} at the start). {source} "
         "tris: input triangles; q/t: new quads per input triangle (0.5 when every triangle pairs); "
         "split: triangles the fallback split into three quads; rm: quads the fallback priced out of "
         "the matching (their triangles paired otherwise); rnd: fallback rounds; bound: the "
@@ -369,8 +382,21 @@ def table(rows, jobs, repeat, load, date):
             f"{fmt(r.get('gmsh_eta_w'))} | {fmt(r.get('gmsh_eta_mean'))} | {fmt(r.get('gmsh_seconds'), 3)} | "
             f"{fmt(r.get('gmsh_cpu_seconds'), 3)} | "
             f"{('✗ ' + ', '.join(fails)) if fails else 'ok'} |")
-    lines += ["", summary(rows), "", END]
+    lines += ["", summary(rows), "", end]
     return "\n".join(lines) + "\n"
+
+
+def report_row(r, out_json=None):
+    """Prints one row's progress line, and writes it to the open --json file if any."""
+    print(f"{r['model']:<26} {r['size']:<6} {r.get('status'):<9} tris {fmt(r.get('triangles'))} "
+          f"q/t {fmt(r.get('quads_per_triangle'), 2)} split {fmt(r.get('split'))} "
+          f"rounds {fmt(r.get('rounds'))} bound {fmt(r.get('bound'), 2)} eta_w {fmt(r.get('eta_w'))} "
+          f"t {fmt(r.get('seconds'), 2)}/{fmt(r.get('cpu_seconds'), 2)} "
+          f"gmsh {fmt(r.get('gmsh_seconds'), 3)}/{fmt(r.get('gmsh_cpu_seconds'), 3)} "
+          f"{' '.join(r.get('fails', []))}", flush=True)
+    if out_json:
+        out_json.write(json.dumps(r) + "\n")
+        out_json.flush()
 
 
 def main(argv):
@@ -426,15 +452,7 @@ def main(argv):
         for f in futures:
             r = f.result()
             rows.append(r)
-            print(f"{r['model']:<26} {r['size']:<6} {r.get('status'):<9} tris {fmt(r.get('triangles'))} "
-                  f"q/t {fmt(r.get('quads_per_triangle'), 2)} split {fmt(r.get('split'))} "
-                  f"rounds {fmt(r.get('rounds'))} bound {fmt(r.get('bound'), 2)} eta_w {fmt(r.get('eta_w'))} "
-                  f"t {fmt(r.get('seconds'), 2)}/{fmt(r.get('cpu_seconds'), 2)} "
-                  f"gmsh {fmt(r.get('gmsh_seconds'), 3)}/{fmt(r.get('gmsh_cpu_seconds'), 3)} "
-                  f"{' '.join(r.get('fails', []))}", flush=True)
-            if out_json:
-                out_json.write(json.dumps(r) + "\n")
-                out_json.flush()
+            report_row(r, out_json)
     if out_json:
         out_json.close()
     section = table(rows, a.jobs, a.repeat, load, date)

@@ -705,8 +705,9 @@ fn a_second_file_gets_a_hint_to_use_dash_o() {
     assert!(!out.exists());
 }
 
-/// A mesh without surface elements (curves only, as `gmsh -1` writes) is refused with exit
-/// 1 saying there is nothing to recombine, and nothing is written; a mesh of quads only goes
+/// A mesh without surface elements (curves only, as `gmsh -1` writes; no element at all,
+/// as `gmsh -2` saves a model whose physical groups are all volumes) is refused with exit
+/// 1 saying there is nothing to recombine and why, and nothing is written; a mesh of quads only goes
 /// through (exit 0) and the summary says there was nothing to recombine; the help documents
 /// the exit codes.
 #[test]
@@ -732,6 +733,43 @@ fn a_mesh_with_nothing_to_recombine_says_so() {
         "{stderr}"
     );
     assert!(!out.exists());
+    // no element at all, as `gmsh -2` saves a model whose physical groups are all volumes
+    // (Gmsh saves only the elements of physical groups): the words name the groups and the
+    // cure; the same file without the group is a file with no mesh
+    for (groups, expected) in [
+        (
+            "$PhysicalNames\n1\n3 1 \"solid\"\n$EndPhysicalNames\n",
+            &[
+                "no elements; Gmsh saves only the elements of physical groups",
+                "groups are all on volumes, none on a surface",
+                "gmsh -save_all",
+            ][..],
+        ),
+        ("", &["holds no mesh elements", "gmsh -2"][..]),
+    ] {
+        let empty = dir.path().join("empty.msh");
+        std::fs::write(
+            &empty,
+            format!(
+                "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n{groups}$Nodes\n0\n$EndNodes\n\
+                 $Elements\n0\n$EndElements\n"
+            ),
+        )
+        .expect("write input");
+        let (code, _, stderr) =
+            blossomquad_run([empty.as_os_str(), "-o".as_ref(), out.as_os_str()]);
+        assert_eq!(code, Some(1), "{stderr}");
+        assert_eq!(stderr.trim().lines().count(), 1, "{stderr}");
+        assert!(
+            stderr.contains("empty.msh: nothing to recombine"),
+            "{stderr}"
+        );
+        for words in expected {
+            assert!(stderr.contains(words), "{words}: {stderr}");
+        }
+        assert!(!stderr.contains("gmsh -1"), "{stderr}");
+        assert!(!out.exists());
+    }
     // quads only: the output of a first run goes through unchanged in its elements
     let quads = dir.path().join("quads.msh");
     blossomquad()
