@@ -217,6 +217,9 @@ const REUSE_UP_TO: usize = TRIES_UP_TO;
 /// sharp turns); up to 10 rounds after the first run
 /// ([`Report::rounds`]). Quads still bad then are refused ([`Error::Invalid`]).
 pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
+    if let Some(why) = nothing_to_recombine(mesh) {
+        return Err(Error::NothingToRecombine(why));
+    }
     let input_tags =
         (opts.tag_map && !opts.keep_tags).then(|| crate::renumber::InputTags::of(mesh));
     let mut report = if crate::high_order::is_second_order(mesh) {
@@ -239,6 +242,57 @@ pub fn quadrangulate(mesh: &mut Mesh, opts: &Options) -> Result<Report, Error> {
         crate::quality::view::add_views(mesh, binary);
     }
     Ok(report)
+}
+
+/// Why `mesh` gives [`quadrangulate`] nothing to work on: no surface element at all (as
+/// `gmsh -1` writes), in words; `None` when some surface has elements (a mesh of quads only
+/// goes through). Where a mesh read from a file has physical groups but none on a surface,
+/// the words say so: Gmsh then saves only the elements of those groups, so a surface mesh
+/// of a model whose groups are all volumes holds no element at all.
+pub(crate) fn nothing_to_recombine(mesh: &Mesh) -> Option<String> {
+    let count = |dim: i32| -> usize {
+        mesh.element_blocks
+            .iter()
+            .filter(|b| b.entity_dim == dim)
+            .map(|b| b.len())
+            .sum()
+    };
+    if count(2) > 0 {
+        return None;
+    }
+    let grouped = |dim: usize| {
+        mesh.physical_names.iter().any(|p| p.dim == dim as i32)
+            || mesh.entities[dim]
+                .iter()
+                .any(|e| !e.physical_tags.is_empty())
+    };
+    let kinds: Vec<&str> = [(0, "points"), (1, "curves"), (3, "volumes")]
+        .into_iter()
+        .filter(|&(dim, _)| grouped(dim))
+        .map(|(_, kind)| kind)
+        .collect();
+    let groups_only = if kinds.is_empty() || grouped(2) || mesh.format.is_none() {
+        String::new()
+    } else {
+        format!(
+            "; Gmsh saves only the elements of physical groups, and this model's groups are all on {}, \
+             none on a surface: add a physical surface group, or save every element (gmsh -save_all, \
+             Mesh.SaveAll = 1)",
+            kinds.join(" and ")
+        )
+    };
+    let (lines, volumes) = (count(1), count(3));
+    Some(if volumes > 0 {
+        format!("nothing to recombine: no surface elements, only {volumes} volume element(s){groups_only}")
+    } else if lines > 0 {
+        format!(
+            "nothing to recombine: the mesh has no surface elements ({lines} line element(s); made by gmsh -1? mesh the surfaces with gmsh -2){groups_only}"
+        )
+    } else if !groups_only.is_empty() {
+        format!("nothing to recombine: the file holds no elements{groups_only}")
+    } else {
+        "nothing to recombine: the mesh has no elements (mesh the surfaces first, e.g. with gmsh -2)".to_string()
+    })
 }
 
 /// [`quadrangulate`] of a second-order mesh ([`crate::high_order`]'s module doc): its

@@ -139,6 +139,21 @@ def test_recombine_file_errors_are_one_line_and_write_nothing(tmp_path):
         blossomquad.recombine_file(RECTANGLE, out, parity="fix")
 
 
+def test_a_file_without_surface_elements_is_refused_saying_why(tmp_path):
+    # what gmsh -2 saves of a model whose physical groups are all volumes: no element
+    empty = tmp_path / "volumes_only.msh"
+    empty.write_text(
+        "$MeshFormat\n2.2 0 8\n$EndMeshFormat\n$PhysicalNames\n1\n3 1 \"solid\"\n"
+        "$EndPhysicalNames\n$Nodes\n0\n$EndNodes\n$Elements\n0\n$EndElements\n")
+    out = tmp_path / "out.msh"
+    with pytest.raises(blossomquad.Error) as e:
+        blossomquad.recombine_file(empty, out)
+    message = str(e.value)
+    assert "volumes_only.msh: nothing to recombine" in message, message
+    assert "groups are all on volumes" in message and "save_all" in message, message
+    assert not out.exists()
+
+
 # --- arrays --------------------------------------------------------------------------
 
 

@@ -124,8 +124,8 @@ pub(super) fn recombine_main(args: RunArgs) -> Result<(), String> {
         .inspect_err(|_| finish())?;
     let t_read = t0.elapsed().as_secs_f64();
     print_warnings(&mesh, &log);
-    nothing_to_recombine(&mesh)
-        .map(|why| format!("{}: {why}", input.display()))
+    crate::pipeline::nothing_to_recombine(&mesh)
+        .map(|why| format!("{}: {why}; nothing written", input.display()))
         .map_or(Ok(()), Err)
         .inspect_err(|_| finish())?;
 
@@ -229,59 +229,6 @@ pub(super) fn error_hint(e: &crate::Error) -> &'static str {
         Some("drop_volumes") => " (--drop-volumes)",
         _ => "",
     }
-}
-
-/// Why `mesh` gives the main job nothing to work on (no surface element at all, as
-/// `gmsh -1` writes), in words; `None` when some surface has elements (a mesh of quads
-/// only goes through and is reported as such). Where the model has physical groups but
-/// none on a surface, the words say so: Gmsh then saves only the elements of those groups,
-/// so a surface mesh of a model whose groups are all volumes holds no element at all.
-pub(super) fn nothing_to_recombine(mesh: &Mesh) -> Option<String> {
-    let count = |dim: i32| -> usize {
-        mesh.element_blocks
-            .iter()
-            .filter(|b| b.entity_dim == dim)
-            .map(|b| b.len())
-            .sum()
-    };
-    if count(2) > 0 {
-        return None;
-    }
-    let grouped = |dim: usize| {
-        mesh.physical_names.iter().any(|p| p.dim == dim as i32)
-            || mesh.entities[dim]
-                .iter()
-                .any(|e| !e.physical_tags.is_empty())
-    };
-    let kinds: Vec<&str> = [(0, "points"), (1, "curves"), (3, "volumes")]
-        .into_iter()
-        .filter(|&(dim, _)| grouped(dim))
-        .map(|(_, kind)| kind)
-        .collect();
-    let groups_only = if kinds.is_empty() || grouped(2) {
-        String::new()
-    } else {
-        format!(
-            "; Gmsh saves only the elements of physical groups, and this model's groups are all on {}, \
-             none on a surface: add a physical surface group, or save every element (gmsh -save_all, \
-             Mesh.SaveAll = 1)",
-            kinds.join(" and ")
-        )
-    };
-    let (lines, volumes) = (count(1), count(3));
-    Some(if volumes > 0 {
-        format!(
-            "nothing to recombine: no surface elements, only {volumes} volume element(s){groups_only}; nothing written"
-        )
-    } else if lines > 0 {
-        format!(
-            "nothing to recombine: the mesh has no surface elements ({lines} line element(s); made by gmsh -1? mesh the surfaces with gmsh -2){groups_only}; nothing written"
-        )
-    } else if !groups_only.is_empty() {
-        format!("nothing to recombine: the file holds no elements{groups_only}; nothing written")
-    } else {
-        "nothing to recombine: the file holds no mesh elements (mesh the surfaces with gmsh -2); nothing written".to_string()
-    })
 }
 
 /// The triangles (3- or 6-node) on the surfaces of `mesh`: the count `info` reports for

@@ -94,6 +94,10 @@ pub enum Error {
     /// Second-order input refused, or second-order elements not valid.
     #[error(transparent)]
     SecondOrder(crate::high_order::HighOrderError),
+    /// The mesh has no surface element, so nothing to recombine: why, in words (no mesh,
+    /// curves or volumes only, or a file whose physical groups hold no surface).
+    #[error("{0}")]
+    NothingToRecombine(String),
 }
 
 /// A refusal of the linear copy is the linear job's refusal ([`Error::Recombine`]).

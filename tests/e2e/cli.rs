@@ -745,7 +745,7 @@ fn a_mesh_with_nothing_to_recombine_says_so() {
                 "gmsh -save_all",
             ][..],
         ),
-        ("", &["holds no mesh elements", "gmsh -2"][..]),
+        ("", &["the mesh has no elements", "gmsh -2"][..]),
     ] {
         let empty = dir.path().join("empty.msh");
         std::fs::write(
