@@ -124,10 +124,6 @@ pub(super) fn recombine_main(args: RunArgs) -> Result<(), String> {
         .inspect_err(|_| finish())?;
     let t_read = t0.elapsed().as_secs_f64();
     print_warnings(&mesh, &log);
-    crate::pipeline::nothing_to_recombine(&mesh)
-        .map(|why| format!("{}: {why}; nothing written", input.display()))
-        .map_or(Ok(()), Err)
-        .inspect_err(|_| finish())?;
 
     // the summary counts the input's triangles, as `info` does (parity repair adds some)
     let triangles = input_triangles(&mesh);
@@ -166,7 +162,12 @@ pub(super) fn recombine_main(args: RunArgs) -> Result<(), String> {
         if let (true, crate::Error::Invalid { log: lines, .. }) = (args.verbose, &e) {
             log.say_all(lines);
         }
-        format!("{}: {e}{}", input.display(), error_hint(&e))
+        // a mesh with no surface element is refused before any work
+        let written = match e {
+            crate::Error::NothingToRecombine(_) => "; nothing written",
+            _ => "",
+        };
+        format!("{}: {e}{written}{}", input.display(), error_hint(&e))
     })?;
     if args.verbose {
         log.say_all(&report.log);
