@@ -125,7 +125,9 @@
 //!    each ring try after the first only when the one before was kept; last, where a ring
 //!    try raised the worst quad but broke the element-count rule, only the input
 //!    triangles inside those still under it split (a parity split's node standing for its
-//!    segment's ends). Each is kept only when it raises the worst quad without breaking
+//!    segment's ends); and last, the boundary fans of those still under it whose widest
+//!    corner is near flat at a fan node peeled (a curve nearly straight there: the two
+//!    triangles at the node pair with a valid corner near 180°). Each is kept only when it raises the worst quad without breaking
 //!    the element-count rule. (A mesh of more than [`TRIES_UP_TO`] elements gets them
 //!    only after a fallback.) A result whose worst quad is at the input's wall-corner
 //!    bound (an acute corner of a planar surface, which bounds the worst quad of every
@@ -169,7 +171,7 @@ use reporter::Reporter;
 use rounds::*;
 
 use fallback::{
-    corner_bounds, count_rule_limit, fallback_triangles, low_quad_segments, low_quads, low_quads_eta, pairs_of, quads_per_triangle, quads_under, raisable,
+    corner_bounds, count_rule_limit, fallback_triangles, low_quad_fans, low_quad_segments, low_quads, low_quads_eta, pairs_of, quads_per_triangle, quads_under, raisable,
     splits_exceed, surface_elements, surface_elements_where, triangles_inside, wall_corner_bound, FallbackStart, JobNotes,
     LocalFallback, Next, MAX_QUADS_PER_TRIANGLE, PRICE_FLOOR, PRICE_TRY_UP_TO, RAISE_MIN,
 };

@@ -883,8 +883,45 @@ pub(super) fn low_quad_segments(
     low: &[(i32, [u64; 4])],
     done: &[(u64, u64)],
 ) -> Vec<(u64, u64)> {
+    let corners: Vec<(i32, [u64; 4], usize)> = widest_corners(result, low, FLAT_WALL_CORNER_DEG)
+        .into_iter()
+        .map(|(s, n, k, _)| (s, n, k))
+        .collect();
+    segments_opposite(input, &corners, done, None)
+}
+
+/// The radial edges of boundary fans to peel ([`fan_radials`]) for the poor quads `low`
+/// (surface and node tags of `result`) whose widest corner, at least
+/// [`FLAT_WALL_CORNER_DEG`], is at a fan node: a boundary node with exactly two triangles,
+/// at one apex, which every pairing of those two makes a corner of the boundary's angle
+/// there, near 180° on a smooth curve, whatever the optimizer does. Peeled, each of the
+/// fan's triangles is a quad on the boundary and a triangle at the apex.
+pub(super) fn low_quad_fans(
+    input: &Mesh,
+    result: &Mesh,
+    low: &[(i32, [u64; 4])],
+    done: &[(u64, u64)],
+) -> Vec<(u64, u64)> {
+    let bad: Vec<BadQuad> = widest_corners(result, low, FLAT_WALL_CORNER_DEG)
+        .into_iter()
+        .map(|(surface, nodes, corner, degrees)| BadQuad {
+            surface,
+            element: 0,
+            nodes,
+            defect: crate::validity::Defect::Corner { corner, degrees },
+        })
+        .collect();
+    if bad.is_empty() {
+        return Vec::new();
+    }
+    fan_radials(input, &bad, done)
+}
+
+/// The quads of `low` (surface and node tags of `result`) whose widest corner is at least
+/// `min_deg` degrees, with that corner's index and angle in degrees.
+fn widest_corners(result: &Mesh, low: &[(i32, [u64; 4])], min_deg: f64) -> Vec<(i32, [u64; 4], usize, f64)> {
     let results = TagCoords::new(result);
-    let mut corners: Vec<(i32, [u64; 4], usize)> = Vec::new();
+    let mut out = Vec::new();
     for &(s, n) in low {
         let Some(p) = n
             .iter()
@@ -897,11 +934,12 @@ pub(super) fn low_quad_segments(
         let Some(k) = (0..4).max_by(|&a, &b| angle(a).total_cmp(&angle(b))) else {
             continue;
         };
-        if angle(k).to_degrees() >= FLAT_WALL_CORNER_DEG {
-            corners.push((s, n, k));
+        let degrees = angle(k).to_degrees();
+        if degrees >= min_deg {
+            out.push((s, n, k, degrees));
         }
     }
-    segments_opposite(input, &corners, done, None)
+    out
 }
 
 /// Boundary segments whose split lets the triangles of a bad quad pair otherwise, and
@@ -1370,6 +1408,25 @@ mod tests {
         );
         // no fan node at the bad corner, and no fan of two nodes on the surface
         assert!(fan_radials(&strip, &[bad([1, 2, 6, 5], 1)], &[]).is_empty());
+    }
+
+    #[test]
+    fn a_poor_quad_nearly_flat_at_a_fan_node_gets_its_fan_to_peel() {
+        let input = strip();
+        // in the result, node 6 lifted off the line 5-7: the corner of 5-6-7-2 at 6 is
+        // about 179.4 degrees, valid but poor
+        let mut result = strip();
+        result.node_blocks[0].coords[5] = [2.0, 1.01, 0.0];
+        let fan = vec![(2, 5), (2, 6), (2, 7)];
+        assert_eq!(low_quad_fans(&input, &result, &[(1, [5, 6, 7, 2])], &[]), fan);
+        // radials done are left out
+        assert_eq!(
+            low_quad_fans(&input, &result, &[(1, [5, 6, 7, 2])], &[(2, 6)]),
+            vec![(2, 5), (2, 7)]
+        );
+        // a poor quad with no corner near flat, and a flat one at no fan node
+        assert!(low_quad_fans(&input, &result, &[(1, [1, 2, 6, 5])], &[]).is_empty());
+        assert!(low_quad_fans(&input, &result, &[(1, [4, 5, 6, 1])], &[]).is_empty());
     }
 
     #[test]

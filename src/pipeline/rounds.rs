@@ -625,8 +625,14 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 /// 5. where a ring try raised the worst quad but broke the element-count rule, the input
 ///    triangles inside the quads still below [`ETA_FLOOR`] split ([`triangles_inside`]: a
 ///    parity split's node stands for its segment's ends, so the triangle it halved
-///    counts), fewer new quads than a ring. It comes last: a result it raises just above
-///    the floor would end the ring tries, which may raise the worst quad further.
+///    counts), fewer new quads than a ring. It comes after them: a result it raises just
+///    above the floor would end the ring tries, which may raise the worst quad further;
+/// 6. last, the boundary fans of the quads still below [`ETA_FLOOR`] whose widest corner
+///    is near flat at a fan node peeled ([`low_quad_fans`]): a boundary node with two
+///    triangles at one apex, on a curve that is nearly straight there, pairs them with a
+///    corner of the curve's angle, valid but near 180°; peeled, each is a quad on the curve
+///    and a triangle at the apex, about 1.5 quads a triangle where a ring costs 3. It
+///    comes after the rings, whose result where kept is often the better one.
 ///
 /// No try runs once the worst quad is within [`RAISE_MIN`] of the input's wall-corner
 /// bound ([`wall_corner_bound`]): no result could be kept.
@@ -665,7 +671,7 @@ pub(super) fn raise_worst_quad<'a>(
     // (measured once, when a try would run): the tries cannot raise it past that bound
     // (refinement moves the new curve nodes off the walls' lines)
     let mut bound: Option<f64> = None;
-    for step in 0..4 + SPLIT_TRIES {
+    for step in 0..5 + SPLIT_TRIES {
         let ring_try = (3..3 + SPLIT_TRIES).contains(&step);
         let mut start = best.2.clone();
         let what = match step {
@@ -713,7 +719,7 @@ pub(super) fn raise_worst_quad<'a>(
                 start.segments.extend(new);
                 format!("{n} boundary segment(s) under flat wall corners of quads under eta {ETA_FLOOR} split")
             }
-            // the last try: the triangles inside the quads still low
+            // the try before the last: the triangles inside the quads still low
             _ if step == 3 + SPLIT_TRIES => {
                 if !ring_over_count {
                     continue;
@@ -726,6 +732,16 @@ pub(super) fn raise_worst_quad<'a>(
                 let n = more.len();
                 start.chosen.extend(more);
                 format!("{n} triangle(s) inside quads under eta {ETA_FLOOR} split")
+            }
+            // the last try: the boundary fans under the quads still low peeled
+            _ if step == 4 + SPLIT_TRIES => {
+                let new = low_quad_fans(input, &best.0, &low, &start.peels);
+                if new.is_empty() {
+                    continue;
+                }
+                let n = new.len();
+                start.peels.extend(new);
+                format!("{n} radial edge(s) of boundary fans under flat wall corners of quads under eta {ETA_FLOOR} peeled")
             }
             _ => {
                 // a ring try after the first only when the one before it was kept

@@ -4,9 +4,12 @@ distance to the edges, sizes from the field alone). Along each edge, runs of bou
 triangles share an interior apex, and a boundary node with two triangles of one fan gets a
 flat corner when they are paired. The variant `steep` (v41_edge_refined_box_steep.msh)
 grows from 0.08 to 0.5 over the same 0.3: longer fans, three or more triangles at one apex.
-Any other sizes: FINE at the edges, COARSE at REACH from them.
+The variant `cylinder` (v41_edge_refined_cylinder.msh) is a cylinder of radius 0.5 and
+height 1 with the box's sizes: along its circles a segment turns 8 degrees, so a pair of one
+fan's two triangles has a corner near 172 degrees at the fan node, valid but poor. Any other
+sizes: FINE at the edges, COARSE at REACH from them.
 
-Usage: python3 edge_refined_box.py [steep | FINE COARSE REACH] OUT.msh
+Usage: python3 edge_refined_box.py [steep | cylinder | FINE COARSE REACH] OUT.msh
 """
 
 import sys
@@ -18,11 +21,14 @@ COARSE = 0.35
 REACH = 0.3
 
 
-def main(out, fine=FINE, coarse=COARSE, reach=REACH):
+def main(out, fine=FINE, coarse=COARSE, reach=REACH, cylinder=False):
     gmsh.initialize()
     gmsh.option.setNumber("General.Terminal", 0)
     gmsh.model.add("edge_refined_box")
-    gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
+    if cylinder:
+        gmsh.model.occ.addCylinder(0, 0, 0, 0, 0, 1, 0.5)
+    else:
+        gmsh.model.occ.addBox(0, 0, 0, 1, 1, 1)
     gmsh.model.occ.synchronize()
     field = gmsh.model.mesh.field
     field.add("Distance", 1)
@@ -47,6 +53,8 @@ def main(out, fine=FINE, coarse=COARSE, reach=REACH):
 if __name__ == "__main__":
     if len(sys.argv) == 3 and sys.argv[1] == "steep":
         main(sys.argv[2], fine=0.08, coarse=0.5)
+    elif len(sys.argv) == 3 and sys.argv[1] == "cylinder":
+        main(sys.argv[2], cylinder=True)
     elif len(sys.argv) == 5:
         fine, coarse, reach = (float(a) for a in sys.argv[1:4])
         main(sys.argv[4], fine, coarse, reach)
