@@ -127,8 +127,8 @@
 //!    triangles inside those still under it split (a parity split's node standing for its
 //!    segment's ends); and last, the boundary fans of those still under it whose widest
 //!    corner is near flat at a fan node peeled (a curve nearly straight there: the two
-//!    triangles at the node pair with a valid corner near 180°). Each is kept only when it raises the worst quad without breaking
-//!    the element-count rule. (A mesh of more than [`TRIES_UP_TO`] elements gets them
+//!    triangles at the node pair with a valid corner near 180°). Each is kept only when it
+//!    raises the worst quad without breaking the element-count rule. (A mesh of more than [`TRIES_UP_TO`] elements gets them
 //!    only after a fallback.) A result whose worst quad is at the input's wall-corner
 //!    bound (an acute corner of a planar surface, which bounds the worst quad of every
 //!    result) gets no more tries.

@@ -675,7 +675,14 @@ pub(super) fn pairs_of(
 /// triangles at `x` pair with each other at the radial edges' midpoints, which the
 /// optimizer moves.
 pub(super) fn fan_radials(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) -> Vec<(u64, u64)> {
-    let surfaces: HashSet<i32> = bad.iter().map(|b| b.surface).collect();
+    let corners: Vec<(i32, [u64; 4], u64)> = bad.iter().map(|q| (q.surface, q.nodes, q.node())).collect();
+    fans_at(input, &corners, done)
+}
+
+/// [`fan_radials`] of the quads `corners` (surface, node tags, the node of the corner that
+/// may be a fan node's).
+fn fans_at(input: &Mesh, corners: &[(i32, [u64; 4], u64)], done: &[(u64, u64)]) -> Vec<(u64, u64)> {
+    let surfaces: HashSet<i32> = corners.iter().map(|c| c.0).collect();
     let triangles = SurfaceTriangles::of(input, &surfaces);
     let boundary = Boundary::of(&triangles);
     // the third nodes of the triangles at each edge of a surface
@@ -706,9 +713,9 @@ pub(super) fn fan_radials(input: &Mesh, bad: &[BadQuad], done: &[(u64, u64)]) ->
         (single(s, b, n)? == x && x != p && x != n && inside(s, b, x)).then_some((x, [p, n]))
     };
     let mut starts: Vec<(i32, u64)> = Vec::new();
-    for q in bad {
-        if fan(q.surface, q.node()).is_some() && triangles.pair(q.surface, q.nodes).is_some() {
-            starts.push((q.surface, q.node()));
+    for &(s, nodes, node) in corners {
+        if fan(s, node).is_some() && triangles.pair(s, nodes).is_some() {
+            starts.push((s, node));
         }
     }
     let mut nodes: Vec<(i32, u64)> = boundary.at.keys().copied().collect();
@@ -883,10 +890,7 @@ pub(super) fn low_quad_segments(
     low: &[(i32, [u64; 4])],
     done: &[(u64, u64)],
 ) -> Vec<(u64, u64)> {
-    let corners: Vec<(i32, [u64; 4], usize)> = widest_corners(result, low, FLAT_WALL_CORNER_DEG)
-        .into_iter()
-        .map(|(s, n, k, _)| (s, n, k))
-        .collect();
+    let corners = widest_corners(result, low, FLAT_WALL_CORNER_DEG);
     segments_opposite(input, &corners, done, None)
 }
 
@@ -902,24 +906,19 @@ pub(super) fn low_quad_fans(
     low: &[(i32, [u64; 4])],
     done: &[(u64, u64)],
 ) -> Vec<(u64, u64)> {
-    let bad: Vec<BadQuad> = widest_corners(result, low, FLAT_WALL_CORNER_DEG)
+    let corners: Vec<(i32, [u64; 4], u64)> = widest_corners(result, low, FLAT_WALL_CORNER_DEG)
         .into_iter()
-        .map(|(surface, nodes, corner, degrees)| BadQuad {
-            surface,
-            element: 0,
-            nodes,
-            defect: crate::validity::Defect::Corner { corner, degrees },
-        })
+        .map(|(s, n, k)| (s, n, n[k]))
         .collect();
-    if bad.is_empty() {
+    if corners.is_empty() {
         return Vec::new();
     }
-    fan_radials(input, &bad, done)
+    fans_at(input, &corners, done)
 }
 
 /// The quads of `low` (surface and node tags of `result`) whose widest corner is at least
-/// `min_deg` degrees, with that corner's index and angle in degrees.
-fn widest_corners(result: &Mesh, low: &[(i32, [u64; 4])], min_deg: f64) -> Vec<(i32, [u64; 4], usize, f64)> {
+/// `min_deg` degrees, with that corner's index.
+fn widest_corners(result: &Mesh, low: &[(i32, [u64; 4])], min_deg: f64) -> Vec<(i32, [u64; 4], usize)> {
     let results = TagCoords::new(result);
     let mut out = Vec::new();
     for &(s, n) in low {
@@ -934,9 +933,8 @@ fn widest_corners(result: &Mesh, low: &[(i32, [u64; 4])], min_deg: f64) -> Vec<(
         let Some(k) = (0..4).max_by(|&a, &b| angle(a).total_cmp(&angle(b))) else {
             continue;
         };
-        let degrees = angle(k).to_degrees();
-        if degrees >= min_deg {
-            out.push((s, n, k, degrees));
+        if angle(k).to_degrees() >= min_deg {
+            out.push((s, n, k));
         }
     }
     out
