@@ -135,10 +135,12 @@
 //!
 //! A job that could only be kept within a count of new quads per input triangle (a
 //! worst-quad try other than a ring, against the count it must keep; any job after the
-//! first, against the element-count rule, where the result it competes with is valid and
-//! within the rule) stops before a round whose split triangles alone would put it above
-//! that count (`fallback::splits_exceed`), and counts as refused: it could not have been
-//! kept.
+//! first, where the result it competes with is valid: against the element-count rule where
+//! that result is within it, and against 1/`SMALLER_SHARE` of that result's count where it
+//! breaks the rule with no quad under η [`ETA_FLOOR`], since a valid result with more is
+//! then never the better one) stops before a round whose split triangles alone would put it
+//! above that count (`fallback::splits_exceed`), and counts as refused: it could not have
+//! been kept (the log says so).
 //!
 //! Quads still bad after the fallback are refused (or listed with
 //! [`Options::allow_invalid`]). A run whose quads are all valid the first time, with no
@@ -472,17 +474,18 @@ fn jobs<'a>(base: &'a Mesh, opts: &Options, traced: bool, cache: &mut Shared<'a>
     };
     // the rings counted per surface first; where that made a difference, the rings
     // counted over the job too, and the better of the two
-    let (local, diverged) = run_job(base, opts, from.clone(), None, cache);
+    let (local, diverged, _) = run_job(base, opts, from.clone(), None, cache);
     let result = if diverged {
         let start = FallbackStart {
             global_rings: true,
             ..from.clone()
         };
         let cap = count_cap(base, opts, &local);
-        let (global, _) = run_job(base, opts, start, cap, cache);
+        let name = job_name(&start);
+        let (global, _, stopped) = run_job(base, opts, start, cap, cache);
         match (local, global) {
             (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
-            (Ok(a), Err(_)) => Ok(a),
+            (Ok(a), Err(_)) => Ok(note_stopped(a, &name, cap.filter(|_| stopped))),
             (Err(_), global) => global,
         }
     } else {
@@ -679,36 +682,64 @@ fn with_job<'a>(
         ..start
     };
     let cap = count_cap(base, opts, &result);
-    let (other, _) = run_job(base, opts, start, cap, cache);
+    let name = job_name(&start);
+    let (other, _, stopped) = run_job(base, opts, start, cap, cache);
     let other = match tries {
         true => other.and_then(|first| raise_worst_quad(base, opts, first, cache)),
         false => other,
     };
     keep_better(base, opts, result, other)
+        .map(|kept| note_stopped(kept, &name, cap.filter(|_| stopped)))
+}
+
+/// `kept` with a log line saying that the job `name` stopped, where `cap` is the count its
+/// split triangles alone went beyond (a result above it could not have been kept).
+fn note_stopped(
+    mut kept: (Mesh, Report, FallbackStart),
+    name: &str,
+    cap: Option<f64>,
+) -> (Mesh, Report, FallbackStart) {
+    if let Some(cap) = cap {
+        kept.1.log.push(format!(
+            "fallback: {name} stopped: its split triangles alone put it above {cap:.3} new quads \
+             per input triangle, where it could not have been kept"
+        ));
+    }
+    kept
 }
 
 /// The most new quads per input triangle another job's result may have and still be the
 /// better one against `result` ([`better_job`]): where `result` is valid and within the
-/// element-count rule, the rule's limit; otherwise none.
+/// element-count rule, the rule's limit; where it is valid, breaks the rule and has no quad
+/// under η [`ETA_FLOOR`], its own count over [`SMALLER_SHARE`] (against a valid result with
+/// more, `result` is the much smaller one, whatever that result's worst quad; an invalid
+/// one is never better); otherwise none.
 fn count_cap(base: &Mesh, opts: &Options, result: &JobResult) -> Option<f64> {
     let r = result.as_ref().ok()?;
-    let (valid, within, _) = count_measures(base, opts, r);
-    (valid && within).then(|| count_rule_limit(surface_elements(base, etype::TRI3)))
+    let (valid, within, per_triangle) = count_measures(base, opts, r);
+    if !valid {
+        return None;
+    }
+    if within {
+        return Some(count_rule_limit(surface_elements(base, etype::TRI3)));
+    }
+    let worst = low_quads(&r.0, &unmeasured_surfaces(base, opts)).1;
+    (worst >= ETA_FLOOR).then(|| per_triangle / SMALLER_SHARE)
 }
 
 /// One job's rounds from `start`; a job that split boundary segments under fans and still
 /// failed runs again without them (on strips that share curves, a segment split moves one
 /// strip's imbalance to the next). Returns the result and whether per-surface rings made a
-/// difference in either run ([`FallbackStart::global_rings`]). With `cap`, a job whose split
-/// triangles alone put it above `cap` new quads per input triangle stops there, refused
-/// ([`run_rounds`]).
+/// difference in either run ([`FallbackStart::global_rings`]), and whether it was refused
+/// because, with `cap`, its split triangles alone put it above `cap` new quads per input
+/// triangle, where it stopped ([`run_rounds`]).
 fn run_job<'a>(
     base: &'a Mesh,
     opts: &Options,
     start: FallbackStart,
     cap: Option<f64>,
     cache: &mut Shared<'a>,
-) -> (JobResult, bool) {
+) -> (JobResult, bool, bool) {
     let mut notes = JobNotes::default();
     let again = FallbackStart {
         no_segments: true,
@@ -724,7 +755,8 @@ fn run_job<'a>(
         }
         e => Err(e),
     });
-    (result, notes.rings_diverged)
+    let stopped = notes.over_count && result.is_err();
+    (result, notes.rings_diverged, stopped)
 }
 
 /// The better of two jobs' outcomes ([`better_job`] when both are valid); where both were
@@ -822,34 +854,7 @@ fn better_job(
         y.3 < x.3
     };
     let (mut kept, other) = if b_better { (b, a) } else { (a, b) };
-    let variant = |r: &(Mesh, Report, FallbackStart)| {
-        let rings = match r.2.global_rings {
-            true => "split rings counted over the job",
-            false => "split rings counted per surface",
-        };
-        let pairs = match r.2.flat_pairs {
-            true => format!("{rings}, flat pairs"),
-            false => rings.to_string(),
-        };
-        let hopeless = match r.2.hopeless {
-            true => format!("{pairs}, every pair with a corner near 180 or 0 degrees at a wall node priced out"),
-            false => pairs,
-        };
-        let peeled = match r.2.peel_fans {
-            true => format!("{hopeless}, boundary fans peeled"),
-            false => hopeless,
-        };
-        let bent = match r.2.bent {
-            crate::validity::Bent::Accepted => {
-                format!("{peeled}, quads bent across sharp turns accepted")
-            }
-            crate::validity::Bent::Refused => peeled,
-        };
-        match r.2.traced {
-            true => format!("{bent}, bad quads traced back to the recombination's"),
-            false => bent,
-        }
-    };
+    let variant = |r: &(Mesh, Report, FallbackStart)| job_name(&r.2);
     let (k, o) = if b_better { (y, x) } else { (x, y) };
     kept.1.log.push(format!(
         "fallback: {} kept (quads per triangle {:.3}, eta_w {:.3}), not {} ({:.3}, {:.3})",
@@ -862,6 +867,35 @@ fn better_job(
     ));
     kept.1.times = add_times(&other.1.times, &kept.1.times);
     kept
+}
+
+/// The job a start describes, in the log's words ("split rings counted per surface, boundary
+/// fans peeled").
+fn job_name(start: &FallbackStart) -> String {
+    let rings = match start.global_rings {
+        true => "split rings counted over the job",
+        false => "split rings counted per surface",
+    };
+    let pairs = match start.flat_pairs {
+        true => format!("{rings}, flat pairs"),
+        false => rings.to_string(),
+    };
+    let hopeless = match start.hopeless {
+        true => format!("{pairs}, every pair with a corner near 180 or 0 degrees at a wall node priced out"),
+        false => pairs,
+    };
+    let peeled = match start.peel_fans {
+        true => format!("{hopeless}, boundary fans peeled"),
+        false => hopeless,
+    };
+    let bent = match start.bent {
+        crate::validity::Bent::Accepted => format!("{peeled}, quads bent across sharp turns accepted"),
+        crate::validity::Bent::Refused => peeled,
+    };
+    match start.traced {
+        true => format!("{bent}, bad quads traced back to the recombination's"),
+        false => bent,
+    }
 }
 
 fn progress(opts: &Options, stage: Stage, done: usize, total: usize) {

@@ -828,6 +828,43 @@ fn a_steeply_edge_refined_box_peels_its_boundary_fans_instead_of_splitting_every
     recombines_validly_by_tag(&input, &mesh);
 }
 
+/// Gmsh's mesh of the unit box at 0.06 along its edges and 0.5 at 0.3 from them
+/// (`edge_refined_box.py 0.06 0.5 0.3`, 958 triangles): the job that peels the boundary
+/// fans is kept, valid, with 0.651 new quads per input triangle (the fans force more than
+/// 0.6, and the warning says so) and a worst quad of 0.468, while the first job's splits
+/// cascaded into every triangle. Against that result, a valid one with more than 1/0.8 of
+/// its new quads is never the better one, whatever its worst quad, so the jobs after it
+/// (flat pairs, bent quads), which cascade the same way, stop as soon as their split
+/// triangles alone put them above that count, and say so; the result is the peeling job's.
+#[test]
+fn jobs_that_could_not_be_kept_against_a_valid_result_above_the_count_rule_stop_early() {
+    let input = common::repo_dir().join("tests/data/cad/v41_edge_refined_box_fine.msh");
+    let mesh = blossomquad::msh::read_file(&input).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(count_2d(&mesh, etype::TRI3, None), 958);
+    let mut out = mesh.clone();
+    let report = quadrangulate(&mut out, &Options::default()).unwrap_or_else(|e| panic!("{e}"));
+    let log = report.log.join("\n");
+    assert!(validity::invalid_quads(&mesh, &out).is_empty(), "{log}");
+    assert!(worst_eta(&out) >= 0.4, "{log}");
+    let kept: Vec<&str> = log
+        .lines()
+        .filter(|l| l.contains("boundary fans peeled kept"))
+        .collect();
+    assert_eq!(kept.len(), 1, "{log}");
+    let cap = 0.651 / 0.8;
+    for job in ["flat pairs", "quads bent across sharp turns accepted"] {
+        let line = format!(
+            "{job} stopped: its split triangles alone put it above {cap:.3} new quads per input triangle"
+        );
+        assert!(log.contains(&line), "{line}\n{log}");
+    }
+    assert!(
+        report.warnings.iter().any(|w| w.kind() == "fine_curves"),
+        "{:?}",
+        report.warnings
+    );
+}
+
 /// Gmsh's mesh of a cylinder of radius 0.5 refined towards its circles as the box above
 /// (size 0.07 there, 0.35 at 0.3 away; `edge_refined_box.py cylinder`): along a circle a
 /// segment turns 8°, so a pair of the two triangles of one fan has a corner of about 172° at
