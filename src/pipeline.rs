@@ -123,7 +123,8 @@
 //!    triangles pair otherwise); up to [`SPLIT_TRIES`] times, the input triangles around
 //!    those still under it split (one ring, or two where the first is split already),
 //!    each ring try after the first only when the one before was kept; last, where a ring
-//!    try raised the worst quad but broke the element-count rule, only the input
+//!    try raised the worst quad but broke the element-count rule (or was stopped by it, as
+//!    below), only the input
 //!    triangles inside those still under it split (a parity split's node standing for its
 //!    segment's ends); and last, the boundary fans of those still under it whose widest
 //!    corner is near flat at a fan node peeled (a curve nearly straight there: the two
@@ -134,7 +135,7 @@
 //!    result) gets no more tries.
 //!
 //! A job that could only be kept within a count of new quads per input triangle (a
-//! worst-quad try other than a ring, against the count it must keep; any job after the
+//! worst-quad try, against the count it must keep; any job after the
 //! first, where the result it competes with is valid: against the element-count rule where
 //! that result is within it, and against 1/`SMALLER_SHARE` of that result's count where it
 //! breaks the rule with no quad under η [`ETA_FLOOR`], since a valid result with more is

@@ -622,8 +622,9 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 /// 4. up to [`SPLIT_TRIES`] times, the input triangles around the quads still below
 ///    [`ETA_FLOOR`] split: one ring, or two where the first is all split already; a ring
 ///    try after the first runs only when the one before it was kept;
-/// 5. where a ring try raised the worst quad but broke the element-count rule, the input
-///    triangles inside the quads still below [`ETA_FLOOR`] split ([`triangles_inside`]: a
+/// 5. where a ring try raised the worst quad but broke the element-count rule (or was
+///    stopped where its split triangles alone broke it, as every try is: it may have raised
+///    the worst quad), the input triangles inside the quads still below [`ETA_FLOOR`] split ([`triangles_inside`]: a
 ///    parity split's node stands for its segment's ends, so the triangle it halved
 ///    counts), fewer new quads than a ring. It comes after them: a result it raises just
 ///    above the floor would end the ring tries, which may raise the worst quad further;
@@ -773,12 +774,12 @@ pub(super) fn raise_worst_quad<'a>(
         }
         split_kept = false;
         let limit = count_limit(quads_per_triangle(input, &best.0, opts.refine));
-        // speed: a try that adds no ring stops as soon as its splits alone break the rule
-        // it must keep (a ring try runs to its end: whether it raised the worst quad
-        // decides the last try)
-        let cap = (!ring_try).then_some(limit);
+        // speed: a try stops as soon as its splits alone break the rule it must keep; a
+        // ring try stopped there counts as one that raised the worst quad and broke the
+        // rule (it may have), so the triangles inside the quads still low get their try
         let mut notes = JobNotes::default();
-        let Ok(candidate) = run_rounds(input, opts, start, cap, cache, &mut notes) else {
+        let Ok(candidate) = run_rounds(input, opts, start, Some(limit), cache, &mut notes) else {
+            ring_over_count |= ring_try && notes.over_count;
             let why = if notes.over_count {
                 "its splits alone break the element-count rule"
             } else {

@@ -872,7 +872,9 @@ fn jobs_that_could_not_be_kept_against_a_valid_result_above_the_count_rule_stop_
 /// optimizer there (its worst quad 0.011 after pricing). The last worst-quad try peels the
 /// fans of such quads, each fan triangle a quad on the circle and a triangle at the apex,
 /// and is kept: the worst quad rises eightfold, with no triangle split into three and at
-/// most 0.6 new quads per input triangle, every quad valid.
+/// most 0.6 new quads per input triangle, every quad valid. The ring try before it, whose
+/// rounds cascade (to 1.5 new quads per input triangle when it ran to its end), stops once
+/// its split triangles alone break the element-count rule, as every try does.
 #[test]
 fn poor_quads_flat_at_a_fan_node_of_a_circle_get_their_fans_peeled() {
     let input = common::repo_dir().join("tests/data/cad/v41_edge_refined_cylinder.msh");
@@ -881,6 +883,13 @@ fn poor_quads_flat_at_a_fan_node_of_a_circle_get_their_fans_peeled() {
     let (report, log) = quadrangulated_within(&mesh, 0.08);
     assert!(
         log.contains("boundary fans under flat wall corners of quads under eta 0.2 peeled: eta_w"),
+        "{log}"
+    );
+    assert!(
+        log.contains(
+            "ring(s) around quads under eta 0.2 split: not kept (its splits alone break the \
+             element-count rule)"
+        ),
         "{log}"
     );
     let fallback = report.fallback.as_ref().expect("the fallback ran");
