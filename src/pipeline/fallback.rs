@@ -361,10 +361,15 @@ pub(super) struct JobNotes {
 }
 
 /// Share of a job's quads that the optimizer's topological operations (doublet collapses,
-/// quad-vertex merges) are taken to remove at most, in [`splits_exceed`]: a few percent on
-/// most meshes, at most about a fifth on the coarsest measured (BENCHMARKS.md,
-/// "Measurements behind the defaults").
-const REMOVED_SHARE_MAX: f64 = 0.5;
+/// quad-vertex merges) are taken to remove at most, in [`splits_exceed`], on a mesh of
+/// [`COUNT_RULE_FROM`](crate::recombine::COUNT_RULE_FROM) triangles or more: a few percent
+/// on most meshes, under a twentieth on every one measured (BENCHMARKS.md, "Measurements
+/// behind the defaults").
+const REMOVED_SHARE_MAX: f64 = 0.25;
+
+/// [`REMOVED_SHARE_MAX`] on a mesh of fewer triangles: there the optimizer removed up to
+/// about a fifth.
+const SMALL_REMOVED_SHARE_MAX: f64 = 0.5;
 
 /// True when splitting `chosen` input triangles into three quads each puts every result of
 /// a job above `cap` new quads per input triangle (the count [`quads_per_triangle`] takes):
@@ -372,11 +377,16 @@ const REMOVED_SHARE_MAX: f64 = 0.5;
 /// `triangles` lies in a quad of at most two triangles (its halves, where a neighbour's
 /// split halves it, in two such quads), so a result holds at least `3 c + (t - c) / 2` new
 /// quads before optimization, of which the optimizer removes at most
-/// [`REMOVED_SHARE_MAX`].
+/// [`REMOVED_SHARE_MAX`] ([`SMALL_REMOVED_SHARE_MAX`] under
+/// [`COUNT_RULE_FROM`](crate::recombine::COUNT_RULE_FROM) triangles).
 pub(super) fn splits_exceed(triangles: usize, chosen: usize, cap: f64) -> bool {
     let (t, c) = (triangles.max(1) as f64, chosen.min(triangles) as f64);
     let least = 3.0 * c + 0.5 * (t - c);
-    (1.0 - REMOVED_SHARE_MAX) * least > cap * t
+    let removed = match triangles < crate::recombine::COUNT_RULE_FROM {
+        true => SMALL_REMOVED_SHARE_MAX,
+        false => REMOVED_SHARE_MAX,
+    };
+    (1.0 - removed) * least > cap * t
 }
 
 /// The element-count rule that the repair of the worst quad keeps, as the recombination's
@@ -1332,6 +1342,10 @@ mod tests {
         assert!(!splits_exceed(100, 500, 1.5));
         // no triangle: no split exceeds anything
         assert!(!splits_exceed(0, 0, 0.6));
+        // 1000 triangles, where the optimizer may remove a quarter: past the cap 0.6 from
+        // 121 split triangles on (3 c + (1000 - c) / 2 times 3/4 above 600)
+        assert!(!splits_exceed(1000, 120, 0.6));
+        assert!(splits_exceed(1000, 121, 0.6));
     }
 
     #[test]
