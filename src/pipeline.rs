@@ -1270,9 +1270,10 @@ mod tests {
     }
 
     /// The least count of [`splits_exceed`] holds on every result of the fallback: a job
-    /// that ends with `c` triangles split into three quads has at least half of
-    /// `3 c + (t - c) / 2` new quads (the optimizer removes far fewer), so a job stopped for
-    /// its splits could not have ended within the cap it broke.
+    /// that ends with `c` triangles split into three quads has at least three quarters of
+    /// `3 c + (t - c) / 2` new quads from 500 triangles on, half below (the optimizer
+    /// removes far fewer), so a job stopped for its splits could not have ended within the
+    /// cap it broke; three of these meshes have 500 triangles or more.
     #[test]
     fn no_result_of_the_fallback_has_fewer_quads_than_its_splits_make_at_least() {
         for path in [
