@@ -124,24 +124,23 @@
 //!    those still under it split (one ring, or two where the first is split already),
 //!    each ring try after the first only when the one before was kept; last, where a ring
 //!    try raised the worst quad but broke the element-count rule (or was stopped by it, as
-//!    below), only the input
-//!    triangles inside those still under it split (a parity split's node standing for its
-//!    segment's ends); and last, the boundary fans of those still under it whose widest
-//!    corner is near flat at a fan node peeled (a curve nearly straight there: the two
-//!    triangles at the node pair with a valid corner near 180°). Each is kept only when it
-//!    raises the worst quad without breaking the element-count rule. (A mesh of more than [`TRIES_UP_TO`] elements gets them
-//!    only after a fallback.) A result whose worst quad is at the input's wall-corner
+//!    below), only the input triangles inside those still under it split (a parity split's
+//!    node standing for its segment's ends); and last, the boundary fans of those still
+//!    under it whose widest corner is near flat at a fan node peeled (a curve nearly
+//!    straight there: the two triangles at the node pair with a valid corner near 180°).
+//!    Each is kept only when it raises the worst quad without breaking the element-count
+//!    rule. (A mesh of more than [`TRIES_UP_TO`] elements gets them only after a fallback.) A result whose worst quad is at the input's wall-corner
 //!    bound (an acute corner of a planar surface, which bounds the worst quad of every
 //!    result) gets no more tries.
 //!
 //! A job that could only be kept within a count of new quads per input triangle (a
-//! worst-quad try, against the count it must keep; any job after the
-//! first, where the result it competes with is valid: against the element-count rule where
-//! that result is within it, and against 1/`SMALLER_SHARE` of that result's count where it
-//! breaks the rule with no quad under η [`ETA_FLOOR`], since a valid result with more is
-//! then never the better one) stops before a round whose split triangles alone would put it
-//! above that count (`fallback::splits_exceed`), and counts as refused: it could not have
-//! been kept (the log says so).
+//! worst-quad try, against the count it must keep; any job after the first, where the
+//! result it competes with is valid: against the element-count rule where that result is
+//! within it, and against 1/`SMALLER_SHARE` of that result's count where it breaks the rule
+//! with no quad under η [`ETA_FLOOR`], since a valid result with more is then never the
+//! better one) stops before a round whose split triangles alone would put it above that
+//! count (`fallback::splits_exceed`), and counts as refused: it could not have been kept
+//! (the log says so).
 //!
 //! Quads still bad after the fallback are refused (or listed with
 //! [`Options::allow_invalid`]). A run whose quads are all valid the first time, with no
@@ -486,7 +485,7 @@ fn jobs<'a>(base: &'a Mesh, opts: &Options, traced: bool, cache: &mut Shared<'a>
         let (global, _, stopped) = run_job(base, opts, start, cap, cache);
         match (local, global) {
             (Ok(a), Ok(b)) => Ok(better_job(base, opts, a, b)),
-            (Ok(a), Err(_)) => Ok(note_stopped(a, &name, cap.filter(|_| stopped))),
+            (Ok(a), Err(_)) => Ok(note_stopped(a, &name, stopped)),
             (Err(_), global) => global,
         }
     } else {
@@ -689,18 +688,17 @@ fn with_job<'a>(
         true => other.and_then(|first| raise_worst_quad(base, opts, first, cache)),
         false => other,
     };
-    keep_better(base, opts, result, other)
-        .map(|kept| note_stopped(kept, &name, cap.filter(|_| stopped)))
+    keep_better(base, opts, result, other).map(|kept| note_stopped(kept, &name, stopped))
 }
 
-/// `kept` with a log line saying that the job `name` stopped, where `cap` is the count its
-/// split triangles alone went beyond (a result above it could not have been kept).
+/// `kept` with a log line saying that the job `name` stopped, where `stopped` is the count
+/// its split triangles alone went beyond (a result above it could not have been kept).
 fn note_stopped(
     mut kept: (Mesh, Report, FallbackStart),
     name: &str,
-    cap: Option<f64>,
+    stopped: Option<f64>,
 ) -> (Mesh, Report, FallbackStart) {
-    if let Some(cap) = cap {
+    if let Some(cap) = stopped {
         kept.1.log.push(format!(
             "fallback: {name} stopped: its split triangles alone put it above {cap:.3} new quads \
              per input triangle, where it could not have been kept"
@@ -731,8 +729,8 @@ fn count_cap(base: &Mesh, opts: &Options, result: &JobResult) -> Option<f64> {
 /// One job's rounds from `start`; a job that split boundary segments under fans and still
 /// failed runs again without them (on strips that share curves, a segment split moves one
 /// strip's imbalance to the next). Returns the result and whether per-surface rings made a
-/// difference in either run ([`FallbackStart::global_rings`]), and whether it was refused
-/// because, with `cap`, its split triangles alone put it above `cap` new quads per input
+/// difference in either run ([`FallbackStart::global_rings`]), and `cap` where the job was
+/// refused because its split triangles alone put it above `cap` new quads per input
 /// triangle, where it stopped ([`run_rounds`]).
 fn run_job<'a>(
     base: &'a Mesh,
@@ -740,7 +738,7 @@ fn run_job<'a>(
     start: FallbackStart,
     cap: Option<f64>,
     cache: &mut Shared<'a>,
-) -> (JobResult, bool, bool) {
+) -> (JobResult, bool, Option<f64>) {
     let mut notes = JobNotes::default();
     let again = FallbackStart {
         no_segments: true,
@@ -756,7 +754,7 @@ fn run_job<'a>(
         }
         e => Err(e),
     });
-    let stopped = notes.over_count && result.is_err();
+    let stopped = cap.filter(|_| notes.over_count && result.is_err());
     (result, notes.rings_diverged, stopped)
 }
 

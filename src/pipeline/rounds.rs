@@ -624,9 +624,9 @@ pub(super) fn sorted_list<'a>(tags: impl IntoIterator<Item = &'a i32>) -> String
 ///    try after the first runs only when the one before it was kept;
 /// 5. where a ring try raised the worst quad but broke the element-count rule (or was
 ///    stopped where its split triangles alone broke it, as every try is: it may have raised
-///    the worst quad), the input triangles inside the quads still below [`ETA_FLOOR`] split ([`triangles_inside`]: a
-///    parity split's node stands for its segment's ends, so the triangle it halved
-///    counts), fewer new quads than a ring. It comes after them: a result it raises just
+///    the worst quad), the input triangles inside the quads still below [`ETA_FLOOR`]
+///    split ([`triangles_inside`]: a parity split's node stands for its segment's ends, so
+///    the triangle it halved counts), fewer new quads than a ring. It comes after them: a result it raises just
 ///    above the floor would end the ring tries, which may raise the worst quad further;
 /// 6. last, the boundary fans of the quads still below [`ETA_FLOOR`] whose widest corner
 ///    is near flat at a fan node peeled ([`low_quad_fans`]): a boundary node with two
